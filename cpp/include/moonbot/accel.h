@@ -1,0 +1,67 @@
+// The only doorway to Embree. Everything else in the core speaks in RayHit and plain arrays, so a
+// port to Embree 4 (no ray streams, new intersect signatures) changes accel.cpp and nothing else.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+
+namespace moonbot {
+
+/// Sentinel for "no hit" in RayHit::geom_id / inst_id.
+constexpr uint32_t kInvalidId = 0xFFFFFFFFu;
+
+/// One ray and its hit record. Laid out exactly like Embree 3's RTCRayHit (checked by static_assert
+/// in accel.cpp), so a stream of them is handed to Embree without copying.
+/// Units: metres; `tfar` is in units of |dir| (the renderer makes the camera-z of dir equal to 1 so
+/// tfar is the z-depth directly).
+struct alignas(16) RayHit {
+    float org_x, org_y, org_z, tnear;
+    float dir_x, dir_y, dir_z, time;
+    float tfar;
+    uint32_t mask, id, flags;
+    float ng_x, ng_y, ng_z, u, v;  // geometric normal in the prototype's object space (unnormalised)
+    uint32_t prim_id, geom_id, inst_id;
+};
+
+/// A two-level bounding volume hierarchy: prototypes (triangle meshes, each its own BVH) and
+/// instances of them in a top-level scene. Not copyable; not thread-safe to modify, thread-safe
+/// to trace once committed.
+class Accel {
+public:
+    Accel();
+    ~Accel();
+    Accel(const Accel&) = delete;
+    Accel& operator=(const Accel&) = delete;
+
+    /// Builds a prototype BVH at once over `n_vertices` xyz float triples (the buffer must hold
+    /// 4 readable bytes past the last vertex, Embree's padding rule, and outlive this Accel) and
+    /// `n_triangles` index triples. Returns the prototype index.
+    uint32_t add_prototype(const float* vertices, size_t n_vertices, const uint32_t* triangles,
+                           size_t n_triangles);
+
+    /// Adds an instance of `prototype` with a column-major 3x4 world-from-object affine transform.
+    /// Instances are numbered 0, 1, 2, ... in the order added; hits report that number in inst_id.
+    uint32_t add_instance(uint32_t prototype, const float world_from_object_3x4[12]);
+
+    /// Builds the top-level BVH. Cheap next to prototype builds: it only bounds instances.
+    void commit();
+
+    /// Closest hits for `n` rays, as 64-ray streams. `coherent` hints that rays share origin and
+    /// nearly share direction (camera rays). Misses keep geom_id == kInvalidId.
+    void intersect(RayHit* rays, size_t n, bool coherent) const;
+
+    /// Any-hit test for `n` rays; an occluded ray gets tfar = -inf, a free one keeps its tfar.
+    void occluded(RayHit* rays, size_t n, bool coherent) const;
+
+    /// Number of BVH builds so far (prototypes + top-level commits): lets tests prove that a
+    /// scene is not rebuilt per view.
+    uint64_t builds() const { return m_builds; }
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> m_impl;
+    uint64_t m_builds = 0;
+};
+
+}  // namespace moonbot

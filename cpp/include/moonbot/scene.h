@@ -1,0 +1,87 @@
+// A scene: triangle-mesh prototypes, instances of them with rigid (or affine) transforms, an
+// instance label for the masks and a material each. Built once, rendered from many cameras.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "moonbot/accel.h"
+
+namespace moonbot {
+
+/// Lambertian surface. `albedo`: linear RGB reflectance in [0, 1].
+struct Material {
+    glm::vec3 albedo{0.5f};
+};
+
+/// A prototype mesh, held by the scene for the lifetime of its BVH.
+struct Mesh {
+    std::vector<float> vertices;      // xyz per vertex, metres, plus one padding float (Embree rule)
+    std::vector<uint32_t> triangles;  // three vertex indices per triangle
+    size_t vertex_count() const { return (vertices.size() - 1) / 3; }
+    size_t triangle_count() const { return triangles.size() / 3; }
+    /// Vertex i in double precision (object frame, metres).
+    glm::dvec3 vertex(uint32_t i) const {
+        return {vertices[3 * i], vertices[3 * i + 1], vertices[3 * i + 2]};
+    }
+};
+
+/// One placed copy of a mesh.
+struct Instance {
+    uint32_t mesh = 0;
+    glm::dmat4 world_from_object{1.0};
+    glm::dmat3 normal_to_world{1.0};  // inverse transpose of the linear part
+    uint8_t label = 0;                 // instance id in masks; 0 = background (terrain, rocks)
+    Material material;
+};
+
+class Scene {
+public:
+    Scene();
+    Scene(const Scene&) = delete;
+    Scene& operator=(const Scene&) = delete;
+
+    /// Adds a prototype: `vertices` is n_vertices×3 (metres, object frame, finite), `triangles`
+    /// is n_triangles×3 indices into it. Both are copied. Throws std::invalid_argument naming the
+    /// argument on an empty mesh, a non-finite vertex or an index out of range. Returns its index.
+    uint32_t add_mesh(const float* vertices, size_t n_vertices, const uint32_t* triangles,
+                      size_t n_triangles);
+
+    /// Adds a labelled object (label 1–255, unique in the scene) with a world-from-object affine
+    /// transform (metres). Returns the instance index.
+    uint32_t add_instance(uint32_t mesh, const glm::dmat4& world_from_object, int label,
+                          const Material& material);
+
+    /// Adds unlabelled geometry (terrain, rocks): it shows in RGB and depth with label 0.
+    uint32_t add_background(uint32_t mesh, const glm::dmat4& world_from_object,
+                            const Material& material);
+
+    /// Builds the top-level BVH. Rendering needs a committed scene; adding after a commit
+    /// requires another commit.
+    void commit();
+    bool committed() const { return m_committed; }
+
+    const Accel& accel() const { return m_accel; }
+    const Mesh& mesh(uint32_t i) const { return *m_meshes[i]; }
+    const Instance& instance(uint32_t i) const { return m_instances[i]; }
+    size_t mesh_count() const { return m_meshes.size(); }
+    size_t instance_count() const { return m_instances.size(); }
+    /// BVH builds so far (one per mesh plus one per commit).
+    uint64_t bvh_builds() const { return m_accel.builds(); }
+
+private:
+    uint32_t add(uint32_t mesh, const glm::dmat4& world_from_object, uint8_t label,
+                 const Material& material);
+
+    Accel m_accel;
+    // unique_ptr: the vertex buffers are shared with Embree and must never move.
+    std::vector<std::unique_ptr<Mesh>> m_meshes;
+    std::vector<Instance> m_instances;
+    bool m_label_used[256] = {};
+    bool m_committed = false;
+};
+
+}  // namespace moonbot

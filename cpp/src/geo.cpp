@@ -1,0 +1,51 @@
+#include "moonbot/geo.h"
+
+#include <GeographicLib/Geocentric.hpp>
+#include <GeographicLib/LocalCartesian.hpp>
+
+#include <cmath>
+#include <stdexcept>
+
+namespace moonbot {
+
+struct LunarFrame::Impl {
+    GeographicLib::Geocentric body;
+    GeographicLib::LocalCartesian local;
+    Impl(double radius, double lat0, double lon0, double h0)
+        : body(radius, 0.0), local(lat0, lon0, h0, body) {}
+};
+
+LunarFrame::LunarFrame(double lat0_deg, double lon0_deg, double h0, double radius)
+    : m_radius(radius) {
+    if (!(std::isfinite(radius) && radius > 0)) throw std::invalid_argument("radius: must be > 0");
+    if (!(lat0_deg >= -90.0 && lat0_deg <= 90.0))
+        throw std::invalid_argument("latitude: must be in [-90, 90] degrees");
+    if (!std::isfinite(lon0_deg)) throw std::invalid_argument("longitude: must be finite");
+    if (!std::isfinite(h0)) throw std::invalid_argument("height: must be finite");
+    m_impl = std::make_unique<Impl>(radius, lat0_deg, lon0_deg, h0);
+}
+
+LunarFrame::~LunarFrame() = default;
+LunarFrame::LunarFrame(LunarFrame&&) noexcept = default;
+LunarFrame& LunarFrame::operator=(LunarFrame&&) noexcept = default;
+
+glm::dvec3 LunarFrame::to_enu(double lat_deg, double lon_deg, double h) const {
+    glm::dvec3 enu;
+    m_impl->local.Forward(lat_deg, lon_deg, h, enu.x, enu.y, enu.z);
+    return enu;
+}
+
+glm::dvec3 LunarFrame::to_geodetic(const glm::dvec3& enu) const {
+    glm::dvec3 llh;
+    m_impl->local.Reverse(enu.x, enu.y, enu.z, llh.x, llh.y, llh.z);
+    return llh;
+}
+
+double curvature_drop(double distance, double radius) {
+    if (!(radius > 0)) throw std::invalid_argument("radius: must be > 0");
+    const double d = std::abs(distance);
+    if (d > radius) throw std::invalid_argument("distance: beyond the sphere's radius");
+    return d * d / (radius + std::sqrt((radius - d) * (radius + d)));
+}
+
+}  // namespace moonbot

@@ -1,0 +1,83 @@
+#include "moonbot/image.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+#include <unistd.h>
+
+namespace moonbot {
+
+namespace {
+
+float srgb_encode(float linear) {
+    return linear <= 0.0031308f ? 12.92f * linear
+                                : 1.055f * std::pow(linear, 1.0f / 2.4f) - 0.055f;
+}
+
+}  // namespace
+
+void tonemap_reinhard_srgb8(const float* rgb, size_t n_pixels, double exposure, uint8_t* out) {
+    if (!(std::isfinite(exposure) && exposure > 0.0))
+        throw std::invalid_argument("exposure: must be positive and finite (sr·m²/W)");
+    const auto e = static_cast<float>(exposure);
+    for (size_t i = 0; i < n_pixels; ++i) {
+        float v[3];
+        for (int c = 0; c < 3; ++c) {
+            const float x = rgb[3 * i + c] * e;
+            v[c] = (std::isfinite(x) && x > 0.0f) ? x : 0.0f;
+        }
+        const float y = 0.2126f * v[0] + 0.7152f * v[1] + 0.0722f * v[2];
+        // Y/(1+Y) divided by Y; the ratio form keeps the limit Y→0 exact (factor → 1).
+        const float scale = 1.0f / (1.0f + y);
+        for (int c = 0; c < 3; ++c) {
+            const float d = std::min(1.0f, v[c] * scale);
+            out[3 * i + c] = static_cast<uint8_t>(std::lround(srgb_encode(d) * 255.0f));
+        }
+    }
+}
+
+void write_image(const std::string& path, const void* pixels, int width, int height,
+                 int channels, PixelType type, int png_compression) {
+    namespace fs = std::filesystem;
+    if (width < 1 || height < 1 || channels < 1 || channels > 4)
+        throw std::invalid_argument("image: bad shape for " + path);
+    if (png_compression < 0 || png_compression > 9)
+        throw std::invalid_argument("png_compression: must be in 0..9");
+    const fs::path target(path);
+    const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec)) throw IoError(path + ": directory does not exist");
+    // OIIO picks the format from the extension, so the temporary keeps it.
+    const fs::path tmp = dir / ("." + target.stem().string() + "." + std::to_string(::getpid()) +
+                                ".tmp" + target.extension().string());
+
+    OIIO::TypeDesc format = type == PixelType::U8    ? OIIO::TypeDesc::UINT8
+                            : type == PixelType::U16 ? OIIO::TypeDesc::UINT16
+                                                     : OIIO::TypeDesc::FLOAT;
+    auto output = OIIO::ImageOutput::create(tmp.string());
+    if (!output) throw IoError(path + ": no image writer for this extension (" + OIIO::geterror() + ")");
+    OIIO::ImageSpec spec(width, height, channels, format);
+    spec.attribute("png:compressionLevel", png_compression);
+    if (target.extension() == ".exr") spec.attribute("compression", "zip");
+    spec.attribute("oiio:ColorSpace", type == PixelType::F32 ? "Linear" : "sRGB");
+    bool ok = output->open(tmp.string(), spec) && output->write_image(format, pixels) && output->close();
+    if (!ok) {
+        const std::string why = output->geterror();
+        output.reset();
+        fs::remove(tmp, ec);
+        throw IoError(path + ": write failed (" + why + ")");
+    }
+    output.reset();
+    fs::rename(tmp, target, ec);
+    if (ec) {
+        fs::remove(tmp, ec);
+        throw IoError(path + ": rename into place failed (" + ec.message() + ")");
+    }
+}
+
+}  // namespace moonbot

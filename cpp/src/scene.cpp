@@ -1,0 +1,102 @@
+#include "moonbot/scene.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace moonbot {
+
+namespace {
+
+void check_material(const Material& m) {
+    for (int c = 0; c < 3; ++c)
+        if (!(m.albedo[c] >= 0.0f && m.albedo[c] <= 1.0f))
+            throw std::invalid_argument("albedo: each channel must be in [0, 1], got " +
+                                        std::to_string(m.albedo[c]));
+}
+
+void check_transform(const glm::dmat4& t) {
+    for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 4; ++r)
+            if (!std::isfinite(t[c][r]))
+                throw std::invalid_argument("world_from_object: must be finite");
+    // glm is column-major: t[c][3] is the bottom row.
+    if (t[0][3] != 0.0 || t[1][3] != 0.0 || t[2][3] != 0.0 || t[3][3] != 1.0)
+        throw std::invalid_argument("world_from_object: bottom row must be [0, 0, 0, 1]");
+    const double det = glm::determinant(glm::dmat3(t));
+    if (!(std::abs(det) > 1e-12))
+        throw std::invalid_argument("world_from_object: linear part is singular");
+}
+
+}  // namespace
+
+Scene::Scene() = default;
+
+uint32_t Scene::add_mesh(const float* vertices, size_t n_vertices, const uint32_t* triangles,
+                         size_t n_triangles) {
+    if (n_vertices == 0) throw std::invalid_argument("vertices: mesh has no vertices");
+    if (n_triangles == 0) throw std::invalid_argument("triangles: mesh has no triangles");
+    if (n_vertices > 0xFFFFFFFFull) throw std::invalid_argument("vertices: more than 2^32 vertices");
+    for (size_t i = 0; i < 3 * n_vertices; ++i)
+        if (!std::isfinite(vertices[i]))
+            throw std::invalid_argument("vertices: non-finite coordinate at vertex " +
+                                        std::to_string(i / 3));
+    for (size_t i = 0; i < 3 * n_triangles; ++i)
+        if (triangles[i] >= n_vertices)
+            throw std::invalid_argument("triangles: index " + std::to_string(triangles[i]) +
+                                        " out of range for " + std::to_string(n_vertices) +
+                                        " vertices (triangle " + std::to_string(i / 3) + ")");
+    auto mesh = std::make_unique<Mesh>();
+    mesh->vertices.assign(vertices, vertices + 3 * n_vertices);
+    mesh->vertices.push_back(0.0f);  // Embree reads 16 bytes at the last vertex
+    mesh->triangles.assign(triangles, triangles + 3 * n_triangles);
+    const uint32_t id = m_accel.add_prototype(mesh->vertices.data(), n_vertices,
+                                              mesh->triangles.data(), n_triangles);
+    m_meshes.push_back(std::move(mesh));
+    return id;
+}
+
+uint32_t Scene::add_instance(uint32_t mesh, const glm::dmat4& world_from_object, int label,
+                             const Material& material) {
+    if (label < 1 || label > 255)
+        throw std::invalid_argument("instance_id: must be in 1..255, got " + std::to_string(label));
+    if (m_label_used[label])
+        throw std::invalid_argument("instance_id: " + std::to_string(label) + " is already used");
+    const uint32_t index = add(mesh, world_from_object, static_cast<uint8_t>(label), material);
+    m_label_used[label] = true;
+    return index;
+}
+
+uint32_t Scene::add_background(uint32_t mesh, const glm::dmat4& world_from_object,
+                               const Material& material) {
+    return add(mesh, world_from_object, 0, material);
+}
+
+uint32_t Scene::add(uint32_t mesh, const glm::dmat4& world_from_object, uint8_t label,
+                    const Material& material) {
+    if (mesh >= m_meshes.size())
+        throw std::invalid_argument("mesh: no mesh " + std::to_string(mesh) + " in the scene (has " +
+                                    std::to_string(m_meshes.size()) + ")");
+    check_transform(world_from_object);
+    check_material(material);
+    float xfm[12];
+    for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 3; ++r) xfm[3 * c + r] = static_cast<float>(world_from_object[c][r]);
+    Instance inst;
+    inst.mesh = mesh;
+    inst.world_from_object = world_from_object;
+    inst.normal_to_world = glm::transpose(glm::inverse(glm::dmat3(world_from_object)));
+    inst.label = label;
+    inst.material = material;
+    const uint32_t index = m_accel.add_instance(mesh, xfm);
+    m_instances.push_back(inst);
+    m_committed = false;
+    return index;
+}
+
+void Scene::commit() {
+    m_accel.commit();
+    m_committed = true;
+}
+
+}  // namespace moonbot

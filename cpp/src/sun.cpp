@@ -1,0 +1,20 @@
+#include "moonbot/sun.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace moonbot {
+
+Sun::Sun(double azimuth_deg, double elevation_deg, double irradiance)
+    : m_azimuth_deg(azimuth_deg), m_elevation_deg(elevation_deg), m_irradiance(irradiance) {
+    if (!std::isfinite(azimuth_deg)) throw std::invalid_argument("azimuth_deg: must be finite");
+    if (!(elevation_deg >= -90.0 && elevation_deg <= 90.0))
+        throw std::invalid_argument("elevation_deg: must be in [-90, 90]");
+    if (!(std::isfinite(irradiance) && irradiance >= 0.0))
+        throw std::invalid_argument("irradiance: must be finite and >= 0 (W/m^2)");
+    const double az = glm::radians(azimuth_deg);
+    const double el = glm::radians(elevation_deg);
+    m_direction = {std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)};
+}
+
+}  // namespace moonbot

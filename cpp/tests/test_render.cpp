@@ -1,0 +1,138 @@
+#include <cstring>
+
+#include "check.h"
+#include "fixtures.h"
+#include "moonbot/render.h"
+
+using namespace moonbot;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+glm::dmat4 identity() { return glm::dmat4(1.0); }
+
+}  // namespace
+
+TEST_CASE(plane_depth_matches_analytic_z_depth) {
+    Scene scene;
+    const uint32_t plane = fixtures::add_plane_mesh(scene, 200.0f);
+    scene.add_background(plane, identity(), Material{glm::vec3(0.12f)});
+    scene.commit();
+    // Tilted view: depth varies across the image.
+    const Camera cam = fixtures::look_at({0.3, -1.1, 0.9}, {0.0, 0.5, 0.0}, 80, 60, 60.0);
+    RenderSettings settings;
+    const Frame f = render_frame(scene, cam, Sun(120, 30, 1361), settings);
+    int checked = 0;
+    for (int y = 0; y < f.height; ++y)
+        for (int x = 0; x < f.width; ++x) {
+            const glm::dvec3 d = cam.direction(x + 0.5, y + 0.5);
+            if (d.z >= 0) continue;  // above the horizon
+            const double t = -cam.center().z / d.z;
+            if (t > 150.0) continue;  // beyond the plane's edge
+            CHECK_NEAR(f.depth[y * f.width + x], t, 1e-5 * t);
+            ++checked;
+        }
+    CHECK(checked > 1000);
+}
+
+TEST_CASE(lit_plane_radiance_is_albedo_over_pi_times_e_sin_el) {
+    for (double el : {1.0, 5.0, 12.0, 60.0}) {
+        Scene scene;
+        scene.add_background(fixtures::add_plane_mesh(scene, 50.0f), identity(),
+                             Material{glm::vec3(0.12f, 0.2f, 0.3f)});
+        scene.commit();
+        const Camera cam = fixtures::look_at({0, 0, 1.0}, {0, 0, 0}, 32, 32, 20.0);
+        const Frame f = render_frame(scene, cam, Sun(77, el, 1361), RenderSettings{});
+        const double e = 1361 * std::sin(el * kPi / 180);
+        for (size_t i = 0; i < f.depth.size(); ++i) {
+            CHECK_NEAR(f.rgb[3 * i + 0], 0.12 / kPi * e, 1e-5 * e);
+            CHECK_NEAR(f.rgb[3 * i + 2], 0.30 / kPi * e, 1e-5 * e);
+        }
+    }
+}
+
+TEST_CASE(sun_below_horizon_is_black_and_traces_no_shadow_rays) {
+    Scene scene;
+    scene.add_background(fixtures::add_plane_mesh(scene, 50.0f), identity(), Material{});
+    scene.commit();
+    const Camera cam = fixtures::look_at({0, 0, 1.0}, {0, 0, 0}, 16, 16, 20.0);
+    const Frame f = render_frame(scene, cam, Sun(0, -3, 1361), RenderSettings{});
+    for (float v : f.rgb) CHECK(v == 0.0f);
+    CHECK(f.stats.shadow_rays == 0);
+}
+
+TEST_CASE(box_casts_a_shadow_and_is_labelled) {
+    Scene scene;
+    scene.add_background(fixtures::add_plane_mesh(scene, 50.0f), identity(), Material{});
+    const uint32_t box = fixtures::add_box_mesh(scene, 0.4f, 0.4f, 0.4f);
+    scene.add_instance(box, identity(), 7, Material{glm::vec3(0.45f)});
+    scene.commit();
+    // Looking straight down from 3 m; Sun from the east at 45°: the shadow falls to the west.
+    const Camera cam = fixtures::look_at({0, 0, 3.0}, {0, 0, 0}, 101, 101, 50.0);
+    const Frame f = render_frame(scene, cam, Sun(90, 45, 1000), RenderSettings{});
+    auto at = [&](double wx, double wy) {
+        const glm::dvec3 p = cam.project({wx, wy, 0.0});
+        return static_cast<size_t>(int(p.y)) * f.width + static_cast<size_t>(int(p.x));
+    };
+    CHECK(f.instance[at(0, 0)] == 7);
+    CHECK_NEAR(f.depth[at(0, 0)], 3.0 - 0.4, 1e-5);
+    CHECK(f.instance[at(-0.4, 0)] == 0);
+    CHECK(f.rgb[3 * at(-0.4, 0)] == 0.0f);                       // in the shadow
+    CHECK_NEAR(f.rgb[3 * at(0.6, 0)], 0.5 / kPi * 1000 * std::sin(kPi / 4), 1e-3);  // lit ground
+}
+
+TEST_CASE(bytes_identical_for_one_and_two_threads) {
+    Scene scene;
+    scene.add_background(fixtures::add_plane_mesh(scene, 50.0f), identity(), Material{});
+    scene.add_instance(fixtures::add_box_mesh(scene, 0.3f, 0.2f, 0.1f), identity(), 1, Material{});
+    scene.commit();
+    const Camera cam = fixtures::look_at({0.8, 0.5, 0.6}, {0, 0, 0.05}, 67, 45, 40.0);
+    RenderSettings one{4, 11, 1}, two{4, 11, 2};
+    const Frame a = render_frame(scene, cam, Sun(200, 12, 1361), one);
+    const Frame b = render_frame(scene, cam, Sun(200, 12, 1361), two);
+    CHECK(std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float)) == 0);
+    CHECK(std::memcmp(a.depth.data(), b.depth.data(), a.depth.size() * sizeof(float)) == 0);
+    CHECK(a.instance == b.instance);
+}
+
+TEST_CASE(only_requested_passes_cost_rays) {
+    Scene scene;
+    scene.add_background(fixtures::add_plane_mesh(scene, 50.0f), identity(), Material{});
+    scene.commit();
+    const uint64_t builds = scene.bvh_builds();
+    const Camera cam = fixtures::look_at({0, 0, 1.0}, {0, 0, 0}, 24, 16, 20.0);
+    const Sun sun(0, 30, 1361);
+    std::vector<float> depth(24 * 16);
+    const RenderStats geometry_only = render(scene, cam, sun, RenderSettings{}, {nullptr, depth.data(), nullptr});
+    CHECK(geometry_only.camera_rays == 24 * 16);
+    CHECK(geometry_only.shadow_rays == 0);
+    const Frame f = render_frame(scene, cam, sun, RenderSettings{4, 0, 0});
+    CHECK(f.stats.camera_rays == 24 * 16 * (1 + 4));  // centre ray for depth/labels + 4 samples
+    CHECK(f.stats.shadow_rays == 24 * 16 * 4);
+    CHECK(scene.bvh_builds() == builds);  // rendering never rebuilds
+}
+
+TEST_CASE(bad_scene_input_throws) {
+    Scene scene;
+    const float v[] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    const float nan_v[] = {0, 0, 0, NAN, 0, 0, 0, 1, 0};
+    const uint32_t t[] = {0, 1, 2}, bad_t[] = {0, 1, 3};
+    CHECK_THROWS(std::invalid_argument, scene.add_mesh(v, 0, t, 1));
+    CHECK_THROWS(std::invalid_argument, scene.add_mesh(v, 3, t, 0));
+    CHECK_THROWS(std::invalid_argument, scene.add_mesh(nan_v, 3, t, 1));
+    CHECK_THROWS(std::invalid_argument, scene.add_mesh(v, 3, bad_t, 1));
+    const uint32_t m = scene.add_mesh(v, 3, t, 1);
+    CHECK_THROWS(std::invalid_argument, scene.add_instance(m, identity(), 0, Material{}));
+    CHECK_THROWS(std::invalid_argument, scene.add_instance(m, identity(), 256, Material{}));
+    CHECK_THROWS(std::invalid_argument, scene.add_instance(m + 1, identity(), 1, Material{}));
+    CHECK_THROWS(std::invalid_argument, scene.add_instance(m, glm::dmat4(0.0), 1, Material{}));
+    CHECK_THROWS(std::invalid_argument, scene.add_instance(m, identity(), 1, Material{glm::vec3(1.5f)}));
+    scene.add_instance(m, identity(), 1, Material{});
+    CHECK_THROWS(std::invalid_argument, scene.add_instance(m, identity(), 1, Material{}));  // duplicate
+    const Camera cam = fixtures::look_at({0, 0, 1.0}, {0, 0, 0}, 4, 4, 2.0);
+    CHECK_THROWS(std::invalid_argument, render_frame(scene, cam, Sun(0, 30, 1), RenderSettings{}));  // not committed
+    scene.commit();
+    CHECK_THROWS(std::invalid_argument, render_frame(scene, cam, Sun(0, 30, 1), RenderSettings{0, 0, 0}));
+    CHECK_THROWS(std::invalid_argument, render_frame(scene, cam, Sun(0, 30, 1), RenderSettings{1, 0, -1}));
+}
