@@ -200,6 +200,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Sun& sun,
         throw std::invalid_argument("spp: must be in 1.." + std::to_string(kMaxSpp) + ", got " +
                                     std::to_string(settings.spp));
     if (settings.threads < 0) throw std::invalid_argument("threads: must be >= 0 (0 = all)");
+    const Scene::ReadLock lock(scene);  // before the checks, so they stay true during the render
     if (!scene.committed())
         throw std::invalid_argument("scene: not committed (call commit() after adding geometry)");
     if (scene.instance_count() == 0) throw std::invalid_argument("scene: has no instances");

@@ -32,8 +32,14 @@ void check_transform(const glm::dmat4& t) {
 
 Scene::Scene() = default;
 
+void Scene::require_not_rendering() const {
+    if (m_readers.load() > 0)
+        throw std::logic_error("scene: cannot be modified while a render is using it");
+}
+
 uint32_t Scene::add_mesh(const float* vertices, size_t n_vertices, const uint32_t* triangles,
                          size_t n_triangles) {
+    require_not_rendering();
     if (n_vertices == 0) throw std::invalid_argument("vertices: mesh has no vertices");
     if (n_triangles == 0) throw std::invalid_argument("triangles: mesh has no triangles");
     if (n_vertices > 0xFFFFFFFFull) throw std::invalid_argument("vertices: more than 2^32 vertices");
@@ -74,6 +80,7 @@ uint32_t Scene::add_background(uint32_t mesh, const glm::dmat4& world_from_objec
 
 uint32_t Scene::add(uint32_t mesh, const glm::dmat4& world_from_object, uint8_t label,
                     const Material& material) {
+    require_not_rendering();
     if (mesh >= m_meshes.size())
         throw std::invalid_argument("mesh: no mesh " + std::to_string(mesh) + " in the scene (has " +
                                     std::to_string(m_meshes.size()) + ")");
@@ -95,6 +102,7 @@ uint32_t Scene::add(uint32_t mesh, const glm::dmat4& world_from_object, uint8_t 
 }
 
 void Scene::commit() {
+    require_not_rendering();
     m_accel.commit();
     m_committed = true;
 }

@@ -2,6 +2,7 @@
 // instance label for the masks and a material each. Built once, rendered from many cameras.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -72,9 +73,24 @@ public:
     /// BVH builds so far (one per mesh plus one per commit).
     uint64_t bvh_builds() const { return m_accel.builds(); }
 
+    /// Held by a renderer for the duration of a render: while any is alive, modifying the scene
+    /// throws std::logic_error instead of racing the traversal (Python may call in from another
+    /// thread while a render runs with the GIL released).
+    class ReadLock {
+    public:
+        explicit ReadLock(const Scene& s) : m_scene(s) { ++m_scene.m_readers; }
+        ~ReadLock() { --m_scene.m_readers; }
+        ReadLock(const ReadLock&) = delete;
+        ReadLock& operator=(const ReadLock&) = delete;
+
+    private:
+        const Scene& m_scene;
+    };
+
 private:
     uint32_t add(uint32_t mesh, const glm::dmat4& world_from_object, uint8_t label,
                  const Material& material);
+    void require_not_rendering() const;
 
     Accel m_accel;
     // unique_ptr: the vertex buffers are shared with Embree and must never move.
@@ -82,6 +98,7 @@ private:
     std::vector<Instance> m_instances;
     bool m_label_used[256] = {};
     bool m_committed = false;
+    mutable std::atomic<int> m_readers{0};
 };
 
 }  // namespace moonbot

@@ -1,0 +1,62 @@
+#include <string>
+
+#include "arrays.h"
+#include "moonbot/image.h"
+
+namespace moonbot::bindings {
+
+void bind_image(py::module_& m) {
+    m.def(
+        "tonemap_reinhard",
+        [](const py::handle& rgb, double exposure) {
+            py::array a = as_array(rgb, "rgb");
+            if (a.dtype().kind() != 'f') fail("rgb", "must be a floating-point array");
+            if (a.ndim() != 3 || a.shape(2) != 3) fail("rgb", "must have shape (H, W, 3), got " + shape_of(a));
+            auto in = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(a);
+            py::array_t<uint8_t> out({a.shape(0), a.shape(1), py::ssize_t(3)});
+            const size_t n = static_cast<size_t>(a.shape(0) * a.shape(1));
+            const float* src = in.data();
+            uint8_t* dst = out.mutable_data();
+            {
+                py::gil_scoped_release release;
+                tonemap_reinhard_srgb8(src, n, exposure, dst);
+            }
+            return out;
+        },
+        py::arg("rgb"), py::arg("exposure"),
+        "Linear radiance (H, W, 3) × exposure (sr·m²/W) → Reinhard on luminance → 8-bit sRGB "
+        "(H, W, 3) uint8. NaN, Inf and negatives become 0.");
+
+    m.def(
+        "write_image",
+        [](const std::string& path, const py::handle& pixels, int png_compression) {
+            py::array a = as_array(pixels, "pixels");
+            if (a.ndim() != 2 && a.ndim() != 3) fail("pixels", "must have shape (H, W) or (H, W, C), got " + shape_of(a));
+            const int channels = a.ndim() == 3 ? static_cast<int>(a.shape(2)) : 1;
+            if (channels < 1 || channels > 4) fail("pixels", "must have 1 to 4 channels");
+            if (a.shape(0) < 1 || a.shape(1) < 1) fail("pixels", "must not be empty");
+            PixelType type;
+            py::array c;
+            if (a.dtype().is(py::dtype::of<uint8_t>())) {
+                type = PixelType::U8;
+                c = py::array_t<uint8_t, py::array::c_style | py::array::forcecast>::ensure(a);
+            } else if (a.dtype().is(py::dtype::of<uint16_t>())) {
+                type = PixelType::U16;
+                c = py::array_t<uint16_t, py::array::c_style | py::array::forcecast>::ensure(a);
+            } else if (a.dtype().is(py::dtype::of<float>())) {
+                type = PixelType::F32;
+                c = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(a);
+            } else {
+                fail("pixels", "dtype must be uint8, uint16 or float32, got " + std::string(py::str(a.dtype())));
+            }
+            const void* data = c.data();
+            const int h = static_cast<int>(a.shape(0)), w = static_cast<int>(a.shape(1));
+            py::gil_scoped_release release;  // `c` keeps the buffer alive; encoding is long
+            write_image(path, data, w, h, channels, type, png_compression);
+        },
+        py::arg("path"), py::arg("pixels"), py::arg("png_compression") = 1,
+        "Write an image through OpenImageIO, atomically. Format from the extension: .png "
+        "(uint8/uint16), .exr (float32), .tif. Raises OSError naming the path on failure.");
+}
+
+}  // namespace moonbot::bindings

@@ -1,0 +1,63 @@
+#include <string>
+
+#include <pybind11/stl.h>
+
+#include "arrays.h"
+#include "moonbot/render.h"
+
+namespace moonbot::bindings {
+
+void bind_render(py::module_& m) {
+    m.def(
+        "render",
+        [](const Scene& scene, const Camera& camera, const Sun& sun, int spp, uint64_t seed,
+           int threads, const std::vector<std::string>& passes) {
+            bool rgb = false, depth = false, instance = false;
+            for (const std::string& p : passes) {
+                if (p == "rgb") rgb = true;
+                else if (p == "depth") depth = true;
+                else if (p == "instance") instance = true;
+                else fail("passes", "unknown pass '" + p + "' (rgb, depth, instance)");
+            }
+            if (!rgb && !depth && !instance) fail("passes", "must name at least one pass");
+            const auto h = static_cast<py::ssize_t>(camera.height());
+            const auto w = static_cast<py::ssize_t>(camera.width());
+            // The outputs are allocated as numpy arrays and the core renders straight into them.
+            py::dict out;
+            FrameView view;
+            if (rgb) {
+                py::array_t<float> a({h, w, py::ssize_t(3)});
+                view.rgb = a.mutable_data();
+                out["rgb"] = a;
+            }
+            if (depth) {
+                py::array_t<float> a({h, w});
+                view.depth = a.mutable_data();
+                out["depth"] = a;
+            }
+            if (instance) {
+                py::array_t<uint8_t> a({h, w});
+                view.instance = a.mutable_data();
+                out["instance"] = a;
+            }
+            RenderStats stats;
+            {
+                // The buffers are owned by `out`, which outlives this block; the scene guards
+                // itself against modification while the render runs.
+                py::gil_scoped_release release;
+                stats = render(scene, camera, sun, RenderSettings{spp, seed, threads}, view);
+            }
+            out["camera_rays"] = stats.camera_rays;
+            out["shadow_rays"] = stats.shadow_rays;
+            out["seconds"] = stats.seconds;
+            return out;
+        },
+        py::arg("scene"), py::arg("camera"), py::arg("sun"), py::arg("spp") = 1,
+        py::arg("seed") = 0, py::arg("threads") = 0,
+        py::arg("passes") = std::vector<std::string>{"rgb", "depth", "instance"},
+        "Render one view. Returns a dict with the requested passes — rgb (H, W, 3) float32 "
+        "W/(m²·sr), depth (H, W) float32 z-depth in metres (0 = no hit), instance (H, W) uint8 "
+        "(0 = background) — and camera_rays, shadow_rays, seconds.");
+}
+
+}  // namespace moonbot::bindings

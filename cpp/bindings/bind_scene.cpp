@@ -1,0 +1,103 @@
+#include "arrays.h"
+#include "moonbot/camera.h"
+#include "moonbot/scene.h"
+#include "moonbot/sun.h"
+
+namespace moonbot::bindings {
+
+namespace {
+
+Material material(const py::handle& albedo) {
+    return Material{glm::vec3(vector<3>(albedo, "albedo"))};
+}
+
+}  // namespace
+
+void bind_scene(py::module_& m) {
+    py::class_<Scene>(m, "Scene", "Triangle-mesh prototypes and their instances; metres, world ENU.")
+        .def(py::init<>())
+        .def(
+            "add_mesh",
+            [](Scene& s, const py::handle& vertices, const py::handle& triangles) {
+                auto v = float_rows(vertices, "vertices", 3);
+                const std::vector<uint32_t> t = index_rows(triangles, "triangles");
+                // Safe without the GIL: `v` is our own contiguous copy or a held reference.
+                py::gil_scoped_release release;
+                return s.add_mesh(v.data(), static_cast<size_t>(v.shape(0)), t.data(), t.size() / 3);
+            },
+            py::arg("vertices"), py::arg("triangles"),
+            "Add a prototype mesh: vertices (N, 3) float, metres; triangles (M, 3) int. "
+            "Builds its BVH. Returns the mesh index.")
+        .def(
+            "add_instance",
+            [](Scene& s, uint32_t mesh, const py::handle& world_from_object, int instance_id,
+               const py::handle& albedo) {
+                return s.add_instance(mesh, matrix<4, 4>(world_from_object, "world_from_object"),
+                                      instance_id, material(albedo));
+            },
+            py::arg("mesh"), py::arg("world_from_object"), py::arg("instance_id"),
+            py::arg("albedo"),
+            "Add a labelled object: world_from_object (4, 4) affine, metres; instance_id 1..255 "
+            "(unique); albedo (3,) linear RGB in [0, 1]. Returns the instance index.")
+        .def(
+            "add_background",
+            [](Scene& s, uint32_t mesh, const py::handle& world_from_object, const py::handle& albedo) {
+                return s.add_background(mesh, matrix<4, 4>(world_from_object, "world_from_object"),
+                                        material(albedo));
+            },
+            py::arg("mesh"), py::arg("world_from_object"), py::arg("albedo"),
+            "Add unlabelled geometry (terrain, rocks): label 0 in masks. Returns the instance index.")
+        .def("commit", &Scene::commit, py::call_guard<py::gil_scoped_release>(),
+             "Build the top-level BVH; required before rendering.")
+        .def_property_readonly("committed", &Scene::committed)
+        .def_property_readonly("mesh_count", &Scene::mesh_count)
+        .def_property_readonly("instance_count", &Scene::instance_count)
+        .def_property_readonly("bvh_builds", &Scene::bvh_builds,
+                               "BVH builds so far: one per mesh plus one per commit.");
+
+    py::class_<Camera>(m, "Camera", "Pinhole camera, OpenCV axes (x right, y down, z forward).")
+        .def(py::init([](double fx, double fy, double cx, double cy, int width, int height,
+                         const py::handle& R, const py::handle& t) {
+                 return Camera(Intrinsics{fx, fy, cx, cy, width, height}, matrix<3, 3>(R, "R"),
+                               vector<3>(t, "t"));
+             }),
+             py::arg("fx"), py::arg("fy"), py::arg("cx"), py::arg("cy"), py::arg("width"),
+             py::arg("height"), py::arg("R"), py::arg("t"),
+             "Intrinsics in pixels; R (3, 3) and t (3,) metres map world to camera: "
+             "x_cam = R x_world + t.")
+        .def_property_readonly("width", &Camera::width)
+        .def_property_readonly("height", &Camera::height)
+        .def_property_readonly("center", [](const Camera& c) {
+            const glm::dvec3 p = c.center();
+            return py::array_t<double>(3, &p.x);
+        }, "Camera centre in the world frame (3,), metres.")
+        .def(
+            "project",
+            [](const Camera& c, const py::handle& points) {
+                py::array a = as_array(points, "points");
+                if (a.ndim() != 2 || a.shape(1) != 3)
+                    fail("points", "must have shape (N, 3), got " + shape_of(a));
+                auto p = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+                py::array_t<double> out({p.shape(0), py::ssize_t(3)});
+                auto o = out.mutable_unchecked<2>();
+                for (py::ssize_t i = 0; i < p.shape(0); ++i) {
+                    const glm::dvec3 uvz = c.project({p.at(i, 0), p.at(i, 1), p.at(i, 2)});
+                    for (int k = 0; k < 3; ++k) o(i, k) = uvz[k];
+                }
+                return out;
+            },
+            py::arg("points"),
+            "Project world points (N, 3) metres to (u, v, z): pixel coordinates with pixel "
+            "centres at +0.5, and z-depth in metres.");
+
+    py::class_<Sun>(m, "Sun", "Directional Sun: azimuth clockwise from North, elevation, W/m².")
+        .def(py::init<double, double, double>(), py::arg("azimuth_deg"), py::arg("elevation_deg"),
+             py::arg("irradiance") = 1361.0)
+        .def_property_readonly("direction", [](const Sun& s) {
+            const glm::dvec3 d = s.direction();
+            return py::array_t<double>(3, &d.x);
+        }, "Unit vector toward the Sun, world ENU.")
+        .def_property_readonly("irradiance", &Sun::irradiance);
+}
+
+}  // namespace moonbot::bindings

@@ -1,0 +1,92 @@
+#!/usr/bin/env bash
+# moonbot's one set-up path. Every command first makes sure the machine is ready — Debian packages
+# (apt-get, with sudo when not root), a .venv with the package and its test extras — and skips
+# whatever is already done, so a second run costs a second or two.
+#
+#   ./dev.sh setup     install what is missing, build the core into .venv
+#   ./dev.sh demo      setup, then `moonbot render-one` on the embedded default config
+#   ./dev.sh test      setup, then C++ tests (ctest: release, then ASan+UBSan) and pytest
+#   ./dev.sh bench     setup, then the benchmarks in bench/ (results in bench/results/)
+set -euo pipefail
+cd "$(dirname "$0")"
+
+APT_PACKAGES=(build-essential pkg-config python3 python3-dev python3-venv
+              libembree-dev libopenimageio-dev openimageio-tools libglm-dev
+              libgeographiclib-dev libtbb-dev)
+VENV=.venv
+PY="$VENV/bin/python"
+
+log() { printf '\033[1m[dev]\033[0m %s\n' "$*"; }
+
+apt_deps() {
+    local missing=()
+    for p in "${APT_PACKAGES[@]}"; do
+        dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || missing+=("$p")
+    done
+    [ ${#missing[@]} -eq 0 ] && return
+    local sudo=""
+    [ "$(id -u)" -eq 0 ] || sudo=sudo
+    log "installing Debian packages: ${missing[*]}"
+    $sudo apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+# A fingerprint of everything that changes the compiled module; Python sources are live in the
+# editable install and need no rebuild.
+build_fingerprint() {
+    { cat pyproject.toml CMakeLists.txt; find cpp -type f | LC_ALL=C sort | xargs cat; } | sha256sum | cut -d' ' -f1
+}
+
+python_env() {
+    if [ ! -x "$PY" ]; then
+        log "creating $VENV"
+        python3 -m venv "$VENV"
+    fi
+    local stamp="$VENV/.moonbot-build" want
+    want=$(build_fingerprint)
+    if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
+        log "building moonbot into $VENV (incremental in build/)"
+        "$PY" -m pip install -q --upgrade pip
+        "$PY" -m pip install -q "scikit-build-core>=0.10" "pybind11>=2.12" "cmake>=3.25" ninja
+        "$PY" -m pip install -q --no-build-isolation -e ".[test]"
+        echo "$want" > "$stamp"
+    fi
+}
+
+setup() { apt_deps; python_env; }
+
+cpp_tests() {
+    local cmake="$VENV/bin/cmake" ctest="$VENV/bin/ctest"
+    for variant in release asan; do
+        local flags=(-DCMAKE_BUILD_TYPE=Release)
+        [ "$variant" = asan ] && flags=(-DCMAKE_BUILD_TYPE=Debug -DMOONBOT_SANITIZE=ON)
+        log "C++ tests ($variant)"
+        "$cmake" -S . -B "build/ctest-$variant" -G Ninja -DMOONBOT_BUILD_PYTHON=OFF "${flags[@]}" >/dev/null
+        "$cmake" --build "build/ctest-$variant"
+        "$ctest" --test-dir "build/ctest-$variant" --output-on-failure
+    done
+}
+
+case "${1:-}" in
+    setup) setup ;;
+    demo)
+        setup
+        log "moonbot render-one (embedded default config)"
+        "$VENV/bin/moonbot" render-one --out out/demo "${@:2}"
+        log "pictures: out/demo/view_000/rgb.png, depth_preview.png, mask.png"
+        ;;
+    test)
+        setup
+        cpp_tests
+        log "Python tests"
+        "$PY" -m pytest "${@:2}"
+        ;;
+    bench)
+        setup
+        "$PY" bench/bench_render_one.py "${@:2}"
+        ;;
+    *)
+        sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'
+        exit 2
+        ;;
+esac

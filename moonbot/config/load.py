@@ -1,0 +1,137 @@
+"""Loading and validating configurations.
+
+A config file is YAML (JSON is YAML too) holding a subset of the schema's fields; the rest take
+their defaults. Unknown fields, wrong types and out-of-range values raise `ConfigError` with the
+dotted path of the field, before anything is rendered.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import typing
+from importlib import resources
+from pathlib import Path
+from typing import Any, Literal, get_args, get_origin
+
+import yaml
+
+from moonbot.config.schema import Config
+
+
+class ConfigError(ValueError):
+    """A configuration is malformed; the message starts with the file and the field path."""
+
+
+def default_config_path() -> Path:
+    """The embedded default configuration, shipped inside the package."""
+    return Path(str(resources.files("moonbot.config") / "default.yaml"))
+
+
+def load_config(path: str | Path | None = None, overrides: dict[str, Any] | None = None) -> Config:
+    """Read a config file (None = the embedded default), apply dotted-path `overrides` such as
+    {"sun.elevation_deg": 5}, and validate. Raises ConfigError naming the file and field."""
+    source = Path(path) if path is not None else default_config_path()
+    try:
+        text = source.read_text(encoding="utf-8")
+    except OSError as e:
+        raise ConfigError(f"{source}: cannot read config ({e.strerror or e})") from e
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as e:
+        raise ConfigError(f"{source}: not valid YAML/JSON ({e})") from e
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise ConfigError(f"{source}: the top level must be a mapping of fields")
+    for dotted, value in (overrides or {}).items():
+        _set_dotted(data, dotted, value, source)
+    try:
+        return from_mapping(Config, data)
+    except ConfigError as e:
+        raise ConfigError(f"{source}: {e}") from None
+
+
+def config_hash(config: Config) -> str:
+    """SHA-256 of the canonical JSON of the resolved config (all defaults filled in)."""
+    canonical = json.dumps(dataclasses.asdict(config), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(canonical.encode()).hexdigest()
+
+
+def from_mapping(cls: type, data: Any, path: str = "") -> Any:
+    """Build dataclass `cls` from a mapping, recursively, checking names, types and ranges."""
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path or 'config'}: must be a mapping, got {type(data).__name__}")
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - set(fields))
+    if unknown:
+        where = f"{path}." if path else ""
+        raise ConfigError(f"{where}{unknown[0]}: unknown field (known: {', '.join(fields)})")
+    hints = typing.get_type_hints(cls)
+    values = {}
+    for name, value in data.items():
+        field_path = f"{path}.{name}" if path else name
+        values[name] = _convert(hints[name], value, fields[name].metadata, field_path)
+    return cls(**values)
+
+
+def _convert(kind: Any, value: Any, meta: typing.Mapping[str, Any], path: str) -> Any:
+    if dataclasses.is_dataclass(kind):
+        return from_mapping(kind, value, path)
+    if get_origin(kind) is Literal:
+        choices = get_args(kind)
+        if value not in choices:
+            raise ConfigError(f"{path}: must be one of {', '.join(map(str, choices))}, got {value!r}")
+        return value
+    if get_origin(kind) is tuple:
+        if not isinstance(value, (list, tuple)):
+            raise ConfigError(f"{path}: must be a list, got {type(value).__name__}")
+        length = meta.get("length")
+        if length is not None and len(value) != length:
+            raise ConfigError(f"{path}: must have {length} items, got {len(value)}")
+        item_kind = get_args(kind)[0]
+        return tuple(_convert(item_kind, v, meta, f"{path}[{i}]") for i, v in enumerate(value))
+    if kind is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"{path}: must be true or false, got {value!r}")
+        return value
+    if kind is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"{path}: must be an integer, got {value!r}")
+        return _check_range(value, meta, path)
+    if kind is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(f"{path}: must be a number, got {value!r}")
+        if not math.isfinite(value):
+            raise ConfigError(f"{path}: must be finite, got {value!r}")
+        return _check_range(float(value), meta, path)
+    if kind is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"{path}: must be a string, got {value!r}")
+        return value
+    raise TypeError(f"{path}: schema type {kind!r} has no converter")  # a schema bug, not input
+
+
+def _check_range(value: float, meta: typing.Mapping[str, Any], path: str) -> Any:
+    lo, hi = meta.get("lo"), meta.get("hi")
+    if lo is not None:
+        if meta.get("lo_open") and not value > lo:
+            raise ConfigError(f"{path}: must be > {lo}, got {value}")
+        if not value >= lo:
+            raise ConfigError(f"{path}: must be >= {lo}, got {value}")
+    if hi is not None and not value <= hi:
+        raise ConfigError(f"{path}: must be <= {hi}, got {value}")
+    return value
+
+
+def _set_dotted(data: dict, dotted: str, value: Any, source: Path) -> None:
+    keys = dotted.split(".")
+    node = data
+    for key in keys[:-1]:
+        child = node.setdefault(key, {})
+        if not isinstance(child, dict):
+            raise ConfigError(f"{source}: {dotted}: {key} is not a section")
+        node = child
+    node[keys[-1]] = value
