@@ -1,0 +1,62 @@
+"""Small analytic scenes for the tests: meshes, cameras and a one-call renderer."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from moonbot import _core
+from moonbot.scene.bag import cuboid
+from moonbot.scene.orbit import CameraPose, orbit_pose
+
+
+def plane(half: float) -> tuple[np.ndarray, np.ndarray]:
+    """A square in z = 0, half-size `half` metres, normal +z."""
+    v = np.array([[-half, -half, 0], [half, -half, 0], [half, half, 0], [-half, half, 0]], np.float32)
+    return v, np.array([[0, 1, 2], [0, 2, 3]], np.int32)
+
+
+def translation(x: float, y: float, z: float) -> np.ndarray:
+    m = np.eye(4)
+    m[:3, 3] = (x, y, z)
+    return m
+
+
+def rotation_x(deg: float) -> np.ndarray:
+    a = np.radians(deg)
+    m = np.eye(4)
+    m[1:3, 1:3] = [[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]
+    return m
+
+
+def K_for(width: int, height: int, f: float) -> np.ndarray:
+    return np.array([[f, 0, width / 2], [0, f, height / 2], [0, 0, 1.0]])
+
+
+def camera(K: np.ndarray, width: int, height: int, pose: CameraPose) -> _core.Camera:
+    return _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], width, height, pose.R, pose.t)
+
+
+def ground_and_box(box_size=(0.4, 0.4, 0.4), box_world=None, ground_world=None,
+                   ground_half=50.0) -> tuple[_core.Scene, np.ndarray]:
+    """A ground plane (label 0) and one box (label 1, model origin at its centre). Returns the
+    committed scene and the box's world_from_model."""
+    scene = _core.Scene()
+    g = scene.add_mesh(*plane(ground_half))
+    b = scene.add_mesh(*cuboid(box_size))
+    ground_world = np.eye(4) if ground_world is None else ground_world
+    box_world = translation(0, 0, box_size[2] / 2) if box_world is None else box_world
+    scene.add_background(g, ground_world, (0.12, 0.12, 0.12))
+    scene.add_instance(b, box_world, 1, (0.5, 0.4, 0.3))
+    scene.commit()
+    return scene, box_world
+
+
+def pixel_rays(K: np.ndarray, pose: CameraPose, width: int, height: int) -> np.ndarray:
+    """World directions (H, W, 3) through pixel centres, scaled to camera-z = 1."""
+    u, v = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5)
+    cam = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1)
+    return cam @ pose.R  # row vectors: (R^T d)^T = d^T R
+
+
+__all__ = ["K_for", "camera", "ground_and_box", "orbit_pose", "pixel_rays", "plane",
+           "rotation_x", "translation"]

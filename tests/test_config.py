@@ -1,0 +1,64 @@
+"""Configuration loading: defaults, overrides, JSON, hashing and errors that name the field."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import pytest
+
+from moonbot.config import Config, ConfigError, config_hash, default_config_path, load_config
+
+
+def test_embedded_default_equals_schema_defaults():
+    """default.yaml spells out the schema's defaults, so neither can drift from the other."""
+    assert load_config() == Config()
+    assert default_config_path().is_file()
+
+
+def test_overrides_and_json(tmp_path):
+    path = tmp_path / "c.json"
+    path.write_text(json.dumps({"sun": {"elevation_deg": 5}, "bags": {"size_m": [0.3, 0.2, 0.1]}}))
+    config = load_config(path, {"orbit.height_m": 0.9})
+    assert config.sun.elevation_deg == 5.0 and isinstance(config.sun.elevation_deg, float)
+    assert config.bags.size_m == (0.3, 0.2, 0.1)
+    assert config.orbit.height_m == 0.9
+    assert config.camera == Config().camera
+
+
+def test_hash_is_stable_and_sensitive():
+    a, b = load_config(), load_config(None, {"seed": 1})
+    assert config_hash(a) == config_hash(load_config()) != config_hash(b)
+    assert len(config_hash(a)) == 64
+
+
+@pytest.mark.parametrize(("data", "message"), [
+    ({"camera": {"width": 0}}, "camera.width: must be >= 1, got 0"),
+    ({"camera": {"width": 1.5}}, "camera.width: must be an integer"),
+    ({"camera": {"width": True}}, "camera.width: must be an integer"),
+    ({"camera": {"hfov_deg": 0}}, "camera.hfov_deg: must be > 0"),
+    ({"camera": 3}, "camera: must be a mapping"),
+    ({"sun": {"elevation_deg": -91}}, "sun.elevation_deg: must be >= -90"),
+    ({"bags": {"albedo": [0.5, 0.5, 1.5]}}, "bags.albedo[2]: must be <= 1.0"),
+    ({"bags": {"count": 256}}, "bags.count: must be <= 1"),
+    ({"typo": 1}, "typo: unknown field"),
+    ({"render": {"spp": -4}}, "render.spp: must be >= 1"),
+], ids=lambda x: None if isinstance(x, str) else json.dumps(x))
+def test_errors_name_the_field(tmp_path, data, message):
+    path = tmp_path / "bad.yaml"
+    path.write_text(json.dumps(data))
+    with pytest.raises(ConfigError, match="bad.yaml") as caught:
+        load_config(path)
+    assert message in str(caught.value)
+
+
+def test_top_level_must_be_a_mapping(tmp_path):
+    path = tmp_path / "list.yaml"
+    path.write_text("- 1\n- 2\n")
+    with pytest.raises(ConfigError, match="top level must be a mapping"):
+        load_config(path)
+
+
+def test_config_is_frozen():
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        Config().seed = 3  # type: ignore[misc]

@@ -1,0 +1,165 @@
+"""`moonbot render-one` end to end: the files it writes decode back to the rendered arrays, the
+pose in gt.json re-projects the model onto the mask, outputs are independent of the thread
+count, and bad input gives a clear error naming the field or file."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from PIL import Image
+
+from moonbot.cli import main
+from moonbot.writer import depth_to_png16
+
+SMALL = ["--set", "camera.width=160", "--set", "camera.height=120", "--set", "render.spp=2"]
+FILES = ("rgb.png", "depth.npy", "depth.png", "depth_preview.png", "mask.png", "gt.json")
+
+
+def render_one(out: Path, *args: str) -> Path:
+    result = CliRunner().invoke(main, ["render-one", "--out", str(out), *SMALL, *args])
+    assert result.exit_code == 0, result.output
+    return out
+
+
+@pytest.fixture(scope="module")
+def view0(tmp_path_factory) -> Path:
+    return render_one(tmp_path_factory.mktemp("render-one")) / "view_000"
+
+
+def test_writes_every_file_and_nothing_else(view0):
+    assert sorted(p.name for p in view0.iterdir()) == sorted(FILES)  # no temporaries left
+
+
+def test_pngs_decode_to_the_arrays(view0):
+    """Decoded with Pillow (not the encoder's library): depth.png is the mm rounding of
+    depth.npy, the mask holds exactly the instance labels, rgb is 8-bit RGB."""
+    depth = np.load(view0 / "depth.npy")
+    assert depth.dtype == np.float32 and depth.shape == (120, 160)
+    depth_png = np.array(Image.open(view0 / "depth.png"))
+    assert depth_png.dtype == np.uint16
+    np.testing.assert_array_equal(depth_png, depth_to_png16(depth))
+    mask = np.array(Image.open(view0 / "mask.png"))
+    assert mask.dtype == np.uint8 and set(np.unique(mask)) == {0, 1}
+    gt = json.loads((view0 / "gt.json").read_text())
+    assert (mask == 1).sum() == gt["instances"][0]["px_count_visib"] > 500
+    rgb = np.array(Image.open(view0 / "rgb.png"))
+    assert rgb.shape == (120, 160, 3) and rgb.dtype == np.uint8
+    # The sunlit top of the tan bag (albedo ~0.45) is brighter than any regolith (0.12).
+    assert rgb[mask == 1].max() > rgb[mask == 0].max()
+    preview = np.array(Image.open(view0 / "depth_preview.png"))
+    assert preview.dtype == np.uint8 and (preview[depth > 0] > 0).all()
+
+
+def test_gt_pose_reprojects_the_model_onto_the_mask(view0):
+    """Every mask pixel, back-projected with its depth and K and carried into the model frame by
+    the inverse of (cam_R_m2c, cam_t_m2c), lands on the cuboid's surface; and the model's
+    centre projects inside the mask's bounding box."""
+    gt = json.loads((view0 / "gt.json").read_text())
+    K = np.array(gt["cam_K"]).reshape(3, 3)
+    inst = gt["instances"][0]
+    R = np.array(inst["cam_R_m2c"]).reshape(3, 3)
+    t = np.array(inst["cam_t_m2c"]) / 1000.0
+    np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-12)
+    depth = np.load(view0 / "depth.npy")
+    mask = np.array(Image.open(view0 / "mask.png")) == 1
+    v, u = np.nonzero(mask)
+    z = depth[v, u].astype(np.float64)
+    cam = np.column_stack([(u + 0.5 - K[0, 2]) / K[0, 0] * z, (v + 0.5 - K[1, 2]) / K[1, 1] * z, z])
+    model = (cam - t) @ R  # R^T (x - t), as row vectors
+    half = np.array([0.32, 0.20, 0.12]) / 2
+    # Distance to the box surface: inside points have max(|p| - half) ≈ 0 on some axis.
+    surface_gap = np.abs(np.max(np.abs(model) - half, axis=1))
+    assert surface_gap.max() < 2e-4  # metres; float32 depth at ~1 m
+    centre = K @ t
+    cu, cv = centre[:2] / centre[2]
+    assert u.min() <= cu <= u.max() + 1 and v.min() <= cv <= v.max() + 1
+
+
+def test_bytes_identical_for_one_and_two_threads(tmp_path):
+    a = render_one(tmp_path / "a", "--set", "render.threads=1") / "view_000"
+    b = render_one(tmp_path / "b", "--set", "render.threads=2") / "view_000"
+    for name in FILES[:-1]:
+        assert (a / name).read_bytes() == (b / name).read_bytes(), name
+    ga, gb = (json.loads((d / "gt.json").read_text()) for d in (a, b))
+    ga.pop("timings_s"), gb.pop("timings_s")
+    assert ga.pop("config_hash") != gb.pop("config_hash")  # the thread count is in the config
+    assert ga == gb
+
+
+def test_several_views_share_one_scene(tmp_path):
+    out = render_one(tmp_path, "--view", "0", "--view", "9", "--view", "35")
+    gts = [json.loads((out / f"view_{v:03d}" / "gt.json").read_text()) for v in (0, 9, 35)]
+    assert [g["camera_azimuth_deg"] for g in gts] == [0.0, 90.0, 350.0]
+    assert gts[0]["timings_s"]["build_bvh"] > 0
+    assert gts[1]["timings_s"]["build_bvh"] == 0 == gts[2]["timings_s"]["build_bvh"]
+    assert len({g["render_seed"] for g in gts}) == 3
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--set", "camera.width=0"], "camera.width: must be >= 1"),
+    (["--set", "sun.elevation_deg=95"], "sun.elevation_deg: must be <= 90"),
+    (["--set", "render.spp=two"], "render.spp: must be an integer"),
+    (["--set", "bags.colour=1"], "bags.colour: unknown field"),
+    (["--set", "bags.size_m=[0.3, 0.2]"], "bags.size_m: must have 3 items"),
+    (["--set", "camera.hfov_deg=.nan"], "camera.hfov_deg: must be finite"),
+    (["--set", "terrain.kind=moon"], "terrain.kind: must be one of flat"),
+    (["--view", "36"], "view: must be in 0..35"),
+    (["--set", "nonsense"], "expected FIELD=VALUE"),
+], ids=["width0", "elevation95", "spp-str", "unknown", "size-len", "hfov-nan", "kind", "view", "set"])
+def test_bad_input_names_the_field(tmp_path, args, message):
+    result = CliRunner().invoke(main, ["render-one", "--out", str(tmp_path), *args])
+    assert result.exit_code != 0
+    assert message in result.output
+    assert "Traceback" not in result.output
+    assert not list(tmp_path.rglob("*.png"))  # rejected before anything is rendered
+
+
+def test_bad_config_file_names_the_file(tmp_path):
+    missing = tmp_path / "missing.yaml"
+    result = CliRunner().invoke(main, ["render-one", str(missing), "--out", str(tmp_path)])
+    assert result.exit_code != 0 and "missing.yaml" in result.output
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("camera: [unclosed\n")
+    result = CliRunner().invoke(main, ["render-one", str(broken), "--out", str(tmp_path)])
+    assert result.exit_code != 0 and "broken.yaml: not valid YAML" in result.output
+
+
+def test_unwritable_output_is_a_clear_error(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    result = CliRunner().invoke(main, ["render-one", "--out", str(blocker / "sub"), *SMALL])
+    assert result.exit_code != 0 and "Traceback" not in result.output
+    assert str(blocker) in result.output
+
+
+def test_help_explains_every_option():
+    top = CliRunner().invoke(main, ["--help"])
+    assert top.exit_code == 0 and "render-one" in top.output
+    sub = CliRunner().invoke(main, ["render-one", "--help"])
+    for option in ("--view", "--all-views", "--out", "--set", "CONFIG"):
+        assert option in sub.output
+
+
+def test_installed_command_works_from_any_directory(tmp_path):
+    """The console script finds the packaged default config wherever it runs."""
+    exe = Path(sys.executable).parent / "moonbot"
+    if not exe.exists():
+        exe = shutil.which("moonbot")
+    assert exe, "the moonbot console script is not installed"
+    done = subprocess.run([str(exe), "render-one", "--out", "o", *SMALL], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert "render" in done.stdout and (tmp_path / "o" / "view_000" / "rgb.png").exists()
+
+
+def test_depth_png_never_wraps():
+    depth = np.array([[0.0, 0.0004, 0.0006, 1.2344, 65.535, 65.536, 1e9, np.nan, np.inf, -1.0]],
+                     dtype=np.float32)
+    np.testing.assert_array_equal(depth_to_png16(depth), [[0, 0, 1, 1234, 65535, 0, 0, 0, 0, 0]])
