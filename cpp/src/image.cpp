@@ -63,6 +63,9 @@ void write_image(const std::string& path, const void* pixels, int width, int hei
     if (!output) throw IoError(path + ": no image writer for this extension (" + OIIO::geterror() + ")");
     OIIO::ImageSpec spec(width, height, channels, format);
     spec.attribute("png:compressionLevel", png_compression);
+    // Our buffers hold straight (unassociated) values; without this OIIO would un-premultiply a
+    // fourth channel on its way into a PNG and change the colour channels.
+    spec.attribute("oiio:UnassociatedAlpha", 1);
     if (target.extension() == ".exr") spec.attribute("compression", "zip");
     spec.attribute("oiio:ColorSpace", type == PixelType::F32 ? "Linear" : "sRGB");
     bool ok = output->open(tmp.string(), spec) && output->write_image(format, pixels) && output->close();
