@@ -163,3 +163,23 @@ def test_kilometre_coordinates_render_like_the_origin():
     assert same.mean() > 0.995  # edge pixels may flip where a ray grazes a triangle edge
     hit = (a["depth"] > 0) & (b["depth"] > 0) & same
     np.testing.assert_allclose(b["depth"][hit], a["depth"][hit], rtol=2e-6)
+
+
+def test_identical_bags_share_one_bvh():
+    """Eleven bags of one mesh are eleven instances of one prototype: BVH builds are one per
+    mesh plus one per commit, however many instances there are, and each keeps its own label."""
+    from moonbot.scene.bag import cuboid
+
+    scene = _core.Scene()
+    ground = scene.add_mesh(*plane(20.0))
+    bag = scene.add_mesh(*cuboid((0.32, 0.2, 0.12)))
+    scene.add_background(ground, np.eye(4), (0.12, 0.12, 0.12))
+    for i in range(11):
+        scene.add_instance(bag, translation(-2.0 + 0.4 * i, 0.0, 0.06), i + 1, (0.5, 0.4, 0.3))
+    scene.commit()
+    assert scene.bvh_builds == 2 + 1
+    assert scene.instance_count == 12
+    K = K_for(W, H, 30.0)
+    pose = orbit_pose(np.zeros(3), 0.0, 3.0, 0.0)
+    out = _core.render(scene, camera(K, W, H, pose), _core.Sun(0, 60), passes=["instance"])
+    assert set(np.unique(out["instance"])) == set(range(12))
