@@ -12,6 +12,7 @@ void bind_scene(py::module_& m);
 void bind_render(py::module_& m);
 void bind_image(py::module_& m);
 void bind_geo(py::module_& m);
+void bind_limit(py::module_& m);
 }  // namespace moonbot::bindings
 
 PYBIND11_MODULE(_core, m) {
@@ -27,4 +28,5 @@ PYBIND11_MODULE(_core, m) {
     moonbot::bindings::bind_render(m);
     moonbot::bindings::bind_image(m);
     moonbot::bindings::bind_geo(m);
+    moonbot::bindings::bind_limit(m);
 }

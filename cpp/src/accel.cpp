@@ -137,4 +137,21 @@ void Accel::occluded(RayHit* rays, size_t n, bool coherent) const {
     }
 }
 
+void Accel::intersect_single(RayHit* rays, size_t n) const {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    for (size_t i = 0; i < n; ++i) {
+        rays[i].geom_id = kInvalidId;
+        rays[i].inst_id = kInvalidId;
+        rtcIntersect1(m_impl->top, &context, reinterpret_cast<RTCRayHit*>(rays + i));
+    }
+}
+
+void Accel::occluded_single(RayHit* rays, size_t n) const {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    for (size_t i = 0; i < n; ++i)
+        rtcOccluded1(m_impl->top, &context, reinterpret_cast<RTCRay*>(rays + i));
+}
+
 }  // namespace moonbot

@@ -14,74 +14,16 @@
 #include <tbb/task_arena.h>
 
 #include "moonbot/rng.h"
+#include "rays.h"
 
 namespace moonbot {
 
 namespace {
 
-constexpr int kTile = 8;  // 8×8 = 64 pixels: one coherent Embree ray stream per tile and pass
-constexpr int kTilePixels = kTile * kTile;
+using namespace detail;
+
 constexpr int kMaxSpp = 65536;
 constexpr double kInvPi = 0.31830988618379067154;
-
-// Shadow rays start this far above the surface, relative to the magnitude of the hit position:
-// float32 traversal resolves positions to ~6e-8 of their magnitude, so 2e-5 clears self-hits by
-// two orders of magnitude (no acne at grazing Sun) while staying far below any feature we model.
-constexpr double kShadowBias = 2e-5;
-
-/// A primary hit resolved in double precision.
-struct SurfaceHit {
-    bool hit = false;
-    double t = 0.0;        // ray parameter = z-depth (camera-z of the direction is 1)
-    glm::dvec3 point{};    // world, metres
-    glm::dvec3 normal{};   // world, unit, facing the incoming ray
-    uint32_t instance = 0;
-};
-
-/// Recomputes the hit in double from the triangle's vertices: Embree's float t carries an error
-/// proportional to the scene's coordinates, the plane intersection in double does not.
-SurfaceHit resolve(const Scene& scene, const glm::dvec3& origin, const glm::dvec3& dir,
-                   const RayHit& ray) {
-    SurfaceHit s;
-    if (ray.geom_id == kInvalidId) return s;
-    s.hit = true;
-    s.instance = ray.inst_id;
-    const Instance& inst = scene.instance(ray.inst_id);
-    const Mesh& mesh = scene.mesh(inst.mesh);
-    const uint32_t* tri = &mesh.triangles[3 * static_cast<size_t>(ray.prim_id)];
-    const glm::dmat4& m = inst.world_from_object;
-    const glm::dvec3 v0 = glm::dvec3(m * glm::dvec4(mesh.vertex(tri[0]), 1.0));
-    const glm::dvec3 v1 = glm::dvec3(m * glm::dvec4(mesh.vertex(tri[1]), 1.0));
-    const glm::dvec3 v2 = glm::dvec3(m * glm::dvec4(mesh.vertex(tri[2]), 1.0));
-    glm::dvec3 n = glm::cross(v1 - v0, v2 - v0);
-    const double n_len = glm::length(n);
-    const double denom = glm::dot(n, dir);
-    s.t = ray.tfar;
-    // A ray nearly parallel to the plane: the double solve is ill-conditioned, keep Embree's t.
-    if (n_len > 0.0 && std::abs(denom) > 1e-12 * n_len * glm::length(dir)) {
-        const double t = glm::dot(n, v0 - origin) / denom;
-        if (t > 0.0) s.t = t;
-    }
-    n = n_len > 0.0 ? n / n_len : glm::dvec3(0.0, 0.0, 1.0);
-    s.normal = glm::dot(n, dir) > 0.0 ? -n : n;
-    s.point = origin + s.t * dir;
-    return s;
-}
-
-void set_ray(RayHit& r, const glm::dvec3& o, const glm::dvec3& d) {
-    r.org_x = static_cast<float>(o.x);
-    r.org_y = static_cast<float>(o.y);
-    r.org_z = static_cast<float>(o.z);
-    r.tnear = 0.0f;
-    r.dir_x = static_cast<float>(d.x);
-    r.dir_y = static_cast<float>(d.y);
-    r.dir_z = static_cast<float>(d.z);
-    r.time = 0.0f;
-    r.tfar = std::numeric_limits<float>::infinity();
-    r.mask = 0xFFFFFFFFu;
-    r.id = 0;
-    r.flags = 0;
-}
 
 /// Per-thread scratch for one tile.
 struct TileScratch {
@@ -89,6 +31,7 @@ struct TileScratch {
     std::array<RayHit, kTilePixels> shadow;
     std::array<glm::dvec3, kTilePixels> dirs;
     std::array<SurfaceHit, kTilePixels> hits;
+    std::array<Surface, kTilePixels> surfaces;
     std::array<int, kTilePixels> shadow_of;  // which pixel of the tile a shadow ray belongs to
     std::array<glm::dvec3, kTilePixels> radiance;
 };
@@ -159,19 +102,16 @@ private:
         for (int i = 0; i < n; ++i) s.hits[i] = resolve(m_scene, origin, s.dirs[i], s.rays[i]);
     }
 
-    /// Direct sunlight on the resolved hits, with one shadow ray per sunlit-facing hit.
+    /// Direct sunlight on the resolved hits, with one shadow ray per hit facing the Sun.
     void shade(int n, TileScratch& s, RenderStats& stats) const {
         const glm::dvec3& l = m_sun.direction();
+        const glm::dvec3& origin = m_camera.center();
         int n_shadow = 0;
         for (int i = 0; i < n; ++i) {
             s.radiance[i] = glm::dvec3(0.0);
-            const SurfaceHit& h = s.hits[i];
-            if (!h.hit || m_sun.irradiance() <= 0.0) continue;
-            if (glm::dot(h.normal, l) <= 0.0) continue;  // faces away: no ray needed
-            const double scale = std::max({1.0, std::abs(h.point.x), std::abs(h.point.y),
-                                           std::abs(h.point.z)});
-            set_ray(s.shadow[n_shadow], h.point + h.normal * (kShadowBias * scale), l);
-            s.shadow_of[n_shadow++] = i;
+            if (!s.hits[i].hit || m_sun.irradiance() <= 0.0) continue;
+            s.surfaces[i] = surface(s.hits[i], origin, s.dirs[i]);
+            if (shadow_ray(s.surfaces[i], l, s.shadow[n_shadow])) s.shadow_of[n_shadow++] = i;
         }
         if (n_shadow == 0) return;
         m_scene.accel().occluded(s.shadow.data(), n_shadow, /*coherent=*/true);
@@ -179,9 +119,8 @@ private:
         for (int k = 0; k < n_shadow; ++k) {
             if (s.shadow[k].tfar < 0.0f) continue;  // occluded
             const int i = s.shadow_of[k];
-            const SurfaceHit& h = s.hits[i];
-            const glm::dvec3 albedo(m_scene.instance(h.instance).material.albedo);
-            s.radiance[i] = albedo * (kInvPi * m_sun.irradiance() * glm::dot(h.normal, l));
+            const glm::dvec3 albedo(m_scene.instance(s.hits[i].instance).material.albedo);
+            s.radiance[i] = albedo * (kInvPi * m_sun.irradiance() * glm::dot(s.surfaces[i].normal, l));
         }
     }
 

@@ -92,7 +92,9 @@ uint32_t Scene::add(uint32_t mesh, const glm::dmat4& world_from_object, uint8_t 
     Instance inst;
     inst.mesh = mesh;
     inst.world_from_object = world_from_object;
-    inst.normal_to_world = glm::transpose(glm::inverse(glm::dmat3(world_from_object)));
+    inst.linear = glm::dmat3(world_from_object);
+    inst.translation = glm::dvec3(world_from_object[3]);
+    inst.normal_to_world = glm::transpose(glm::inverse(inst.linear));
     inst.label = label;
     inst.material = material;
     const uint32_t index = m_accel.add_instance(mesh, xfm);

@@ -54,6 +54,11 @@ public:
     /// Any-hit test for `n` rays; an occluded ray gets tfar = -inf, a free one keeps its tfar.
     void occluded(RayHit* rays, size_t n, bool coherent) const;
 
+    /// The same two queries one ray at a time (rtcIntersect1 / rtcOccluded1): the baseline the
+    /// Embree-limit benchmark compares streams against.
+    void intersect_single(RayHit* rays, size_t n) const;
+    void occluded_single(RayHit* rays, size_t n) const;
+
     /// Number of BVH builds so far (prototypes + top-level commits): lets tests prove that a
     /// scene is not rebuilt per view.
     uint64_t builds() const { return m_builds; }

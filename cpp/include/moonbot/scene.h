@@ -34,6 +34,8 @@ struct Mesh {
 struct Instance {
     uint32_t mesh = 0;
     glm::dmat4 world_from_object{1.0};
+    glm::dmat3 linear{1.0};           // world_from_object's linear part, for cheap point transforms
+    glm::dvec3 translation{0.0};      // world_from_object's translation, metres
     glm::dmat3 normal_to_world{1.0};  // inverse transpose of the linear part
     uint8_t label = 0;                 // instance id in masks; 0 = background (terrain, rocks)
     Material material;

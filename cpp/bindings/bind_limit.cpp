@@ -1,0 +1,30 @@
+#include "arrays.h"
+#include "moonbot/limit.h"
+
+namespace moonbot::bindings {
+
+void bind_limit(py::module_& m) {
+    m.def(
+        "measure_embree_limit",
+        [](const Scene& scene, const Camera& camera, const Sun& sun, int threads, int repeats) {
+            EmbreeLimit l;
+            {
+                py::gil_scoped_release release;
+                l = measure_embree_limit(scene, camera, sun, threads, repeats);
+            }
+            py::dict out;
+            out["camera_rays"] = l.camera_rays;
+            out["shadow_rays"] = l.shadow_rays;
+            out["intersect_single_s"] = l.intersect_single_s;
+            out["intersect_stream_s"] = l.intersect_stream_s;
+            out["occluded_single_s"] = l.occluded_single_s;
+            out["occluded_stream_s"] = l.occluded_stream_s;
+            return out;
+        },
+        py::arg("scene"), py::arg("camera"), py::arg("sun"), py::arg("threads") = 0,
+        py::arg("repeats") = 5,
+        "Median seconds Embree alone takes for the rays of one spp=1 render (pixel-centre camera "
+        "rays, Sun shadow rays from their hits), single-ray and as 64-ray streams.");
+}
+
+}  // namespace moonbot::bindings
