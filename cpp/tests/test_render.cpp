@@ -136,3 +136,18 @@ TEST_CASE(bad_scene_input_throws) {
     CHECK_THROWS(std::invalid_argument, render_frame(scene, cam, Sun(0, 30, 1), RenderSettings{0, 0, 0}));
     CHECK_THROWS(std::invalid_argument, render_frame(scene, cam, Sun(0, 30, 1), RenderSettings{1, 0, -1}));
 }
+
+TEST_CASE(scene_refuses_changes_while_a_render_holds_it) {
+    Scene scene;
+    const uint32_t plane = fixtures::add_plane_mesh(scene, 5.0f);
+    scene.add_background(plane, identity(), Material{});
+    scene.commit();
+    {
+        const Scene::ReadLock lock(scene);
+        CHECK_THROWS(std::logic_error, fixtures::add_plane_mesh(scene, 1.0f));
+        CHECK_THROWS(std::logic_error, scene.add_instance(plane, identity(), 1, Material{}));
+        CHECK_THROWS(std::logic_error, scene.commit());
+    }
+    fixtures::add_plane_mesh(scene, 1.0f);  // released: allowed again
+    CHECK(scene.mesh_count() == 2);
+}
