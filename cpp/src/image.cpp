@@ -1,10 +1,13 @@
 #include "moonbot/image.h"
 
 #include <OpenImageIO/imageio.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <filesystem>
 #include <memory>
 
@@ -14,31 +17,63 @@ namespace moonbot {
 
 namespace {
 
-float srgb_encode(float linear) {
-    return linear <= 0.0031308f ? 12.92f * linear
-                                : 1.055f * std::pow(linear, 1.0f / 2.4f) - 0.055f;
-}
+// 8-bit sRGB encoding without a pow per channel: code k is the number of code boundaries at or
+// below the value, where boundary k is the linear value whose sRGB encoding is (k + 0.5)/255,
+// computed once in double. A 4096-bin index gives the code at each bin's lower edge, and at most
+// a step or two finishes the search, so the result is exact rounding of the sRGB curve.
+class SrgbEncoder {
+public:
+    SrgbEncoder() {
+        for (int k = 0; k < 255; ++k) {
+            const double y = (k + 0.5) / 255.0;
+            const double linear = y <= 0.04045 ? y / 12.92 : std::pow((y + 0.055) / 1.055, 2.4);
+            m_boundary[k] = static_cast<float>(linear);
+        }
+        m_boundary[255] = std::numeric_limits<float>::infinity();
+        int code = 0;
+        for (int b = 0; b <= kBins; ++b) {
+            const float edge = static_cast<float>(b) / kBins;
+            while (edge >= m_boundary[code]) ++code;
+            m_start[b] = static_cast<uint8_t>(code);
+        }
+    }
+
+    /// `linear` in [0, 1] → 8-bit sRGB code.
+    uint8_t encode(float linear) const {
+        int code = m_start[static_cast<int>(linear * kBins)];
+        while (linear >= m_boundary[code]) ++code;
+        return static_cast<uint8_t>(code);
+    }
+
+private:
+    static constexpr int kBins = 4096;
+    float m_boundary[256];
+    uint8_t m_start[kBins + 1];
+};
 
 }  // namespace
 
 void tonemap_reinhard_srgb8(const float* rgb, size_t n_pixels, double exposure, uint8_t* out) {
     if (!(std::isfinite(exposure) && exposure > 0.0))
         throw std::invalid_argument("exposure: must be positive and finite (sr·m²/W)");
+    static const SrgbEncoder srgb;  // built once, thread-safe (C++11 static initialisation)
     const auto e = static_cast<float>(exposure);
-    for (size_t i = 0; i < n_pixels; ++i) {
-        float v[3];
-        for (int c = 0; c < 3; ++c) {
-            const float x = rgb[3 * i + c] * e;
-            v[c] = (std::isfinite(x) && x > 0.0f) ? x : 0.0f;
+    // Each pixel is independent, so splitting the work cannot change a byte.
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n_pixels, 4096), [&](const auto& range) {
+        for (size_t i = range.begin(); i != range.end(); ++i) {
+            float v[3];
+            for (int c = 0; c < 3; ++c) {
+                const float x = rgb[3 * i + c] * e;
+                v[c] = (std::isfinite(x) && x > 0.0f) ? x : 0.0f;
+            }
+            const float y = 0.2126f * v[0] + 0.7152f * v[1] + 0.0722f * v[2];
+            // Y/(1+Y) divided by Y; the ratio form keeps the limit Y→0 exact (factor → 1).
+            const float scale = 1.0f / (1.0f + y);
+            for (int c = 0; c < 3; ++c) {
+                out[3 * i + c] = srgb.encode(std::min(1.0f, v[c] * scale));
+            }
         }
-        const float y = 0.2126f * v[0] + 0.7152f * v[1] + 0.0722f * v[2];
-        // Y/(1+Y) divided by Y; the ratio form keeps the limit Y→0 exact (factor → 1).
-        const float scale = 1.0f / (1.0f + y);
-        for (int c = 0; c < 3; ++c) {
-            const float d = std::min(1.0f, v[c] * scale);
-            out[3 * i + c] = static_cast<uint8_t>(std::lround(srgb_encode(d) * 255.0f));
-        }
-    }
+    });
 }
 
 void write_image(const std::string& path, const void* pixels, int width, int height,
