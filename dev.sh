@@ -57,6 +57,8 @@ setup() { apt_deps; python_env; }
 
 cpp_tests() {
     local cmake="$VENV/bin/cmake" ctest="$VENV/bin/ctest"
+    # cmake and ninja come from the venv's pip packages; a fresh machine has neither on its PATH.
+    local PATH="$PWD/$VENV/bin:$PATH"
     for variant in release asan; do
         local flags=(-DCMAKE_BUILD_TYPE=Release)
         [ "$variant" = asan ] && flags=(-DCMAKE_BUILD_TYPE=Debug -DMOONBOT_SANITIZE=ON)
