@@ -7,6 +7,7 @@ import json
 import os
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -65,11 +66,18 @@ def write_sample(out_dir: Path, view: RenderedView, exposure: float, K: np.ndarr
     timings["tonemap"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    _core.write_image(str(out_dir / "rgb.png"), rgb8, png_compression)
-    _core.write_image(str(out_dir / "depth.png"), depth_to_png16(view.depth), png_compression)
-    _core.write_image(str(out_dir / "depth_preview.png"), depth_preview(view.depth), png_compression)
-    _core.write_image(str(out_dir / "mask.png"), view.instance, png_compression)
-    _save_npy_atomic(out_dir / "depth.npy", view.depth)
+    # The encoders release the GIL, so the files are written side by side; gt.json waits for all
+    # of them and the first failure (a full disk, say) is raised here.
+    jobs = [
+        lambda: _core.write_image(str(out_dir / "rgb.png"), rgb8, png_compression),
+        lambda: _core.write_image(str(out_dir / "depth.png"), depth_to_png16(view.depth), png_compression),
+        lambda: _core.write_image(str(out_dir / "depth_preview.png"), depth_preview(view.depth), png_compression),
+        lambda: _core.write_image(str(out_dir / "mask.png"), view.instance, png_compression),
+        lambda: _save_npy_atomic(out_dir / "depth.npy", view.depth),
+    ]
+    with ThreadPoolExecutor(max_workers=min(len(jobs), os.cpu_count() or 1)) as pool:
+        for future in [pool.submit(job) for job in jobs]:
+            future.result()
     timings["encode_write"] = time.perf_counter() - start
 
     instances = []
