@@ -9,7 +9,9 @@
 #include <cstdio>
 #include <limits>
 #include <filesystem>
+#include <functional>
 #include <memory>
+#include <thread>
 
 #include <unistd.h>
 
@@ -87,9 +89,12 @@ void write_image(const std::string& path, const void* pixels, int width, int hei
     const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
     std::error_code ec;
     if (!fs::is_directory(dir, ec)) throw IoError(path + ": directory does not exist");
-    // OIIO picks the format from the extension, so the temporary keeps it.
+    // OIIO picks the format from the extension, so the temporary keeps it; process and thread in
+    // its name keep concurrent writers (threads of one worker, several workers) apart.
+    const size_t thread = std::hash<std::thread::id>{}(std::this_thread::get_id());
     const fs::path tmp = dir / ("." + target.stem().string() + "." + std::to_string(::getpid()) +
-                                ".tmp" + target.extension().string());
+                                "-" + std::to_string(thread % 1000000007u) + ".tmp" +
+                                target.extension().string());
 
     OIIO::TypeDesc format = type == PixelType::U8    ? OIIO::TypeDesc::UINT8
                             : type == PixelType::U16 ? OIIO::TypeDesc::UINT16
