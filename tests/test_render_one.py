@@ -163,3 +163,27 @@ def test_depth_png_never_wraps():
     depth = np.array([[0.0, 0.0004, 0.0006, 1.2344, 65.535, 65.536, 1e9, np.nan, np.inf, -1.0]],
                      dtype=np.float32)
     np.testing.assert_array_equal(depth_to_png16(depth), [[0, 0, 1, 1234, 65535, 0, 0, 0, 0, 0]])
+
+
+def test_full_disk_fails_cleanly_and_keeps_the_previous_view(tmp_path):
+    """A write that runs out of room (the file-size limit makes writes fail with EFBIG, as a full
+    disk fails them with ENOSPC) ends with a clear error naming a file; the complete view already
+    in place is untouched and no temporary is left behind."""
+    out = render_one(tmp_path / "out")
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    script = (
+        "import resource, signal, sys\n"
+        "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n"
+        "resource.setrlimit(resource.RLIMIT_FSIZE, (20000, 20000))\n"
+        "from moonbot.cli import main\n"
+        "sys.argv = ['moonbot', 'render-one', '--out', sys.argv[1], '--set', 'sun.elevation_deg=30',\n"
+        "            '--set', 'camera.width=160', '--set', 'camera.height=120']\n"
+        "main()\n")
+    done = subprocess.run([sys.executable, "-c", script, str(out)], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode != 0
+    assert "view_000/" in done.stderr and "write failed" in done.stderr
+    assert "the previous content is kept" in done.stderr and "Traceback" not in done.stderr
+    after = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert after == before
+    assert sorted(p.name for p in out.iterdir()) == ["view_000"]

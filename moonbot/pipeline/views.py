@@ -11,7 +11,7 @@ from moonbot import __version__
 from moonbot.config import Config, config_hash
 from moonbot.render import build_scene, exposure_scale, render_view
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
-from moonbot.writer import write_sample
+from moonbot.writer import staged_directory, write_sample
 
 
 @dataclass(frozen=True)
@@ -57,7 +57,6 @@ def run_views(config: Config, views: list[int], out_root: Path) -> list[ViewResu
         seed = view_seed(config.seed, v)
         rendered = render_view(scene, config, K, pose, seed)
         out_dir = out_root / f"view_{v:03d}"
-        out_dir.mkdir(parents=True, exist_ok=True)
         timings = {"compose": compose_s, "build_bvh": build_s, "render": rendered.stats["seconds"]}
         meta = {
             "view": v,
@@ -68,8 +67,9 @@ def run_views(config: Config, views: list[int], out_root: Path) -> list[ViewResu
             "config_hash": digest,
             "moonbot_version": __version__,
         }
-        gt = write_sample(out_dir, rendered, exposure, K, pose, spec.bags,
-                          config.output.png_compression, meta, timings)
+        with staged_directory(out_dir) as staging:
+            gt = write_sample(staging, rendered, exposure, K, pose, spec.bags,
+                              config.output.png_compression, meta, timings)
         rays = {k: rendered.stats[k] for k in ("camera_rays", "shadow_rays")}
         pixels = {i["instance_id"]: i["px_count_visib"] for i in gt["instances"]}
         results.append(ViewResult(v, out_dir, gt["timings_s"], rays, pixels))

@@ -1,5 +1,8 @@
-"""The writer stage: one sample's files, encoded and written atomically."""
+"""The writer stage: one sample's files, encoded and written atomically (a file and a whole
+view directory are each complete or absent)."""
 
 from moonbot.writer.sample import DEPTH_SCALE_MM, depth_preview, depth_to_png16, pose_m2c, write_sample
+from moonbot.writer.staging import atomic_write, staged_directory
 
-__all__ = ["DEPTH_SCALE_MM", "depth_preview", "depth_to_png16", "pose_m2c", "write_sample"]
+__all__ = ["DEPTH_SCALE_MM", "atomic_write", "depth_preview", "depth_to_png16", "pose_m2c",
+           "staged_directory", "write_sample"]

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -16,9 +15,7 @@ from moonbot import _core
 from moonbot.render.view import RenderedView
 from moonbot.scene.compose import BagInstance
 from moonbot.scene.orbit import CameraPose
-
-_UMASK = os.umask(0)
-os.umask(_UMASK)
+from moonbot.writer.staging import atomic_write
 
 # BOP depth_scale: depth_mm = png_value × DEPTH_SCALE_MM. 1 mm steps, 65.535 m at most.
 DEPTH_SCALE_MM = 1.0
@@ -106,22 +103,8 @@ def write_sample(out_dir: Path, view: RenderedView, exposure: float, K: np.ndarr
 
 
 def _save_npy_atomic(path: Path, array: np.ndarray) -> None:
-    _atomic_write(path, "wb", lambda f: np.save(f, array))
+    atomic_write(path, "wb", lambda f: np.save(f, array))
 
 
 def _write_text_atomic(path: Path, text: str) -> None:
-    _atomic_write(path, "w", lambda f: f.write(text))
-
-
-def _atomic_write(path: Path, mode: str, write) -> None:
-    """Writes through `write(file)` to a temporary in the same directory, then renames it over
-    `path`; on any failure (a full disk, say) the temporary is removed and `path` is untouched."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, mode, encoding=None if "b" in mode else "utf-8") as f:
-            write(f)
-        os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600; data files are for everyone to read
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    atomic_write(path, "w", lambda f: f.write(text))
