@@ -30,20 +30,23 @@ def main() -> None:
               help="Directory to write into; one view_NNN/ folder per view.")
 @click.option("--set", "overrides", multiple=True, metavar="FIELD=VALUE",
               help="Override a config field, e.g. --set sun.elevation_deg=5 (YAML value).")
+@click.option("--sheet/--no-sheet", default=True, show_default=True,
+              help="Also write sheet.png: per view rgb | depth | mask, read back from the files.")
 def render_one(config_path: Path | None, views: tuple[int, ...], all_views: bool, out_dir: Path,
-               overrides: tuple[str, ...]) -> None:
+               overrides: tuple[str, ...], sheet: bool) -> None:
     """Render one sample (or one task) of CONFIG on this machine, for debugging a scene.
 
     CONFIG defaults to the embedded default config. Writes rgb.png (Reinhard, 8-bit sRGB),
     depth.npy (float32 metres), depth.png (uint16 millimetres, 0 = invalid), depth_preview.png,
-    mask.png (instance ids, 0 = background) and gt.json (K, poses in mm, timings) per view, then
-    prints a summary.
+    mask.png (instance ids, 0 = background) and gt.json (K, poses in mm, timings) per view, and
+    a contact sheet, then prints a summary.
     """
     import yaml
 
     from moonbot.config import ConfigError, load_config
     from moonbot.pipeline import run_views
     from moonbot.pipeline.summary import format_summary
+    from moonbot.writer import write_sheet
 
     parsed = {}
     for item in overrides:
@@ -59,9 +62,12 @@ def render_one(config_path: Path | None, views: tuple[int, ...], all_views: bool
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
         results = run_views(config, chosen, out_dir)
+        if sheet:
+            write_sheet([r.out_dir for r in results], out_dir / "sheet.png",
+                        config.output.png_compression)
     except (ValueError, OSError) as e:
         raise click.ClickException(str(e)) from None
-    click.echo(format_summary(config, results))
+    click.echo(format_summary(config, results, out_dir / "sheet.png" if sheet else None))
 
 
 if __name__ == "__main__":

@@ -127,6 +127,16 @@ def test_write_image_takes_anything(tmp_path_factory, pixels, level, ext):
 
 
 @PROPERTY
+@given(name=st.text(max_size=12), content=st.binary(max_size=64))
+def test_read_image_takes_any_file(tmp_path_factory, name, content):
+    directory = tmp_path_factory.mktemp("read")
+    path = directory / "f.png"
+    path.write_bytes(content)
+    call(_core.read_image, str(path))
+    call(_core.read_image, str(directory / name))
+
+
+@PROPERTY
 @given(lat=st.floats(allow_nan=True), lon=st.floats(allow_nan=True), h=st.floats(allow_nan=True),
        r=st.floats(allow_nan=True))
 def test_geo_takes_anything(lat, lon, h, r):

@@ -65,3 +65,24 @@ def test_tonemap_value_is_reinhard_then_srgb():
     rgb = np.ones((1, 1, 3), np.float32)
     assert _core.tonemap_reinhard(rgb, 1.0)[0, 0].tolist() == [188] * 3
     assert _core.tonemap_reinhard(rgb, 3.0)[0, 0].tolist() == [225] * 3
+
+
+@pytest.mark.parametrize(("dtype", "ext", "shape"), [(np.uint8, ".png", (5, 7, 3)), (np.uint8, ".png", (5, 7)),
+                                                     (np.uint16, ".png", (5, 7)), (np.float32, ".exr", (5, 7, 3))])
+def test_read_image_returns_what_was_written(tmp_path, dtype, ext, shape):
+    rng = np.random.default_rng(3)
+    pixels = (rng.random(shape) * 1000).astype(dtype)
+    path = str(tmp_path / f"x{ext}")
+    _core.write_image(path, pixels)
+    back = _core.read_image(path)
+    assert back.dtype == dtype and back.shape == shape
+    np.testing.assert_array_equal(back, pixels)
+
+
+def test_read_image_errors_name_the_path(tmp_path):
+    with pytest.raises(OSError, match="missing.png"):
+        _core.read_image(str(tmp_path / "missing.png"))
+    broken = tmp_path / "broken.png"
+    broken.write_bytes(b"\x89PNG\r\n\x1a\n" + b"not really")
+    with pytest.raises(OSError, match="broken.png"):
+        _core.read_image(str(broken))

@@ -93,6 +93,21 @@ def test_bytes_identical_for_one_and_two_threads(tmp_path):
     assert ga == gb
 
 
+def test_sheet_shows_the_written_files(view0):
+    """sheet.png is rgb | depth preview | coloured mask, decoded from the files as written."""
+    from moonbot.writer import colour_mask
+
+    sheet = np.array(Image.open(view0.parent / "sheet.png"))
+    w = 160 + 2  # tile and gap
+    assert sheet.shape == (120, 3 * 160 + 2 * 2, 3)
+    np.testing.assert_array_equal(sheet[:, :160], np.array(Image.open(view0 / "rgb.png")))
+    preview = np.array(Image.open(view0 / "depth_preview.png"))
+    np.testing.assert_array_equal(sheet[:, w:w + 160], np.repeat(preview[..., None], 3, axis=2))
+    mask = np.array(Image.open(view0 / "mask.png"))
+    np.testing.assert_array_equal(sheet[:, 2 * w:], colour_mask(mask))
+    assert (sheet[:, 2 * w:][mask == 1] > 0).any() and (sheet[:, 2 * w:][mask == 0] == 0).all()
+
+
 def test_several_views_share_one_scene(tmp_path):
     out = render_one(tmp_path, "--view", "0", "--view", "9", "--view", "35")
     gts = [json.loads((out / f"view_{v:03d}" / "gt.json").read_text()) for v in (0, 9, 35)]
@@ -186,4 +201,4 @@ def test_full_disk_fails_cleanly_and_keeps_the_previous_view(tmp_path):
     assert "the previous content is kept" in done.stderr and "Traceback" not in done.stderr
     after = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
     assert after == before
-    assert sorted(p.name for p in out.iterdir()) == ["view_000"]
+    assert sorted(p.name for p in out.iterdir()) == ["sheet.png", "view_000"]

@@ -1,3 +1,4 @@
+#include <cstring>
 #include <string>
 
 #include "arrays.h"
@@ -57,6 +58,27 @@ void bind_image(py::module_& m) {
         py::arg("path"), py::arg("pixels"), py::arg("png_compression") = 1,
         "Write an image through OpenImageIO, atomically. Format from the extension: .png "
         "(uint8/uint16), .exr (float32), .tif. Raises OSError naming the path on failure.");
+
+    m.def(
+        "read_image",
+        [](const std::string& path) {
+            Image image;
+            {
+                py::gil_scoped_release release;
+                image = read_image(path);
+            }
+            std::vector<py::ssize_t> shape = {image.height, image.width};
+            if (image.channels > 1) shape.push_back(image.channels);
+            py::dtype dtype = image.type == PixelType::U8    ? py::dtype::of<uint8_t>()
+                              : image.type == PixelType::U16 ? py::dtype::of<uint16_t>()
+                                                             : py::dtype::of<float>();
+            py::array out(dtype, shape);
+            std::memcpy(out.mutable_data(), image.bytes.data(), image.bytes.size());
+            return out;
+        },
+        py::arg("path"),
+        "Read an image through OpenImageIO: (H, W) or (H, W, C), uint8 / uint16 as stored, "
+        "float32 otherwise. Raises OSError naming the path.");
 }
 
 }  // namespace moonbot::bindings

@@ -123,4 +123,28 @@ void write_image(const std::string& path, const void* pixels, int width, int hei
     }
 }
 
+Image read_image(const std::string& path) {
+    auto input = OIIO::ImageInput::open(path);
+    if (!input) throw IoError(path + ": cannot open image (" + OIIO::geterror() + ")");
+    const OIIO::ImageSpec& spec = input->spec();
+    Image image;
+    image.width = spec.width;
+    image.height = spec.height;
+    image.channels = spec.nchannels;
+    OIIO::TypeDesc format = OIIO::TypeDesc::FLOAT;
+    image.type = PixelType::F32;
+    if (spec.format == OIIO::TypeDesc::UINT8) {
+        format = OIIO::TypeDesc::UINT8;
+        image.type = PixelType::U8;
+    } else if (spec.format == OIIO::TypeDesc::UINT16) {
+        format = OIIO::TypeDesc::UINT16;
+        image.type = PixelType::U16;
+    }
+    image.bytes.resize(static_cast<size_t>(spec.width) * spec.height * spec.nchannels * format.size());
+    if (!input->read_image(0, 0, 0, spec.nchannels, format, image.bytes.data()))
+        throw IoError(path + ": cannot decode image (" + input->geterror() + ")");
+    input->close();
+    return image;
+}
+
 }  // namespace moonbot

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
+import numpy as np
+
 from moonbot.config import Config
 from moonbot.pipeline.views import ViewResult
 
 
-def format_summary(config: Config, results: list[ViewResult]) -> str:
+def format_summary(config: Config, results: list[ViewResult], sheet: Path | None = None) -> str:
     """Scene, per-view stage timings in milliseconds and visible pixels, and where the files are."""
     c = config
     lines = [
@@ -18,17 +22,32 @@ def format_summary(config: Config, results: list[ViewResult]) -> str:
         f"{'view':>4} {'az°':>6} {'compose':>8} {'bvh':>7} {'render':>7} {'tonemap':>8} "
         f"{'encode':>7} {'Mrays/s':>8}  visible px (id: px)",
     ]
-    for r in results:
-        t = r.timings
-        rays = r.rays["camera_rays"] + r.rays["shadow_rays"]
-        mrays = rays / t["render"] / 1e6 if t["render"] > 0 else float("nan")
-        azimuth = c.orbit.start_azimuth_deg + r.view * c.orbit.step_deg
-        pixels = ", ".join(f"{k}: {v}" for k, v in r.instance_pixels.items())
-        lines.append(
-            f"{r.view:>4} {azimuth:>6.1f} {1e3 * t['compose']:>6.1f}ms {1e3 * t['build_bvh']:>5.1f}ms "
-            f"{1e3 * t['render']:>5.1f}ms {1e3 * t['tonemap']:>6.1f}ms {1e3 * t['encode_write']:>5.1f}ms "
-            f"{mrays:>8.2f}  {pixels}")
+    rows = [_row(c, r) for r in results]
+    if len(rows) > 8:  # one screen: the first views, then the median and the total
+        stages = ("compose", "build_bvh", "render", "tonemap", "encode_write")
+        median = {k: float(np.median([r.timings[k] for r in results])) for k in stages}
+        total = sum(sum(r.timings[k] for k in stages) for r in results)
+        pixels = [p for r in results for p in r.instance_pixels.values()]
+        rows = rows[:3] + [f"{'…':>4}", f"{'med':>4} {'':>6} " + _stage_cells(median)
+                           + f"  views {len(results)}, {total:.2f} s of stages in all, "
+                           f"visible px {min(pixels)}–{max(pixels)}"]
+    lines += rows
     lines += ["", "files   " + (str(results[0].out_dir.parent) if results else "(none)")]
     for name in ("rgb.png", "depth.npy", "depth.png", "depth_preview.png", "mask.png", "gt.json"):
         lines.append(f"        view_NNN/{name}")
+    if sheet is not None:
+        lines.append(f"        {sheet.name} (rgb | depth | mask per view)")
     return "\n".join(lines)
+
+
+def _stage_cells(t: dict) -> str:
+    return (f"{1e3 * t['compose']:>6.1f}ms {1e3 * t['build_bvh']:>5.1f}ms {1e3 * t['render']:>5.1f}ms "
+            f"{1e3 * t['tonemap']:>6.1f}ms {1e3 * t['encode_write']:>5.1f}ms")
+
+
+def _row(c: Config, r: ViewResult) -> str:
+    rays = r.rays["camera_rays"] + r.rays["shadow_rays"]
+    mrays = rays / r.timings["render"] / 1e6 if r.timings["render"] > 0 else float("nan")
+    azimuth = c.orbit.start_azimuth_deg + r.view * c.orbit.step_deg
+    pixels = ", ".join(f"{k}: {v}" for k, v in r.instance_pixels.items())
+    return f"{r.view:>4} {azimuth:>6.1f} {_stage_cells(r.timings)} {mrays:>8.2f}  {pixels}"

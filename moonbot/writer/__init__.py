@@ -2,7 +2,8 @@
 view directory are each complete or absent)."""
 
 from moonbot.writer.sample import DEPTH_SCALE_MM, depth_preview, depth_to_png16, pose_m2c, write_sample
+from moonbot.writer.sheet import colour_mask, write_sheet
 from moonbot.writer.staging import atomic_write, staged_directory
 
-__all__ = ["DEPTH_SCALE_MM", "atomic_write", "depth_preview", "depth_to_png16", "pose_m2c",
-           "staged_directory", "write_sample"]
+__all__ = ["DEPTH_SCALE_MM", "atomic_write", "colour_mask", "depth_preview", "depth_to_png16",
+           "pose_m2c", "staged_directory", "write_sample", "write_sheet"]

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace moonbot {
 
@@ -30,5 +31,16 @@ enum class PixelType { U8, U16, F32 };
 /// target, so a reader never sees a partial file. Throws IoError naming the path on failure.
 void write_image(const std::string& path, const void* pixels, int width, int height,
                  int channels, PixelType type, int png_compression = 1);
+
+/// A decoded image: row-major width×height×channels samples of `type`, as stored in the file.
+struct Image {
+    int width = 0, height = 0, channels = 0;
+    PixelType type = PixelType::U8;
+    std::vector<uint8_t> bytes;
+};
+
+/// Reads an image through OpenImageIO in its stored sample type (8-bit → U8, 16-bit → U16,
+/// anything else → F32). Throws IoError naming the path if it cannot be opened or decoded.
+Image read_image(const std::string& path);
 
 }  // namespace moonbot
