@@ -60,7 +60,9 @@ def machine() -> dict:
 
     root = Path(__file__).resolve().parents[1]
     commit = run("git", "-C", str(root), "rev-parse", "HEAD")
-    dirty = bool(run("git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"))
+    # Dirty means uncommitted source changes; the result files themselves do not count.
+    dirty = bool(run("git", "-C", str(root), "status", "--porcelain", "--untracked-files=no",
+                     "--", ".", ":!bench/results"))
     return {
         "cpu": cpu, "cores": os.cpu_count(), "memory_gib": round(mem_kb / 2**20, 1), "os": os_name,
         "python": platform.python_version(), "compiler": run("c++", "--version").split("\n")[0],
