@@ -183,3 +183,28 @@ def test_identical_bags_share_one_bvh():
     pose = orbit_pose(np.zeros(3), 0.0, 3.0, 0.0)
     out = _core.render(scene, camera(K, W, H, pose), _core.Sun(0, 60), passes=["instance"])
     assert set(np.unique(out["instance"])) == set(range(12))
+
+
+@pytest.mark.parametrize("offset", [0.0, 2000.0, 10000.0], ids=lambda o: f"{o:g}m")
+def test_exact_depth_holds_far_from_the_origin(offset):
+    """Hard case: with exact_depth the z-depth of a tilted plane matches the analytic value to
+    float32 rounding (< 1e-7 relative) however far the scene is from the origin; Embree's own
+    float32 distance (exact_depth=False) stays within 1e-4 (its error grows with the offset)."""
+    scene = _core.Scene()
+    world = translation(offset, offset, 0.0) @ rotation_x(10.0)
+    scene.add_background(scene.add_mesh(*plane(50.0)), world, (0.1, 0.1, 0.1))
+    scene.commit()
+    K = K_for(W, H, 120.0)
+    pose = orbit_pose(np.array([offset, offset, 0.0]), 1.0, 0.6, 30.0)
+    n = world[:3, :3] @ np.array([0.0, 0.0, 1.0])
+    d = pixel_rays(K, pose, W, H)
+    t = (n @ (world[:3, 3] - pose.center)) / (d @ n)
+    errors = {}
+    for exact in (True, False):
+        out = _core.render(scene, camera(K, W, H, pose), _core.Sun(0, 45), passes=["depth"],
+                           exact_depth=exact)
+        hit = out["depth"] > 0
+        assert hit.mean() > 0.9
+        errors[exact] = np.max(np.abs(out["depth"][hit] - t[hit]) / t[hit])
+    assert errors[True] < 1e-7
+    assert errors[False] < 1e-4

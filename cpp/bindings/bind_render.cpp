@@ -11,7 +11,7 @@ void bind_render(py::module_& m) {
     m.def(
         "render",
         [](const Scene& scene, const Camera& camera, const Sun& sun, int spp, uint64_t seed,
-           int threads, const std::vector<std::string>& passes) {
+           int threads, const std::vector<std::string>& passes, bool exact_depth) {
             bool rgb = false, depth = false, instance = false;
             for (const std::string& p : passes) {
                 if (p == "rgb") rgb = true;
@@ -45,7 +45,7 @@ void bind_render(py::module_& m) {
                 // The buffers are owned by `out`, which outlives this block; the scene guards
                 // itself against modification while the render runs.
                 py::gil_scoped_release release;
-                stats = render(scene, camera, sun, RenderSettings{spp, seed, threads}, view);
+                stats = render(scene, camera, sun, RenderSettings{spp, seed, threads, exact_depth}, view);
             }
             out["camera_rays"] = stats.camera_rays;
             out["shadow_rays"] = stats.shadow_rays;
@@ -55,9 +55,11 @@ void bind_render(py::module_& m) {
         py::arg("scene"), py::arg("camera"), py::arg("sun"), py::arg("spp") = 1,
         py::arg("seed") = 0, py::arg("threads") = 0,
         py::arg("passes") = std::vector<std::string>{"rgb", "depth", "instance"},
+        py::arg("exact_depth") = true,
         "Render one view. Returns a dict with the requested passes — rgb (H, W, 3) float32 "
         "W/(m²·sr), depth (H, W) float32 z-depth in metres (0 = no hit), instance (H, W) uint8 "
-        "(0 = background) — and camera_rays, shadow_rays, seconds.");
+        "(0 = background) — and camera_rays, shadow_rays, seconds. exact_depth re-solves hit "
+        "distances in double (exact at kilometre coordinates); False keeps Embree's float32 t.");
 }
 
 }  // namespace moonbot::bindings

@@ -75,7 +75,8 @@ EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const
                           camera_rays.rays.end());
             scene.accel().intersect(traced.data(), traced.size(), true);
             for (size_t i = 0; i < traced.size(); ++i) {
-                const SurfaceHit hit = resolve(scene, camera.center(), dirs[i], traced[i]);
+                SurfaceHit hit;
+                resolve(scene, camera.center(), dirs[i], traced[i], true, hit);
                 if (!hit.hit || sun.irradiance() <= 0.0) continue;
                 RayHit s;
                 if (shadow_ray(surface(hit, camera.center(), dirs[i]), sun.direction(), s))

@@ -35,26 +35,28 @@ struct SurfaceHit {
 /// scene's coordinates; the intersection with the triangle's plane in double does not. The plane
 /// is Embree's geometric normal (exact enough: its float rounding moves t by ~1e-7 of the
 /// triangle's size) through the triangle's first vertex, so one vertex is fetched, not three.
-inline SurfaceHit resolve(const Scene& scene, const glm::dvec3& origin, const glm::dvec3& dir,
-                          const RayHit& ray) {
-    SurfaceHit s;
-    if (ray.geom_id == kInvalidId) return s;
-    s.hit = true;
+/// With `exact` false, Embree's t is kept and no vertex is fetched. Writes into `s` in place:
+/// returning the struct by value made every pixel pay a store-forwarding stall (its one-byte
+/// `hit` flag stored, then re-read as part of 16-byte copies).
+inline void resolve(const Scene& scene, const glm::dvec3& origin, const glm::dvec3& dir,
+                    const RayHit& ray, bool exact, SurfaceHit& s) {
+    s.hit = ray.geom_id != kInvalidId;
+    if (!s.hit) return;
     s.instance = ray.inst_id;
     const Instance& inst = scene.instance(ray.inst_id);
-    const Mesh& mesh = scene.mesh(inst.mesh);
-    const uint32_t first = mesh.triangles[3 * static_cast<size_t>(ray.prim_id)];
-    const glm::dvec3 v0 = inst.linear * mesh.vertex(first) + inst.translation;
     s.n_raw = inst.normal_to_world * glm::dvec3(ray.ng_x, ray.ng_y, ray.ng_z);
     s.denom = glm::dot(s.n_raw, dir);
     s.t = ray.tfar;
+    if (!exact) return;
+    const Mesh& mesh = scene.mesh(inst.mesh);
+    const uint32_t first = mesh.triangles[3 * static_cast<size_t>(ray.prim_id)];
+    const glm::dvec3 v0 = inst.linear * mesh.vertex(first) + inst.translation;
     // A ray nearly parallel to the plane: the double solve is ill-conditioned, keep Embree's t.
     // (Squared comparison: no square roots on the per-pixel path.)
     if (s.denom * s.denom > 1e-24 * glm::dot(s.n_raw, s.n_raw) * glm::dot(dir, dir)) {
         const double t = glm::dot(s.n_raw, v0 - origin) / s.denom;
         if (t > 0.0) s.t = t;
     }
-    return s;
 }
 
 /// Hit point (world, metres) and unit normal facing the incoming ray, for shading.

@@ -99,7 +99,8 @@ private:
         }
         m_scene.accel().intersect(s.rays.data(), n, /*coherent=*/true);
         stats.camera_rays += n;
-        for (int i = 0; i < n; ++i) s.hits[i] = resolve(m_scene, origin, s.dirs[i], s.rays[i]);
+        for (int i = 0; i < n; ++i)
+            resolve(m_scene, origin, s.dirs[i], s.rays[i], m_settings.exact_depth, s.hits[i]);
     }
 
     /// Direct sunlight on the resolved hits, with one shadow ray per hit facing the Sun.

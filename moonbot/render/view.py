@@ -54,7 +54,7 @@ def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraP
     sun = _core.Sun(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2)
     start = time.perf_counter()
     out = _core.render(scene, camera, sun, spp=config.render.spp, seed=seed,
-                       threads=config.render.threads)
+                       threads=config.render.threads, exact_depth=config.render.exact_depth)
     stats = {"camera_rays": out["camera_rays"], "shadow_rays": out["shadow_rays"],
              "core_seconds": out["seconds"], "seconds": time.perf_counter() - start}
     return RenderedView(rgb=out["rgb"], depth=out["depth"], instance=out["instance"], stats=stats)

@@ -16,6 +16,10 @@ struct RenderSettings {
     int spp = 1;        ///< RGB samples per pixel, 1..65536; 1 = the pixel-centre ray, no jitter
     uint64_t seed = 0;  ///< keys the counter-based generator (with pixel and sample)
     int threads = 0;    ///< worker threads, 0 = all hardware threads
+    /// Re-solve each hit's distance in double against the triangle's plane (depth exact to
+    /// float32 rounding at any coordinates) instead of keeping Embree's float32 t, whose error
+    /// grows with the distance of the scene from the origin. Costs ~15 ns a camera ray.
+    bool exact_depth = true;
 };
 
 /// Output buffers, row-major, owned by the caller; a null pointer means the pass is not wanted
