@@ -208,3 +208,19 @@ def test_exact_depth_holds_far_from_the_origin(offset):
         errors[exact] = np.max(np.abs(out["depth"][hit] - t[hit]) / t[hit])
     assert errors[True] < 1e-7
     assert errors[False] < 1e-4
+
+
+def test_embree_limit_probe_traces_the_renderers_rays():
+    """The yardstick is fair: `measure_embree_limit` traces exactly as many camera and shadow
+    rays as a spp = 1 render of the same view, and reports positive times."""
+    scene, _ = ground_and_box()
+    cam = camera(K_for(W, H, 70.0), W, H, orbit_pose(np.array([0, 0, 0.2]), 1.0, 0.5, 40.0))
+    sun = _core.Sun(120, 12)
+    rendered = _core.render(scene, cam, sun)
+    limit = _core.measure_embree_limit(scene, cam, sun, threads=1, repeats=1)
+    assert limit["camera_rays"] == rendered["camera_rays"] == W * H
+    assert limit["shadow_rays"] == rendered["shadow_rays"] > 0
+    assert all(limit[k] > 0 for k in ("intersect_single_s", "intersect_stream_s",
+                                      "occluded_single_s", "occluded_stream_s"))
+    with pytest.raises(ValueError, match="repeats"):
+        _core.measure_embree_limit(scene, cam, sun, repeats=0)
