@@ -41,21 +41,13 @@ def render_one(config_path: Path | None, views: tuple[int, ...], all_views: bool
     mask.png (instance ids, 0 = background) and gt.json (K, poses in mm, timings) per view, and
     a contact sheet, then prints a summary.
     """
-    import yaml
-
-    from moonbot.config import ConfigError, load_config
+    from moonbot.config import ConfigError, load_config, parse_overrides
     from moonbot.pipeline import run_views
     from moonbot.pipeline.summary import format_summary
     from moonbot.writer import write_sheet
 
-    parsed = {}
-    for item in overrides:
-        field, sep, value = item.partition("=")
-        if not sep or not field:
-            raise click.BadParameter(f"expected FIELD=VALUE, got {item!r}", param_hint="--set")
-        parsed[field.strip()] = yaml.safe_load(value)
     try:
-        config = load_config(config_path, parsed)
+        config = load_config(config_path, parse_overrides(overrides))
     except ConfigError as e:
         raise click.ClickException(str(e)) from None
     chosen = list(range(config.orbit.views)) if all_views else list(views or (0,))

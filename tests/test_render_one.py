@@ -126,8 +126,11 @@ def test_several_views_share_one_scene(tmp_path):
     (["--set", "camera.hfov_deg=.nan"], "camera.hfov_deg: must be finite"),
     (["--set", "terrain.kind=moon"], "terrain.kind: must be one of flat"),
     (["--view", "36"], "view: must be in 0..35"),
-    (["--set", "nonsense"], "expected FIELD=VALUE"),
-], ids=["width0", "elevation95", "spp-str", "unknown", "size-len", "hfov-nan", "kind", "view", "set"])
+    (["--set", "nonsense"], "--set: expected FIELD=VALUE"),
+    (["--set", "sun.elevation_deg=["], "--set sun.elevation_deg: value is not valid YAML"),
+    (["--set", "sun.elevation_deg.x=1"], "elevation_deg is not a section"),
+], ids=["width0", "elevation95", "spp-str", "unknown", "size-len", "hfov-nan", "kind", "view", "set",
+        "set-yaml", "set-section"])
 def test_bad_input_names_the_field(tmp_path, args, message):
     result = CliRunner().invoke(main, ["render-one", "--out", str(tmp_path), *args])
     assert result.exit_code != 0

@@ -1,6 +1,8 @@
 """Configuration: the schema (frozen dataclasses), loading from YAML/JSON, validation, hashing."""
 
-from moonbot.config.load import ConfigError, config_hash, default_config_path, load_config
+from moonbot.config.load import (ConfigError, config_hash, default_config_path, load_config,
+                                 parse_overrides)
 from moonbot.config.schema import Config
 
-__all__ = ["Config", "ConfigError", "config_hash", "default_config_path", "load_config"]
+__all__ = ["Config", "ConfigError", "config_hash", "default_config_path", "load_config",
+           "parse_overrides"]

@@ -54,6 +54,21 @@ def load_config(path: str | Path | None = None, overrides: dict[str, Any] | None
         raise ConfigError(f"{source}: {e}") from None
 
 
+def parse_overrides(items: list[str] | tuple[str, ...]) -> dict[str, Any]:
+    """`FIELD=VALUE` strings (dotted field paths, YAML values) → {field: value}; ConfigError on a
+    malformed item."""
+    parsed = {}
+    for item in items:
+        field, sep, value = item.partition("=")
+        if not sep or not field.strip():
+            raise ConfigError(f"--set: expected FIELD=VALUE, got {item!r}")
+        try:
+            parsed[field.strip()] = yaml.safe_load(value)
+        except yaml.YAMLError as e:
+            raise ConfigError(f"--set {field.strip()}: value is not valid YAML ({e.problem or e})") from None
+    return parsed
+
+
 def config_hash(config: Config) -> str:
     """SHA-256 of the canonical JSON of the resolved config (all defaults filled in)."""
     canonical = json.dumps(dataclasses.asdict(config), sort_keys=True, separators=(",", ":"))
