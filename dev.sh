@@ -10,6 +10,8 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 
+# openimageio-tools is not used directly, but Debian's OpenImageIO CMake targets file checks that
+# its programs (/usr/bin/oiiotool, iconvert, ...) exist, so find_package(OpenImageIO) fails without it.
 APT_PACKAGES=(build-essential pkg-config python3 python3-dev python3-venv
               libembree-dev libopenimageio-dev openimageio-tools libglm-dev
               libgeographiclib-dev libtbb-dev)
@@ -28,7 +30,8 @@ apt_deps() {
     [ "$(id -u)" -eq 0 ] || sudo=sudo
     log "installing Debian packages: ${missing[*]}"
     $sudo apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+    # `env` after sudo: sudo's env_reset would drop a DEBIAN_FRONTEND set in front of it.
+    $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}"
 }
 
 # A fingerprint of everything that changes the compiled module; Python sources are live in the
