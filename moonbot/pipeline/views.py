@@ -4,7 +4,6 @@ composed and its BVH built once, then every view reuses it."""
 from __future__ import annotations
 
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -51,9 +50,14 @@ def run_views(config: Config, views: list[int], out_root: Path) -> list[ViewResu
     K = intrinsics(config.camera)
     exposure = exposure_scale(config)
     digest = config_hash(config)
-
-    def write(v: int, azimuth: float, pose, seed: int, rendered, timings: dict) -> ViewResult:
+    results = []
+    for v in views:
+        azimuth = config.orbit.start_azimuth_deg + v * config.orbit.step_deg
+        pose = orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, azimuth)
+        seed = view_seed(config.seed, v)
+        rendered = render_view(scene, config, K, pose, seed)
         out_dir = out_root / f"view_{v:03d}"
+        timings = {"compose": compose_s, "build_bvh": build_s, "render": rendered.stats["seconds"]}
         meta = {
             "view": v,
             "camera_azimuth_deg": azimuth,
@@ -68,24 +72,6 @@ def run_views(config: Config, views: list[int], out_root: Path) -> list[ViewResu
                               config.output.png_compression, meta, timings)
         rays = {k: rendered.stats[k] for k in ("camera_rays", "shadow_rays")}
         pixels = {i["instance_id"]: i["px_count_visib"] for i in gt["instances"]}
-        return ViewResult(v, out_dir, gt["timings_s"], rays, pixels)
-
-    # View k is encoded and written on a second thread while view k + 1 renders (the encoders and
-    # the renderer release the GIL). At most one view waits to be written, so memory stays at two
-    # views' buffers; a write failure is raised once the render in flight finishes.
-    results = []
-    pending = None
-    with ThreadPoolExecutor(max_workers=1) as writer:
-        for v in views:
-            azimuth = config.orbit.start_azimuth_deg + v * config.orbit.step_deg
-            pose = orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, azimuth)
-            seed = view_seed(config.seed, v)
-            rendered = render_view(scene, config, K, pose, seed)
-            timings = {"compose": compose_s, "build_bvh": build_s, "render": rendered.stats["seconds"]}
-            compose_s = build_s = 0.0  # paid once, by the first view
-            if pending is not None:
-                results.append(pending.result())
-            pending = writer.submit(write, v, azimuth, pose, seed, rendered, timings)
-        if pending is not None:
-            results.append(pending.result())
+        results.append(ViewResult(v, out_dir, gt["timings_s"], rays, pixels))
+        compose_s = build_s = 0.0  # paid once, by the first view
     return results
