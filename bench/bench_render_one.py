@@ -34,8 +34,9 @@ from moonbot import _core
 from moonbot.config import load_config
 from moonbot.pipeline import run_views
 from moonbot.render import build_scene, exposure_scale
-from moonbot.scene import compose_scene, intrinsics, orbit_pose
+from moonbot.scene import compose_scene, intrinsics, orbit_pose, pixel_directions
 from moonbot.scene.bag import cuboid
+from moonbot.scene.terrain import flat_patch
 
 RESULTS = Path(__file__).resolve().parent / "results"
 SCHEMA_VERSION = 1
@@ -140,17 +141,15 @@ def exact_depth_tradeoff(repeats: int, terrain) -> dict:
     K = np.array([[120.0, 0, w / 2], [0, 120.0, h / 2], [0, 0, 1]])
     for offset in (0.0, 100.0, 2000.0, 10000.0):
         plane_scene = _core.Scene()
-        v = np.array([[-50, -50, 0], [50, -50, 0], [50, 50, 0], [-50, 50, 0]], np.float32)
         world = np.eye(4)
         c, s = np.cos(np.radians(10)), np.sin(np.radians(10))
         world[1:3, 1:3] = [[c, -s], [s, c]]
         world[:3, 3] = (offset, offset, 0.0)
-        plane_scene.add_background(plane_scene.add_mesh(v, np.array([[0, 1, 2], [0, 2, 3]])), world, (0.1,) * 3)
+        plane_scene.add_background(plane_scene.add_mesh(*flat_patch(100.0)), world, (0.1,) * 3)
         plane_scene.commit()
         pose = orbit_pose(np.array([offset, offset, 0.0]), 1.0, 0.6, 30.0)
         cam = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], w, h, pose.R, pose.t)
-        u, vv = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
-        d = np.stack([(u - K[0, 2]) / K[0, 0], (vv - K[1, 2]) / K[1, 1], np.ones_like(u)], -1) @ pose.R
+        d = pixel_directions(K, pose, w, h)
         n = world[:3, :3] @ np.array([0.0, 0.0, 1.0])
         t = (n @ (world[:3, 3] - pose.center)) / (d @ n)
         row = {"offset_m": offset}

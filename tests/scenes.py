@@ -6,7 +6,7 @@ import numpy as np
 
 from moonbot import _core
 from moonbot.scene.bag import cuboid
-from moonbot.scene.orbit import CameraPose, orbit_pose
+from moonbot.scene.orbit import CameraPose, orbit_pose, pixel_directions
 
 
 def plane(half: float) -> tuple[np.ndarray, np.ndarray]:
@@ -51,12 +51,5 @@ def ground_and_box(box_size=(0.4, 0.4, 0.4), box_world=None, ground_world=None,
     return scene, box_world
 
 
-def pixel_rays(K: np.ndarray, pose: CameraPose, width: int, height: int) -> np.ndarray:
-    """World directions (H, W, 3) through pixel centres, scaled to camera-z = 1."""
-    u, v = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5)
-    cam = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1)
-    return cam @ pose.R  # row vectors: (R^T d)^T = d^T R
-
-
-__all__ = ["K_for", "camera", "ground_and_box", "orbit_pose", "pixel_rays", "plane",
+__all__ = ["K_for", "camera", "ground_and_box", "orbit_pose", "pixel_directions", "plane",
            "rotation_x", "translation"]

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scenes import K_for, camera, ground_and_box, pixel_rays, plane, rotation_x, translation
+from scenes import K_for, camera, ground_and_box, pixel_directions, plane, rotation_x, translation
 
 from moonbot import _core
 from moonbot.scene.orbit import CameraPose, orbit_pose
@@ -36,7 +36,7 @@ def test_mask_boundary_sits_where_K_predicts():
     pose = orbit_pose(np.zeros(3), 0.0, 2.0, 0.0)  # straight above, 2 m over the ground
     out = _core.render(scene, camera(K, W, H, pose), _core.Sun(0, 60), passes=["instance", "depth"])
     # Intersect each pixel-centre ray with the top plane z = 0.2 and test the face bounds.
-    d = pixel_rays(K, pose, W, H)
+    d = pixel_directions(K, pose, W, H)
     c = pose.center
     t = (0.2 - c[2]) / d[..., 2]
     p = c + t[..., None] * d
@@ -61,7 +61,7 @@ def test_tilted_plane_depth_is_analytic_z_depth(tilt_deg):
     pose = orbit_pose(np.array([0.0, 3.0, 0.0]), 2.5, 1.5, 200.0)
     out = _core.render(scene, camera(K, W, H, pose), _core.Sun(0, 45), passes=["depth"])
     n = world[:3, :3] @ np.array([0.0, 0.0, 1.0])
-    d = pixel_rays(K, pose, W, H)
+    d = pixel_directions(K, pose, W, H)
     t = (n @ (world[:3, 3] - pose.center)) / (d @ n)
     hit = out["depth"] > 0
     assert hit.sum() > 0.5 * W * H
@@ -197,7 +197,7 @@ def test_exact_depth_holds_far_from_the_origin(offset):
     K = K_for(W, H, 120.0)
     pose = orbit_pose(np.array([offset, offset, 0.0]), 1.0, 0.6, 30.0)
     n = world[:3, :3] @ np.array([0.0, 0.0, 1.0])
-    d = pixel_rays(K, pose, W, H)
+    d = pixel_directions(K, pose, W, H)
     t = (n @ (world[:3, 3] - pose.center)) / (d @ n)
     errors = {}
     for exact in (True, False):

@@ -51,3 +51,12 @@ def orbit_pose(target: np.ndarray, radius_m: float, height_m: float, azimuth_deg
     y = np.cross(z, x)  # image down
     R = np.stack([x, y, z])
     return CameraPose(R=R, t=-R @ eye)
+
+
+def pixel_directions(K: np.ndarray, pose: CameraPose, width: int, height: int) -> np.ndarray:
+    """World-frame directions (H, W, 3) float64 of the rays through pixel centres (u + 0.5,
+    v + 0.5), scaled so their component along the optical axis is 1: a point at z-depth z along
+    pixel (u, v) is pose.center + z · directions[v, u]."""
+    u, v = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5)
+    cam = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1)
+    return cam @ pose.R  # row vectors: (Rᵀ d)ᵀ = dᵀ R
