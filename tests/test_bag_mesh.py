@@ -1,0 +1,100 @@
+"""sandbag-01 against exact geometric properties: a closed, consistently oriented 2-manifold of
+sphere topology, outward faces, the extents and volume its parameters imply, and a diameter on
+the paper's ~400 mm ADD-S scale."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from moonbot.scene.bag_mesh import BagShape, filled_cuboid
+
+SHAPES = {
+    "default": BagShape(),
+    "sharp-box": BagShape(edge_radius_m=0.0, bulge_m=0.0),
+    "sharp-bulged": BagShape(edge_radius_m=0.0, bulge_m=0.01),
+    "round-no-bulge": BagShape(edge_radius_m=0.02, bulge_m=0.0),
+    "coarse": BagShape(edge_length_m=0.05),
+    "long-thin": BagShape(size_m=(0.6, 0.1, 0.05), edge_radius_m=0.01, bulge_m=0.005),
+}
+
+
+def signed_volume(v, t):
+    a, b, c = (v[t[:, i]].astype(np.float64) for i in range(3))
+    return np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0
+
+
+@pytest.mark.parametrize("shape", SHAPES.values(), ids=SHAPES.keys())
+def test_closed_oriented_manifold_of_sphere_topology(shape):
+    """Every directed edge occurs once and its reverse once (closed, consistently oriented,
+    manifold); V − E + F = 2; no degenerate triangle; no unused vertex."""
+    v, t = filled_cuboid(shape)
+    assert v.dtype == np.float32 and t.dtype == np.int32 and np.isfinite(v).all()
+    directed = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
+    keys = directed[:, 0].astype(np.int64) * len(v) + directed[:, 1]
+    reverse = directed[:, 1].astype(np.int64) * len(v) + directed[:, 0]
+    assert len(np.unique(keys)) == len(keys)
+    assert np.isin(reverse, keys).all()
+    assert len(v) - len(directed) // 2 + len(t) == 2
+    assert len(np.unique(t)) == len(v)
+    area = np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1)
+    assert area.min() > 0
+
+
+@pytest.mark.parametrize("shape", SHAPES.values(), ids=SHAPES.keys())
+def test_faces_point_outward(shape):
+    """The body is convex and centred on the origin, so every outward triangle's normal points
+    away from the origin; the signed volume is positive."""
+    v, t = filled_cuboid(shape)
+    v = v.astype(np.float64)
+    n = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
+    centroid = v[t].mean(axis=1)
+    assert (np.einsum("ij,ij->i", n, centroid) > 0).all()
+    assert signed_volume(v, t) > 0
+
+
+@pytest.mark.parametrize("shape", SHAPES.values(), ids=SHAPES.keys())
+def test_extents_and_volume_follow_the_parameters(shape):
+    """Half-extent = size/2 + bulge (a vertex sits at every face centre); the volume lies between
+    the rounded box's (less 0.5 %: the polyhedron is inscribed in the rounding) and the bulge's
+    upper bound, and equals the box's for a sharp, flat box."""
+    v, t = filled_cuboid(shape)
+    half = np.array(shape.size_m) / 2
+    np.testing.assert_allclose(np.abs(v).max(axis=0), half + shape.bulge_m, rtol=1e-6)
+    r = shape.edge_radius_m
+    sx, sy, sz = shape.size_m
+    # Box minus what rounding cuts: (1 − π/4) r² per unit of the 12 edges' length and
+    # (1 − π/6) r³ per corner.
+    rounded = (sx * sy * sz - (4 - math.pi) * r**2 * (sx + sy + sz - 6 * r)
+               - (8 - 4 * math.pi / 3) * r**3)
+    volume = signed_volume(v, t)
+    faces = 2 * (sx * sy + sy * sz + sz * sx)
+    assert rounded * 0.995 <= volume <= rounded + faces * shape.bulge_m
+    if r == 0 and shape.bulge_m == 0:
+        assert volume == pytest.approx(sx * sy * sz, rel=1e-6)
+
+
+def test_default_diameter_is_on_the_papers_scale():
+    """ADD-S thresholds are 10 % and 20 % of a ~400 mm diameter: the default body's largest
+    distance between surface points is 380–420 mm."""
+    v, _ = filled_cuboid()
+    v = v.astype(np.float64)
+    diameter = max(np.linalg.norm(v[i:i + 512, None] - v[None], axis=2).max() for i in range(0, len(v), 512))
+    assert 0.380 <= diameter <= 0.420
+
+
+def test_deterministic_bytes():
+    a, b = filled_cuboid(), filled_cuboid()
+    assert a[0].tobytes() == b[0].tobytes() and a[1].tobytes() == b[1].tobytes()
+
+
+@pytest.mark.parametrize(("kwargs", "field"), [
+    ({"size_m": (0.3, 0.0, 0.1)}, "size_m"), ({"edge_radius_m": 0.07}, "edge_radius_m"),
+    ({"edge_radius_m": -0.001}, "edge_radius_m"), ({"bulge_m": 0.5}, "bulge_m"),
+    ({"edge_length_m": 0.0}, "edge_length_m"),
+])
+def test_bad_parameters_name_the_field(kwargs, field):
+    with pytest.raises(ValueError, match=field):
+        BagShape(**kwargs)
