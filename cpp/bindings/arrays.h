@@ -30,6 +30,27 @@ inline py::array as_array(const py::handle& obj, const std::string& name) {
     return a;
 }
 
+/// `a` converted to a C-contiguous array of T. A conversion numpy refuses (an overflow under
+/// `np.seterr(all="raise")` or warnings-as-errors, say) is a ValueError naming the argument,
+/// never a null array.
+template <typename T>
+py::array_t<T, py::array::c_style> converted(const py::array& a, const std::string& name) {
+    auto c = py::array_t<T, py::array::c_style | py::array::forcecast>::ensure(a);
+    if (!c) {
+        PyErr_Clear();
+        fail(name, "cannot be converted to " + std::string(py::str(py::dtype::of<T>())) +
+                       " (out of range, or refused by numpy)");
+    }
+    return c;
+}
+
+/// A path for the C++ side: a NUL character would silently cut it short there.
+inline const std::string& checked_path(const std::string& path) {
+    if (path.find('\0') != std::string::npos) fail("path", "contains a NUL character");
+    if (path.empty()) fail("path", "is empty");
+    return path;
+}
+
 inline std::string shape_of(const py::array& a) {
     std::string s = "(";
     for (py::ssize_t i = 0; i < a.ndim(); ++i) s += (i ? ", " : "") + std::to_string(a.shape(i));
@@ -43,7 +64,7 @@ inline py::array_t<float, py::array::c_style> float_rows(const py::handle& obj,
     if (a.dtype().kind() != 'f') fail(name, "must be a floating-point array, got dtype " + std::string(py::str(a.dtype())));
     if (a.ndim() != 2 || a.shape(1) != cols)
         fail(name, "must have shape (N, " + std::to_string(cols) + "), got " + shape_of(a));
-    return py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(a);
+    return converted<float>(a, name);
 }
 
 /// An N×3 array of integer indices, as C-contiguous uint32; negative or ≥ 2³² values rejected.
@@ -53,7 +74,7 @@ inline std::vector<uint32_t> index_rows(const py::handle& obj, const std::string
     if (kind != 'i' && kind != 'u') fail(name, "must be an integer array, got dtype " + std::string(py::str(a.dtype())));
     if (a.ndim() != 2 || a.shape(1) != 3) fail(name, "must have shape (M, 3), got " + shape_of(a));
     // uint64 values ≥ 2⁶³ wrap to negative int64 here, which the range check below rejects.
-    auto wide = py::array_t<int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+    auto wide = converted<int64_t>(a, name);
     std::vector<uint32_t> out(static_cast<size_t>(wide.size()));
     const int64_t* p = wide.data();
     for (size_t i = 0; i < out.size(); ++i) {
@@ -70,7 +91,7 @@ glm::mat<C, R, double> matrix(const py::handle& obj, const std::string& name) {
     py::array a = as_array(obj, name);
     if (a.ndim() != 2 || a.shape(0) != R || a.shape(1) != C)
         fail(name, "must have shape (" + std::to_string(R) + ", " + std::to_string(C) + "), got " + shape_of(a));
-    auto d = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+    auto d = converted<double>(a, name);
     glm::mat<C, R, double> m;
     for (int r = 0; r < R; ++r)
         for (int c = 0; c < C; ++c) m[c][r] = d.at(r, c);
@@ -83,7 +104,7 @@ glm::vec<N, double> vector(const py::handle& obj, const std::string& name) {
     py::array a = as_array(obj, name);
     if (a.ndim() != 1 || a.shape(0) != N)
         fail(name, "must have shape (" + std::to_string(N) + ",), got " + shape_of(a));
-    auto d = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+    auto d = converted<double>(a, name);
     glm::vec<N, double> v;
     for (int i = 0; i < N; ++i) v[i] = d.at(i);
     return v;

@@ -6,6 +6,11 @@
 
 namespace moonbot::bindings {
 
+namespace {
+// The largest image side accepted at the boundary, as the camera accepts (fits int with room).
+constexpr py::ssize_t kMaxImageSide = 32768;
+}  // namespace
+
 void bind_image(py::module_& m) {
     m.def(
         "tonemap_reinhard",
@@ -13,7 +18,9 @@ void bind_image(py::module_& m) {
             py::array a = as_array(rgb, "rgb");
             if (a.dtype().kind() != 'f') fail("rgb", "must be a floating-point array");
             if (a.ndim() != 3 || a.shape(2) != 3) fail("rgb", "must have shape (H, W, 3), got " + shape_of(a));
-            auto in = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(a);
+            if (a.shape(0) > kMaxImageSide || a.shape(1) > kMaxImageSide)
+                fail("rgb", "sides must be at most " + std::to_string(kMaxImageSide));
+            auto in = converted<float>(a, "rgb");
             py::array_t<uint8_t> out({a.shape(0), a.shape(1), py::ssize_t(3)});
             const size_t n = static_cast<size_t>(a.shape(0) * a.shape(1));
             const float* src = in.data();
@@ -33,39 +40,46 @@ void bind_image(py::module_& m) {
         [](const std::string& path, const py::handle& pixels, int png_compression) {
             py::array a = as_array(pixels, "pixels");
             if (a.ndim() != 2 && a.ndim() != 3) fail("pixels", "must have shape (H, W) or (H, W, C), got " + shape_of(a));
-            const int channels = a.ndim() == 3 ? static_cast<int>(a.shape(2)) : 1;
-            if (channels < 1 || channels > 4) fail("pixels", "must have 1 to 4 channels");
             if (a.shape(0) < 1 || a.shape(1) < 1) fail("pixels", "must not be empty");
+            if (a.shape(0) > kMaxImageSide || a.shape(1) > kMaxImageSide)
+                fail("pixels", "sides must be at most " + std::to_string(kMaxImageSide));
+            if (a.ndim() == 3 && (a.shape(2) < 1 || a.shape(2) > 4)) fail("pixels", "must have 1 to 4 channels");
+            const int channels = a.ndim() == 3 ? static_cast<int>(a.shape(2)) : 1;
+            // By kind and size, not identity: an equal dtype from a pickle is a different object.
+            const char kind = a.dtype().kind();
+            const auto size = a.dtype().itemsize();
             PixelType type;
             py::array c;
-            if (a.dtype().is(py::dtype::of<uint8_t>())) {
+            if (kind == 'u' && size == 1) {
                 type = PixelType::U8;
-                c = py::array_t<uint8_t, py::array::c_style | py::array::forcecast>::ensure(a);
-            } else if (a.dtype().is(py::dtype::of<uint16_t>())) {
+                c = converted<uint8_t>(a, "pixels");
+            } else if (kind == 'u' && size == 2) {
                 type = PixelType::U16;
-                c = py::array_t<uint16_t, py::array::c_style | py::array::forcecast>::ensure(a);
-            } else if (a.dtype().is(py::dtype::of<float>())) {
+                c = converted<uint16_t>(a, "pixels");
+            } else if (kind == 'f' && size == 4) {
                 type = PixelType::F32;
-                c = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(a);
+                c = converted<float>(a, "pixels");
             } else {
                 fail("pixels", "dtype must be uint8, uint16 or float32, got " + std::string(py::str(a.dtype())));
             }
+            const std::string& target = checked_path(path);
             const void* data = c.data();
             const int h = static_cast<int>(a.shape(0)), w = static_cast<int>(a.shape(1));
             py::gil_scoped_release release;  // `c` keeps the buffer alive; encoding is long
-            write_image(path, data, w, h, channels, type, png_compression);
+            write_image(target, data, w, h, channels, type, png_compression);
         },
         py::arg("path"), py::arg("pixels"), py::arg("png_compression") = 1,
         "Write an image through OpenImageIO, atomically. Format from the extension: .png "
-        "(uint8/uint16), .exr (float32), .tif. Raises OSError naming the path on failure.");
+        "(uint8/uint16), .exr (float32), .tif/.tiff. Raises OSError naming the path on failure.");
 
     m.def(
         "read_image",
         [](const std::string& path) {
+            const std::string& source = checked_path(path);
             Image image;
             {
                 py::gil_scoped_release release;
-                image = read_image(path);
+                image = read_image(source);
             }
             std::vector<py::ssize_t> shape = {image.height, image.width};
             if (image.channels > 1) shape.push_back(image.channels);

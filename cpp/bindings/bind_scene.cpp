@@ -77,7 +77,7 @@ void bind_scene(py::module_& m) {
                 py::array a = as_array(points, "points");
                 if (a.ndim() != 2 || a.shape(1) != 3)
                     fail("points", "must have shape (N, 3), got " + shape_of(a));
-                auto p = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+                auto p = converted<double>(a, "points");
                 py::array_t<double> out({p.shape(0), py::ssize_t(3)});
                 auto o = out.mutable_unchecked<2>();
                 for (py::ssize_t i = 0; i < p.shape(0); ++i) {

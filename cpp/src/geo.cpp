@@ -19,9 +19,9 @@ LunarFrame::LunarFrame(double lat0_deg, double lon0_deg, double h0, double radiu
     : m_radius(radius) {
     if (!(std::isfinite(radius) && radius > 0)) throw std::invalid_argument("radius: must be > 0");
     if (!(lat0_deg >= -90.0 && lat0_deg <= 90.0))
-        throw std::invalid_argument("latitude: must be in [-90, 90] degrees");
-    if (!std::isfinite(lon0_deg)) throw std::invalid_argument("longitude: must be finite");
-    if (!std::isfinite(h0)) throw std::invalid_argument("height: must be finite");
+        throw std::invalid_argument("lat0_deg: must be in [-90, 90] degrees");
+    if (!std::isfinite(lon0_deg)) throw std::invalid_argument("lon0_deg: must be finite");
+    if (!std::isfinite(h0)) throw std::invalid_argument("h0: must be finite (metres)");
     m_impl = std::make_unique<Impl>(radius, lat0_deg, lon0_deg, h0);
 }
 

@@ -5,6 +5,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -53,6 +54,19 @@ private:
     uint8_t m_start[kBins + 1];
 };
 
+/// Only the formats moonbot writes are opened: OIIO's rarer plugins abort the process on some
+/// inputs (DPX with two channels asserts; a malformed ICO double-frees).
+void require_supported_format(const std::string& path) {
+    std::string ext = std::filesystem::path(path).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    if (ext != ".png" && ext != ".exr" && ext != ".tif" && ext != ".tiff")
+        throw IoError(path + ": unsupported image format (use .png, .exr, .tif or .tiff)");
+}
+
+// Decoded images larger than this are refused before allocating: a corrupt header must not
+// ask for gigabytes.
+constexpr int kMaxReadSide = 32768;
+
 }  // namespace
 
 void tonemap_reinhard_srgb8(const float* rgb, size_t n_pixels, double exposure, uint8_t* out) {
@@ -85,6 +99,7 @@ void write_image(const std::string& path, const void* pixels, int width, int hei
         throw std::invalid_argument("image: bad shape for " + path);
     if (png_compression < 0 || png_compression > 9)
         throw std::invalid_argument("png_compression: must be in 0..9");
+    require_supported_format(path);
     const fs::path target(path);
     const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
     std::error_code ec;
@@ -124,9 +139,14 @@ void write_image(const std::string& path, const void* pixels, int width, int hei
 }
 
 Image read_image(const std::string& path) {
+    require_supported_format(path);
     auto input = OIIO::ImageInput::open(path);
     if (!input) throw IoError(path + ": cannot open image (" + OIIO::geterror() + ")");
     const OIIO::ImageSpec& spec = input->spec();
+    if (spec.width < 1 || spec.height < 1 || spec.width > kMaxReadSide || spec.height > kMaxReadSide ||
+        spec.nchannels < 1 || spec.nchannels > 4 || spec.depth > 1)
+        throw IoError(path + ": unsupported image layout (" + std::to_string(spec.width) + "×" +
+                      std::to_string(spec.height) + "×" + std::to_string(spec.nchannels) + ")");
     Image image;
     image.width = spec.width;
     image.height = spec.height;

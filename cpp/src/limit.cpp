@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "moonbot/render.h"
 #include "rays.h"
 
 namespace moonbot {
@@ -48,7 +49,8 @@ double median_seconds(tbb::task_arena& arena, const TiledRays& pristine, int rep
 EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const Sun& sun,
                                  int threads, int repeats) {
     if (repeats < 1) throw std::invalid_argument("repeats: must be >= 1");
-    if (threads < 0) throw std::invalid_argument("threads: must be >= 0 (0 = all)");
+    if (threads < 0 || threads > kMaxThreads)
+        throw std::invalid_argument("threads: must be in 0.." + std::to_string(kMaxThreads) + " (0 = all)");
     const Scene::ReadLock lock(scene);
     if (!scene.committed())
         throw std::invalid_argument("scene: not committed (call commit() after adding geometry)");

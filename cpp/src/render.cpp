@@ -139,7 +139,9 @@ RenderStats render(const Scene& scene, const Camera& camera, const Sun& sun,
     if (settings.spp < 1 || settings.spp > kMaxSpp)
         throw std::invalid_argument("spp: must be in 1.." + std::to_string(kMaxSpp) + ", got " +
                                     std::to_string(settings.spp));
-    if (settings.threads < 0) throw std::invalid_argument("threads: must be >= 0 (0 = all)");
+    if (settings.threads < 0 || settings.threads > kMaxThreads)
+        throw std::invalid_argument("threads: must be in 0.." + std::to_string(kMaxThreads) +
+                                    " (0 = all), got " + std::to_string(settings.threads));
     const Scene::ReadLock lock(scene);  // before the checks, so they stay true during the render
     if (!scene.committed())
         throw std::invalid_argument("scene: not committed (call commit() after adding geometry)");

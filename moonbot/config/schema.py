@@ -76,7 +76,7 @@ class BagsConfig:
 @dataclass(frozen=True)
 class RenderConfig:
     spp: int = field(default=4, metadata=spec("RGB samples per pixel (depth and masks use the pixel centre)", lo=1, hi=65536))
-    threads: int = field(default=0, metadata=spec("render threads, 0 = all cores", lo=0, hi=4096))
+    threads: int = field(default=0, metadata=spec("render threads, 0 = all cores", lo=0, hi=1024))
     exact_depth: bool = field(default=True, metadata=spec(
         "re-solve hit distances in double (depth exact at kilometre coordinates, ~15 ns a ray); "
         "false keeps Embree's float32 distance"))

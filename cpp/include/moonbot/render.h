@@ -12,10 +12,13 @@
 
 namespace moonbot {
 
+/// The most threads a render may ask for: far above any node, far below what breaks TBB.
+constexpr int kMaxThreads = 1024;
+
 struct RenderSettings {
     int spp = 1;        ///< RGB samples per pixel, 1..65536; 1 = the pixel-centre ray, no jitter
     uint64_t seed = 0;  ///< keys the counter-based generator (with pixel and sample)
-    int threads = 0;    ///< worker threads, 0 = all hardware threads
+    int threads = 0;    ///< worker threads, 0 = all hardware threads, at most kMaxThreads
     /// Re-solve each hit's distance in double against the triangle's plane (depth exact to
     /// float32 rounding at any coordinates) instead of keeping Embree's float32 t, whose error
     /// grows with the distance of the scene from the origin. Costs ~15 ns a camera ray.
