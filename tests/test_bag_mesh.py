@@ -1,4 +1,4 @@
-"""sandbag-01 against exact geometric properties: a closed, consistently oriented 2-manifold of
+"""sandbag-01 and sandbag-02 against exact geometric properties: a closed, consistently oriented 2-manifold of
 sphere topology, outward faces, the extents and volume its parameters imply, and a diameter on
 the paper's ~400 mm ADD-S scale."""
 
@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from moonbot.scene.bag_mesh import BagShape, filled_cuboid
+from moonbot.scene.bag_mesh import SEAMED, BagShape, filled_cuboid, seamed_cuboid
 
 SHAPES = {
     "default": BagShape(),
@@ -18,6 +18,8 @@ SHAPES = {
     "round-no-bulge": BagShape(edge_radius_m=0.02, bulge_m=0.0),
     "coarse": BagShape(edge_length_m=0.05),
     "long-thin": BagShape(size_m=(0.6, 0.1, 0.05), edge_radius_m=0.01, bulge_m=0.005),
+    "seamed": SEAMED,
+    "seamed-no-stitch": BagShape(seam_height_m=0.004, stitch_depth=0.0),
 }
 
 
@@ -45,14 +47,16 @@ def test_closed_oriented_manifold_of_sphere_topology(shape):
 
 @pytest.mark.parametrize("shape", SHAPES.values(), ids=SHAPES.keys())
 def test_faces_point_outward(shape):
-    """The body is convex and centred on the origin, so every outward triangle's normal points
-    away from the origin; the signed volume is positive."""
+    """A consistently oriented closed surface (previous test) with positive signed volume faces
+    outward everywhere. Without seams the body is also convex and centred on the origin, so
+    every triangle's normal points away from the origin."""
     v, t = filled_cuboid(shape)
     v = v.astype(np.float64)
-    n = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
-    centroid = v[t].mean(axis=1)
-    assert (np.einsum("ij,ij->i", n, centroid) > 0).all()
     assert signed_volume(v, t) > 0
+    if shape.seam_height_m == 0:
+        n = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
+        centroid = v[t].mean(axis=1)
+        assert (np.einsum("ij,ij->i", n, centroid) > 0).all()
 
 
 @pytest.mark.parametrize("shape", SHAPES.values(), ids=SHAPES.keys())
@@ -85,6 +89,32 @@ def test_default_diameter_is_on_the_papers_scale():
     assert 0.380 <= diameter <= 0.420
 
 
+def test_seam_is_proud_by_its_height_and_only_on_the_edges():
+    """sandbag-02 is sandbag-01 with vertices moved outward along the rounding normal on the
+    edge arcs only: the largest move is the seam height (at the middle of an arc, between
+    stitches), nothing on the flat faces moves, and the volume grows."""
+    plain_v, plain_t = filled_cuboid(BagShape())
+    seam_v, seam_t = seamed_cuboid()
+    np.testing.assert_array_equal(plain_t, seam_t)  # same lattice, same triangles
+    move = np.linalg.norm(seam_v.astype(np.float64) - plain_v, axis=1)
+    assert move.max() == pytest.approx(SEAMED.seam_height_m, rel=1e-3)
+    inner = np.array(SEAMED.size_m) / 2 - SEAMED.edge_radius_m
+    on_edge_band = (np.abs(plain_v) > inner + 1e-7).sum(axis=1) >= 2
+    assert (move[~on_edge_band] == 0).all()
+    assert (move[on_edge_band] > 0).mean() > 0.3
+    assert signed_volume(seam_v, seam_t) > signed_volume(plain_v, plain_t)
+
+
+def test_stitches_modulate_the_seam():
+    """Along an edge the seam's height dips by stitch_depth once per stitch pitch."""
+    v, _ = seamed_cuboid(BagShape(seam_height_m=0.004, stitch_depth=0.5, stitch_pitch_m=0.02))
+    plain, _ = filled_cuboid(BagShape())
+    move = np.linalg.norm(v.astype(np.float64) - plain, axis=1)
+    ridge = move > 0.5 * 0.004 * 0.5
+    assert move[ridge].max() == pytest.approx(0.004, rel=1e-3)
+    assert move[ridge].min() < 0.004 * 0.75  # the stitch dips are sampled too
+
+
 def test_deterministic_bytes():
     a, b = filled_cuboid(), filled_cuboid()
     assert a[0].tobytes() == b[0].tobytes() and a[1].tobytes() == b[1].tobytes()
@@ -93,8 +123,16 @@ def test_deterministic_bytes():
 @pytest.mark.parametrize(("kwargs", "field"), [
     ({"size_m": (0.3, 0.0, 0.1)}, "size_m"), ({"edge_radius_m": 0.07}, "edge_radius_m"),
     ({"edge_radius_m": -0.001}, "edge_radius_m"), ({"bulge_m": 0.5}, "bulge_m"),
-    ({"edge_length_m": 0.0}, "edge_length_m"),
+    ({"edge_length_m": 0.0}, "edge_length_m"), ({"edge_steps": 0}, "edge_steps"),
+    ({"seam_height_m": 0.003, "edge_radius_m": 0.0}, "seam_height_m"),
+    ({"seam_height_m": 0.003, "seam_width_m": 0.05}, "seam_width_m"),
+    ({"stitch_pitch_m": 0.0}, "stitch_pitch_m"), ({"stitch_depth": 1.5}, "stitch_depth"),
 ])
 def test_bad_parameters_name_the_field(kwargs, field):
     with pytest.raises(ValueError, match=field):
         BagShape(**kwargs)
+
+
+def test_seamed_bag_needs_a_seam():
+    with pytest.raises(ValueError, match="seam_height_m"):
+        seamed_cuboid(BagShape())

@@ -5,6 +5,10 @@ vertices and outward, counter-clockwise triangles.
 sandbag-01 is a filled cuboid: a box with rounded edges (the Minkowski sum of a smaller box and
 a sphere of radius `edge_radius_m`) whose faces bulge outward by up to `bulge_m` at their
 centres, falling smoothly (zero slope) to the rounded edges.
+
+sandbag-02 is the same body with a stitched seam along every edge: a ridge `seam_height_m`
+proud of the rounding, `seam_width_m` wide, centred on the middle of each edge's arc, its height
+modulated by stitches every `stitch_pitch_m` (dipping by `stitch_depth` of the height).
 """
 
 from __future__ import annotations
@@ -18,12 +22,19 @@ import numpy as np
 class BagShape:
     """Shape parameters of the filled-cuboid body. `size_m`: nominal length, width, height
     (metres) before bulging; `edge_radius_m`: rounding of edges and corners; `bulge_m`: outward
-    bow at each face centre; `edge_length_m`: target triangle edge length (tessellation)."""
+    bow at each face centre; `edge_length_m`: target triangle edge length on the flat parts;
+    `edge_steps`: rows of vertices across each side of a rounded edge (tessellation of the arc);
+    seam parameters as in the module docstring (a seam needs a rounded edge to sit on)."""
 
     size_m: tuple[float, float, float] = (0.32, 0.20, 0.12)
     edge_radius_m: float = 0.010
     bulge_m: float = 0.008
     edge_length_m: float = 0.006
+    edge_steps: int = 6
+    seam_height_m: float = 0.0
+    seam_width_m: float = 0.006
+    stitch_pitch_m: float = 0.012
+    stitch_depth: float = 0.3
 
     def __post_init__(self) -> None:
         if any(not s > 0 for s in self.size_m):
@@ -34,12 +45,30 @@ class BagShape:
             raise ValueError(f"bulge_m: must be in [0, {min(self.size_m) / 4}], got {self.bulge_m}")
         if not 0 < self.edge_length_m <= min(self.size_m) / 2:
             raise ValueError(f"edge_length_m: must be in (0, {min(self.size_m) / 2}], got {self.edge_length_m}")
+        if not 1 <= self.edge_steps <= 64:
+            raise ValueError(f"edge_steps: must be in 1..64, got {self.edge_steps}")
+        if not 0 <= self.seam_height_m <= 0.05:
+            raise ValueError(f"seam_height_m: must be in [0, 0.05], got {self.seam_height_m}")
+        if self.seam_height_m > 0 and self.edge_radius_m == 0:
+            raise ValueError("seam_height_m: a seam needs rounded edges (edge_radius_m > 0)")
+        arc = self.edge_radius_m * np.pi / 2
+        if self.seam_height_m > 0 and not 0 < self.seam_width_m <= arc:
+            raise ValueError(f"seam_width_m: must be in (0, {arc:.4g}] (the edge arc), got {self.seam_width_m}")
+        if not self.stitch_pitch_m > 0:
+            raise ValueError(f"stitch_pitch_m: must be > 0, got {self.stitch_pitch_m}")
+        if not 0 <= self.stitch_depth <= 1:
+            raise ValueError(f"stitch_depth: must be in [0, 1], got {self.stitch_depth}")
+
+
+SEAMED = BagShape(seam_height_m=0.003)
 
 
 def filled_cuboid(shape: BagShape = BagShape()) -> tuple[np.ndarray, np.ndarray]:
-    """sandbag-01. Returns (vertices (N, 3) float32 metres, triangles (M, 3) int32)."""
+    """sandbag-01 (or, with seam_height_m > 0, sandbag-02). Returns (vertices (N, 3) float32
+    metres, triangles (M, 3) int32)."""
     half = np.asarray(shape.size_m, dtype=np.float64) / 2.0
-    lattice, triangles = _box_surface_grid(half, shape.edge_length_m)
+    lattice, triangles = _box_surface_grid(half, shape.edge_length_m, shape.edge_radius_m,
+                                           shape.edge_steps)
     points = lattice * half  # on the sharp box's surface
 
     # Round: clamp into the inner box, then step out by the radius along the clamped-off offset.
@@ -63,16 +92,50 @@ def filled_cuboid(shape: BagShape = BagShape()) -> tuple[np.ndarray, np.ndarray]
     ratio[rows, face_axis] = 0.0  # the face's own axis does not weigh
     weight = np.prod((1.0 - ratio**2) ** 2, axis=1, keepdims=True)
     vertices = rounded + shape.bulge_m * weight * direction
+    if shape.seam_height_m > 0:
+        vertices += shape.seam_height_m * _seam_profile(points, offset, shape)[:, None] * normal
     return vertices.astype(np.float32), triangles
 
 
-def _box_surface_grid(half: np.ndarray, edge_length: float) -> tuple[np.ndarray, np.ndarray]:
+def seamed_cuboid(shape: BagShape = SEAMED) -> tuple[np.ndarray, np.ndarray]:
+    """sandbag-02: the filled cuboid with stitched seams along its edges."""
+    if shape.seam_height_m <= 0:
+        raise ValueError("seam_height_m: sandbag-02 needs a seam (> 0)")
+    return filled_cuboid(shape)
+
+
+def _seam_profile(points: np.ndarray, offset: np.ndarray, shape: BagShape) -> np.ndarray:
+    """Seam height factor in [0, 1] per vertex. On an edge's arc (two axes clamped by the
+    rounding) the angle from one face to the other is atan2 of the two offsets; the ridge is a
+    parabola in arc length around 45°, times the stitch modulation along the edge's own axis."""
+    o = np.abs(offset)
+    clamped = o > 1e-12
+    profile = np.zeros(len(points))
+    for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        on_arc = clamped[:, i] & clamped[:, j]
+        theta = np.arctan2(o[:, j], o[:, i])
+        distance = shape.edge_radius_m * np.abs(theta - np.pi / 4)  # arc length to the seam line
+        ridge = np.clip(1.0 - (2.0 * distance / shape.seam_width_m) ** 2, 0.0, 1.0)
+        stitch = 1.0 - shape.stitch_depth * 0.5 * (1.0 - np.cos(2 * np.pi * points[:, k] / shape.stitch_pitch_m))
+        profile = np.maximum(profile, np.where(on_arc, ridge * stitch, 0.0))
+    return profile
+
+
+def _box_surface_grid(half: np.ndarray, edge_length: float, band: float,
+                      band_steps: int) -> tuple[np.ndarray, np.ndarray]:
     """Vertices of a subdivided box surface in lattice coordinates [-1, 1]³ (each vertex once,
-    shared by the faces that meet at it) and its outward triangles."""
-    # Even counts put a vertex at every face centre and make the vertex set mirror-symmetric
-    # about the three planes through the centre, as the body is.
-    counts = 2 * np.maximum(1, np.ceil(half / edge_length).astype(int))
-    axes = [np.linspace(-1.0, 1.0, n + 1) for n in counts]
+    shared by the faces that meet at it) and its outward triangles. Along each axis the flat
+    part is split evenly (an even count, so a vertex sits at every face centre and the set is
+    mirror-symmetric) and the `band` next to each edge into `band_steps` rows, which become the
+    rounded edge."""
+    axes = []
+    for h in half:
+        flat = h - band
+        n = 2 * max(1, int(np.ceil(flat / edge_length)))
+        core = np.linspace(-flat, flat, n + 1)
+        rim = flat + band * np.arange(1, band_steps + 1) / band_steps if band > 0 else np.empty(0)
+        axes.append(np.concatenate([-rim[::-1], core, rim]) / h)
+    counts = np.array([len(a) - 1 for a in axes])
     # Index every lattice point of the box's surface once.
     ijk = np.stack(np.meshgrid(*[np.arange(n + 1) for n in counts], indexing="ij"), axis=-1)
     on_surface = np.zeros(ijk.shape[:3], dtype=bool)
