@@ -1,4 +1,4 @@
-"""sandbag-01 and sandbag-02 against exact geometric properties: a closed, consistently oriented 2-manifold of
+"""sandbag-01, -02 and -03 against exact geometric properties: a closed, consistently oriented 2-manifold of
 sphere topology, outward faces, the extents and volume its parameters imply, and a diameter on
 the paper's ~400 mm ADD-S scale."""
 
@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from moonbot.scene.bag_mesh import SEAMED, BagShape, filled_cuboid, seamed_cuboid
+from moonbot.scene.bag_mesh import FOLDED, SEAMED, BagShape, filled_cuboid, folded_cuboid, seamed_cuboid
 
 SHAPES = {
     "default": BagShape(),
@@ -20,6 +20,8 @@ SHAPES = {
     "long-thin": BagShape(size_m=(0.6, 0.1, 0.05), edge_radius_m=0.01, bulge_m=0.005),
     "seamed": SEAMED,
     "seamed-no-stitch": BagShape(seam_height_m=0.004, stitch_depth=0.0),
+    "folded": FOLDED,
+    "folded-deep": BagShape(fold_length_m=0.1, gather=0.5, pleats=7, pleat_depth_m=0.01),
 }
 
 
@@ -53,7 +55,7 @@ def test_faces_point_outward(shape):
     v, t = filled_cuboid(shape)
     v = v.astype(np.float64)
     assert signed_volume(v, t) > 0
-    if shape.seam_height_m == 0:
+    if shape.seam_height_m == 0 and shape.fold_length_m == 0:
         n = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
         centroid = v[t].mean(axis=1)
         assert (np.einsum("ij,ij->i", n, centroid) > 0).all()
@@ -75,7 +77,9 @@ def test_extents_and_volume_follow_the_parameters(shape):
                - (8 - 4 * math.pi / 3) * r**3)
     volume = signed_volume(v, t)
     faces = 2 * (sx * sy + sy * sz + sz * sx)
-    assert rounded * 0.995 <= volume <= rounded + faces * shape.bulge_m
+    assert volume <= rounded + faces * shape.bulge_m
+    if shape.fold_length_m == 0:  # gathering the ends takes volume away
+        assert volume >= rounded * 0.995
     if r == 0 and shape.bulge_m == 0:
         assert volume == pytest.approx(sx * sy * sz, rel=1e-6)
 
@@ -115,6 +119,55 @@ def test_stitches_modulate_the_seam():
     assert move[ridge].min() < 0.004 * 0.75  # the stitch dips are sampled too
 
 
+@pytest.mark.parametrize("shape", [FOLDED, SHAPES["folded-deep"]], ids=["folded", "folded-deep"])
+def test_folds_do_not_fold_the_surface_through_itself(shape):
+    """Every triangle of sandbag-03 still faces the same way as its twin on the unfolded body
+    (a pleat folded through the surface would flip some), and x is untouched by folding."""
+    plain_v, t = filled_cuboid(BagShape(**{**shape.__dict__, "fold_length_m": 0.0}))
+    fold_v, _ = folded_cuboid(shape)
+
+    def normals(v):
+        v = v.astype(np.float64)
+        return np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
+
+    assert (np.einsum("ij,ij->i", normals(plain_v), normals(fold_v)) > 0).all()
+    np.testing.assert_array_equal(fold_v[:, 0], plain_v[:, 0])
+
+
+def test_folded_ends_gather_the_cross_section():
+    """With pleats off, every vertex's cross-section coordinates are the plain body's times
+    1 − gather·s(t)², s the smoothstep of t = (|x| − start) / fold_length: exactly the gather
+    law, 1 in the middle and 1 − gather at the very ends."""
+    shape = BagShape(fold_length_m=0.06, pleat_depth_m=0.0, gather=0.3)
+    plain, _ = filled_cuboid(BagShape())
+    folded, _ = folded_cuboid(shape)
+    start = shape.size_m[0] / 2 + shape.bulge_m - shape.fold_length_m
+    t = np.clip((np.abs(plain[:, 0].astype(np.float64)) - start) / shape.fold_length_m, 0, 1)
+    scale = 1.0 - shape.gather * (t * t * (3 - 2 * t)) ** 2
+    np.testing.assert_allclose(folded[:, 1:], plain[:, 1:] * scale[:, None], rtol=1e-6, atol=1e-9)
+    assert scale.min() < 1.0 - shape.gather + 0.01 and scale.max() == 1.0
+
+
+def _symmetric_under(v, R, tolerance=1e-6):
+    """Fraction of vertices that the rotation R maps onto some vertex of the mesh."""
+    key = lambda a: {tuple(p) for p in np.round(a / tolerance).astype(np.int64)}
+    original = key(v.astype(np.float64))
+    rotated = np.round((v.astype(np.float64) @ R.T) / tolerance).astype(np.int64)
+    return np.mean([tuple(p) in original for p in rotated])
+
+
+def test_folding_breaks_the_boxs_half_turns():
+    """The plain and seamed bodies map onto themselves under the box's half-turns about x, y and
+    z (their vertex sets are mirror-symmetric); the folded ends, folded differently, do not."""
+    half_turns = [np.diag(d) for d in ([1.0, -1, -1], [-1.0, 1, -1], [-1.0, -1, 1])]
+    for mesh in (filled_cuboid(), seamed_cuboid(BagShape(seam_height_m=0.003, stitch_pitch_m=0.01))):
+        for R in half_turns:
+            assert _symmetric_under(mesh[0], R, tolerance=2e-6) > 0.999
+    folded, _ = folded_cuboid()
+    for R in half_turns:
+        assert _symmetric_under(folded, R, tolerance=2e-6) < 0.9
+
+
 def test_deterministic_bytes():
     a, b = filled_cuboid(), filled_cuboid()
     assert a[0].tobytes() == b[0].tobytes() and a[1].tobytes() == b[1].tobytes()
@@ -127,12 +180,16 @@ def test_deterministic_bytes():
     ({"seam_height_m": 0.003, "edge_radius_m": 0.0}, "seam_height_m"),
     ({"seam_height_m": 0.003, "seam_width_m": 0.05}, "seam_width_m"),
     ({"stitch_pitch_m": 0.0}, "stitch_pitch_m"), ({"stitch_depth": 1.5}, "stitch_depth"),
+    ({"fold_length_m": 0.5}, "fold_length_m"), ({"gather": 0.9}, "gather"),
+    ({"pleats": 1}, "pleats"), ({"pleat_depth_m": 0.1}, "pleat_depth_m"),
 ])
 def test_bad_parameters_name_the_field(kwargs, field):
     with pytest.raises(ValueError, match=field):
         BagShape(**kwargs)
 
 
-def test_seamed_bag_needs_a_seam():
+def test_variants_need_their_feature():
     with pytest.raises(ValueError, match="seam_height_m"):
         seamed_cuboid(BagShape())
+    with pytest.raises(ValueError, match="fold_length_m"):
+        folded_cuboid(BagShape())

@@ -9,6 +9,12 @@ centres, falling smoothly (zero slope) to the rounded edges.
 sandbag-02 is the same body with a stitched seam along every edge: a ridge `seam_height_m`
 proud of the rounding, `seam_width_m` wide, centred on the middle of each edge's arc, its height
 modulated by stitches every `stitch_pitch_m` (dipping by `stitch_depth` of the height).
+
+sandbag-03 has folded ends: over the last `fold_length_m` of each short (±x) end the fabric is
+gathered (the cross-section shrinks by up to `gather` of its size, quadratically toward the end)
+and pleated (radial folds of depth up to `pleat_depth_m` around the long axis). The two ends are
+folded differently (`pleats` and `pleats + 1` folds, a quarter-pleat apart), as real folded
+fabric is, so the body keeps fewer symmetries than a box.
 """
 
 from __future__ import annotations
@@ -35,6 +41,10 @@ class BagShape:
     seam_width_m: float = 0.006
     stitch_pitch_m: float = 0.012
     stitch_depth: float = 0.3
+    fold_length_m: float = 0.0
+    gather: float = 0.25
+    pleats: int = 5
+    pleat_depth_m: float = 0.006
 
     def __post_init__(self) -> None:
         if any(not s > 0 for s in self.size_m):
@@ -58,9 +68,18 @@ class BagShape:
             raise ValueError(f"stitch_pitch_m: must be > 0, got {self.stitch_pitch_m}")
         if not 0 <= self.stitch_depth <= 1:
             raise ValueError(f"stitch_depth: must be in [0, 1], got {self.stitch_depth}")
+        if not 0 <= self.fold_length_m <= self.size_m[0] / 2:
+            raise ValueError(f"fold_length_m: must be in [0, {self.size_m[0] / 2}], got {self.fold_length_m}")
+        if not 0 <= self.gather <= 0.6:
+            raise ValueError(f"gather: must be in [0, 0.6], got {self.gather}")
+        if not 2 <= self.pleats <= 32:
+            raise ValueError(f"pleats: must be in 2..32, got {self.pleats}")
+        if not 0 <= self.pleat_depth_m <= min(self.size_m[1:]) / 4:
+            raise ValueError(f"pleat_depth_m: must be in [0, {min(self.size_m[1:]) / 4}], got {self.pleat_depth_m}")
 
 
 SEAMED = BagShape(seam_height_m=0.003)
+FOLDED = BagShape(fold_length_m=0.06)
 
 
 def filled_cuboid(shape: BagShape = BagShape()) -> tuple[np.ndarray, np.ndarray]:
@@ -94,8 +113,43 @@ def filled_cuboid(shape: BagShape = BagShape()) -> tuple[np.ndarray, np.ndarray]
     vertices = rounded + shape.bulge_m * weight * direction
     if shape.seam_height_m > 0:
         vertices += shape.seam_height_m * _seam_profile(points, offset, shape)[:, None] * normal
+    if shape.fold_length_m > 0:
+        vertices = _fold_ends(vertices, half, shape)
     return vertices.astype(np.float32), triangles
 
+
+def folded_cuboid(shape: BagShape = FOLDED) -> tuple[np.ndarray, np.ndarray]:
+    """sandbag-03: the filled cuboid with its short ends gathered and pleated."""
+    if shape.fold_length_m <= 0:
+        raise ValueError("fold_length_m: sandbag-03 needs folded ends (> 0)")
+    return filled_cuboid(shape)
+
+
+def _fold_ends(vertices: np.ndarray, half: np.ndarray, shape: BagShape) -> np.ndarray:
+    """Gathers and pleats both short ends. Every vertex moves within its own cross-section
+    (x is kept), by a smooth function of (x, angle around the long axis), so the surface stays
+    closed and the move is continuous; t = 0 where the fold region begins, 1 at the end."""
+    x, y, z = vertices[:, 0], vertices[:, 1], vertices[:, 2]
+    start = half[0] + shape.bulge_m - shape.fold_length_m
+    t = np.clip((np.abs(x) - start) / shape.fold_length_m, 0.0, 1.0)
+    smooth = t * t * (3.0 - 2.0 * t)  # zero value and slope where the fold begins
+    angle = np.arctan2(z / half[2], y / half[1])  # around the long axis, scale-free
+    plus = x > 0
+    pleats = np.where(plus, shape.pleats, shape.pleats + 1)
+    phase = np.where(plus, 0.0, np.pi / 2)
+    wave = np.cos(pleats * angle + phase)
+    radial = np.hypot(y, z)
+    # Pleats fade toward the long axis (ρ², ρ the cross-section radius scaled to the body): at the
+    # centre of an end face the angle is undefined, and a full-depth pleat there would fold the
+    # surface through itself.
+    rho2 = np.minimum(1.0, (y / half[1]) ** 2 + (z / half[2]) ** 2)
+    pleat = shape.pleat_depth_m * smooth * wave * rho2 / np.maximum(radial, 1e-12)
+    # Gather: shrink the cross-section; pleat: move radially in and out around it.
+    scale = 1.0 - shape.gather * smooth**2 + pleat
+    out = vertices.copy()
+    out[:, 1] *= scale
+    out[:, 2] *= scale
+    return out
 
 def seamed_cuboid(shape: BagShape = SEAMED) -> tuple[np.ndarray, np.ndarray]:
     """sandbag-02: the filled cuboid with stitched seams along its edges."""
