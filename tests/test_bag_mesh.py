@@ -84,10 +84,12 @@ def test_extents_and_volume_follow_the_parameters(shape):
         assert volume == pytest.approx(sx * sy * sz, rel=1e-6)
 
 
-def test_default_diameter_is_on_the_papers_scale():
-    """ADD-S thresholds are 10 % and 20 % of a ~400 mm diameter: the default body's largest
+@pytest.mark.parametrize("make", [filled_cuboid, seamed_cuboid, folded_cuboid],
+                         ids=["sandbag-01", "sandbag-02", "sandbag-03"])
+def test_default_diameter_is_on_the_papers_scale(make):
+    """ADD-S thresholds are 10 % and 20 % of a ~400 mm diameter: each default body's largest
     distance between surface points is 380–420 mm."""
-    v, _ = filled_cuboid()
+    v, _ = make()
     v = v.astype(np.float64)
     diameter = max(np.linalg.norm(v[i:i + 512, None] - v[None], axis=2).max() for i in range(0, len(v), 512))
     assert 0.380 <= diameter <= 0.420
@@ -139,7 +141,7 @@ def test_folded_ends_gather_the_cross_section():
     1 − gather·s(t)², s the smoothstep of t = (|x| − start) / fold_length: exactly the gather
     law, 1 in the middle and 1 − gather at the very ends."""
     shape = BagShape(fold_length_m=0.06, pleat_depth_m=0.0, gather=0.3)
-    plain, _ = filled_cuboid(BagShape())
+    plain, _ = filled_cuboid(BagShape(size_m=shape.size_m))
     folded, _ = folded_cuboid(shape)
     start = shape.size_m[0] / 2 + shape.bulge_m - shape.fold_length_m
     t = np.clip((np.abs(plain[:, 0].astype(np.float64)) - start) / shape.fold_length_m, 0, 1)
