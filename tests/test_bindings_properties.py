@@ -14,11 +14,13 @@ Four groups:
 * defects   hypothesis builds a valid call, injects exactly one defect and checks the ValueError
             names the argument.
 * tables    one readable parametrized case per bad input the issue lists.
-* isolated  inputs that crash the interpreter (or need gigabytes of address space) run in a child
-            interpreter, so the suite survives and reports them as ordinary failures.
+* isolated  inputs that used to crash the interpreter (fixed in 07b277f), or that need gigabytes
+            of address space, run in a child interpreter: a regression fails one test instead of
+            killing the session.
 
 All hypothesis runs are derandomized and keep no example database, so every run tests the same
-examples and writes nothing outside pytest's tmp_path. Renders stay at most 16x16 pixels.
+examples; the tests write only below pytest's tmp_path (hypothesis itself still caches source
+constants in the git-ignored .hypothesis/). Renders stay at most 16x16 pixels.
 """
 
 from __future__ import annotations
@@ -72,10 +74,10 @@ def attempt(fn, *args, **kwargs):
     """Call a binding and return (result, None), or (None, error) for an allowed error type.
 
     Any other exception propagates and fails the test. numpy's floating-point error reporting is
-    silenced for the call: a binding that narrows float64 to float32 makes numpy report an
-    overflow, which pytest's `filterwarnings = error` turns into an exception inside the binding's
-    conversion, and that crashes the interpreter (see test_overflowing_conversion_is_not_fatal,
-    which checks that case in a child interpreter). Here the values still reach the binding."""
+    silenced for the call, so a huge float64 narrowed to float32 reaches the core's own checks as
+    inf. (With the reporting on, pytest's `filterwarnings = error` makes numpy refuse the
+    conversion; that path used to crash the interpreter and is checked in a child interpreter by
+    test_overflowing_conversion_is_not_fatal, so a regression cannot take this session down.)"""
     name = getattr(fn, "__name__", "call")
     with np.errstate(over="ignore", under="ignore"):
         try:
@@ -147,6 +149,7 @@ INT_DTYPES = [np.dtype(d) for d in (np.int8, np.uint8, np.int16, np.uint16, np.i
                                     np.int64, np.uint64)]
 NOT_FLOAT_DTYPES = [np.dtype(d) for d in (np.bool_, np.int32, np.uint8, np.complex128, "U4", "O")]
 NOT_NUMBER_DTYPES = [np.dtype(d) for d in (np.complex64, "U4", "S3", "O", "M8[s]")]
+PIXEL_DTYPES = [np.dtype(d) for d in (np.uint8, np.uint16, np.float32)]
 NON_FINITE = [math.nan, math.inf, -math.inf]
 
 
@@ -200,6 +203,36 @@ IMAGE_SHAPES = ((2, 3), (2, 3, 1), (2, 3, 3), (2, 3, 4), (2, 3, 5), (0, 3, 3), (
 
 
 @st.composite
+def layouts(draw, array, lists=True, byteswap=True):
+    """The values of `array` in another memory layout or container: as is, Fortran order, a
+    strided view, read-only, byte-swapped or as nested lists. A binding must not care."""
+    a = np.asarray(array)
+    kind = draw(st.sampled_from(["as-is", "fortran", "strided", "read-only", "byteswapped", "list"]))
+    if kind == "fortran":
+        return np.asfortranarray(a)
+    if kind == "strided" and a.ndim and a.shape[0]:
+        return np.repeat(a, 2, axis=0)[::2]
+    if kind == "read-only":
+        a = a.copy()
+        a.flags.writeable = False
+        return a
+    if kind == "byteswapped" and byteswap and a.dtype.byteorder != "|":
+        return a.astype(a.dtype.newbyteorder())
+    if kind == "list" and lists:
+        return a.tolist()
+    return a
+
+
+@st.composite
+def calls(draw, valid, wild):
+    """Keyword arguments for one call: every argument drawn from `valid`, except at most two
+    drawn from `wild`. Mostly-valid calls reach the checks behind the first argument (and the
+    success path), which all-random calls almost never do."""
+    spoiled = draw(st.sets(st.sampled_from(sorted(wild)), max_size=2))
+    return {name: draw(wild[name] if name in spoiled else strategy) for name, strategy in valid.items()}
+
+
+@st.composite
 def rotations(draw, dtype=np.float64):
     """A proper rotation matrix (orthonormal to ~1e-16, det +1)."""
     q = draw(hnp.arrays(np.float64, 4, elements=st.floats(-1, 1)))
@@ -229,16 +262,41 @@ def meshes(draw):
     return vertices, triangles
 
 
+def sized_arrays(dtypes, shape, **kwargs):
+    """Arrays of the given shape and a dtype drawn from `dtypes`."""
+    return hnp.arrays(st.sampled_from(dtypes), shape, **kwargs)
+
+
+ALBEDOS = st.one_of(st.tuples(st.floats(0, 1), st.floats(0, 1), st.floats(0, 1)),
+                    sized_arrays(FLOAT_DTYPES, 3, elements=st.floats(0, 1, width=16)).flatmap(layouts),
+                    hnp.arrays(bool, 3).flatmap(layouts))
+CAMERA_FIELDS = dict(
+    fx=st.floats(1e-3, 1e6), fy=st.floats(1e-3, 1e6), cx=st.floats(-1e6, 1e6), cy=st.floats(-1e6, 1e6),
+    width=st.integers(1, MAX_SIDE), height=st.integers(1, MAX_SIDE),
+    R=st.one_of(rotations(), rotations(np.float32)).flatmap(layouts),
+    t=hnp.arrays(np.float64, 3, elements=st.floats(-1e6, 1e6)).flatmap(layouts))
+SUN_FIELDS = dict(azimuth_deg=st.floats(allow_nan=False, allow_infinity=False),
+                  elevation_deg=st.floats(-90, 90), irradiance=st.floats(0, 1e7))
+
+
 # --- fuzz: anything in, only ValueError / TypeError / OSError out --------------------------------
 
+VALID_MESH = dict(
+    vertices=st.integers(4, 8).flatmap(lambda n: sized_arrays(
+        FLOAT_DTYPES, (n, 3), elements=st.floats(-1e3, 1e3, width=16))).flatmap(layouts),
+    triangles=st.integers(1, 4).flatmap(lambda m: sized_arrays(
+        INT_DTYPES, (m, 3), elements=st.integers(0, 3))).flatmap(layouts))
+WILD_MESH = dict(vertices=anything(*VERTEX_SHAPES), triangles=anything(*TRIANGLE_SHAPES))
+
+
 @FUZZ
-@given(vertices=anything(*VERTEX_SHAPES), triangles=anything(*TRIANGLE_SHAPES))
-def test_add_mesh_survives_anything(vertices, triangles):
+@given(kwargs=calls(VALID_MESH, WILD_MESH))
+def test_add_mesh_survives_anything(kwargs):
     """add_mesh never crashes and raises only the allowed types; a rejected mesh leaves the scene
     untouched (no mesh, no BVH build, still committed), an accepted one gets the next index."""
     scene = ground_scene()
     meshes_before, builds_before = scene.mesh_count, scene.bvh_builds
-    index, error = attempt(scene.add_mesh, vertices, triangles)
+    index, error = attempt(scene.add_mesh, **kwargs)
     if error is None:
         assert index == meshes_before
         assert (scene.mesh_count, scene.bvh_builds) == (meshes_before + 1, builds_before + 1)
@@ -247,69 +305,76 @@ def test_add_mesh_survives_anything(vertices, triangles):
     assert scene.committed  # a new prototype does not touch the committed top level
 
 
+VALID_INSTANCE = dict(mesh=st.sampled_from([0, 1, np.uint32(1), np.int64(0)]),
+                      world_from_object=transforms().flatmap(layouts),
+                      instance_id=st.integers(1, 255), albedo=ALBEDOS)
+WILD_INSTANCE = dict(mesh=ANY_INT, world_from_object=anything(*MATRIX4_SHAPES), instance_id=ANY_INT,
+                     albedo=anything(*VECTOR3_SHAPES))
+
+
 @FUZZ
-@given(mesh=ANY_INT, world=anything(*MATRIX4_SHAPES), instance_id=ANY_INT,
-       albedo=anything(*VECTOR3_SHAPES), background=st.booleans())
-def test_add_instance_survives_anything(mesh, world, instance_id, albedo, background):
+@given(kwargs=calls(VALID_INSTANCE, WILD_INSTANCE), background=st.booleans())
+def test_add_instance_survives_anything(kwargs, background):
     """add_instance / add_background never crash and raise only the allowed types. A rejected call
     leaves no trace: the instance count and the committed flag are unchanged and a valid label is
     still free. Whatever was accepted, the scene still commits and renders."""
     scene = ground_scene()
+    scene.add_mesh(QUAD_V * 0.1, QUAD_T)  # mesh 1
     before = scene.instance_count
     if background:
-        _, error = attempt(scene.add_background, mesh, world, albedo)
+        _, error = attempt(scene.add_background, **{k: v for k, v in kwargs.items() if k != "instance_id"})
     else:
-        _, error = attempt(scene.add_instance, mesh, world, instance_id, albedo)
+        _, error = attempt(scene.add_instance, **kwargs)
     if error is None:
         assert scene.instance_count == before + 1 and not scene.committed
     else:
         assert scene.instance_count == before and scene.committed
-        if not background and isinstance(instance_id, int) and 1 <= instance_id <= 255:
-            scene.add_instance(0, np.eye(4), instance_id, GREY)  # the label was not consumed
+        label = kwargs.get("instance_id")
+        if isinstance(label, int) and 1 <= label <= 255:
+            scene.add_instance(0, np.eye(4), label, GREY)  # the label was not consumed
     scene.commit()
     out = _core.render(scene, down_camera(4, 4), _core.Sun(30, 60), threads=1)
     assert out["depth"].shape == (4, 4)
 
 
+WILD_CAMERA = dict(fx=ANY_FLOAT, fy=ANY_FLOAT, cx=ANY_FLOAT, cy=ANY_FLOAT, width=ANY_INT,
+                   height=ANY_INT, R=anything(*MATRIX3_SHAPES), t=anything(*VECTOR3_SHAPES))
+
+
 @FUZZ
-@given(fx=ANY_FLOAT, fy=ANY_FLOAT, cx=ANY_FLOAT, cy=ANY_FLOAT, width=ANY_INT, height=ANY_INT,
-       R=st.one_of(rotations(), anything(*MATRIX3_SHAPES)), t=anything(*VECTOR3_SHAPES))
-def test_camera_survives_anything(fx, fy, cx, cy, width, height, R, t):
+@given(kwargs=calls(CAMERA_FIELDS, WILD_CAMERA))
+def test_camera_survives_anything(kwargs):
     """Camera(...) never crashes and raises only the allowed types; an accepted camera reports the
-    image size it was given."""
-    camera, error = attempt(_core.Camera, fx, fy, cx, cy, width, height, R, t)
+    image size it was given and a centre -R^T t."""
+    camera, error = attempt(_core.Camera, **kwargs)
     if error is None:
-        assert (camera.width, camera.height) == (int(width), int(height))
-        assert camera.center.shape == (3,)
+        assert (camera.width, camera.height) == (int(kwargs["width"]), int(kwargs["height"]))
+        R, t = np.asarray(kwargs["R"], np.float64), np.asarray(kwargs["t"], np.float64)
+        np.testing.assert_allclose(camera.center, -R.T @ t, rtol=1e-6, atol=1e-6)
 
 
 @FUZZ
-@given(points=anything((0, 3), (1, 3), (7, 3), (3,), (2, 2), (2, 3, 3)))
+@given(points=st.one_of(
+    st.integers(0, 8).flatmap(lambda n: sized_arrays(NUMERIC_DTYPES, (n, 3))).flatmap(layouts),
+    anything((0, 3), (1, 3), (7, 3), (3,), (2, 2), (2, 3, 3))))
 def test_project_survives_anything(points):
     """Camera.project never crashes and raises only the allowed types; on success it returns one
-    float64 (u, v, z) row per input point."""
+    float64 (u, v, z) row per input point, whatever the values (NaN, inf, z = 0 included)."""
     uvz, error = attempt(down_camera().project, points)
     if error is None:
-        assert uvz.dtype == np.float64 and uvz.shape == (np.asarray(points).shape[0], 3)
+        assert uvz.dtype == np.float64 and uvz.shape == (len(points), 3)
 
 
 @FUZZ
-@given(azimuth=ANY_FLOAT, elevation=ANY_FLOAT, irradiance=ANY_FLOAT)
-def test_sun_survives_anything(azimuth, elevation, irradiance):
+@given(kwargs=calls(dict(SUN_FIELDS, irradiance=st.floats(0, 1e300)),
+                    dict.fromkeys(SUN_FIELDS, ANY_FLOAT)))
+def test_sun_survives_anything(kwargs):
     """Sun(...) never crashes and raises only the allowed types; an accepted Sun has a unit
     direction and the irradiance it was given."""
-    sun, error = attempt(_core.Sun, azimuth, elevation, irradiance)
+    sun, error = attempt(_core.Sun, **kwargs)
     if error is None:
         assert np.isclose(np.linalg.norm(sun.direction), 1.0)
-        assert sun.irradiance == float(irradiance)
-
-
-SCENES = {
-    "ready": lambda label: ground_scene(label),
-    "uncommitted": lambda label: ground_scene(label, commit=False),
-    "stale": lambda label: _stale_scene(),
-    "empty": lambda label: _empty_scene(),
-}
+        assert sun.irradiance == float(kwargs["irradiance"])
 
 
 def _stale_scene():
@@ -324,10 +389,18 @@ def _empty_scene():
     return scene
 
 
+SCENES = {  # the scene states render must refuse
+    "uncommitted": lambda label: ground_scene(label, commit=False),
+    "stale": lambda label: _stale_scene(),
+    "empty": lambda label: _empty_scene(),
+}
+LABEL = 7  # the labelled instance in the fuzzed scenes
+
+
 @st.composite
-def small_cameras(draw):
-    """A valid downward camera of at most 16x16 pixels."""
-    w, h = draw(st.integers(1, 16)), draw(st.integers(1, 16))
+def small_cameras(draw, max_side=16):
+    """A valid downward camera of at most max_side x max_side pixels."""
+    w, h = draw(st.integers(1, max_side)), draw(st.integers(1, max_side))
     f = draw(st.floats(0.5, 50))
     altitude = draw(st.floats(0.6, 50))
     R = LOOK_DOWN @ draw(rotations()) if draw(st.booleans()) else LOOK_DOWN
@@ -335,34 +408,44 @@ def small_cameras(draw):
                         -R @ np.array([0.0, 0.0, altitude]))
 
 
-PASS_NAMES = st.one_of(st.sampled_from(["rgb", "depth", "instance"]),
-                       st.sampled_from(["", "RGB", "normal", "rgb ", "depth\0"]), st.text(max_size=6))
+PASSES = ["rgb", "depth", "instance"]
+PASS_NAMES = st.one_of(st.sampled_from(PASSES), st.sampled_from(["", "RGB", "normal", "rgb ", "depth\0"]),
+                       st.text(max_size=6))
+BAD_SCENES = st.one_of(st.sampled_from(["uncommitted", "stale", "empty"]).map(lambda k: SCENES[k](LABEL)),
+                       st.sampled_from([None, "scene", 0]))
+VALID_RENDER = dict(
+    scene=st.builds(ground_scene, st.just(LABEL)),
+    camera=small_cameras(),
+    sun=st.builds(_core.Sun, **SUN_FIELDS),
+    spp=st.integers(1, 4),
+    seed=st.integers(0, 2**64 - 1),
+    threads=st.integers(0, 2),
+    passes=st.one_of(st.lists(st.sampled_from(PASSES), min_size=1, max_size=4),
+                     st.lists(st.sampled_from(PASSES), min_size=1, max_size=3).map(tuple)))
+WILD_RENDER = dict(
+    scene=BAD_SCENES,
+    camera=st.one_of(st.sampled_from([None, "camera", 0]), st.builds(_core.Sun, st.just(0), st.just(0))),
+    sun=st.one_of(st.none(), st.builds(down_camera)),
+    spp=st.one_of(st.integers(max_value=0), st.integers(MAX_SPP + 1, 2**70), numpy_scalars().filter(
+        lambda s: not (isinstance(s, np.integer) and 4 < s <= MAX_SPP)), JUNK),
+    seed=st.one_of(st.integers(max_value=-1), st.integers(min_value=2**64), JUNK),
+    threads=st.one_of(st.integers(max_value=-1), JUNK),
+    passes=st.one_of(st.lists(PASS_NAMES, max_size=4), st.sampled_from(["rgb", b"rgb", None, {"rgb"}]), JUNK))
 
 
 @FUZZ
-@given(scene_kind=st.sampled_from(sorted(SCENES)), label=st.integers(1, 255),
-       camera=st.one_of(small_cameras(), st.sampled_from([None, "camera", 0])),
-       sun=st.one_of(st.builds(_core.Sun, st.floats(-720, 720), st.floats(-90, 90),
-                               st.floats(0, 1e4)), st.none()),
-       spp=st.one_of(st.integers(-3, 4), st.integers(MAX_SPP + 1, 2**33), st.integers(max_value=0),
-                     st.integers(-3, 4).map(np.int16), st.sampled_from([np.float64(2), np.uint64(2**64 - 1)]),
-                     JUNK),
-       seed=st.one_of(st.integers(-5, 2**64 + 5), JUNK),
-       threads=st.one_of(st.integers(-3, 2), st.integers(max_value=-1), JUNK),
-       passes=st.one_of(st.lists(PASS_NAMES, max_size=4),
-                        st.sampled_from(["rgb", b"rgb", ("depth",), None, {"rgb"}])))
-def test_render_survives_anything(scene_kind, label, camera, sun, spp, seed, threads, passes):
+@given(kwargs=calls(VALID_RENDER, WILD_RENDER))
+def test_render_survives_anything(kwargs):
     """render never crashes and raises only the allowed types, whatever the scene state, objects
-    and settings. (Thread counts above 65536 are left to the isolated tests: they crash.) A
-    successful render returns exactly the requested passes, of the camera's size and documented
-    dtypes, with finite non-negative radiance and depth and only the labels in the scene."""
-    scene = SCENES[scene_kind](label)
-    out, error = attempt(_core.render, scene, camera, sun, spp=spp, seed=seed, threads=threads,
-                         passes=passes)
+    and settings; a successful render returns exactly the requested passes, of the camera's size
+    and documented dtypes, with finite non-negative radiance and depth and only the labels in the
+    scene. (Thread counts above the cap of 1024 are left to the table and isolated tests: above
+    65536 they used to crash inside TBB.)"""
+    out, error = attempt(_core.render, **kwargs)
     if error is not None:
         return
-    h, w = camera.height, camera.width
-    wanted = set(passes)
+    h, w = kwargs["camera"].height, kwargs["camera"].width
+    wanted = set(kwargs["passes"])
     assert {"rgb", "depth", "instance"} & set(out) == wanted
     if "rgb" in wanted:
         assert out["rgb"].dtype == np.float32 and out["rgb"].shape == (h, w, 3)
@@ -372,21 +455,32 @@ def test_render_survives_anything(scene_kind, label, camera, sun, spp, seed, thr
         assert np.isfinite(out["depth"]).all() and (out["depth"] >= 0).all()
     if "instance" in wanted:
         assert out["instance"].dtype == np.uint8 and out["instance"].shape == (h, w)
-        assert set(np.unique(out["instance"])) <= {0, label}
+        assert set(np.unique(out["instance"]).tolist()) <= {0, LABEL}
+
+
+VALID_TONEMAP = dict(
+    rgb=st.tuples(st.integers(0, 16), st.integers(0, 16)).flatmap(
+        lambda hw: sized_arrays(FLOAT_DTYPES, (*hw, 3))).flatmap(layouts),
+    exposure=st.floats(1e-30, 1e30))
 
 
 @FUZZ
-@given(rgb=anything(*IMAGE_SHAPES), exposure=ANY_FLOAT)
-def test_tonemap_survives_anything(rgb, exposure):
+@given(kwargs=calls(VALID_TONEMAP, dict(rgb=anything(*IMAGE_SHAPES), exposure=ANY_FLOAT)))
+def test_tonemap_survives_anything(kwargs):
     """tonemap_reinhard never crashes and raises only the allowed types; on success it returns a
-    uint8 image of the input's height and width with three channels."""
-    out, error = attempt(_core.tonemap_reinhard, rgb, exposure)
-    if error is None:
-        assert out.dtype == np.uint8 and out.shape == np.asarray(rgb).shape[:2] + (3,)
+    uint8 (H, W, 3) image in which every channel whose scaled input is NaN, infinite or not
+    positive is 0 -- NaN and Inf never reach an image."""
+    out, error = attempt(_core.tonemap_reinhard, **kwargs)
+    if error is not None:
+        return
+    with np.errstate(over="ignore", invalid="ignore"):
+        scaled = np.asarray(kwargs["rgb"]).astype(np.float32) * np.float32(kwargs["exposure"])
+    assert out.dtype == np.uint8 and out.shape == scaled.shape
+    assert (out[~(np.isfinite(scaled) & (scaled > 0))] == 0).all()
 
 
-# The extensions the docstring promises, one OpenImageIO has no writer for, and none at all.
-# Other OpenImageIO plugins are reachable by extension too; see test_image_plugins_are_not_fatal.
+# The extensions the docstring promises, one that is refused, and none at all. (Every other
+# extension is refused with OSError: OIIO's rarer plugins aborted; see test_image_plugins_are_not_fatal.)
 EXTENSIONS = [".png", ".exr", ".tif", ".tiff", ".unknown", ""]
 
 
@@ -395,17 +489,28 @@ def leftovers(directory):
     return sorted(p.name for p in directory.iterdir() if p.name.startswith("."))
 
 
+VALID_WRITE = dict(
+    pixels=st.tuples(st.integers(1, 16), st.integers(1, 16), st.sampled_from([(), (1,), (2,), (3,), (4,)]))
+    .flatmap(lambda s: sized_arrays(PIXEL_DTYPES, (s[0], s[1], *s[2])))
+    .flatmap(lambda a: layouts(a, lists=False)),  # a list would become int64 / float64
+    png_compression=st.integers(0, 9))
+WILD_WRITE = dict(pixels=anything(*IMAGE_SHAPES), png_compression=st.one_of(st.integers(), JUNK))
+
+
 @FUZZ_FILES
-@given(pixels=anything(*IMAGE_SHAPES), level=st.one_of(st.integers(-2, 11), st.integers(), JUNK),
-       ext=st.sampled_from(EXTENSIONS))
-def test_write_image_survives_anything(tmp_path, pixels, level, ext):
+@given(kwargs=calls(VALID_WRITE, WILD_WRITE), ext=st.sampled_from(EXTENSIONS))
+def test_write_image_survives_anything(tmp_path, kwargs, ext):
     """write_image never crashes and raises only the allowed types, and is atomic either way: on
-    success the file is there, on failure it is not, and no temporary is left behind."""
+    success the file is there (and reads back at the same size), on failure it is not, and no
+    temporary is left behind."""
     directory = fresh_dir(tmp_path)
     target = directory / f"image{ext}"
-    _, error = attempt(_core.write_image, str(target), pixels, level)
+    _, error = attempt(_core.write_image, str(target), **kwargs)
     assert target.exists() == (error is None)
     assert leftovers(directory) == []
+    if error is None:
+        shape = np.shape(kwargs["pixels"])
+        assert _core.read_image(str(target)).shape == (shape[:2] if shape[2:] == (1,) else shape)
 
 
 @FUZZ_FILES
@@ -431,31 +536,45 @@ def test_read_image_survives_damaged_files(tmp_path, ext, cut, flips, noise):
         assert isinstance(image, np.ndarray) and image.ndim in (2, 3)
 
 
+def _wild(fields):
+    return dict.fromkeys(fields, ANY_FLOAT)
+
+
+FRAME_FIELDS = dict(lat0_deg=st.floats(-90, 90), lon0_deg=st.floats(-1e4, 1e4), h0=st.floats(-1e5, 1e5),
+                    radius=st.floats(1.0, 1e9))
+TO_ENU_FIELDS = dict(lat_deg=st.floats(-90, 90), lon_deg=st.floats(-1e4, 1e4), h=st.floats(-1e5, 1e5))
+TO_GEODETIC_FIELDS = dict(east=st.floats(-1e6, 1e6), north=st.floats(-1e6, 1e6), up=st.floats(-1e6, 1e6))
+CURVATURE_FIELDS = dict(distance=st.floats(-1e6, 1e6), radius=st.floats(1.0, 1e9))
+
+
 @FUZZ
-@given(lat0=ANY_FLOAT, lon0=ANY_FLOAT, h0=ANY_FLOAT, radius=ANY_FLOAT,
-       point=st.tuples(ANY_FLOAT, ANY_FLOAT, ANY_FLOAT), distance=ANY_FLOAT)
-def test_geodesy_survives_anything(lat0, lon0, h0, radius, point, distance):
+@given(frame=calls(FRAME_FIELDS, _wild(FRAME_FIELDS)), enu=calls(TO_ENU_FIELDS, _wild(TO_ENU_FIELDS)),
+       geo=calls(TO_GEODETIC_FIELDS, _wild(TO_GEODETIC_FIELDS)),
+       drop=calls(CURVATURE_FIELDS, _wild(CURVATURE_FIELDS)))
+def test_geodesy_survives_anything(frame, enu, geo, drop):
     """LunarFrame, its to_enu / to_geodetic and curvature_drop never crash and raise only the
-    allowed types; every successful call returns three floats (one for curvature_drop)."""
-    frame, error = attempt(_core.LunarFrame, lat0, lon0, h0, radius)
+    allowed types; successful calls return three floats (one for curvature_drop)."""
+    lunar, error = attempt(_core.LunarFrame, **frame)
     if error is None:
-        for method in (frame.to_enu, frame.to_geodetic):
-            out, _ = attempt(method, *point)
+        for method, kwargs in ((lunar.to_enu, enu), (lunar.to_geodetic, geo)):
+            out, _ = attempt(method, **kwargs)
             assert out is None or (len(out) == 3 and all(isinstance(x, float) for x in out))
-    drop, _ = attempt(_core.curvature_drop, distance, radius)
-    assert drop is None or isinstance(drop, float)
+    value, _ = attempt(_core.curvature_drop, **drop)
+    assert value is None or isinstance(value, float)
 
 
-@settings(FUZZ, max_examples=25)
-@given(scene_kind=st.sampled_from(sorted(SCENES)), threads=st.integers(-3, 2),
-       repeats=st.one_of(st.integers(-3, 2), JUNK))
-def test_embree_limit_survives_anything(scene_kind, threads, repeats):
+@settings(FUZZ, max_examples=30)
+@given(kwargs=calls(dict(scene=st.builds(ground_scene, st.just(LABEL)), camera=small_cameras(4),
+                         sun=st.builds(_core.Sun, **SUN_FIELDS), threads=st.integers(0, 2),
+                         repeats=st.integers(1, 2)),
+                    dict(scene=BAD_SCENES, threads=st.one_of(st.integers(max_value=-1), JUNK),
+                         repeats=st.one_of(st.integers(max_value=0), JUNK))))
+def test_embree_limit_survives_anything(kwargs):
     """measure_embree_limit (a benchmark binding) never crashes on bad settings or scene state and
-    raises only the allowed types."""
-    out, error = attempt(_core.measure_embree_limit, SCENES[scene_kind](7), down_camera(4, 4),
-                         _core.Sun(0, 45), threads=threads, repeats=repeats)
+    raises only the allowed types; on success it traced one camera ray per pixel."""
+    out, error = attempt(_core.measure_embree_limit, **kwargs)
     if error is None:
-        assert out["camera_rays"] == 16
+        assert out["camera_rays"] == kwargs["camera"].width * kwargs["camera"].height
 
 
 # --- defects: one defect in an otherwise valid call names its argument ---------------------------
@@ -533,7 +652,10 @@ def bad_transforms(draw):
     elif kind == "singular":
         m[:3, draw(st.integers(0, 2))] = 0.0
     elif kind == "shape":
-        m = m[: draw(st.integers(0, 3))] if draw(st.booleans()) else m.reshape(draw(st.sampled_from([(16,), (2, 8), (1, 4, 4)])))
+        if draw(st.booleans()):
+            m = m[: draw(st.integers(0, 3))]
+        else:
+            m = m.reshape(draw(st.sampled_from([(16,), (2, 8), (1, 4, 4)])))
     else:
         m = m.astype(draw(st.sampled_from(NOT_NUMBER_DTYPES)))
     return m
@@ -616,17 +738,9 @@ def bad_rotations(draw):
     return R.astype(draw(st.sampled_from(NOT_NUMBER_DTYPES)))
 
 
-@st.composite
-def valid_camera_args(draw):
-    return dict(fx=draw(st.floats(1e-3, 1e6)), fy=draw(st.floats(1e-3, 1e6)),
-                cx=draw(st.floats(-1e6, 1e6)), cy=draw(st.floats(-1e6, 1e6)),
-                width=draw(st.integers(1, MAX_SIDE)), height=draw(st.integers(1, MAX_SIDE)),
-                R=draw(st.one_of(rotations(), rotations(np.float32))),
-                t=draw(hnp.arrays(np.float64, 3, elements=st.floats(-1e6, 1e6))))
-
-
 @DEFECT
-@given(args=valid_camera_args(), field=st.sampled_from([*CAMERA_DEFECTS, "R", "t"]), data=st.data())
+@given(args=st.fixed_dictionaries(CAMERA_FIELDS), field=st.sampled_from([*CAMERA_DEFECTS, "R", "t"]),
+       data=st.data())
 def test_camera_defects_name_the_field(args, field, data):
     """A camera with one bad field -- focal length zero, negative or non-finite; principal point
     non-finite; image side outside 1..32768; R scaled, reflected, non-finite, not (3, 3) or not
@@ -655,7 +769,8 @@ def test_sun_defects_name_the_field(args, field, data):
         "azimuth_deg": st.sampled_from(NON_FINITE),
         "elevation_deg": st.one_of(st.floats(min_value=90, exclude_min=True),
                                    st.floats(max_value=-90, exclude_max=True), st.just(math.nan)),
-        "irradiance": st.one_of(st.floats(max_value=0, exclude_max=True), st.sampled_from(NON_FINITE)),
+        "irradiance": st.one_of(st.floats(max_value=0, exclude_max=True), st.sampled_from(NON_FINITE),
+                                st.floats(min_value=1e7, exclude_min=True, allow_infinity=False)),
     }[field]
     values = dict(zip(["azimuth_deg", "elevation_deg", "irradiance"], args))
     _core.Sun(**values)  # the base call is valid
@@ -686,8 +801,10 @@ def test_render_defects_name_the_setting(setting, data):
 
 @DEFECT
 @given(rgb=st.one_of(
-    hnp.arrays(st.sampled_from(NOT_FLOAT_DTYPES), st.tuples(st.integers(1, 16), st.integers(1, 16), st.just(3))),
-    hnp.arrays(st.sampled_from(FLOAT_DTYPES), st.sampled_from([(4, 4), (4, 4, 1), (4, 4, 4), (3,), (1, 4, 4, 3), ()]))),
+    hnp.arrays(st.sampled_from(NOT_FLOAT_DTYPES),
+               st.tuples(st.integers(1, 16), st.integers(1, 16), st.just(3))),
+    hnp.arrays(st.sampled_from(FLOAT_DTYPES),
+               st.sampled_from([(4, 4), (4, 4, 1), (4, 4, 4), (3,), (1, 4, 4, 3), ()]))),
     exposure=st.one_of(st.floats(max_value=0.0), st.sampled_from(NON_FINITE)))
 def test_tonemap_defects_name_the_argument(rgb, exposure):
     """tonemap_reinhard refuses rgb that is not floating point or not (H, W, 3) with
@@ -697,16 +814,15 @@ def test_tonemap_defects_name_the_argument(rgb, exposure):
     expect_named("exposure", _core.tonemap_reinhard, np.ones((2, 3, 3), np.float32), exposure)
 
 
-PIXEL_DTYPES = [np.dtype(d) for d in (np.uint8, np.uint16, np.float32)]
-
-
 @st.composite
 def bad_pixels(draw):
     """Pixels with one defect: dtype outside uint8/uint16/float32, 1-D or 4-D, 0 or >4 channels,
     zero height or width."""
     kind = draw(st.sampled_from(["dtype", "ndim", "channels", "empty"]))
     if kind == "dtype":
-        others = [d for d in map(np.dtype, NUMERIC_DTYPES + OTHER_DTYPES) if d not in PIXEL_DTYPES]
+        # uint8, uint16 and float32 in either byte order are pixels; everything else is not.
+        others = [d for d in map(np.dtype, NUMERIC_DTYPES + OTHER_DTYPES)
+                  if (d.kind, d.itemsize) not in {("u", 1), ("u", 2), ("f", 4)}]
         return draw(hnp.arrays(st.sampled_from(others), st.sampled_from([(2, 3), (2, 3, 3)])))
     dtype = draw(st.sampled_from(PIXEL_DTYPES))
     shape = {"ndim": st.sampled_from([(), (5,), (1, 2, 3, 1)]),
@@ -853,6 +969,11 @@ BAD_RENDERS = {
     "spp--1": (_render_call(spp=-1), "spp"),
     "spp-65537": (_render_call(spp=MAX_SPP + 1), "spp"),
     "threads--1": (_render_call(threads=-1), "threads"),
+    "threads-1025": (_render_call(threads=1025), "threads"),
+    "measure_embree_limit-threads-1025": (lambda: _core.measure_embree_limit(
+        ground_scene(4), down_camera(4, 4), _core.Sun(0, 45), threads=1025), "threads"),
+    "measure_embree_limit-repeats-0": (lambda: _core.measure_embree_limit(
+        ground_scene(4), down_camera(4, 4), _core.Sun(0, 45), repeats=0), "repeats"),
     "passes-unknown": (_render_call(passes=["rgb", "normals"]), "passes"),
     "passes-empty-name": (_render_call(passes=[""]), "passes"),
     "passes-empty": (_render_call(passes=[]), "passes"),
@@ -871,6 +992,7 @@ BAD_SUNS = {
     "elevation_deg-nan": ((0.0, math.nan), "elevation_deg"),
     "irradiance-negative": ((0.0, 30.0, -1.0), "irradiance"),
     "irradiance-inf": ((0.0, 30.0, math.inf), "irradiance"),
+    "irradiance-beyond-1e7": ((0.0, 30.0, 1e8), "irradiance"),
     "azimuth_deg-inf": ((math.inf, 30.0), "azimuth_deg"),
 }
 
@@ -886,6 +1008,7 @@ BAD_TONEMAPS = {
     "rgb-shape-(H,W)": ((np.zeros((2, 2), np.float32), 1.0), "rgb"),
     "rgb-shape-(H,W,4)": ((np.zeros((2, 2, 4), np.float32), 1.0), "rgb"),
     "rgb-none": ((None, 1.0), "rgb"),
+    "rgb-side-32769": ((np.zeros((MAX_SIDE + 1, 1, 3), np.float32), 1.0), "rgb"),
     "exposure-zero": ((np.zeros((2, 2, 3), np.float32), 0.0), "exposure"),
     "exposure-negative": ((np.zeros((2, 2, 3), np.float32), -1.0), "exposure"),
     "exposure-nan": ((np.zeros((2, 2, 3), np.float32), math.nan), "exposure"),
@@ -908,6 +1031,7 @@ BAD_WRITES = {
     "pixels-0-channels": (np.zeros((2, 2, 0), np.uint8), 1, "pixels"),
     "pixels-5-channels": (np.zeros((2, 2, 5), np.uint8), 1, "pixels"),
     "pixels-zero-height": (np.zeros((0, 2), np.uint8), 1, "pixels"),
+    "pixels-side-32769": (np.zeros((1, MAX_SIDE + 1), np.uint8), 1, "pixels"),
     "png_compression--1": (np.zeros((2, 2), np.uint8), -1, "png_compression"),
     "png_compression-10": (np.zeros((2, 2), np.uint8), 10, "png_compression"),
 }
@@ -921,13 +1045,14 @@ def test_bad_write_is_named(tmp_path, pixels, level, name):
 
 
 @pytest.mark.parametrize("where", ["missing-directory", "missing-parent", "no-writer-for-extension",
-                                   "target-is-a-directory"])
+                                   "unsupported-extension-.jpg", "target-is-a-directory"])
 def test_unwritable_path_raises_oserror_naming_it(tmp_path, where):
     """An image that cannot be written raises OSError whose message names the path, and leaves
     nothing behind."""
     target = {"missing-directory": tmp_path / "absent" / "x.png",
               "missing-parent": tmp_path / "a" / "b" / "c" / "x.png",
               "no-writer-for-extension": tmp_path / "x.notaformat",
+              "unsupported-extension-.jpg": tmp_path / "x.jpg",
               "target-is-a-directory": tmp_path / "taken.png"}[where]
     if where == "target-is-a-directory":
         target.mkdir()
@@ -956,7 +1081,7 @@ def test_bad_geodesy_is_named(call, name):
     expect_named(name, call)
 
 
-# --- findings: cases that currently crash or misbehave, kept visible ----------------------------
+# --- regressions: inputs that crashed or misbehaved before the bindings were hardened ------------
 
 CHILD_PRELUDE = """
 import json, sys
@@ -1012,8 +1137,8 @@ def assert_allowed(outcome, name=None, may_return=True):
 
 WARNINGS_AS_ERRORS = ("-W", "error")
 OVERFLOWING_CONVERSIONS = {
-    # The binding converts with pybind11's array_t::ensure, which returns a null array when numpy
-    # reports the floating-point overflow as an error; the binding then dereferences it.
+    # pybind11's array_t::ensure returns a null array when numpy refuses the conversion (the
+    # overflow reported as an error); the bindings used to dereference it (SIGSEGV).
     "rgb-float64-1e39": ("_core.tonemap_reinhard(np.full((2, 2, 3), 1e39), 1.0)", "rgb", WARNINGS_AS_ERRORS),
     "rgb-float64-1e-50-seterr-raise": ("np.seterr(all='raise')\n"
                                        "_core.tonemap_reinhard(np.full((2, 2, 3), 1e-50), 1.0)", "rgb", ()),
@@ -1023,7 +1148,8 @@ OVERFLOWING_CONVERSIONS = {
                            "R", WARNINGS_AS_ERRORS),
     "t-longdouble-1e400": ("_core.Camera(1, 1, 0, 0, 1, 1, np.eye(3), np.full(3, np.longdouble('1e400')))",
                            "t", WARNINGS_AS_ERRORS),
-    "world_from_object-longdouble-1e400": ("ground_scene().add_background(0, np.full((4, 4), np.longdouble('1e400')), (0, 0, 0))",
+    "world_from_object-longdouble-1e400": ("ground_scene().add_background(\n"
+                                           "    0, np.full((4, 4), np.longdouble('1e400')), (0, 0, 0))",
                                            "world_from_object", WARNINGS_AS_ERRORS),
     "albedo-longdouble-1e400": ("ground_scene().add_background(0, np.eye(4), np.full(3, np.longdouble('1e400')))",
                                 "albedo", WARNINGS_AS_ERRORS),
@@ -1060,8 +1186,8 @@ def test_huge_thread_count_is_not_fatal(tmp_path, body):
 
 
 IMAGE_PLUGINS = {
-    # write_image picks the OpenImageIO writer from the extension, so every installed plugin is
-    # reachable, not only the documented .png/.exr/.tif.
+    # OpenImageIO picks the plugin from the extension; before only .png/.exr/.tif(f) were let
+    # through, the DPX writer asserted (SIGABRT) and the ICO reader double-freed (SIGABRT).
     "write-dpx-2-channels": "_core.write_image('x.dpx', np.zeros((2, 2, 2), np.uint8))",
     "read-back-ico": "_core.write_image('x.ico', np.zeros((1, 1), np.uint8))\n_core.read_image('x.ico')",
 }
@@ -1097,15 +1223,40 @@ def test_image_sides_beyond_int_are_refused(tmp_path, shape):
     assert_allowed(run_isolated(tmp_path, body), "pixels", may_return=False)
 
 
-@pytest.mark.parametrize(("dtype", "ext"), [(np.uint8, ".png"), (np.uint16, ".png"), (np.float32, ".exr")],
-                         ids=["uint8", "uint16", "float32"])
-def test_write_image_accepts_an_unpickled_array(tmp_path, dtype, ext):
-    """An array that went through pickle (multiprocessing, a cache) has an equal dtype that is a
-    different object; write_image must accept it like any other array of that dtype."""
-    pixels = pickle.loads(pickle.dumps(np.arange(12, dtype=dtype).reshape(3, 4)))
-    assert pixels.dtype == np.dtype(dtype)
+EQUAL_DTYPES = {
+    "unpickled-uint8": (lambda a: pickle.loads(pickle.dumps(a.astype(np.uint8))), ".png"),
+    "unpickled-uint16": (lambda a: pickle.loads(pickle.dumps(a.astype(np.uint16))), ".png"),
+    "unpickled-float32": (lambda a: pickle.loads(pickle.dumps(a.astype(np.float32))), ".exr"),
+    "big-endian-uint16": (lambda a: a.astype(">u2"), ".png"),
+    "big-endian-float32": (lambda a: a.astype(">f4"), ".tif"),
+}
+
+
+@pytest.mark.parametrize(("make", "ext"), EQUAL_DTYPES.values(), ids=EQUAL_DTYPES.keys())
+def test_write_image_accepts_equal_dtypes(tmp_path, make, ext):
+    """Pixels whose dtype is uint8, uint16 or float32 by kind and size are accepted whatever the
+    dtype object: one from a pickle (multiprocessing, a cache) is equal but not identical, and a
+    byte-swapped one is the same numbers. The file reads back as the same values."""
+    pixels = make(np.arange(12).reshape(3, 4))
     _core.write_image(str(tmp_path / f"x{ext}"), pixels)
     np.testing.assert_array_equal(_core.read_image(str(tmp_path / f"x{ext}")), pixels)
+
+
+@pytest.mark.parametrize("path", ["", "x\0y.png"], ids=["empty", "nul"])
+def test_bad_path_is_named(tmp_path, path):
+    """An empty path, or one with an embedded NUL, raises ValueError("path: ...") from write_image
+    and read_image alike."""
+    expect_named("path", _core.write_image, path, np.zeros((2, 2), np.uint8))
+    expect_named("path", _core.read_image, path)
+
+
+def test_read_image_refuses_other_formats_naming_the_path(tmp_path):
+    """read_image opens only .png/.exr/.tif(f): anything else raises OSError naming the path,
+    before any OpenImageIO plugin sees the file."""
+    path = tmp_path / "x.ico"
+    path.write_bytes(b"\0\0\1\0\1\0" + b"\xff" * 64)
+    with pytest.raises(OSError, match=re.escape(str(path))):
+        _core.read_image(str(path))
 
 
 def test_write_image_refuses_a_nul_in_the_path(tmp_path):

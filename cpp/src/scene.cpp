@@ -15,11 +15,18 @@ void check_material(const Material& m) {
                                         std::to_string(m.albedo[c]));
 }
 
+// Transforms go to Embree in float32; a finite double beyond float32's range would become
+// infinite there (and the narrowing is undefined behaviour). 1e9 m is far beyond any scene.
+constexpr double kMaxTransformEntry = 1e9;
+
 void check_transform(const glm::dmat4& t) {
     for (int c = 0; c < 4; ++c)
-        for (int r = 0; r < 4; ++r)
+        for (int r = 0; r < 4; ++r) {
             if (!std::isfinite(t[c][r]))
                 throw std::invalid_argument("world_from_object: must be finite");
+            if (std::abs(t[c][r]) > kMaxTransformEntry)
+                throw std::invalid_argument("world_from_object: entries must be at most 1e9 in magnitude");
+        }
     // glm is column-major: t[c][3] is the bottom row.
     if (t[0][3] != 0.0 || t[1][3] != 0.0 || t[2][3] != 0.0 || t[3][3] != 1.0)
         throw std::invalid_argument("world_from_object: bottom row must be [0, 0, 0, 1]");

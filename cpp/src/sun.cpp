@@ -10,8 +10,9 @@ Sun::Sun(double azimuth_deg, double elevation_deg, double irradiance)
     if (!std::isfinite(azimuth_deg)) throw std::invalid_argument("azimuth_deg: must be finite");
     if (!(elevation_deg >= -90.0 && elevation_deg <= 90.0))
         throw std::invalid_argument("elevation_deg: must be in [-90, 90]");
-    if (!(std::isfinite(irradiance) && irradiance >= 0.0))
-        throw std::invalid_argument("irradiance: must be finite and >= 0 (W/m^2)");
+    // 1e7 W/m² is ~7000 Suns at 1 au: above it radiance would overflow float32 downstream.
+    if (!(irradiance >= 0.0 && irradiance <= 1e7))
+        throw std::invalid_argument("irradiance: must be in [0, 1e7] W/m^2");
     const double az = glm::radians(azimuth_deg);
     const double el = glm::radians(elevation_deg);
     m_direction = {std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)};
