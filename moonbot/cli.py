@@ -62,5 +62,29 @@ def render_one(config_path: Path | None, views: tuple[int, ...], all_views: bool
     click.echo(format_summary(config, results, out_dir / "sheet.png" if sheet else None))
 
 
+@main.command("meshes")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
+              default=Path("out/models"), show_default=True,
+              help="Directory for models/, models_eval/ and models_info.json.")
+def meshes(out_dir: Path) -> None:
+    """Write the three sandbag meshes as BOP object models (millimetres): models/obj_NNNNNN.ply
+    with normals, models_eval/ (surface resampled evenly) and models_info.json (diameter,
+    extents, symmetries found numerically within 1 % of the diameter)."""
+    from moonbot.bop import write_models
+    from moonbot.scene.bag_mesh import VARIANTS
+
+    meshes_by_id = {obj_id: make() for obj_id, (_, make) in VARIANTS.items()}
+    try:
+        infos = write_models(out_dir, meshes_by_id)
+    except OSError as e:
+        raise click.ClickException(str(e)) from None
+    click.echo(f"{'obj_id':>6}  {'mesh':<11} {'vertices':>8} {'triangles':>9} {'diameter':>9}  symmetries")
+    for obj_id, info in infos.items():
+        v, t = meshes_by_id[obj_id]
+        click.echo(f"{obj_id:>6}  {VARIANTS[obj_id][0]:<11} {len(v):>8} {len(t):>9} "
+                   f"{info.diameter:>7.1f}mm  {len(info.symmetries)}")
+    click.echo(f"\nwritten {out_dir}/models, models_eval, models_info.json")
+
+
 if __name__ == "__main__":
     main()

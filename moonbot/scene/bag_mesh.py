@@ -213,3 +213,11 @@ def _box_surface_grid(half: np.ndarray, edge_length: float, band: float,
                 q10, q01 = q01, q10
             triangles += [np.column_stack([q00, q10, q11]), np.column_stack([q00, q11, q01])]
     return lattice, np.concatenate(triangles).astype(np.int32)
+
+
+# The SynBag-1.0 mesh variants by BOP obj_id: (name, default mesh maker).
+VARIANTS = {
+    1: ("sandbag-01", filled_cuboid),
+    2: ("sandbag-02", seamed_cuboid),
+    3: ("sandbag-03", folded_cuboid),
+}
