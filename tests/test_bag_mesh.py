@@ -195,3 +195,69 @@ def test_variants_need_their_feature():
         seamed_cuboid(BagShape())
     with pytest.raises(ValueError, match="fold_length_m"):
         folded_cuboid(BagShape())
+
+
+def _uv_area(uv):
+    e1, e2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
+    return 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+
+
+@pytest.mark.parametrize("shape", [BagShape(), SEAMED, FOLDED], ids=["01", "02", "03"])
+def test_uv_atlas_is_a_valid_layout(shape):
+    """Per-corner UVs for every triangle, inside [0, 1]², none mirrored (positive area), and no
+    two triangles overlapping: random points of the atlas fall in at most one triangle."""
+    from moonbot.scene.bag_mesh import uv_atlas
+
+    uv = uv_atlas(shape).astype(np.float64)
+    _, t = filled_cuboid(shape)
+    assert uv.shape == (len(t), 3, 2)
+    assert uv.min() >= 0.0 and uv.max() <= 1.0
+    assert (_uv_area(uv) > 0).all()
+    points = np.random.default_rng(0).random((3000, 2)) * [1.0, 0.5]
+    a, b, c = uv[:, 0], uv[:, 1], uv[:, 2]
+    hits = np.zeros(len(points), dtype=int)
+    for i in range(0, len(points), 250):
+        p = points[i:i + 250, None]
+        d1 = (b - a)[None, :, 0] * (p[..., 1] - a[None, :, 1]) - (b - a)[None, :, 1] * (p[..., 0] - a[None, :, 0])
+        d2 = (c - b)[None, :, 0] * (p[..., 1] - b[None, :, 1]) - (c - b)[None, :, 1] * (p[..., 0] - b[None, :, 0])
+        d3 = (a - c)[None, :, 0] * (p[..., 1] - c[None, :, 1]) - (a - c)[None, :, 1] * (p[..., 0] - c[None, :, 0])
+        hits[i:i + 250] = ((d1 > 0) & (d2 > 0) & (d3 > 0)).sum(axis=1)
+    assert hits.max() == 1
+    assert hits.mean() == pytest.approx(_uv_area(uv).sum() / 0.5, rel=0.1)  # coverage = area share
+
+
+def test_uv_density_is_uniform_on_the_flat_box():
+    """On the sharp, flat box the layout is an isometry up to one scale: every triangle's UV area
+    over its 3D area is the same."""
+    from moonbot.scene.bag_mesh import uv_atlas
+
+    shape = BagShape(edge_radius_m=0.0, bulge_m=0.0)
+    v, t = filled_cuboid(shape)
+    v = v.astype(np.float64)
+    area3d = 0.5 * np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1)
+    ratio = _uv_area(uv_atlas(shape).astype(np.float64)) / area3d
+    np.testing.assert_allclose(ratio, ratio[0], rtol=1e-4)
+
+
+def test_uv_seams_only_along_box_edges():
+    """Two triangles sharing an edge give its vertices the same UVs except where the edge lies on
+    a box edge (chart border): seams are a small fraction of edges and never cross a face."""
+    from moonbot.scene.bag_mesh import uv_atlas
+
+    shape = BagShape()
+    v, t = filled_cuboid(shape)
+    uv = uv_atlas(shape)
+    corner_uv = {}
+    seams = shared = 0
+    for tri, coords in zip(t, uv):
+        for k in range(3):
+            edge = (tri[k], tri[(k + 1) % 3])
+            key = tuple(sorted(edge))
+            value = {tri[k]: tuple(coords[k]), tri[(k + 1) % 3]: tuple(coords[(k + 1) % 3])}
+            if key in corner_uv:
+                shared += 1
+                seams += corner_uv[key] != value
+            else:
+                corner_uv[key] = value
+    assert shared == 3 * len(t) // 2
+    assert 0 < seams < 0.03 * shared

@@ -88,8 +88,8 @@ def filled_cuboid(shape: BagShape = BagShape()) -> tuple[np.ndarray, np.ndarray]
     """sandbag-01 (or, with seam_height_m > 0, sandbag-02). Returns (vertices (N, 3) float32
     metres, triangles (M, 3) int32)."""
     half = np.asarray(shape.size_m, dtype=np.float64) / 2.0
-    lattice, triangles = _box_surface_grid(half, shape.edge_length_m, shape.edge_radius_m,
-                                           shape.edge_steps)
+    lattice, triangles, _ = _box_surface_grid(half, shape.edge_length_m, shape.edge_radius_m,
+                                              shape.edge_steps)
     points = lattice * half  # on the sharp box's surface
 
     # Round: clamp into the inner box, then step out by the radius along the clamped-off offset.
@@ -178,12 +178,12 @@ def _seam_profile(points: np.ndarray, offset: np.ndarray, shape: BagShape) -> np
 
 
 def _box_surface_grid(half: np.ndarray, edge_length: float, band: float,
-                      band_steps: int) -> tuple[np.ndarray, np.ndarray]:
+                      band_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Vertices of a subdivided box surface in lattice coordinates [-1, 1]³ (each vertex once,
     shared by the faces that meet at it) and its outward triangles. Along each axis the flat
     part is split evenly (an even count, so a vertex sits at every face centre and the set is
     mirror-symmetric) and the `band` next to each edge into `band_steps` rows, which become the
-    rounded edge."""
+    rounded edge. Also returns each triangle's box face as 2·axis + (1 if on the + side)."""
     axes = []
     for h in half:
         flat = h - band
@@ -202,7 +202,7 @@ def _box_surface_grid(half: np.ndarray, edge_length: float, band: float,
     sel = ijk[on_surface]
     lattice = np.column_stack([axes[a][sel[:, a]] for a in range(3)])
 
-    triangles = []
+    triangles, faces = [], []
     for a in range(3):
         b, c = (a + 1) % 3, (a + 2) % 3  # e_b × e_c = e_a
         for side in (0, counts[a]):
@@ -212,7 +212,35 @@ def _box_surface_grid(half: np.ndarray, edge_length: float, band: float,
             if side == 0:  # the −a face looks the other way: reverse the winding
                 q10, q01 = q01, q10
             triangles += [np.column_stack([q00, q10, q11]), np.column_stack([q00, q11, q01])]
-    return lattice, np.concatenate(triangles).astype(np.int32)
+            faces.append(np.full(2 * len(q00), 2 * a + (side != 0)))
+    return lattice, np.concatenate(triangles).astype(np.int32), np.concatenate(faces)
+
+
+def uv_atlas(shape: BagShape = BagShape()) -> np.ndarray:
+    """Texture coordinates per triangle corner (M, 3, 2) float32 in [0, 1]², for the stain mask,
+    matching the triangles of any variant with this `shape` (they share one lattice). The
+    unfolded sharp box: the four side faces as one belt (−y, +x, +y, −x, continuous across their
+    shared edges), the top above and the bottom below the −y face, all at one scale so every
+    face has the same texel density. Per-corner coordinates keep the mesh's vertices shared:
+    a vertex on a chart border simply has one coordinate per chart."""
+    half = np.asarray(shape.size_m, dtype=np.float64) / 2.0
+    lattice, triangles, faces = _box_surface_grid(half, shape.edge_length_m, shape.edge_radius_m,
+                                                  shape.edge_steps)
+    p = lattice[triangles] * half  # (M, 3, 3) corners on the sharp box, metres
+    x, y, z = p[..., 0], p[..., 1], p[..., 2]
+    hx, hy, hz = half
+    L, W, H = 2 * hx, 2 * hy, 2 * hz
+    face = faces[:, None]
+    s = np.select(
+        [face == 2, face == 1, face == 3, face == 0, face == 5, face == 4],  # −y, +x, +y, −x, +z, −z
+        [x + hx, L + (y + hy), L + W + (hx - x), 2 * L + W + (hy - y), x + hx, x + hx])
+    t = np.select(
+        [face == 5, face == 4],
+        [H + (y + hy), -(y + hy)],
+        default=z + hz)
+    scale = max(2 * (L + W), H + 2 * W)
+    uv = np.stack([s / scale, (t + W) / scale], axis=-1)
+    return uv.astype(np.float32)
 
 
 # The SynBag-1.0 mesh variants by BOP obj_id: (name, default mesh maker).
