@@ -63,17 +63,27 @@ def render_one(config_path: Path | None, views: tuple[int, ...], all_views: bool
 
 
 @main.command("meshes")
+@click.argument("config_path", metavar="[CONFIG]", required=False,
+                type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
               default=Path("out/models"), show_default=True,
               help="Directory for models/, models_eval/ and models_info.json.")
-def meshes(out_dir: Path) -> None:
-    """Write the three sandbag meshes as BOP object models (millimetres): models/obj_NNNNNN.ply
-    with normals, models_eval/ (surface resampled evenly) and models_info.json (diameter,
-    extents, symmetries found numerically within 1 % of the diameter)."""
+@click.option("--set", "overrides", multiple=True, metavar="FIELD=VALUE",
+              help="Override a config field, e.g. --set meshes.sandbag_02.seam_height_m=0.004.")
+def meshes(config_path: Path | None, out_dir: Path, overrides: tuple[str, ...]) -> None:
+    """Write the three sandbag meshes of CONFIG (`meshes:` section; default: the embedded
+    config) as BOP object models in millimetres: models/obj_NNNNNN.ply with normals,
+    models_eval/ (surface resampled evenly) and models_info.json (diameter, extents, symmetries
+    found numerically within 1 % of the diameter)."""
     from moonbot.bop import write_models
-    from moonbot.scene.bag_mesh import VARIANTS
+    from moonbot.config import ConfigError, load_config, parse_overrides
+    from moonbot.scene.bag_mesh import VARIANTS, variant_meshes
 
-    meshes_by_id = {obj_id: make() for obj_id, (_, make) in VARIANTS.items()}
+    try:
+        config = load_config(config_path, parse_overrides(overrides))
+    except ConfigError as e:
+        raise click.ClickException(str(e)) from None
+    meshes_by_id = variant_meshes(config.meshes)
     try:
         infos = write_models(out_dir, meshes_by_id)
     except OSError as e:

@@ -5,8 +5,15 @@ from __future__ import annotations
 import numpy as np
 
 from moonbot import _core
-from moonbot.scene.bag import cuboid
+from moonbot.config.schema import BagShape
+from moonbot.scene.bag_mesh import filled_cuboid
 from moonbot.scene.orbit import CameraPose, orbit_pose, pixel_directions
+
+
+def box(size: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """An exact box centred on the origin: the sharp, unbulged lattice body, coarsely split."""
+    return filled_cuboid(BagShape(size_m=size, edge_radius_m=0.0, bulge_m=0.0,
+                                  edge_length_m=min(size) / 2, edge_steps=1))
 
 
 def plane(half: float) -> tuple[np.ndarray, np.ndarray]:
@@ -42,7 +49,7 @@ def ground_and_box(box_size=(0.4, 0.4, 0.4), box_world=None, ground_world=None,
     committed scene and the box's world_from_model."""
     scene = _core.Scene()
     g = scene.add_mesh(*plane(ground_half))
-    b = scene.add_mesh(*cuboid(box_size))
+    b = scene.add_mesh(*box(box_size))
     ground_world = np.eye(4) if ground_world is None else ground_world
     box_world = translation(0, 0, box_size[2] / 2) if box_world is None else box_world
     scene.add_background(g, ground_world, (0.12, 0.12, 0.12))
@@ -51,5 +58,5 @@ def ground_and_box(box_size=(0.4, 0.4, 0.4), box_world=None, ground_world=None,
     return scene, box_world
 
 
-__all__ = ["K_for", "camera", "ground_and_box", "orbit_pose", "pixel_directions", "plane",
+__all__ = ["K_for", "box", "camera", "ground_and_box", "orbit_pose", "pixel_directions", "plane",
            "rotation_x", "translation"]

@@ -18,10 +18,12 @@ def test_embedded_default_equals_schema_defaults():
 
 def test_overrides_and_json(tmp_path):
     path = tmp_path / "c.json"
-    path.write_text(json.dumps({"sun": {"elevation_deg": 5}, "bags": {"size_m": [0.3, 0.2, 0.1]}}))
+    path.write_text(json.dumps({"sun": {"elevation_deg": 5},
+                                "meshes": {"sandbag_02": {"size_m": [0.3, 0.2, 0.1]}}}))
     config = load_config(path, {"orbit.height_m": 0.9})
     assert config.sun.elevation_deg == 5.0 and isinstance(config.sun.elevation_deg, float)
-    assert config.bags.size_m == (0.3, 0.2, 0.1)
+    assert config.meshes.sandbag_02.size_m == (0.3, 0.2, 0.1)
+    assert config.meshes.sandbag_02.seam_height_m == 0.0  # a mapping replaces the variant's defaults
     assert config.orbit.height_m == 0.9
     assert config.camera == Config().camera
 
@@ -43,6 +45,10 @@ def test_hash_is_stable_and_sensitive():
     ({"bags": {"count": 256}}, "bags.count: must be <= 1"),
     ({"typo": 1}, "typo: unknown field"),
     ({"render": {"spp": -4}}, "render.spp: must be >= 1"),
+    ({"bags": {"mesh": "sandbag-04"}}, "bags.mesh: must be one of sandbag-01"),
+    ({"meshes": {"sandbag_01": {"edge_radius_m": 0.5}}}, "meshes.sandbag_01.edge_radius_m: must be in"),
+    ({"meshes": {"sandbag_02": {"seam_height_m": 0.003, "edge_radius_m": 0.0}}},
+     "meshes.sandbag_02.seam_height_m: a seam needs rounded edges"),
 ], ids=lambda x: None if isinstance(x, str) else json.dumps(x))
 def test_errors_name_the_field(tmp_path, data, message):
     path = tmp_path / "bad.yaml"

@@ -168,14 +168,14 @@ def test_kilometre_coordinates_render_like_the_origin():
 def test_identical_bags_share_one_bvh():
     """Eleven bags of one mesh are eleven instances of one prototype: BVH builds are one per
     mesh plus one per commit, however many instances there are, and each keeps its own label."""
-    from moonbot.scene.bag import cuboid
+    from moonbot.scene.bag_mesh import filled_cuboid
 
     scene = _core.Scene()
     ground = scene.add_mesh(*plane(20.0))
-    bag = scene.add_mesh(*cuboid((0.32, 0.2, 0.12)))
+    bag = scene.add_mesh(*filled_cuboid())
     scene.add_background(ground, np.eye(4), (0.12, 0.12, 0.12))
     for i in range(11):
-        scene.add_instance(bag, translation(-2.0 + 0.4 * i, 0.0, 0.06), i + 1, (0.5, 0.4, 0.3))
+        scene.add_instance(bag, translation(-2.0 + 0.4 * i, 0.0, 0.068), i + 1, (0.5, 0.4, 0.3))
     scene.commit()
     assert scene.bvh_builds == 2 + 1
     assert scene.instance_count == 12

@@ -12,10 +12,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import trimesh
 from click.testing import CliRunner
 from PIL import Image
 
+from moonbot.bop import sample_surface
 from moonbot.cli import main
+from moonbot.scene.bag_mesh import filled_cuboid
 from moonbot.writer import depth_to_png16
 
 SMALL = ["--set", "camera.width=160", "--set", "camera.height=120", "--set", "render.spp=2"]
@@ -58,52 +61,39 @@ def test_pngs_decode_to_the_arrays(view0):
 
 
 def test_gt_pose_reprojects_the_model_onto_the_mask(view0):
-    """Every mask pixel, back-projected with its depth and K and carried into the model frame by
-    the inverse of (cam_R_m2c, cam_t_m2c), lands on the cuboid's surface; and the model's
-    centre projects inside the mask's bounding box."""
+    """Backward: every mask pixel, back-projected with its depth and K and carried into the
+    model frame by the inverse of (cam_R_m2c, cam_t_m2c), lies on the sandbag-01 mesh. Forward:
+    points spread over the model's surface, projected with the pose and K, land on the mask
+    wherever depth.npy says they are visible."""
     gt = json.loads((view0 / "gt.json").read_text())
     K = np.array(gt["cam_K"]).reshape(3, 3)
     inst = gt["instances"][0]
+    assert inst["obj_id"] == 1
     R = np.array(inst["cam_R_m2c"]).reshape(3, 3)
     t = np.array(inst["cam_t_m2c"]) / 1000.0
     np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-12)
+    vertices, triangles = filled_cuboid()
+    mesh = trimesh.Trimesh(vertices.astype(np.float64), triangles, process=False)
     depth = np.load(view0 / "depth.npy")
     mask = np.array(Image.open(view0 / "mask.png")) == 1
+
     v, u = np.nonzero(mask)
     z = depth[v, u].astype(np.float64)
     cam = np.column_stack([(u + 0.5 - K[0, 2]) / K[0, 0] * z, (v + 0.5 - K[1, 2]) / K[1, 1] * z, z])
     model = (cam - t) @ R  # R^T (x - t), as row vectors
-    half = np.array([0.32, 0.20, 0.12]) / 2
-    # Distance to the box surface: inside points have max(|p| - half) ≈ 0 on some axis.
-    surface_gap = np.abs(np.max(np.abs(model) - half, axis=1))
-    assert surface_gap.max() < 2e-4  # metres; float32 depth at ~1 m
-    centre = K @ t
-    cu, cv = centre[:2] / centre[2]
-    assert u.min() <= cu <= u.max() + 1 and v.min() <= cv <= v.max() + 1
+    _, distance, _ = trimesh.proximity.closest_point(mesh, model)
+    assert distance.max() < 1e-4  # metres: float32 depth at ~1 m
 
-    # Forward: points of the model's surface (its vertices and a dense grid on every face),
-    # projected with the pose and K, land on the mask wherever depth.npy says they are visible.
-    grid = np.linspace(-1.0, 1.0, 41)
-    a, b = np.meshgrid(grid, grid)
-    faces = []
-    for axis in range(3):
-        for sign in (-1.0, 1.0):
-            p = np.zeros((a.size, 3))
-            p[:, axis] = sign
-            p[:, (axis + 1) % 3], p[:, (axis + 2) % 3] = a.ravel(), b.ravel()
-            faces.append(p)
-    surface = np.concatenate(faces) * half
+    surface = sample_surface(vertices, triangles, 0.004)
     # Within 5 mm of the ground contact the ground's depth equals the bag's to within the
     # tolerance below, so "visible" cannot be told apart there; leave that strip out.
-    surface = surface[surface[:, 2] > -half[2] + 0.005]
+    surface = surface[surface[:, 2] > vertices[:, 2].min() + 0.005]
     cam_points = surface @ R.T + t
     uv = cam_points @ K.T
     px = np.floor(uv[:, :2] / uv[:, 2:3]).astype(int)
     inside = (px[:, 0] >= 0) & (px[:, 0] < mask.shape[1]) & (px[:, 1] >= 0) & (px[:, 1] < mask.shape[0])
-    px, z = px[inside], cam_points[inside, 2]
-    # Visible: the rendered depth at that pixel is the point's own depth (within a pixel's
-    # footprint on a grazing face); such a pixel must carry the bag's label.
-    visible = np.abs(depth[px[:, 1], px[:, 0]] - z) < 2e-3
+    px, zc = px[inside], cam_points[inside, 2]
+    visible = np.abs(depth[px[:, 1], px[:, 0]] - zc) < 2e-3
     assert visible.sum() > 1000
     assert mask[px[visible, 1], px[visible, 0]].all()
 
@@ -148,7 +138,7 @@ def test_several_views_share_one_scene(tmp_path):
     (["--set", "sun.elevation_deg=95"], "sun.elevation_deg: must be <= 90"),
     (["--set", "render.spp=two"], "render.spp: must be an integer"),
     (["--set", "bags.colour=1"], "bags.colour: unknown field"),
-    (["--set", "bags.size_m=[0.3, 0.2]"], "bags.size_m: must have 3 items"),
+    (["--set", "meshes.sandbag_01.size_m=[0.3, 0.2]"], "meshes.sandbag_01.size_m: must have 3 items"),
     (["--set", "camera.hfov_deg=.nan"], "camera.hfov_deg: must be finite"),
     (["--set", "terrain.kind=moon"], "terrain.kind: must be one of flat"),
     (["--view", "36"], "view: must be in 0..35"),

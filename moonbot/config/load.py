@@ -89,7 +89,10 @@ def from_mapping(cls: type, data: Any, path: str = "") -> Any:
     for name, value in data.items():
         field_path = f"{path}.{name}" if path else name
         values[name] = _convert(hints[name], value, fields[name].metadata, field_path)
-    return cls(**values)
+    try:
+        return cls(**values)
+    except ValueError as e:  # a dataclass's own cross-field checks name the field
+        raise ConfigError(f"{path}.{e}" if path else str(e)) from None
 
 
 def _convert(kind: Any, value: Any, meta: typing.Mapping[str, Any], path: str) -> Any:

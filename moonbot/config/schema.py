@@ -7,6 +7,7 @@ Sun azimuth clockwise from North.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -61,12 +62,79 @@ class TerrainConfig:
 
 
 @dataclass(frozen=True)
+class BagShape:
+    """Shape of one sandbag mesh variant (moonbot/scene/bag_mesh.py builds it). Checked on
+    construction; the loader reports a failure with the field's path. `size_m`: nominal length, width, height
+    (metres) before bulging; `edge_radius_m`: rounding of edges and corners; `bulge_m`: outward
+    bow at each face centre; `edge_length_m`: target triangle edge length on the flat parts;
+    `edge_steps`: rows of vertices across each side of a rounded edge (tessellation of the arc);
+    seam parameters as in the module docstring (a seam needs a rounded edge to sit on)."""
+
+    size_m: tuple[float, float, float] = field(default=(0.32, 0.20, 0.12), metadata=spec(
+        "body length, width, height before bulging, metres", length=3))
+    edge_radius_m: float = field(default=0.010, metadata=spec("rounding of edges and corners, metres"))
+    bulge_m: float = field(default=0.008, metadata=spec("outward bow at each face centre, metres"))
+    edge_length_m: float = field(default=0.006, metadata=spec("triangle edge length on flat parts, metres"))
+    edge_steps: int = field(default=6, metadata=spec("rows of vertices across each side of a rounded edge"))
+    seam_height_m: float = field(default=0.0, metadata=spec("seam ridge height, metres (0 = no seam)"))
+    seam_width_m: float = field(default=0.006, metadata=spec("seam ridge width along the edge arc, metres"))
+    stitch_pitch_m: float = field(default=0.012, metadata=spec("distance between stitches, metres"))
+    stitch_depth: float = field(default=0.3, metadata=spec("stitch dip as a fraction of the seam height"))
+    fold_length_m: float = field(default=0.0, metadata=spec("folded length at each short end, metres (0 = none)"))
+    gather: float = field(default=0.25, metadata=spec("cross-section shrink at the very ends (fraction)"))
+    pleats: int = field(default=5, metadata=spec("pleats around the +x end (the -x end has one more)"))
+    pleat_depth_m: float = field(default=0.006, metadata=spec("pleat depth, metres"))
+
+    def __post_init__(self) -> None:
+        if any(not s > 0 for s in self.size_m):
+            raise ValueError(f"size_m: every side must be > 0, got {self.size_m}")
+        if not 0 <= self.edge_radius_m < min(self.size_m) / 2:
+            raise ValueError(f"edge_radius_m: must be in [0, {min(self.size_m) / 2}), got {self.edge_radius_m}")
+        if not 0 <= self.bulge_m <= min(self.size_m) / 4:
+            raise ValueError(f"bulge_m: must be in [0, {min(self.size_m) / 4}], got {self.bulge_m}")
+        if not 0 < self.edge_length_m <= min(self.size_m) / 2:
+            raise ValueError(f"edge_length_m: must be in (0, {min(self.size_m) / 2}], got {self.edge_length_m}")
+        if not 1 <= self.edge_steps <= 64:
+            raise ValueError(f"edge_steps: must be in 1..64, got {self.edge_steps}")
+        if not 0 <= self.seam_height_m <= 0.05:
+            raise ValueError(f"seam_height_m: must be in [0, 0.05], got {self.seam_height_m}")
+        if self.seam_height_m > 0 and self.edge_radius_m == 0:
+            raise ValueError("seam_height_m: a seam needs rounded edges (edge_radius_m > 0)")
+        arc = self.edge_radius_m * math.pi / 2
+        if self.seam_height_m > 0 and not 0 < self.seam_width_m <= arc:
+            raise ValueError(f"seam_width_m: must be in (0, {arc:.4g}] (the edge arc), got {self.seam_width_m}")
+        if not self.stitch_pitch_m > 0:
+            raise ValueError(f"stitch_pitch_m: must be > 0, got {self.stitch_pitch_m}")
+        if not 0 <= self.stitch_depth <= 1:
+            raise ValueError(f"stitch_depth: must be in [0, 1], got {self.stitch_depth}")
+        if not 0 <= self.fold_length_m <= self.size_m[0] / 2:
+            raise ValueError(f"fold_length_m: must be in [0, {self.size_m[0] / 2}], got {self.fold_length_m}")
+        if not 0 <= self.gather <= 0.6:
+            raise ValueError(f"gather: must be in [0, 0.6], got {self.gather}")
+        if not 2 <= self.pleats <= 32:
+            raise ValueError(f"pleats: must be in 2..32, got {self.pleats}")
+        if not 0 <= self.pleat_depth_m <= min(self.size_m[1:]) / 4:
+            raise ValueError(f"pleat_depth_m: must be in [0, {min(self.size_m[1:]) / 4}], got {self.pleat_depth_m}")
+
+
+@dataclass(frozen=True)
+class MeshesConfig:
+    """The three SynBag-1.0 mesh variants (obj_id 1, 2, 3). sandbag-03 is longer by default: its
+    folds take up fabric, and 0.36 m keeps its diameter on the paper's ~400 mm ADD-S scale."""
+
+    sandbag_01: BagShape = field(default_factory=BagShape)
+    sandbag_02: BagShape = field(default_factory=lambda: BagShape(seam_height_m=0.003))
+    sandbag_03: BagShape = field(
+        default_factory=lambda: BagShape(size_m=(0.36, 0.20, 0.12), fold_length_m=0.06))
+
+
+@dataclass(frozen=True)
 class BagsConfig:
-    """Bags as rigid bodies; obj_id 1 is the cuboid sandbag-01."""
+    """Bags as rigid bodies, meshes from `meshes`."""
 
     count: int = field(default=1, metadata=spec("number of bags; the first is the orbit target", lo=1, hi=1))
-    size_m: tuple[float, float, float] = field(default=(0.32, 0.20, 0.12), metadata=spec(
-        "body length, width, height, metres", lo=0.001, hi=10.0, length=3))
+    mesh: Literal["sandbag-01", "sandbag-02", "sandbag-03"] = field(default="sandbag-01", metadata=spec(
+        "mesh variant (BOP obj_id 1, 2, 3)"))
     albedo: tuple[float, float, float] = field(default=(0.55, 0.45, 0.32), metadata=spec(
         "linear RGB albedo of the fabric (tan)", lo=0.0, hi=1.0, length=3))
     yaw_deg: float = field(default=20.0, metadata=spec(
@@ -105,6 +173,7 @@ class Config:
     sun: SunConfig = field(default_factory=SunConfig)
     terrain: TerrainConfig = field(default_factory=TerrainConfig)
     bags: BagsConfig = field(default_factory=BagsConfig)
+    meshes: MeshesConfig = field(default_factory=MeshesConfig)
     render: RenderConfig = field(default_factory=RenderConfig)
     tonemap: ToneMapConfig = field(default_factory=ToneMapConfig)
     output: OutputConfig = field(default_factory=OutputConfig)

@@ -14,7 +14,7 @@ def format_summary(config: Config, results: list[ViewResult], sheet: Path | None
     """Scene, per-view stage timings in milliseconds and visible pixels, and where the files are."""
     c = config
     lines = [
-        f"scene   {c.terrain.kind} terrain, {c.bags.count} bag(s) {c.bags.size_m} m, "
+        f"scene   {c.terrain.kind} terrain, {c.bags.count} × {c.bags.mesh}, "
         f"Sun az {c.sun.azimuth_deg:g}° el {c.sun.elevation_deg:g}°",
         f"camera  {c.camera.width}×{c.camera.height}, hfov {c.camera.hfov_deg:g}°, orbit r "
         f"{c.orbit.radius_m:g} m h {c.orbit.height_m:g} m, {c.render.spp} spp",

@@ -19,69 +19,13 @@ fabric is, so the body keeps fewer symmetries than a box.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
-
-@dataclass(frozen=True)
-class BagShape:
-    """Shape parameters of the filled-cuboid body. `size_m`: nominal length, width, height
-    (metres) before bulging; `edge_radius_m`: rounding of edges and corners; `bulge_m`: outward
-    bow at each face centre; `edge_length_m`: target triangle edge length on the flat parts;
-    `edge_steps`: rows of vertices across each side of a rounded edge (tessellation of the arc);
-    seam parameters as in the module docstring (a seam needs a rounded edge to sit on)."""
-
-    size_m: tuple[float, float, float] = (0.32, 0.20, 0.12)
-    edge_radius_m: float = 0.010
-    bulge_m: float = 0.008
-    edge_length_m: float = 0.006
-    edge_steps: int = 6
-    seam_height_m: float = 0.0
-    seam_width_m: float = 0.006
-    stitch_pitch_m: float = 0.012
-    stitch_depth: float = 0.3
-    fold_length_m: float = 0.0
-    gather: float = 0.25
-    pleats: int = 5
-    pleat_depth_m: float = 0.006
-
-    def __post_init__(self) -> None:
-        if any(not s > 0 for s in self.size_m):
-            raise ValueError(f"size_m: every side must be > 0, got {self.size_m}")
-        if not 0 <= self.edge_radius_m < min(self.size_m) / 2:
-            raise ValueError(f"edge_radius_m: must be in [0, {min(self.size_m) / 2}), got {self.edge_radius_m}")
-        if not 0 <= self.bulge_m <= min(self.size_m) / 4:
-            raise ValueError(f"bulge_m: must be in [0, {min(self.size_m) / 4}], got {self.bulge_m}")
-        if not 0 < self.edge_length_m <= min(self.size_m) / 2:
-            raise ValueError(f"edge_length_m: must be in (0, {min(self.size_m) / 2}], got {self.edge_length_m}")
-        if not 1 <= self.edge_steps <= 64:
-            raise ValueError(f"edge_steps: must be in 1..64, got {self.edge_steps}")
-        if not 0 <= self.seam_height_m <= 0.05:
-            raise ValueError(f"seam_height_m: must be in [0, 0.05], got {self.seam_height_m}")
-        if self.seam_height_m > 0 and self.edge_radius_m == 0:
-            raise ValueError("seam_height_m: a seam needs rounded edges (edge_radius_m > 0)")
-        arc = self.edge_radius_m * np.pi / 2
-        if self.seam_height_m > 0 and not 0 < self.seam_width_m <= arc:
-            raise ValueError(f"seam_width_m: must be in (0, {arc:.4g}] (the edge arc), got {self.seam_width_m}")
-        if not self.stitch_pitch_m > 0:
-            raise ValueError(f"stitch_pitch_m: must be > 0, got {self.stitch_pitch_m}")
-        if not 0 <= self.stitch_depth <= 1:
-            raise ValueError(f"stitch_depth: must be in [0, 1], got {self.stitch_depth}")
-        if not 0 <= self.fold_length_m <= self.size_m[0] / 2:
-            raise ValueError(f"fold_length_m: must be in [0, {self.size_m[0] / 2}], got {self.fold_length_m}")
-        if not 0 <= self.gather <= 0.6:
-            raise ValueError(f"gather: must be in [0, 0.6], got {self.gather}")
-        if not 2 <= self.pleats <= 32:
-            raise ValueError(f"pleats: must be in 2..32, got {self.pleats}")
-        if not 0 <= self.pleat_depth_m <= min(self.size_m[1:]) / 4:
-            raise ValueError(f"pleat_depth_m: must be in [0, {min(self.size_m[1:]) / 4}], got {self.pleat_depth_m}")
+from moonbot.config.schema import BagShape, MeshesConfig
 
 
-SEAMED = BagShape(seam_height_m=0.003)
-# Folded ends take up fabric: the same fill needs a longer bag, 0.36 m, which also puts the
-# folded bag's diameter (400 mm) on the paper's ADD-S scale with the other two (384, 388 mm).
-FOLDED = BagShape(size_m=(0.36, 0.20, 0.12), fold_length_m=0.06)
+SEAMED = MeshesConfig().sandbag_02
+FOLDED = MeshesConfig().sandbag_03
 
 
 def filled_cuboid(shape: BagShape = BagShape()) -> tuple[np.ndarray, np.ndarray]:
@@ -243,9 +187,16 @@ def uv_atlas(shape: BagShape = BagShape()) -> np.ndarray:
     return uv.astype(np.float32)
 
 
-# The SynBag-1.0 mesh variants by BOP obj_id: (name, default mesh maker).
+# The SynBag-1.0 mesh variants by BOP obj_id: (name, mesh maker with the variant's defaults).
 VARIANTS = {
     1: ("sandbag-01", filled_cuboid),
     2: ("sandbag-02", seamed_cuboid),
     3: ("sandbag-03", folded_cuboid),
 }
+OBJ_IDS = {name: obj_id for obj_id, (name, _) in VARIANTS.items()}
+
+
+def variant_meshes(meshes: MeshesConfig) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """All three variants with the configured shapes, by obj_id."""
+    shapes = {1: meshes.sandbag_01, 2: meshes.sandbag_02, 3: meshes.sandbag_03}
+    return {obj_id: make(shapes[obj_id]) for obj_id, (_, make) in VARIANTS.items()}

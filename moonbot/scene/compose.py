@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from moonbot.config.schema import Config
-from moonbot.scene.bag import cuboid
+from moonbot.scene.bag_mesh import OBJ_IDS, variant_meshes
 from moonbot.scene.terrain import flat_patch
 
 
@@ -40,19 +40,21 @@ TERRAIN_MESH = 0  # key of the terrain in SceneSpec.meshes; bags use their obj_i
 
 
 def compose_scene(config: Config) -> SceneSpec:
-    """One cuboid bag (obj_id 1) resting flat on a flat patch, yawed by `bags.yaw_deg`, its
-    centre at the world origin's (x, y). Deterministic: no randomness is involved yet."""
-    size = config.bags.size_m
+    """One bag of the configured mesh variant resting flat on a flat patch (its lowest point on
+    z = 0), yawed by `bags.yaw_deg`, its centre above the world origin. Deterministic: no
+    randomness is involved yet (placement of several bags is the bags issue's next piece)."""
+    obj_id = OBJ_IDS[config.bags.mesh]
+    vertices, triangles = variant_meshes(config.meshes)[obj_id]
     yaw = math.radians(config.bags.yaw_deg)
     c, s = math.cos(yaw), math.sin(yaw)
     world_from_model = np.array([[c, -s, 0.0, 0.0],
                                  [s, c, 0.0, 0.0],
-                                 [0.0, 0.0, 1.0, size[2] / 2.0],  # bottom face on z = 0
+                                 [0.0, 0.0, 1.0, -float(vertices[:, 2].min())],  # resting on z = 0
                                  [0.0, 0.0, 0.0, 1.0]])
-    target = BagInstance(obj_id=1, instance_id=1, world_from_model=world_from_model,
+    target = BagInstance(obj_id=obj_id, instance_id=1, world_from_model=world_from_model,
                          albedo=config.bags.albedo)
     return SceneSpec(
-        meshes={TERRAIN_MESH: flat_patch(config.terrain.size_m), 1: cuboid(size)},
+        meshes={TERRAIN_MESH: flat_patch(config.terrain.size_m), obj_id: (vertices, triangles)},
         terrain_albedo=config.terrain.albedo,
         bags=(target,),
         target=world_from_model[:3, 3].copy(),
