@@ -196,7 +196,12 @@ VARIANTS = {
 OBJ_IDS = {name: obj_id for obj_id, (name, _) in VARIANTS.items()}
 
 
+def variant_mesh(meshes: MeshesConfig, obj_id: int) -> tuple[np.ndarray, np.ndarray]:
+    """One variant with its configured shape."""
+    shapes = {1: meshes.sandbag_01, 2: meshes.sandbag_02, 3: meshes.sandbag_03}
+    return VARIANTS[obj_id][1](shapes[obj_id])
+
+
 def variant_meshes(meshes: MeshesConfig) -> dict[int, tuple[np.ndarray, np.ndarray]]:
     """All three variants with the configured shapes, by obj_id."""
-    shapes = {1: meshes.sandbag_01, 2: meshes.sandbag_02, 3: meshes.sandbag_03}
-    return {obj_id: make(shapes[obj_id]) for obj_id, (_, make) in VARIANTS.items()}
+    return {obj_id: variant_mesh(meshes, obj_id) for obj_id in VARIANTS}

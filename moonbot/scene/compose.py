@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from moonbot.config.schema import Config
-from moonbot.scene.bag_mesh import OBJ_IDS, variant_meshes
+from moonbot.scene.bag_mesh import OBJ_IDS, variant_mesh
 from moonbot.scene.terrain import flat_patch
 
 
@@ -44,7 +44,7 @@ def compose_scene(config: Config) -> SceneSpec:
     z = 0), yawed by `bags.yaw_deg`, its centre above the world origin. Deterministic: no
     randomness is involved yet (placement of several bags is the bags issue's next piece)."""
     obj_id = OBJ_IDS[config.bags.mesh]
-    vertices, triangles = variant_meshes(config.meshes)[obj_id]
+    vertices, triangles = variant_mesh(config.meshes, obj_id)
     yaw = math.radians(config.bags.yaw_deg)
     c, s = math.cos(yaw), math.sin(yaw)
     world_from_model = np.array([[c, -s, 0.0, 0.0],
