@@ -132,13 +132,23 @@ class MeshesConfig:
 class BagsConfig:
     """Bags as rigid bodies, meshes from `meshes`."""
 
-    count: int = field(default=1, metadata=spec("number of bags; the first is the orbit target", lo=1, hi=1))
+    count: int = field(default=1, metadata=spec(
+        "number of bags, instance ids 1..count; the first is the orbit target", lo=1, hi=255))
+    layout: Literal["single", "scattered", "stacked"] = field(default="single", metadata=spec(
+        "single bag, bags scattered around the target, or a running-bond wall"))
+    gap_m: float = field(default=0.02, metadata=spec("clearance between neighbouring bags, metres", lo=0.0, hi=1.0))
+    scatter_radius_m: float = field(default=1.0, metadata=spec(
+        "scattered layout: bags lie within this distance of the target, metres", lo=0.0, hi=100.0))
     mesh: Literal["sandbag-01", "sandbag-02", "sandbag-03"] = field(default="sandbag-01", metadata=spec(
         "mesh variant (BOP obj_id 1, 2, 3)"))
     albedo: tuple[float, float, float] = field(default=(0.55, 0.45, 0.32), metadata=spec(
         "linear RGB albedo of the fabric (tan)", lo=0.0, hi=1.0, length=3))
     yaw_deg: float = field(default=20.0, metadata=spec(
-        "rotation of the target about +z, degrees", lo=-360.0, hi=360.0))
+        "rotation of the target (and the wall) about +z, degrees", lo=-360.0, hi=360.0))
+
+    def __post_init__(self) -> None:
+        if self.layout == "single" and self.count != 1:
+            raise ValueError(f"count: the single layout holds one bag, got {self.count}")
 
 
 @dataclass(frozen=True)

@@ -3,13 +3,13 @@ material. Pure numpy; the render stage turns it into an Embree scene."""
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from moonbot.config.schema import Config
 from moonbot.scene.bag_mesh import OBJ_IDS, variant_mesh
+from moonbot.scene.placement import place_bags
 from moonbot.scene.terrain import flat_patch
 
 
@@ -40,22 +40,19 @@ TERRAIN_MESH = 0  # key of the terrain in SceneSpec.meshes; bags use their obj_i
 
 
 def compose_scene(config: Config) -> SceneSpec:
-    """One bag of the configured mesh variant resting flat on a flat patch (its lowest point on
-    z = 0), yawed by `bags.yaw_deg`, its centre above the world origin. Deterministic: no
-    randomness is involved yet (placement of several bags is the bags issue's next piece)."""
+    """`bags.count` bags of the configured mesh variant on a flat patch, placed by
+    `bags.layout` (moonbot.scene.placement; deterministic from the dataset seed), instance ids
+    1..count, bag 1 the orbit target."""
     obj_id = OBJ_IDS[config.bags.mesh]
     vertices, triangles = variant_mesh(config.meshes, obj_id)
-    yaw = math.radians(config.bags.yaw_deg)
-    c, s = math.cos(yaw), math.sin(yaw)
-    world_from_model = np.array([[c, -s, 0.0, 0.0],
-                                 [s, c, 0.0, 0.0],
-                                 [0.0, 0.0, 1.0, -float(vertices[:, 2].min())],  # resting on z = 0
-                                 [0.0, 0.0, 0.0, 1.0]])
-    target = BagInstance(obj_id=obj_id, instance_id=1, world_from_model=world_from_model,
-                         albedo=config.bags.albedo)
+    bags = config.bags
+    poses = place_bags(vertices, bags.count, bags.layout, seed=config.seed, yaw_deg=bags.yaw_deg,
+                       gap_m=bags.gap_m, radius_m=bags.scatter_radius_m)
+    instances = tuple(BagInstance(obj_id=obj_id, instance_id=i + 1, world_from_model=pose,
+                                  albedo=bags.albedo) for i, pose in enumerate(poses))
     return SceneSpec(
         meshes={TERRAIN_MESH: flat_patch(config.terrain.size_m), obj_id: (vertices, triangles)},
         terrain_albedo=config.terrain.albedo,
-        bags=(target,),
-        target=world_from_model[:3, 3].copy(),
+        bags=instances,
+        target=poses[0][:3, 3].copy(),
     )
