@@ -63,12 +63,10 @@ class TerrainConfig:
 
 @dataclass(frozen=True)
 class BagShape:
-    """Shape of one sandbag mesh variant (moonbot/scene/bag_mesh.py builds it). Checked on
-    construction; the loader reports a failure with the field's path. `size_m`: nominal length, width, height
-    (metres) before bulging; `edge_radius_m`: rounding of edges and corners; `bulge_m`: outward
-    bow at each face centre; `edge_length_m`: target triangle edge length on the flat parts;
-    `edge_steps`: rows of vertices across each side of a rounded edge (tessellation of the arc);
-    seam parameters as in the module docstring (a seam needs a rounded edge to sit on)."""
+    """Shape of one sandbag mesh variant; moonbot/scene/bag_mesh.py builds it, and its module
+    docstring explains the body, the seam and the folds. Each field's unit is in its metadata.
+    Checked on construction (a seam needs a rounded edge to sit on, for instance); the loader
+    reports a failure with the field's path."""
 
     size_m: tuple[float, float, float] = field(default=(0.32, 0.20, 0.12), metadata=spec(
         "body length, width, height before bulging, metres", length=3))
