@@ -55,10 +55,26 @@ class SunConfig:
 
 @dataclass(frozen=True)
 class TerrainConfig:
-    kind: Literal["flat"] = field(default="flat", metadata=spec("terrain model"))
+    """The ground (moonbot/scene/terrain.py): a flat plane, a uniform slope, or the rim of a
+    simple crater. Analytic stand-ins for the procedural locations of the terrain stage."""
+
+    kind: Literal["flat", "slope", "crater"] = field(default="flat", metadata=spec(
+        "terrain model: flat plane, uniform slope, or a simple crater with the target on its rim"))
     size_m: float = field(default=200.0, metadata=spec(
         "side of the square patch centred on the target, metres", lo=0.0, hi=20000.0, lo_open=True))
     albedo: float = field(default=0.12, metadata=spec("Lambertian albedo of regolith", lo=0.0, hi=1.0))
+    slope_deg: float = field(default=15.0, metadata=spec(
+        "slope: inclination of the plane, degrees", lo=0.0, hi=60.0))
+    slope_azimuth_deg: float = field(default=90.0, metadata=spec(
+        "slope: downhill direction, clockwise from North, degrees", lo=-360.0, hi=360.0))
+    crater_diameter_m: float = field(default=8.0, metadata=spec(
+        "crater: rim-crest diameter, metres (depth 0.13 D, rim 0.036 D)", lo=0.0, hi=1000.0, lo_open=True))
+    crater_distance_m: float = field(default=4.0, metadata=spec(
+        "crater: distance of its centre from the target, metres (D/2 = on the rim crest)", lo=0.0, hi=10000.0))
+    crater_azimuth_deg: float = field(default=90.0, metadata=spec(
+        "crater: direction of its centre from the target, clockwise from North, degrees", lo=-360.0, hi=360.0))
+    detail_m: float = field(default=0.01, metadata=spec(
+        "crater: grid spacing within 2 m of the target, metres (coarser further out)", lo=0.001, hi=1.0))
 
 
 @dataclass(frozen=True)
@@ -127,6 +143,47 @@ class MeshesConfig:
 
 
 @dataclass(frozen=True)
+class SettleConfig:
+    """Dropping the placed bags as rigid bodies under lunar gravity until they rest (MuJoCo;
+    moonbot/scene/settle.py). Off, the bags keep their geometric resting poses."""
+
+    enabled: bool = field(default=True, metadata=spec("drop and settle the bags (false: geometric rest only)"))
+    gravity_m_s2: float = field(default=1.62, metadata=spec("gravity, m/s^2 (the Moon: 1.62)", lo=0.01, hi=100.0))
+    friction: float = field(default=0.75, metadata=spec(
+        "Coulomb friction of fabric on regolith and on fabric (tan 37°, regolith's nominal internal "
+        "friction angle, lunar-physics.md)", lo=0.0, hi=5.0))
+    rolling_friction_m: float = field(default=0.005, metadata=spec(
+        "rolling and torsional friction as a lever arm, metres: a filled bag flattens against its "
+        "support and does not rock or spin freely (a rigid bulged box would rock for seconds)",
+        lo=0.0, hi=0.1))
+    density_kg_m3: float = field(default=1500.0, metadata=spec(
+        "bulk density of a filled bag, kg/m^3 (regolith 1300-1900)", lo=1.0, hi=20000.0))
+    margin_m: float = field(default=0.001, metadata=spec(
+        "contact margin: bags come to rest this far from the ground and from each other, metres",
+        lo=0.0, hi=0.05, lo_open=True))
+    timestep_s: float = field(default=0.002, metadata=spec("integration step, seconds", lo=1e-5, hi=0.05))
+    contact_time_s: float = field(default=0.02, metadata=spec(
+        "contact stiffness as a time constant (MuJoCo solref[0]), seconds; at least 2 steps", lo=1e-4, hi=1.0))
+    contact_damping: float = field(default=1.0, metadata=spec(
+        "contact damping ratio (MuJoCo solref[1]); 1 = critically damped", lo=0.0, hi=10.0))
+    drop_m: float = field(default=0.005, metadata=spec(
+        "height above their geometric rest the bags are dropped from, metres", lo=0.0, hi=1.0))
+    rest_speed_m_s: float = field(default=0.002, metadata=spec(
+        "a bag is at rest when no point of it moves faster than this, m/s", lo=1e-6, hi=1.0, lo_open=True))
+    rest_time_s: float = field(default=0.2, metadata=spec(
+        "all bags must stay at rest this long, seconds", lo=0.0, hi=10.0))
+    max_time_s: float = field(default=15.0, metadata=spec(
+        "simulated time after which bags still moving are an error, seconds", lo=0.0, hi=600.0, lo_open=True))
+    ground_step_m: float = field(default=0.01, metadata=spec(
+        "grid spacing of the ground height field the bags collide with, metres", lo=0.001, hi=1.0))
+
+    def __post_init__(self) -> None:
+        if self.contact_time_s < 2 * self.timestep_s:
+            raise ValueError(f"contact_time_s: must be at least 2 x timestep_s = {2 * self.timestep_s}, "
+                             f"got {self.contact_time_s}")
+
+
+@dataclass(frozen=True)
 class BagsConfig:
     """Bags as rigid bodies, meshes from `meshes`."""
 
@@ -143,6 +200,7 @@ class BagsConfig:
         "linear RGB albedo of the fabric (tan)", lo=0.0, hi=1.0, length=3))
     yaw_deg: float = field(default=20.0, metadata=spec(
         "rotation of the target (and the wall) about +z, degrees", lo=-360.0, hi=360.0))
+    settle: SettleConfig = field(default_factory=SettleConfig)
 
     def __post_init__(self) -> None:
         if self.layout == "single" and self.count != 1:

@@ -9,8 +9,8 @@ import numpy as np
 
 from moonbot.config.schema import Config
 from moonbot.scene.bag_mesh import OBJ_IDS, variant_mesh
-from moonbot.scene.placement import place_bags
-from moonbot.scene.terrain import flat_patch
+from moonbot.scene.placement import Placement, arrange_bags
+from moonbot.scene.terrain import make_ground
 
 
 @dataclass(frozen=True)
@@ -28,31 +28,33 @@ class BagInstance:
 class SceneSpec:
     """Everything the renderer needs: `meshes` maps obj_id (and 0 for the terrain) to
     (vertices (N, 3) float32 metres, triangles (M, 3) int32); `target` is the orbit centre in
-    the world frame (metres)."""
+    the world frame (metres); `placement` records how the bags were placed and settled."""
 
     meshes: dict[int, tuple[np.ndarray, np.ndarray]]
     terrain_albedo: float
     bags: tuple[BagInstance, ...]
     target: np.ndarray
+    placement: Placement
 
 
 TERRAIN_MESH = 0  # key of the terrain in SceneSpec.meshes; bags use their obj_id (≥ 1)
 
 
 def compose_scene(config: Config) -> SceneSpec:
-    """`bags.count` bags of the configured mesh variant on a flat patch, placed by
-    `bags.layout` (moonbot.scene.placement; deterministic from the dataset seed), instance ids
-    1..count, bag 1 the orbit target."""
+    """`bags.count` bags of the configured mesh variant on the configured ground, placed by
+    `bags.layout` and settled (moonbot.scene.placement; deterministic from the dataset seed),
+    instance ids 1..count, bag 1 the orbit target."""
     obj_id = OBJ_IDS[config.bags.mesh]
     vertices, triangles = variant_mesh(config.meshes, obj_id)
-    bags = config.bags
-    poses = place_bags(vertices, bags.count, bags.layout, seed=config.seed, yaw_deg=bags.yaw_deg,
-                       gap_m=bags.gap_m, radius_m=bags.scatter_radius_m)
+    ground = make_ground(config.terrain)
+    ground_mesh = ground.mesh()
+    placement = arrange_bags(vertices, triangles, config.bags, ground, ground_mesh, seed=config.seed)
     instances = tuple(BagInstance(obj_id=obj_id, instance_id=i + 1, world_from_model=pose,
-                                  albedo=bags.albedo) for i, pose in enumerate(poses))
+                                  albedo=config.bags.albedo) for i, pose in enumerate(placement.poses))
     return SceneSpec(
-        meshes={TERRAIN_MESH: flat_patch(config.terrain.size_m), obj_id: (vertices, triangles)},
+        meshes={TERRAIN_MESH: ground_mesh, obj_id: (vertices, triangles)},
         terrain_albedo=config.terrain.albedo,
         bags=instances,
-        target=poses[0][:3, 3].copy(),
+        target=placement.poses[0][:3, 3].copy(),
+        placement=placement,
     )

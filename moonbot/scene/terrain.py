@@ -1,18 +1,213 @@
-"""Terrain meshes. For now a flat square patch; the terrain stage (procedural locations, DEM
-import, horizon rings) will grow here."""
+"""Terrain: the ground the bags rest on and the renderer draws.
+
+A `Ground` is a height field z = h(x, y) over the world's East-North-Up frame (metres), with
+its gradient and a triangle mesh of it. Placement and physics settling read the height and the
+gradient; the renderer reads the mesh. Three analytic grounds stand in until the terrain stage
+(procedural locations, DEM import, horizon rings) lands:
+
+- `FlatGround`: z = 0.
+- `SlopedGround`: a plane falling at `slope_deg` toward `downhill_azimuth_deg` (clockwise from
+  North), through the origin.
+- `CraterGround`: a fresh simple crater (lunar-physics.md §4.1): a parabolic bowl of depth
+  0.13·D below a rim of height 0.036·D (Pike 1977; Stopar et al. 2017 for D < 400 m), an ejecta
+  blanket falling off as (r/R)^-3 outside (McGetchin et al. 1973). Its rim crest is a sharp
+  ridge (the profile is continuous there, its slope is not), which is the hard case for a bag
+  lying across it.
+
+The planes are meshed exactly with two triangles; the crater with a graded grid that is fine
+around the origin (the bags) and coarsens geometrically toward the patch edge.
+"""
 
 from __future__ import annotations
 
+import math
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+
 import numpy as np
+
+from moonbot.config.schema import TerrainConfig
+
+# Fresh simple crater proportions (lunar-physics.md §4.1): depth and rim height over diameter.
+CRATER_DEPTH_RATIO = 0.13
+CRATER_RIM_RATIO = 0.036
+EJECTA_EXPONENT = 3.0
+
+
+class Ground(ABC):
+    """A height field over the world plane."""
+
+    size_m: float
+
+    @abstractmethod
+    def height(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Ground height z (metres, float64) under world points (x, y) of any matching shape."""
+
+    @abstractmethod
+    def gradient(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(dh/dx, dh/dy), dimensionless, float64, shaped like x. On the crater's rim crest,
+        where the slope jumps, the outer side's value."""
+
+    def plane(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(a point on it, its unit normal) when the ground is a plane, else None: physics can
+        then collide with the exact plane instead of a sampled height field."""
+        return None
+
+    @abstractmethod
+    def mesh(self) -> tuple[np.ndarray, np.ndarray]:
+        """The ground as triangles: (vertices (N, 3) float32 metres, triangles (M, 3) int32),
+        a square of side `size_m` centred on the origin, counter-clockwise seen from above."""
+
+
+def _plane_mesh(size_m: float, a: float, b: float) -> tuple[np.ndarray, np.ndarray]:
+    """The plane z = a·x + b·y over the square of side size_m, as two triangles. Exact: the
+    renderer resolves hits in double precision, so a plane needs no tessellation."""
+    h = size_m / 2.0
+    xy = np.array([[-h, -h], [h, -h], [h, h], [-h, h]])
+    vertices = np.column_stack([xy, a * xy[:, 0] + b * xy[:, 1]]).astype(np.float32)
+    return vertices, np.array([[0, 1, 2], [0, 2, 3]], dtype=np.int32)
+
+
+@dataclass(frozen=True)
+class FlatGround(Ground):
+    size_m: float = 200.0
+
+    def height(self, x, y):
+        return np.zeros(np.broadcast(x, y).shape)
+
+    def gradient(self, x, y):
+        zero = np.zeros(np.broadcast(x, y).shape)
+        return zero, zero.copy()
+
+    def plane(self):
+        return np.zeros(3), np.array([0.0, 0.0, 1.0])
+
+    def mesh(self):
+        return _plane_mesh(self.size_m, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class SlopedGround(Ground):
+    """z = -tan(slope)·((x, y) · downhill), downhill = (sin az, cos az)."""
+
+    slope_deg: float
+    downhill_azimuth_deg: float = 90.0
+    size_m: float = 200.0
+
+    def _ab(self) -> tuple[float, float]:
+        t = math.tan(math.radians(self.slope_deg))
+        az = math.radians(self.downhill_azimuth_deg)
+        return -t * math.sin(az), -t * math.cos(az)
+
+    def height(self, x, y):
+        a, b = self._ab()
+        return a * np.asarray(x, dtype=np.float64) + b * np.asarray(y, dtype=np.float64)
+
+    def gradient(self, x, y):
+        a, b = self._ab()
+        shape = np.broadcast(x, y).shape
+        return np.full(shape, a), np.full(shape, b)
+
+    def plane(self):
+        a, b = self._ab()
+        return np.zeros(3), np.array([-a, -b, 1.0]) / math.sqrt(a * a + b * b + 1.0)
+
+    def mesh(self):
+        return _plane_mesh(self.size_m, *self._ab())
+
+
+@dataclass(frozen=True)
+class CraterGround(Ground):
+    """A simple crater of rim-crest diameter `diameter_m`, its centre `centre_distance_m` from
+    the origin toward `azimuth_deg` (clockwise from North). The default distance D/2 puts the
+    origin, where the target bag stands, on the rim crest. Height 0 far from the crater."""
+
+    diameter_m: float = 8.0
+    centre_distance_m: float = 4.0
+    azimuth_deg: float = 90.0
+    size_m: float = 200.0
+    detail_m: float = 0.01
+    detail_half_width_m: float = 2.0
+    growth: float = 1.1
+
+    @property
+    def centre(self) -> tuple[float, float]:
+        az = math.radians(self.azimuth_deg)
+        return self.centre_distance_m * math.sin(az), self.centre_distance_m * math.cos(az)
+
+    def _radial(self, x, y):
+        cx, cy = self.centre
+        dx, dy = np.asarray(x, dtype=np.float64) - cx, np.asarray(y, dtype=np.float64) - cy
+        return dx, dy, np.hypot(dx, dy)
+
+    def height(self, x, y):
+        R = self.diameter_m / 2.0
+        depth, rim = CRATER_DEPTH_RATIO * self.diameter_m, CRATER_RIM_RATIO * self.diameter_m
+        _, _, r = self._radial(x, y)
+        s = r / R
+        inside = rim - depth * (1.0 - s * s)
+        outside = rim * np.maximum(s, 1.0) ** -EJECTA_EXPONENT
+        return np.where(s < 1.0, inside, outside)
+
+    def gradient(self, x, y):
+        R = self.diameter_m / 2.0
+        depth, rim = CRATER_DEPTH_RATIO * self.diameter_m, CRATER_RIM_RATIO * self.diameter_m
+        dx, dy, r = self._radial(x, y)
+        s = r / R
+        dh_dr = np.where(s < 1.0, 2.0 * depth * s / R,
+                         -EJECTA_EXPONENT * rim / R * np.maximum(s, 1.0) ** (-EJECTA_EXPONENT - 1.0))
+        safe = np.where(r > 0.0, r, 1.0)  # the bowl's floor is flat at its centre
+        return dh_dr * dx / safe, dh_dr * dy / safe
+
+    def mesh(self):
+        axis = graded_axis(self.size_m / 2.0, self.detail_half_width_m, self.detail_m, self.growth)
+        X, Y = np.meshgrid(axis, axis, indexing="xy")
+        vertices = np.column_stack([X.ravel(), Y.ravel(), self.height(X, Y).ravel()])
+        return vertices.astype(np.float32), grid_triangles(len(axis), len(axis))
+
+
+def graded_axis(half_m: float, fine_half_m: float, step_m: float, growth: float) -> np.ndarray:
+    """Sorted grid coordinates over [-half_m, half_m] (float64, metres): uniform `step_m` within
+    ±fine_half_m, then steps growing by `growth` per cell to the ends (both ends included)."""
+    if not (0 < step_m and growth >= 1.0 and 0 < fine_half_m <= half_m):
+        raise ValueError(f"graded_axis: bad parameters {half_m=}, {fine_half_m=}, {step_m=}, {growth=}")
+    n_fine = max(1, round(fine_half_m / step_m))
+    fine = step_m * np.arange(0, n_fine + 1)
+    outer = [fine[-1]]
+    step = step_m
+    while outer[-1] < half_m:
+        step *= growth
+        outer.append(min(outer[-1] + step, half_m))
+    if len(outer) > 2 and outer[-1] - outer[-2] < 0.5 * step:
+        del outer[-2]  # no sliver cell at the edge
+    positive = np.concatenate([fine, outer[1:]])
+    return np.concatenate([-positive[:0:-1], positive])
+
+
+def grid_triangles(nx: int, ny: int) -> np.ndarray:
+    """Triangles (2·(nx-1)·(ny-1), 3) int32 of a row-major nx × ny vertex grid (x fastest),
+    counter-clockwise seen from +z when x and y increase along the grid."""
+    i = np.arange(nx - 1)[None, :] + nx * np.arange(ny - 1)[:, None]
+    a, b, c, d = i, i + 1, i + nx + 1, i + nx
+    tris = np.stack([np.stack([a, b, c], -1), np.stack([a, c, d], -1)], axis=2)
+    return tris.reshape(-1, 3).astype(np.int32)
+
+
+def make_ground(config: TerrainConfig) -> Ground:
+    """The ground a terrain config describes."""
+    if config.kind == "flat":
+        return FlatGround(size_m=config.size_m)
+    if config.kind == "slope":
+        return SlopedGround(config.slope_deg, config.slope_azimuth_deg, size_m=config.size_m)
+    if config.kind == "crater":
+        return CraterGround(diameter_m=config.crater_diameter_m,
+                            centre_distance_m=config.crater_distance_m,
+                            azimuth_deg=config.crater_azimuth_deg, size_m=config.size_m,
+                            detail_m=config.detail_m)
+    raise ValueError(f"terrain.kind: unknown kind {config.kind!r}")
 
 
 def flat_patch(size_m: float) -> tuple[np.ndarray, np.ndarray]:
-    """A square in the z = 0 plane centred on the origin, normal +z.
-
-    Returns (vertices (4, 3) float32 metres, triangles (2, 3) int32). Two triangles are exact for
-    a plane: the renderer resolves hits in double precision, so no tessellation is needed.
-    """
-    h = size_m / 2.0
-    vertices = np.array([[-h, -h, 0.0], [h, -h, 0.0], [h, h, 0.0], [-h, h, 0.0]], dtype=np.float32)
-    triangles = np.array([[0, 1, 2], [0, 2, 3]], dtype=np.int32)
-    return vertices, triangles
+    """A square in the z = 0 plane centred on the origin, normal +z: (vertices (4, 3) float32
+    metres, triangles (2, 3) int32)."""
+    return FlatGround(size_m=size_m).mesh()
