@@ -161,7 +161,7 @@ class SettleConfig:
     margin_m: float = field(default=0.001, metadata=spec(
         "contact margin: bags come to rest this far from the ground and from each other, metres",
         lo=0.0, hi=0.05, lo_open=True))
-    timestep_s: float = field(default=0.002, metadata=spec("integration step, seconds", lo=1e-5, hi=0.05))
+    timestep_s: float = field(default=0.004, metadata=spec("integration step, seconds", lo=1e-5, hi=0.05))
     contact_time_s: float = field(default=0.02, metadata=spec(
         "contact stiffness as a time constant (MuJoCo solref[0]), seconds; at least 2 steps", lo=1e-4, hi=1.0))
     contact_damping: float = field(default=1.0, metadata=spec(
@@ -174,7 +174,7 @@ class SettleConfig:
         "all bags must stay at rest this long, seconds", lo=0.0, hi=10.0))
     max_time_s: float = field(default=15.0, metadata=spec(
         "simulated time after which bags still moving are an error, seconds", lo=0.0, hi=600.0, lo_open=True))
-    ground_step_m: float = field(default=0.01, metadata=spec(
+    ground_step_m: float = field(default=0.02, metadata=spec(
         "grid spacing of the ground height field the bags collide with, metres", lo=0.001, hi=1.0))
 
     def __post_init__(self) -> None:

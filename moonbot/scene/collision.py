@@ -84,13 +84,18 @@ def surfaces_cross(va: np.ndarray, ta: np.ndarray, vb: np.ndarray, tb: np.ndarra
     return False
 
 
-def vertical_extent(xy: np.ndarray, v: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def vertical_extent(xy: np.ndarray, v: np.ndarray, t: np.ndarray,
+                    facing: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Lowest and highest z (float64 (P,) each, NaN where the vertical line misses the mesh) at
     which vertical lines through the points `xy` (P, 2) meet the mesh (v (N, 3), t (M, 3)):
-    exact plane heights of the triangles whose plan projection holds each point."""
+    exact plane heights of the triangles whose plan projection holds each point. `facing` +1
+    (or -1) counts only triangles facing up (or down): of a closed mesh, its top (or bottom)."""
     xy = np.asarray(xy, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
     tri = v[t]
+    if facing:
+        up = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])[:, 2]
+        tri = tri[facing * up > 0]
     centroid = tri[:, :, :2].mean(axis=1)
     radius = np.linalg.norm(tri[:, :, :2] - centroid[:, None, :], axis=2).max(axis=1)
     hits = cKDTree(centroid).query_ball_point(xy, r=radius.max())

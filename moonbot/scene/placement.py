@@ -79,12 +79,28 @@ def _on_bags(vertices: np.ndarray, triangles: np.ndarray, pose: np.ndarray, belo
     """`pose` raised (never lowered) until the bag is `clearance` above the bags `below` (their
     world vertices) along every vertical line through a vertex of either: exact at vertices."""
     world = transform(vertices, pose)
+
+    def on_faces(w: np.ndarray, sign: int) -> np.ndarray:
+        """Mask of the vertices of triangles facing up (sign +1) or down (-1) in the world."""
+        tri = w[triangles]
+        up = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])[:, 2]
+        mask = np.zeros(len(w), dtype=bool)
+        mask[triangles[sign * up > 0].ravel()] = True
+        return mask
+
     lift = -np.inf
+    underside = on_faces(world, -1)
     for lower in below:
-        _, top_below = vertical_extent(world[:, :2], lower, triangles)
-        _, bottom_above = vertical_extent(lower[:, :2], world, triangles)
-        lift = np.nanmax([lift, np.nanmax(top_below - world[:, 2], initial=-np.inf),
-                          np.nanmax(lower[:, 2] - bottom_above, initial=-np.inf)])
+        # Only this bag's underside over the lower bag's plan box, and the lower bag's top under
+        # this bag's plan box, can meet.
+        over = underside & np.all((world[:, :2] >= lower[:, :2].min(axis=0))
+                                  & (world[:, :2] <= lower[:, :2].max(axis=0)), axis=1)
+        under = on_faces(lower, +1) & np.all((lower[:, :2] >= world[:, :2].min(axis=0))
+                                             & (lower[:, :2] <= world[:, :2].max(axis=0)), axis=1)
+        _, top_below = vertical_extent(world[over, :2], lower, triangles, facing=+1)
+        bottom_above, _ = vertical_extent(lower[under, :2], world, triangles, facing=-1)
+        lift = np.nanmax([lift, np.nanmax(top_below - world[over, 2], initial=-np.inf),
+                          np.nanmax(lower[under, 2] - bottom_above, initial=-np.inf)])
     raised = pose.copy()
     if np.isfinite(lift):
         raised[2, 3] += max(lift + clearance, 0.0)
