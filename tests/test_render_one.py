@@ -130,7 +130,14 @@ def test_several_views_share_one_scene(tmp_path):
     assert [g["camera_azimuth_deg"] for g in gts] == [0.0, 90.0, 350.0]
     assert gts[0]["timings_s"]["build_bvh"] > 0
     assert gts[1]["timings_s"]["build_bvh"] == 0 == gts[2]["timings_s"]["build_bvh"]
+    assert gts[0]["timings_s"]["settle"] > 0 and gts[1]["timings_s"]["settle"] == 0
     assert len({g["render_seed"] for g in gts}) == 3
+
+
+def test_a_scene_that_does_not_settle_has_no_settle_stage(tmp_path):
+    out = render_one(tmp_path, "--set", "bags.settle.enabled=false")
+    gt = json.loads((out / "view_000" / "gt.json").read_text())
+    assert "settle" not in gt["timings_s"] and gt["timings_s"]["compose"] > 0
 
 
 @pytest.mark.parametrize(("args", "message"), [

@@ -18,6 +18,9 @@ def format_summary(config: Config, results: list[ViewResult], sheet: Path | None
         f"Sun az {c.sun.azimuth_deg:g}° el {c.sun.elevation_deg:g}°",
         f"camera  {c.camera.width}×{c.camera.height}, hfov {c.camera.hfov_deg:g}°, orbit r "
         f"{c.orbit.radius_m:g} m h {c.orbit.height_m:g} m, {c.render.spp} spp",
+        "bags    " + (f"{c.bags.layout}, settled under {c.bags.settle.gravity_m_s2:g} m/s² in "
+                      f"{1e3 * results[0].timings['settle']:.1f} ms" if results and "settle" in results[0].timings
+                      else f"{c.bags.layout}, at geometric rest (not settled)"),
         "",
         f"{'view':>4} {'az°':>6} {'compose':>8} {'bvh':>7} {'render':>7} {'tonemap':>8} "
         f"{'encode':>7} {'Mrays/s':>8}  visible px (id: px)",

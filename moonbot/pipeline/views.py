@@ -42,7 +42,9 @@ def run_views(config: Config, views: list[int], out_root: Path) -> list[ViewResu
             raise ValueError(f"view: must be in 0..{config.orbit.views - 1}, got {v}")
     start = time.perf_counter()
     spec = compose_scene(config)
-    compose_s = time.perf_counter() - start
+    # Settling is its own stage, present only in scenes that settle (principle 3).
+    settle_s = spec.placement.settle_seconds
+    compose_s = time.perf_counter() - start - (settle_s or 0.0)
     start = time.perf_counter()
     scene = build_scene(spec)
     build_s = time.perf_counter() - start
@@ -58,6 +60,8 @@ def run_views(config: Config, views: list[int], out_root: Path) -> list[ViewResu
         rendered = render_view(scene, config, K, pose, seed)
         out_dir = out_root / f"view_{v:03d}"
         timings = {"compose": compose_s, "build_bvh": build_s, "render": rendered.stats["seconds"]}
+        if settle_s is not None:
+            timings["settle"] = settle_s
         meta = {
             "view": v,
             "camera_azimuth_deg": azimuth,
@@ -74,4 +78,5 @@ def run_views(config: Config, views: list[int], out_root: Path) -> list[ViewResu
         pixels = {i["instance_id"]: i["px_count_visib"] for i in gt["instances"]}
         results.append(ViewResult(v, out_dir, gt["timings_s"], rays, pixels))
         compose_s = build_s = 0.0  # paid once, by the first view
+        settle_s = None if settle_s is None else 0.0
     return results
