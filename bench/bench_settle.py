@@ -10,8 +10,9 @@ Measures, on this machine:
      on the crater, the height-field spacing `ground_step_m` (reference 5 mm): settle time
      against the largest vertex displacement from the reference's settled poses (mm).
 
-Writes bench/results/settle-<machine>.json and prints tables.
-Run: .venv/bin/python bench/bench_settle.py [--repeats N]
+Writes bench/results/settle-<machine>.json and .svg (settle time against error, one curve per
+knob and scene) and prints tables.
+Run: .venv/bin/python bench/bench_settle.py [--repeats N] [--plot-only]
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from moonbot.scene.settle import settle
 from moonbot.scene.terrain import CraterGround, FlatGround, SlopedGround
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
+from svgplot import time_error_plot
 
 RESULTS = Path(__file__).resolve().parent / "results"
 SCHEMA_VERSION = 1
@@ -117,10 +119,25 @@ def knob_curve(knob: str, values: list[float], reference: float, scenes, extra: 
     return rows
 
 
+def plot(result: dict, path: Path) -> None:
+    curves = {}
+    for knob, key in (("timestep_s", "timestep"), ("ground_step_m", "ground_step")):
+        for row in result[key]:
+            name = f"{knob}, {row['ground']} {row['layout']} {row['count']}"
+            curves.setdefault(name, []).append((row["settle_s"], row["error_mm"], f"{row[knob]:g}"))
+    time_error_plot(path, f"Settling: time against error ({result['machine']['git_commit'][:7]})", curves,
+                    x_label="settle wall-clock, s", y_label="largest vertex displacement from the reference, mm")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--plot-only", action="store_true", help="redraw the SVG from this machine's JSON")
     args = parser.parse_args()
+    if args.plot_only:
+        out = RESULTS / f"settle-{machine_slug(machine())}.json"
+        plot(json.loads(out.read_text()), out.with_suffix(".svg"))
+        return 0
     result = {"schema_version": SCHEMA_VERSION, "machine": machine(), "defaults": dataclasses.asdict(SettleConfig())}
     print("Per scene (medians):")
     result["scenes"] = scene_costs(args.repeats)
@@ -133,7 +150,8 @@ def main() -> int:
     RESULTS.mkdir(exist_ok=True)
     out = RESULTS / f"settle-{machine_slug(result['machine'])}.json"
     out.write_text(json.dumps(result, indent=2) + "\n")
-    print(f"\nwrote {out}")
+    plot(result, out.with_suffix(".svg"))
+    print(f"\nwrote {out} and {out.with_suffix('.svg').name}")
     return 0
 
 
