@@ -33,3 +33,15 @@ TEST_CASE(bad_intrinsics_throw) {
     CHECK_THROWS(std::invalid_argument, Camera(Intrinsics{1, 1, 0, 0, 8, 8}, glm::dmat3(2.0), t));
     CHECK_THROWS(std::invalid_argument, Camera(Intrinsics{1, 1, 0, 0, 8, 8}, glm::dmat3(-1.0), t));
 }
+
+TEST_CASE(direction_parts_sum_to_direction_bit_for_bit) {
+    // The renderer builds a tile's rays from per-column and per-row parts (rays.h, centre_rays);
+    // any difference from direction() would move rays.
+    const Camera cam = fixtures::look_at({1.0, -2.0, 0.7}, {0.1, 0.2, 0.0}, 640, 480, 554.3);
+    for (double x : {0.5, 1.5, 77.5, 319.5, 320.5, 639.5, -3.25, 1e4})
+        for (double y : {0.5, 2.5, 239.5, 240.5, 479.5, 13.125}) {
+            const glm::dvec3 d = cam.direction(x, y);
+            const glm::dvec3 parts = (cam.x_part(x) + cam.y_part(y)) + cam.forward();
+            CHECK(d.x == parts.x && d.y == parts.y && d.z == parts.z);
+        }
+}

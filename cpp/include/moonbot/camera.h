@@ -32,6 +32,13 @@ public:
         return m_world_from_cam * glm::dvec3((x - m_k.cx) / m_k.fx, (y - m_k.cy) / m_k.fy, 1.0);
     }
 
+    /// direction() split into a part that depends on x only and one that depends on y only, so
+    /// a renderer computes them once per column and row of a tile instead of once per pixel:
+    /// direction(x, y) == (x_part(x) + y_part(y)) + forward(), bit for bit (glm sums the matrix's
+    /// columns in this order, and forward() times the unit z component is exact).
+    glm::dvec3 x_part(double x) const { return m_world_from_cam[0] * ((x - m_k.cx) / m_k.fx); }
+    glm::dvec3 y_part(double y) const { return m_world_from_cam[1] * ((y - m_k.cy) / m_k.fy); }
+
     /// Continuous pixel position of a world point (pixel centres at +0.5) and its z-depth.
     glm::dvec3 project(const glm::dvec3& world) const;
 
