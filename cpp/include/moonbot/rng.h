@@ -14,14 +14,23 @@ inline uint64_t mix64(uint64_t z) {
     return z ^ (z >> 31);
 }
 
+/// The part of uniform01's key that depends on (seed, pixel) only: a renderer drawing many
+/// samples for one pixel computes it once per pixel instead of once per number.
+inline uint64_t pixel_stream(uint64_t seed, uint64_t pixel) {
+    return mix64(mix64(seed + 0x9E3779B97F4A7C15ull) ^ pixel);
+}
+
+/// uniform01 for the pixel whose pixel_stream is `stream`.
+inline float stream_uniform01(uint64_t stream, uint32_t sample, uint32_t dimension) {
+    const uint64_t h = mix64(stream ^ ((static_cast<uint64_t>(sample) << 32) | dimension));
+    // The top 24 bits make an exactly representable float strictly below 1.
+    return static_cast<float>(h >> 40) * (1.0f / 16777216.0f);
+}
+
 /// A uniform float in [0, 1) keyed by (seed, pixel, sample, dimension). Each key component is
 /// folded in through the mixer, so neighbouring keys give independent-looking values.
 inline float uniform01(uint64_t seed, uint64_t pixel, uint32_t sample, uint32_t dimension) {
-    uint64_t h = mix64(seed + 0x9E3779B97F4A7C15ull);
-    h = mix64(h ^ pixel);
-    h = mix64(h ^ ((static_cast<uint64_t>(sample) << 32) | dimension));
-    // The top 24 bits make an exactly representable float strictly below 1.
-    return static_cast<float>(h >> 40) * (1.0f / 16777216.0f);
+    return stream_uniform01(pixel_stream(seed, pixel), sample, dimension);
 }
 
 }  // namespace moonbot
