@@ -1,6 +1,7 @@
 #include "moonbot/limit.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <stdexcept>
 #include <vector>
@@ -56,33 +57,28 @@ EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const
         throw std::invalid_argument("scene: not committed (call commit() after adding geometry)");
     if (scene.instance_count() == 0) throw std::invalid_argument("scene: has no instances");
 
-    // The camera rays of the renderer's centre pass, tile by tile, and the shadow rays of their hits.
+    // The camera rays of the renderer's centre pass, tile by tile, and the shadow rays of their
+    // hits, made by the renderer's own code (rays.h).
     const int w = camera.width(), h = camera.height();
+    const std::vector<InstanceData> instances = instance_table(scene);
     TiledRays camera_rays, shadow_rays;
     camera_rays.rays.reserve(static_cast<size_t>(w) * h);
-    std::vector<glm::dvec3> dirs;
-    std::vector<RayHit> traced;
+    std::array<glm::dvec3, kTilePixels> dirs;
+    std::array<RayHit, kTilePixels> traced, shadow;
+    std::array<int, kTilePixels> shadow_of;
+    TileHits hits;
     for (int y0 = 0; y0 < h; y0 += kTile)
         for (int x0 = 0; x0 < w; x0 += kTile) {
-            dirs.clear();
-            for (int y = y0; y < std::min(y0 + kTile, h); ++y)
-                for (int x = x0; x < std::min(x0 + kTile, w); ++x) {
-                    dirs.push_back(camera.direction(x + 0.5, y + 0.5));
-                    RayHit r;
-                    set_ray(r, camera.center(), dirs.back());
-                    camera_rays.rays.push_back(r);
-                }
+            const int x1 = std::min(x0 + kTile, w), y1 = std::min(y0 + kTile, h);
+            const int n = centre_rays(camera, x0, y0, x1, y1, dirs.data(), traced.data());
+            camera_rays.rays.insert(camera_rays.rays.end(), traced.begin(), traced.begin() + n);
             camera_rays.offset.push_back(camera_rays.rays.size());
-            traced.assign(camera_rays.rays.end() - static_cast<std::ptrdiff_t>(dirs.size()),
-                          camera_rays.rays.end());
-            scene.accel().intersect(traced.data(), traced.size(), true);
-            for (size_t i = 0; i < traced.size(); ++i) {
-                SurfaceHit hit;
-                resolve(scene, camera.center(), dirs[i], traced[i], true, hit);
-                if (!hit.hit || sun.irradiance() <= 0.0) continue;
-                RayHit s;
-                if (shadow_ray(surface(hit, camera.center(), dirs[i]), sun.direction(), s))
-                    shadow_rays.rays.push_back(s);
+            scene.accel().intersect(traced.data(), static_cast<size_t>(n), true);
+            hits.resolve(instances.data(), camera.center(), dirs.data(), traced.data(), n, x1 - x0, true);
+            if (sun.irradiance() > 0.0) {
+                const int n_shadow = hits.shadow_rays(camera.center(), dirs.data(), sun.direction(),
+                                                      shadow.data(), shadow_of.data());
+                shadow_rays.rays.insert(shadow_rays.rays.end(), shadow.begin(), shadow.begin() + n_shadow);
             }
             shadow_rays.offset.push_back(shadow_rays.rays.size());
         }

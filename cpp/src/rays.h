@@ -3,12 +3,17 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
+#include <vector>
 
 #include <glm/glm.hpp>
 
 #include "moonbot/accel.h"
+#include "moonbot/camera.h"
 #include "moonbot/scene.h"
 
 namespace moonbot::detail {
@@ -21,55 +26,29 @@ constexpr int kTilePixels = kTile * kTile;
 // two orders of magnitude (no acne at grazing Sun) while staying far below any feature we model.
 constexpr double kShadowBias = 2e-5;
 
-/// A primary hit resolved in double precision. Only what every pass needs is computed here;
-/// the unit normal and the hit point are derived by `surface()` for the hits that get shaded.
-struct SurfaceHit {
-    bool hit = false;
-    double t = 0.0;        // ray parameter = z-depth (camera-z of the direction is 1)
-    glm::dvec3 n_raw{};    // world geometric normal, unnormalised, either side
-    double denom = 0.0;    // n_raw · dir: its sign tells which side the ray hit
-    uint32_t instance = 0;
+/// What the per-pixel path needs of one instance, gathered once per render into a flat table:
+/// reaching it through Scene::instance → Scene::mesh → the mesh's vectors was a chain of five
+/// dependent loads per hit. Values are copies (albedo widened to double exactly).
+struct InstanceData {
+    glm::dmat3 normal_to_world;
+    glm::dmat3 linear;
+    glm::dvec3 translation;
+    glm::dvec3 albedo;
+    const uint32_t* triangles;
+    const float* vertices;
+    uint8_t label;
 };
 
-/// Recomputes the hit distance in double: Embree's float t carries an error proportional to the
-/// scene's coordinates; the intersection with the triangle's plane in double does not. The plane
-/// is Embree's geometric normal (exact enough: its float rounding moves t by ~1e-7 of the
-/// triangle's size) through the triangle's first vertex, so one vertex is fetched, not three.
-/// With `exact` false, Embree's t is kept and no vertex is fetched. Writes into `s` in place:
-/// returning the struct by value made every pixel pay a store-forwarding stall (its one-byte
-/// `hit` flag stored, then re-read as part of 16-byte copies).
-inline void resolve(const Scene& scene, const glm::dvec3& origin, const glm::dvec3& dir,
-                    const RayHit& ray, bool exact, SurfaceHit& s) {
-    s.hit = ray.geom_id != kInvalidId;
-    if (!s.hit) return;
-    s.instance = ray.inst_id;
-    const Instance& inst = scene.instance(ray.inst_id);
-    s.n_raw = inst.normal_to_world * glm::dvec3(ray.ng_x, ray.ng_y, ray.ng_z);
-    s.denom = glm::dot(s.n_raw, dir);
-    s.t = ray.tfar;
-    if (!exact) return;
-    const Mesh& mesh = scene.mesh(inst.mesh);
-    const uint32_t first = mesh.triangles[3 * static_cast<size_t>(ray.prim_id)];
-    const glm::dvec3 v0 = inst.linear * mesh.vertex(first) + inst.translation;
-    // A ray nearly parallel to the plane: the double solve is ill-conditioned, keep Embree's t.
-    // (Squared comparison: no square roots on the per-pixel path.)
-    if (s.denom * s.denom > 1e-24 * glm::dot(s.n_raw, s.n_raw) * glm::dot(dir, dir)) {
-        const double t = glm::dot(s.n_raw, v0 - origin) / s.denom;
-        if (t > 0.0) s.t = t;
+inline std::vector<InstanceData> instance_table(const Scene& scene) {
+    std::vector<InstanceData> table(scene.instance_count());
+    for (size_t i = 0; i < table.size(); ++i) {
+        const Instance& inst = scene.instance(static_cast<uint32_t>(i));
+        const Mesh& mesh = scene.mesh(inst.mesh);
+        table[i] = {inst.normal_to_world, inst.linear,          inst.translation,
+                    glm::dvec3(inst.material.albedo), mesh.triangles.data(), mesh.vertices.data(),
+                    inst.label};
     }
-}
-
-/// Hit point (world, metres) and unit normal facing the incoming ray, for shading.
-struct Surface {
-    glm::dvec3 point;
-    glm::dvec3 normal;
-};
-
-inline Surface surface(const SurfaceHit& h, const glm::dvec3& origin, const glm::dvec3& dir) {
-    const double n_len = glm::length(h.n_raw);
-    glm::dvec3 n = n_len > 0.0 ? h.n_raw / n_len : glm::dvec3(0.0, 0.0, 1.0);
-    if (glm::dot(n, dir) > 0.0) n = -n;
-    return {origin + h.t * dir, n};
+    return table;
 }
 
 inline void set_ray(RayHit& r, const glm::dvec3& o, const glm::dvec3& d) {
@@ -87,13 +66,166 @@ inline void set_ray(RayHit& r, const glm::dvec3& o, const glm::dvec3& d) {
     r.flags = 0;
 }
 
-/// The shadow ray toward the Sun (unit `to_sun`) from a shaded surface point, offset along the
-/// normal. Returns false, and makes no ray, when the surface faces away from the Sun.
-inline bool shadow_ray(const Surface& s, const glm::dvec3& to_sun, RayHit& ray) {
-    if (glm::dot(s.normal, to_sun) <= 0.0) return false;
-    const double scale = std::max({1.0, std::abs(s.point.x), std::abs(s.point.y), std::abs(s.point.z)});
-    set_ray(ray, s.point + s.normal * (kShadowBias * scale), to_sun);
-    return true;
+/// The pixel-centre camera rays of the tile [x0, x1) × [y0, y1) (at most kTile × kTile pixels),
+/// row by row: directions into `dirs`, Embree rays into `rays`; returns their number. The
+/// renderer's centre pass and the Embree-limit probe both make their rays here.
+inline int centre_rays(const Camera& camera, int x0, int y0, int x1, int y1, glm::dvec3* dirs,
+                       RayHit* rays) {
+    glm::dvec3 x_parts[kTile];
+    for (int x = x0; x < x1; ++x) x_parts[x - x0] = camera.x_part(x + 0.5);
+    const glm::dvec3 forward = camera.forward();
+    int n = 0;
+    for (int y = y0; y < y1; ++y) {
+        const glm::dvec3 y_part = camera.y_part(y + 0.5);
+        for (int x = x0; x < x1; ++x, ++n) {
+            dirs[n] = (x_parts[x - x0] + y_part) + forward;
+            set_ray(rays[n], camera.center(), dirs[n]);
+        }
+    }
+    return n;
 }
+
+/// One triangle hit somewhere in a tile, and everything about the hit that depends on the
+/// triangle alone. Its key is the instance, the primitive and Embree's geometric normal bit for
+/// bit, so a record serves exactly the hits whose per-pixel computation would have produced the
+/// same values.
+struct TriangleRecord {
+    uint32_t instance = 0, prim = 0;
+    float ng[3] = {};
+    glm::dvec3 n_raw{};   // world geometric normal, unnormalised, either side
+    double grazing = 0;   // 1e-24·|n_raw|²: a ray with (n_raw·dir)² ≤ grazing·|dir|² is too close
+                          // to parallel for the double solve, which then keeps Embree's t
+    double offset = 0;    // n_raw · (v0 − camera centre): the plane through the first vertex
+    // Filled for the records that get shaded, on first use (see TileHits::shadow_rays):
+    bool shading_known = false;
+    glm::dvec3 normal[2];  // the unit normal, and its opposite (the side a ray coming from the
+                           // other half-space sees)
+    double cos_sun[2];     // normal[side] · to_sun
+};
+
+/// One pixel's camera-ray hit.
+struct PixelHit {
+    bool hit = false;
+    uint8_t side = 0;    // which TriangleRecord::normal faces the ray (set by shadow_rays)
+    uint8_t record = 0;  // index of its TriangleRecord in the tile
+    double t = 0;        // ray parameter = z-depth (the camera-z of dir is 1)
+};
+
+/// The camera-ray hits of one tile, resolved in double precision, and the Sun shadow rays from
+/// them. Neighbouring pixels mostly hit the same triangle, so the work that depends only on the
+/// triangle (world normal, vertex fetch and the plane's offset, the unit normal with its square
+/// root and divisions, the Sun's cosine) is done once per distinct triangle in the tile, not
+/// once per pixel. Every value comes from the same operations in the same order as a per-pixel
+/// computation, so images are unchanged bit for bit (test_render checks against one).
+class TileHits {
+public:
+    /// Resolves the `n` traced rays of a tile whose rows are `row` pixels wide. Embree's float t
+    /// carries an error proportional to the scene's coordinates; with `exact`, the hit distance is
+    /// re-solved in double against the triangle's plane (Embree's geometric normal, whose float
+    /// rounding moves t by ~1e-7 of the triangle's size, through the triangle's first vertex).
+    void resolve(const InstanceData* instances, const glm::dvec3& origin, const glm::dvec3* dirs,
+                 const RayHit* rays, int n, int row, bool exact) {
+        m_n = n;
+        m_used = 0;
+        int last = -1;  // record of the previous hit: the likeliest match
+        for (int i = 0; i < n; ++i) {
+            PixelHit& p = m_pixels[i];
+            const RayHit& ray = rays[i];
+            p.hit = ray.geom_id != kInvalidId;
+            if (!p.hit) continue;
+            // The previous hit's triangle, else the one of the pixel above: where neighbours
+            // share a triangle, one of the two nearly always is it.
+            const PixelHit* above = i >= row ? &m_pixels[i - row] : nullptr;
+            int k;
+            if (last >= 0 && same(m_records[last], ray))
+                k = last;
+            else if (above && above->hit && same(m_records[above->record], ray))
+                k = above->record;
+            else
+                k = add(instances, origin, ray, exact);
+            last = k;
+            p.record = static_cast<uint8_t>(k);
+            const TriangleRecord& tri = m_records[k];
+            p.t = ray.tfar;
+            if (!exact) continue;
+            const glm::dvec3& dir = dirs[i];
+            const double denom = glm::dot(tri.n_raw, dir);
+            // Squared comparison: no square roots on the per-pixel path.
+            if (denom * denom > tri.grazing * glm::dot(dir, dir)) {
+                const double t = tri.offset / denom;
+                if (t > 0.0) p.t = t;
+            }
+        }
+    }
+
+    /// The shadow ray toward the Sun (unit `to_sun`) from every hit whose surface faces it, offset
+    /// along the normal facing the camera ray; ray k belongs to pixel of[k]. Returns their number.
+    /// Sets each hit's `side`.
+    int shadow_rays(const glm::dvec3& origin, const glm::dvec3* dirs, const glm::dvec3& to_sun,
+                    RayHit* rays, int* of) {
+        int count = 0;
+        for (int i = 0; i < m_n; ++i) {
+            PixelHit& p = m_pixels[i];
+            if (!p.hit) continue;
+            TriangleRecord& tri = m_records[p.record];
+            if (!tri.shading_known) shading(tri, to_sun);
+            const glm::dvec3& dir = dirs[i];
+            p.side = glm::dot(tri.normal[0], dir) > 0.0 ? 1 : 0;
+            if (tri.cos_sun[p.side] <= 0.0) continue;
+            const glm::dvec3 point = origin + p.t * dir;
+            const double scale = std::max({1.0, std::abs(point.x), std::abs(point.y), std::abs(point.z)});
+            set_ray(rays[count], point + tri.normal[p.side] * (kShadowBias * scale), to_sun);
+            of[count++] = i;
+        }
+        return count;
+    }
+
+    const PixelHit& pixel(int i) const { return m_pixels[i]; }
+    const TriangleRecord& record(const PixelHit& p) const { return m_records[p.record]; }
+
+private:
+    static bool same(const TriangleRecord& r, const RayHit& ray) {
+        return r.prim == ray.prim_id && r.instance == ray.inst_id && bits(r.ng[0]) == bits(ray.ng_x) &&
+               bits(r.ng[1]) == bits(ray.ng_y) && bits(r.ng[2]) == bits(ray.ng_z);
+    }
+    static uint32_t bits(float f) {
+        uint32_t u;
+        std::memcpy(&u, &f, sizeof u);
+        return u;
+    }
+
+    int add(const InstanceData* instances, const glm::dvec3& origin, const RayHit& ray, bool exact) {
+        TriangleRecord& r = m_records[m_used];
+        r.instance = ray.inst_id;
+        r.prim = ray.prim_id;
+        r.ng[0] = ray.ng_x;
+        r.ng[1] = ray.ng_y;
+        r.ng[2] = ray.ng_z;
+        r.shading_known = false;
+        const InstanceData& inst = instances[ray.inst_id];
+        r.n_raw = inst.normal_to_world * glm::dvec3(ray.ng_x, ray.ng_y, ray.ng_z);
+        if (exact) {
+            r.grazing = 1e-24 * glm::dot(r.n_raw, r.n_raw);
+            const uint32_t first = inst.triangles[3 * static_cast<size_t>(ray.prim_id)];
+            const float* v = inst.vertices + 3 * static_cast<size_t>(first);
+            const glm::dvec3 v0 = inst.linear * glm::dvec3(v[0], v[1], v[2]) + inst.translation;
+            r.offset = glm::dot(r.n_raw, v0 - origin);
+        }
+        return m_used++;
+    }
+
+    static void shading(TriangleRecord& r, const glm::dvec3& to_sun) {
+        const double n_len = glm::length(r.n_raw);
+        r.normal[0] = n_len > 0.0 ? r.n_raw / n_len : glm::dvec3(0.0, 0.0, 1.0);
+        r.normal[1] = -r.normal[0];
+        r.cos_sun[0] = glm::dot(r.normal[0], to_sun);
+        r.cos_sun[1] = glm::dot(r.normal[1], to_sun);
+        r.shading_known = true;
+    }
+
+    std::array<PixelHit, kTilePixels> m_pixels;
+    std::array<TriangleRecord, kTilePixels> m_records;
+    int m_n = 0, m_used = 0;
+};
 
 }  // namespace moonbot::detail

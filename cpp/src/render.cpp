@@ -30,9 +30,9 @@ struct TileScratch {
     std::array<RayHit, kTilePixels> rays;
     std::array<RayHit, kTilePixels> shadow;
     std::array<glm::dvec3, kTilePixels> dirs;
-    std::array<SurfaceHit, kTilePixels> hits;
-    std::array<Surface, kTilePixels> surfaces;
-    std::array<int, kTilePixels> shadow_of;  // which pixel of the tile a shadow ray belongs to
+    TileHits hits;
+    std::array<int, kTilePixels> shadow_of;     // which pixel of the tile a shadow ray belongs to
+    std::array<uint64_t, kTilePixels> streams;  // pixel_stream of each pixel, for jittered samples
     std::array<glm::dvec3, kTilePixels> radiance;
 };
 
@@ -40,7 +40,8 @@ class TileRenderer {
 public:
     TileRenderer(const Scene& scene, const Camera& camera, const Sun& sun,
                  const RenderSettings& settings, const FrameView& out)
-        : m_scene(scene), m_camera(camera), m_sun(sun), m_settings(settings), m_out(out) {}
+        : m_scene(scene), m_camera(camera), m_sun(sun), m_settings(settings), m_out(out),
+          m_instances(instance_table(scene)), m_sun_scale(kInvPi * sun.irradiance()) {}
 
     void render_tile(int x0, int y0, int x1, int y1, TileScratch& s, RenderStats& stats) const {
         const int tw = x1 - x0;
@@ -50,12 +51,18 @@ public:
 
         if (centre_pass) {
             trace(x0, y0, tw, n, s, stats, /*sample=*/-1);
-            for (int i = 0; i < n; ++i) {
-                const size_t pixel = index(x0 + i % tw, y0 + i / tw);
-                const SurfaceHit& h = s.hits[i];
-                if (m_out.depth) m_out.depth[pixel] = h.hit ? static_cast<float>(h.t) : 0.0f;
-                if (m_out.instance)
-                    m_out.instance[pixel] = h.hit ? m_scene.instance(h.instance).label : 0;
+            // Locals, not members: a uint8_t store may alias anything, so the compiler would
+            // reload every member pointer after each label written.
+            float* const depth = m_out.depth;
+            uint8_t* const instance = m_out.instance;
+            const InstanceData* const instances = m_instances.data();
+            for (int y = y0, i = 0; y < y1; ++y) {
+                const size_t row = index(x0, y);
+                for (int x = 0; x < tw; ++x, ++i) {
+                    const PixelHit& h = s.hits.pixel(i);
+                    if (depth) depth[row + x] = h.hit ? static_cast<float>(h.t) : 0.0f;
+                    if (instance) instance[row + x] = h.hit ? instances[s.hits.record(h).instance].label : 0;
+                }
             }
         }
         if (!want_rgb) return;
@@ -65,6 +72,9 @@ public:
         } else {
             std::array<glm::dvec3, kTilePixels> sum;
             sum.fill(glm::dvec3(0.0));
+            // The (seed, pixel) part of the jitter's key, once per pixel rather than per sample.
+            for (int y = y0, i = 0; y < y1; ++y)
+                for (int x = x0; x < x1; ++x, ++i) s.streams[i] = pixel_stream(m_settings.seed, index(x, y));
             for (int sample = 0; sample < m_settings.spp; ++sample) {
                 trace(x0, y0, tw, n, s, stats, sample);
                 shade(n, s, stats);
@@ -72,9 +82,10 @@ public:
             }
             for (int i = 0; i < n; ++i) s.radiance[i] = sum[i] / double(m_settings.spp);
         }
-        for (int i = 0; i < n; ++i) {
-            float* px = m_out.rgb + 3 * index(x0 + i % tw, y0 + i / tw);
-            for (int c = 0; c < 3; ++c) px[c] = static_cast<float>(s.radiance[i][c]);
+        for (int y = y0, i = 0; y < y1; ++y) {
+            float* px = m_out.rgb + 3 * index(x0, y);
+            for (int x = 0; x < tw; ++x, ++i, px += 3)
+                for (int c = 0; c < 3; ++c) px[c] = static_cast<float>(s.radiance[i][c]);
         }
     }
 
@@ -85,43 +96,39 @@ private:
     /// counter-based generator, and resolves the hits.
     void trace(int x0, int y0, int tw, int n, TileScratch& s, RenderStats& stats, int sample) const {
         const glm::dvec3& origin = m_camera.center();
-        for (int i = 0; i < n; ++i) {
-            const int x = x0 + i % tw, y = y0 + i / tw;
-            double jx = 0.5, jy = 0.5;
-            if (sample >= 0) {
-                const uint64_t pixel = index(x, y);
-                const auto k = static_cast<uint32_t>(sample);
-                jx = uniform01(m_settings.seed, pixel, k, 0);
-                jy = uniform01(m_settings.seed, pixel, k, 1);
-            }
-            s.dirs[i] = m_camera.direction(x + jx, y + jy);
-            set_ray(s.rays[i], origin, s.dirs[i]);
+        if (sample < 0) {
+            centre_rays(m_camera, x0, y0, x0 + tw, y0 + n / tw, s.dirs.data(), s.rays.data());
+        } else {
+            const auto k = static_cast<uint32_t>(sample);
+            for (int y = y0, i = 0; y < y0 + n / tw; ++y)
+                for (int x = x0; x < x0 + tw; ++x, ++i) {
+                    const double jx = stream_uniform01(s.streams[i], k, 0);
+                    const double jy = stream_uniform01(s.streams[i], k, 1);
+                    s.dirs[i] = m_camera.direction(x + jx, y + jy);
+                    set_ray(s.rays[i], origin, s.dirs[i]);
+                }
         }
         m_scene.accel().intersect(s.rays.data(), n, /*coherent=*/true);
         stats.camera_rays += n;
-        for (int i = 0; i < n; ++i)
-            resolve(m_scene, origin, s.dirs[i], s.rays[i], m_settings.exact_depth, s.hits[i]);
+        s.hits.resolve(m_instances.data(), origin, s.dirs.data(), s.rays.data(), n, tw,
+                       m_settings.exact_depth);
     }
 
     /// Direct sunlight on the resolved hits, with one shadow ray per hit facing the Sun.
     void shade(int n, TileScratch& s, RenderStats& stats) const {
-        const glm::dvec3& l = m_sun.direction();
-        const glm::dvec3& origin = m_camera.center();
-        int n_shadow = 0;
-        for (int i = 0; i < n; ++i) {
-            s.radiance[i] = glm::dvec3(0.0);
-            if (!s.hits[i].hit || m_sun.irradiance() <= 0.0) continue;
-            s.surfaces[i] = surface(s.hits[i], origin, s.dirs[i]);
-            if (shadow_ray(s.surfaces[i], l, s.shadow[n_shadow])) s.shadow_of[n_shadow++] = i;
-        }
+        std::fill_n(s.radiance.begin(), n, glm::dvec3(0.0));
+        if (m_sun.irradiance() <= 0.0) return;
+        const int n_shadow = s.hits.shadow_rays(m_camera.center(), s.dirs.data(), m_sun.direction(),
+                                                s.shadow.data(), s.shadow_of.data());
         if (n_shadow == 0) return;
         m_scene.accel().occluded(s.shadow.data(), n_shadow, /*coherent=*/true);
         stats.shadow_rays += n_shadow;
         for (int k = 0; k < n_shadow; ++k) {
             if (s.shadow[k].tfar < 0.0f) continue;  // occluded
-            const int i = s.shadow_of[k];
-            const glm::dvec3 albedo(m_scene.instance(s.hits[i].instance).material.albedo);
-            s.radiance[i] = albedo * (kInvPi * m_sun.irradiance() * glm::dot(s.surfaces[i].normal, l));
+            const PixelHit& h = s.hits.pixel(s.shadow_of[k]);
+            const TriangleRecord& tri = s.hits.record(h);
+            s.radiance[s.shadow_of[k]] =
+                m_instances[tri.instance].albedo * (m_sun_scale * tri.cos_sun[h.side]);
         }
     }
 
@@ -130,6 +137,8 @@ private:
     const Sun& m_sun;
     const RenderSettings& m_settings;
     const FrameView& m_out;
+    const std::vector<InstanceData> m_instances;
+    const double m_sun_scale;  // E/π: radiance of a white surface facing the Sun, W/(m²·sr)
 };
 
 }  // namespace
