@@ -220,7 +220,8 @@ def test_embree_limit_probe_traces_the_renderers_rays():
     limit = _core.measure_embree_limit(scene, cam, sun, threads=1, repeats=1)
     assert limit["camera_rays"] == rendered["camera_rays"] == W * H
     assert limit["shadow_rays"] == rendered["shadow_rays"] > 0
-    assert all(limit[k] > 0 for k in ("intersect_single_s", "intersect_stream_s",
-                                      "occluded_single_s", "occluded_stream_s"))
+    assert all(limit[f"{query}_{kind}_s"] > 0 for query in ("intersect", "occluded")
+               for kind in ("single", "packet8", "packet16", "stream", "stream_from_memory"))
+    assert limit["threads"] == 1 and 0 <= limit["timer_overhead_s"] < 1e-5
     with pytest.raises(ValueError, match="repeats"):
         _core.measure_embree_limit(scene, cam, sun, repeats=0)

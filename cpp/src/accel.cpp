@@ -19,6 +19,14 @@ static_assert(offsetof(RayHit, ng_x) == offsetof(RTCRayHit, hit.Ng_x), "RayHit l
 static_assert(offsetof(RayHit, prim_id) == offsetof(RTCRayHit, hit.primID), "RayHit layout");
 static_assert(offsetof(RayHit, geom_id) == offsetof(RTCRayHit, hit.geomID), "RayHit layout");
 static_assert(offsetof(RayHit, inst_id) == offsetof(RTCRayHit, hit.instID), "RayHit layout");
+static_assert(sizeof(RayHitPacket<8>) == sizeof(RTCRayHit8), "RayHitPacket<8> mirrors RTCRayHit8");
+static_assert(alignof(RayHitPacket<8>) == alignof(RTCRayHit8), "RayHitPacket<8> mirrors RTCRayHit8");
+static_assert(offsetof(RayHitPacket<8>, ng_x) == offsetof(RTCRayHit8, hit.Ng_x), "packet layout");
+static_assert(offsetof(RayHitPacket<8>, inst_id) == offsetof(RTCRayHit8, hit.instID), "packet layout");
+static_assert(sizeof(RayHitPacket<16>) == sizeof(RTCRayHit16), "RayHitPacket<16> mirrors RTCRayHit16");
+static_assert(alignof(RayHitPacket<16>) == alignof(RTCRayHit16), "RayHitPacket<16> mirrors RTCRayHit16");
+static_assert(offsetof(RayHitPacket<16>, ng_x) == offsetof(RTCRayHit16, hit.Ng_x), "packet layout");
+static_assert(offsetof(RayHitPacket<16>, inst_id) == offsetof(RTCRayHit16, hit.instID), "packet layout");
 static_assert(RTC_MAX_INSTANCE_LEVEL_COUNT == 1, "RayHit holds one instance level");
 static_assert(kInvalidId == RTC_INVALID_GEOMETRY_ID, "kInvalidId mirrors Embree");
 
@@ -27,6 +35,41 @@ namespace {
 // Embree's stream calls take at most this many rays at a time in our use; 64 is the width the
 // performance reference measured as fastest on AVX2 (reference/performance-limits.md).
 constexpr size_t kStream = 64;
+
+// Embree's packet entry points by width, so one template serves 8 and 16.
+template <int W>
+struct PacketCalls;
+template <>
+struct PacketCalls<8> {
+    using RayHitW = RTCRayHit8;
+    using RayW = RTCRay8;
+    static void intersect(const int* valid, RTCScene s, RTCIntersectContext* c, RTCRayHit8* r) {
+        rtcIntersect8(valid, s, c, r);
+    }
+    static void occluded(const int* valid, RTCScene s, RTCIntersectContext* c, RTCRay8* r) {
+        rtcOccluded8(valid, s, c, r);
+    }
+};
+template <>
+struct PacketCalls<16> {
+    using RayHitW = RTCRayHit16;
+    using RayW = RTCRay16;
+    static void intersect(const int* valid, RTCScene s, RTCIntersectContext* c, RTCRayHit16* r) {
+        rtcIntersect16(valid, s, c, r);
+    }
+    static void occluded(const int* valid, RTCScene s, RTCIntersectContext* c, RTCRay16* r) {
+        rtcOccluded16(valid, s, c, r);
+    }
+};
+
+/// Embree's valid mask for a packet whose first `active` lanes carry rays: -1 on, 0 off.
+template <int W>
+struct alignas(4 * W) ValidMask {
+    int lanes[W];
+    explicit ValidMask(size_t active) {
+        for (int i = 0; i < W; ++i) lanes[i] = static_cast<size_t>(i) < active ? -1 : 0;
+    }
+};
 
 [[noreturn]] void throw_device_error(RTCDevice device, const char* what) {
     RTCError code = rtcGetDeviceError(device);
@@ -153,5 +196,48 @@ void Accel::occluded_single(RayHit* rays, size_t n) const {
     for (size_t i = 0; i < n; ++i)
         rtcOccluded1(m_impl->top, &context, reinterpret_cast<RTCRay*>(rays + i));
 }
+
+template <int W>
+void Accel::intersect_packets(RayHitPacket<W>* packets, size_t n) const {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);  // incoherent: see accel.h
+    const ValidMask<W> full(W);
+    for (size_t p = 0; p * W < n; ++p) {
+        RayHitPacket<W>& packet = packets[p];
+        std::fill_n(packet.geom_id, W, kInvalidId);
+        std::fill_n(packet.inst_id, W, kInvalidId);
+        auto* rays = reinterpret_cast<typename PacketCalls<W>::RayHitW*>(&packet);
+        const size_t active = std::min<size_t>(W, n - p * W);
+        if (active == W) {
+            PacketCalls<W>::intersect(full.lanes, m_impl->top, &context, rays);
+        } else {
+            const ValidMask<W> partial(active);
+            PacketCalls<W>::intersect(partial.lanes, m_impl->top, &context, rays);
+        }
+    }
+}
+
+template <int W>
+void Accel::occluded_packets(RayHitPacket<W>* packets, size_t n) const {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);  // incoherent: see accel.h
+    const ValidMask<W> full(W);
+    for (size_t p = 0; p * W < n; ++p) {
+        // RTCRayW is the leading member of RTCRayHitW, as for the streams.
+        auto* rays = reinterpret_cast<typename PacketCalls<W>::RayW*>(&packets[p]);
+        const size_t active = std::min<size_t>(W, n - p * W);
+        if (active == W) {
+            PacketCalls<W>::occluded(full.lanes, m_impl->top, &context, rays);
+        } else {
+            const ValidMask<W> partial(active);
+            PacketCalls<W>::occluded(partial.lanes, m_impl->top, &context, rays);
+        }
+    }
+}
+
+template void Accel::intersect_packets<8>(RayHitPacket<8>*, size_t) const;
+template void Accel::intersect_packets<16>(RayHitPacket<16>*, size_t) const;
+template void Accel::occluded_packets<8>(RayHitPacket<8>*, size_t) const;
+template void Accel::occluded_packets<16>(RayHitPacket<16>*, size_t) const;
 
 }  // namespace moonbot

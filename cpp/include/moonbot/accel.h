@@ -24,6 +24,35 @@ struct alignas(16) RayHit {
     uint32_t prim_id, geom_id, inst_id;
 };
 
+/// W rays and their hits in structure-of-arrays form, laid out exactly like Embree 3's
+/// RTCRayHit8 / RTCRayHit16 (checked in accel.cpp), for the packet queries. W is 8 or 16.
+template <int W>
+struct alignas(4 * W) RayHitPacket {
+    float org_x[W], org_y[W], org_z[W], tnear[W];
+    float dir_x[W], dir_y[W], dir_z[W], time[W];
+    float tfar[W];
+    uint32_t mask[W], id[W], flags[W];
+    float ng_x[W], ng_y[W], ng_z[W], u[W], v[W];
+    uint32_t prim_id[W], geom_id[W], inst_id[W];
+};
+
+/// Copies the query fields of `r` into lane `lane` of `p` (its hit fields are left alone).
+template <int W>
+inline void pack_lane(const RayHit& r, RayHitPacket<W>& p, int lane) {
+    p.org_x[lane] = r.org_x;
+    p.org_y[lane] = r.org_y;
+    p.org_z[lane] = r.org_z;
+    p.tnear[lane] = r.tnear;
+    p.dir_x[lane] = r.dir_x;
+    p.dir_y[lane] = r.dir_y;
+    p.dir_z[lane] = r.dir_z;
+    p.time[lane] = r.time;
+    p.tfar[lane] = r.tfar;
+    p.mask[lane] = r.mask;
+    p.id[lane] = r.id;
+    p.flags[lane] = r.flags;
+}
+
 /// A two-level bounding volume hierarchy: prototypes (triangle meshes, each its own BVH) and
 /// instances of them in a top-level scene. Not copyable; not thread-safe to modify, thread-safe
 /// to trace once committed.
@@ -58,6 +87,17 @@ public:
     /// Embree-limit benchmark compares streams against.
     void intersect_single(RayHit* rays, size_t n) const;
     void occluded_single(RayHit* rays, size_t n) const;
+
+    /// The same two queries as packets of W = 8 or 16 rays (rtcIntersect8/16, rtcOccluded8/16):
+    /// `n` rays in ceil(n / W) packets, the lanes past the n-th inactive. Misses keep
+    /// geom_id == kInvalidId; an occluded ray gets tfar = -inf. For the Embree-limit benchmark.
+    /// Always with Embree's default (incoherent) context: with RTC_INTERSECT_CONTEXT_FLAG_COHERENT,
+    /// Debian's Embree 3.13.5 on an AVX-512 CPU never returned from rtcOccluded16 once
+    /// rtcIntersect16 had been called on the scene (sun shadow rays of the default scene).
+    template <int W>
+    void intersect_packets(RayHitPacket<W>* packets, size_t n) const;
+    template <int W>
+    void occluded_packets(RayHitPacket<W>* packets, size_t n) const;
 
     /// Number of BVH builds so far (prototypes + top-level commits): lets tests prove that a
     /// scene is not rebuilt per view.
