@@ -222,6 +222,6 @@ def test_embree_limit_probe_traces_the_renderers_rays():
     assert limit["shadow_rays"] == rendered["shadow_rays"] > 0
     assert all(limit[f"{query}_{kind}_s"] > 0 for query in ("intersect", "occluded")
                for kind in ("single", "packet8", "packet16", "stream", "stream_from_memory"))
-    assert limit["threads"] == 1 and 0 <= limit["timer_overhead_s"] < 1e-5
+    assert limit["threads"] == 1 and limit["timer_overhead_s"] >= 0  # timings are for bench/, not tests
     with pytest.raises(ValueError, match="repeats"):
         _core.measure_embree_limit(scene, cam, sun, repeats=0)
