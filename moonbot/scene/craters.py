@@ -1,0 +1,86 @@
+"""Small craters for the procedural locations: a size-frequency distribution, and the height
+they add to the ground (metres, world East-North-Up), deterministic from a seed.
+
+Sizes follow the empirical equilibrium of small lunar craters, a cumulative density
+N(≥D) = C·D^-2 per m² with D in metres and C ≈ 0.05 (lunar-physics.md §4.2: 0.0336 for an
+Apollo 15 mare fit up to ~0.08; Minton et al. 2019, Xiao & Werner 2015). Centres are uniform
+(a Poisson process; craters may overlap, as on the saturated real surface). Each crater has
+the simple-crater profile of `terrain.CraterGround` (depth 0.13·D, rim 0.036·D, ejecta as
+(r/R)^-3), scaled by a degradation factor in [0.3, 1] (old craters are shallower), and its ejecta
+is cut off at 2.5 R so that a crater changes nothing beyond it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+DEPTH_RATIO = 0.13
+RIM_RATIO = 0.036
+EJECTA_EXPONENT = 3.0
+EJECTA_CUTOFF = 2.5  # in crater radii
+
+
+def crater_profile(s: np.ndarray, diameter: float | np.ndarray, degradation: float | np.ndarray = 1.0) -> np.ndarray:
+    """Height (metres) at radial distance s = r/R from a crater's centre: a parabolic bowl to
+    the rim crest at s = 1, ejecta (r/R)^-3 outside, shifted so it reaches exactly 0 at the
+    cut-off 2.5 R (and stays 0 beyond); scaled by `degradation`."""
+    s = np.asarray(s, dtype=np.float64)
+    depth, rim = DEPTH_RATIO * diameter, RIM_RATIO * diameter
+    floor = rim * EJECTA_CUTOFF ** -EJECTA_EXPONENT  # ejecta height at the cut-off, removed
+    inside = rim - floor - depth * (1.0 - s * s)
+    outside = rim * np.clip(s, 1.0, EJECTA_CUTOFF) ** -EJECTA_EXPONENT - floor
+    return degradation * np.where(s < 1.0, inside, outside)
+
+
+def expected_count(half_size_m: float, density: float, lo: float, hi: float) -> float:
+    """The mean number of craters with lo ≤ D < hi in the square ±half_size_m under
+    N(≥D) = density·D^-2 per m²."""
+    return density * (2.0 * half_size_m) ** 2 * (lo ** -2.0 - hi ** -2.0)
+
+
+@dataclass(frozen=True)
+class CraterField:
+    """Craters with centres (K, 2) metres, diameters (K,) metres and degradation (K,) in
+    [0.3, 1]; `height` adds up their profiles."""
+
+    centres: np.ndarray
+    diameters: np.ndarray
+    degradation: np.ndarray
+
+    @staticmethod
+    def sample(seed: int, half_size_m: float, density: float = 0.05, d_min: float = 0.5,
+               d_max: float = 50.0) -> "CraterField":
+        """A Poisson sample over the square ±half_size_m with N(≥D) = density·D^-2 per m²,
+        D in [d_min, d_max] (inverse-CDF sampling of the truncated power law)."""
+        if not 0 < d_min < d_max:
+            raise ValueError(f"d_min: must be in (0, d_max), got {d_min}")
+        if not density >= 0:
+            raise ValueError(f"density: must be >= 0, got {density}")
+        rng = np.random.default_rng([seed, 0xC7A7E5])
+        area = (2.0 * half_size_m) ** 2
+        a, b = d_min ** -2.0, d_max ** -2.0
+        count = rng.poisson(density * area * (a - b))
+        u = rng.random(count)
+        diameters = (a - u * (a - b)) ** -0.5
+        centres = rng.uniform(-half_size_m, half_size_m, size=(count, 2))
+        degradation = rng.uniform(0.3, 1.0, size=count)
+        return CraterField(centres, diameters, degradation)
+
+    def height(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Sum of all craters' profiles at world (x, y) (metres, float64, shaped like x)."""
+        x, y = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
+        points = np.column_stack([x.ravel(), y.ravel()])
+        z = np.zeros(len(points))
+        if len(self.diameters) == 0 or len(points) == 0:
+            return z.reshape(x.shape)
+        tree = cKDTree(points)
+        reach = EJECTA_CUTOFF * self.diameters / 2.0
+        for centre, diameter, degradation, r in zip(self.centres, self.diameters, self.degradation, reach):
+            near = np.asarray(tree.query_ball_point(centre, r), dtype=np.int64)
+            if len(near):
+                s = np.linalg.norm(points[near] - centre, axis=1) / (diameter / 2.0)
+                z[near] += crater_profile(s, diameter, degradation)
+        return z.reshape(x.shape)
