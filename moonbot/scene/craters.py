@@ -17,6 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+# Fresh simple crater proportions (lunar-physics.md §4.1): depth and rim height over diameter,
+# and the ejecta thickness law's exponent; `terrain.CraterGround` uses the same.
 DEPTH_RATIO = 0.13
 RIM_RATIO = 0.036
 EJECTA_EXPONENT = 3.0

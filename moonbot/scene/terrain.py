@@ -27,11 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from moonbot.config.schema import TerrainConfig
-
-# Fresh simple crater proportions (lunar-physics.md §4.1): depth and rim height over diameter.
-CRATER_DEPTH_RATIO = 0.13
-CRATER_RIM_RATIO = 0.036
-EJECTA_EXPONENT = 3.0
+from moonbot.scene.craters import DEPTH_RATIO as CRATER_DEPTH_RATIO
+from moonbot.scene.craters import EJECTA_EXPONENT
+from moonbot.scene.craters import RIM_RATIO as CRATER_RIM_RATIO
 
 
 class Ground(ABC):
