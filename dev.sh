@@ -34,10 +34,12 @@ apt_deps() {
     $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}"
 }
 
-# A fingerprint of everything that changes the compiled module; Python sources are live in the
-# editable install and need no rebuild.
+# A fingerprint of everything that changes the compiled module, and of the *names* of the Python
+# files: their contents are live in the editable install, but scikit-build-core's editable
+# finder maps only the modules that existed when it was installed, so a new module re-installs.
 build_fingerprint() {
-    { cat pyproject.toml CMakeLists.txt; find cpp -type f | LC_ALL=C sort | xargs cat; } | sha256sum | cut -d' ' -f1
+    { cat pyproject.toml CMakeLists.txt; find cpp -type f | LC_ALL=C sort | xargs cat
+      find moonbot -name '*.py' | LC_ALL=C sort; } | sha256sum | cut -d' ' -f1
 }
 
 python_env() {

@@ -32,7 +32,7 @@ from moonbot.pipeline import run_views
 from moonbot.render import build_scene, exposure_scale
 from moonbot.scene import compose_scene, intrinsics, orbit_pose, pixel_directions
 from moonbot.scene.bag_mesh import OBJ_IDS, variant_mesh
-from moonbot.scene.terrain import flat_patch
+from moonbot.terrain.ground import flat_patch
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
 

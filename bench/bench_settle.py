@@ -32,7 +32,7 @@ from moonbot.scene.bag_mesh import variant_mesh
 from moonbot.scene.collision import transform
 from moonbot.scene.placement import check_placement, place_bags
 from moonbot.scene.settle import settle
-from moonbot.scene.terrain import CraterGround, FlatGround, SlopedGround
+from moonbot.terrain.ground import CraterGround, FlatGround, SlopedGround
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
 from svgplot import time_error_plot
@@ -76,7 +76,6 @@ def scene_costs(repeats: int) -> list[dict]:
     config = SettleConfig()
     for scene in SCENES:
         ground = GROUNDS[scene[0]]
-        mesh = ground.mesh()
         place_s, settle_s, check_s = [], [], []
         for _ in range(repeats):
             v, t, poses, seconds = geometric(scene, config)
@@ -84,7 +83,7 @@ def scene_costs(repeats: int) -> list[dict]:
             result = settle(v, poses, ground, config)
             settle_s.append(result.seconds)
             start = time.perf_counter()
-            check_placement(v, t, result.poses, ground, mesh)
+            check_placement(v, t, result.poses, ground)
             check_s.append(time.perf_counter() - start)
         rest = place_bags(v, t, scene[2], scene[1], seed=0, ground=ground, yaw_deg=20.0,
                           clearance_m=config.margin_m)

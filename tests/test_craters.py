@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from moonbot.scene.craters import (DEPTH_RATIO, EJECTA_CUTOFF, RIM_RATIO, CraterField, crater_profile,
+from moonbot.terrain.craters import (DEPTH_RATIO, EJECTA_CUTOFF, RIM_RATIO, CraterField, crater_profile,
                                    expected_count)
 
 

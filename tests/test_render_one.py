@@ -147,12 +147,12 @@ def test_a_scene_that_does_not_settle_has_no_settle_stage(tmp_path):
     (["--set", "bags.colour=1"], "bags.colour: unknown field"),
     (["--set", "meshes.sandbag_01.size_m=[0.3, 0.2]"], "meshes.sandbag_01.size_m: must have 3 items"),
     (["--set", "camera.hfov_deg=.nan"], "camera.hfov_deg: must be finite"),
-    (["--set", "terrain.kind=moon"], "terrain.kind: must be one of flat"),
+    (["--set", "terrain.location=moon"], "terrain.location: must be one of flat"),
     (["--view", "36"], "view: must be in 0..35"),
     (["--set", "nonsense"], "--set: expected FIELD=VALUE"),
     (["--set", "sun.elevation_deg=["], "--set sun.elevation_deg: value is not valid YAML"),
     (["--set", "sun.elevation_deg.x=1"], "elevation_deg is not a section"),
-], ids=["width0", "elevation95", "spp-str", "unknown", "size-len", "hfov-nan", "kind", "view", "set",
+], ids=["width0", "elevation95", "spp-str", "unknown", "size-len", "hfov-nan", "location", "view", "set",
         "set-yaml", "set-section"])
 def test_bad_input_names_the_field(tmp_path, args, message):
     result = CliRunner().invoke(main, ["render-one", "--out", str(tmp_path), *args])

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from moonbot.scene.roughness import Roughness
+from moonbot.terrain.roughness import Roughness
 
 ROUGH = Roughness(seed=11)
 

@@ -17,7 +17,7 @@ from moonbot.scene.bag_mesh import variant_mesh
 from moonbot.scene.collision import transform
 from moonbot.scene.placement import place_bags
 from moonbot.scene.settle import settle
-from moonbot.scene.terrain import FlatGround, SlopedGround
+from moonbot.terrain.ground import FlatGround, SlopedGround
 
 SETTLE = SettleConfig()
 MESHES = {k: variant_mesh(MeshesConfig(), k) for k in (1, 3)}

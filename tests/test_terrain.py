@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from moonbot.config.load import ConfigError, load_config
-from moonbot.scene.terrain import (CraterGround, FlatGround, SlopedGround, graded_axis, grid_triangles,
-                                   make_ground)
+from moonbot.terrain import make_ground
+from moonbot.terrain.ground import CraterGround, FlatGround, SlopedGround, graded_axis, grid_triangles
 
 GROUNDS = [FlatGround(size_m=50.0), SlopedGround(slope_deg=30.0, downhill_azimuth_deg=60.0, size_m=50.0),
            CraterGround(diameter_m=8.0, size_m=50.0)]
@@ -76,7 +76,11 @@ def test_graded_axis_is_fine_near_the_bags_and_grows_outward():
 
 
 def test_terrain_config_builds_the_ground_and_checks_ranges():
-    ground = make_ground(load_config(None, {"terrain.kind": "crater", "terrain.crater_diameter_m": 12.0}).terrain)
-    assert isinstance(ground, CraterGround) and ground.diameter_m == 12.0
+    ground = make_ground(load_config(None, {"terrain.location": "slope", "terrain.slope_deg": 12.0}).terrain)
+    assert isinstance(ground, SlopedGround) and ground.slope_deg == 12.0
+    with pytest.raises(ConfigError, match="terrain.location: must be one of"):
+        load_config(None, {"terrain.location": "mare"})
+    with pytest.raises(ConfigError, match="terrain.detail_extent_m"):
+        load_config(None, {"terrain.extent_m": 1.0})
     with pytest.raises(ConfigError, match="terrain.slope_deg"):
         load_config(None, {"terrain.slope_deg": 75.0})

@@ -54,27 +54,101 @@ class SunConfig:
 
 
 @dataclass(frozen=True)
-class TerrainConfig:
-    """The ground (moonbot/scene/terrain.py): a flat plane, a uniform slope, or the rim of a
-    simple crater. Analytic stand-ins for the procedural locations of the terrain stage."""
+class RoughnessConfig:
+    """Fractal regolith roughness (moonbot/terrain/roughness.py; lunar-physics.md §4.4)."""
 
-    kind: Literal["flat", "slope", "crater"] = field(default="flat", metadata=spec(
-        "terrain model: flat plane, uniform slope, or a simple crater with the target on its rim"))
-    size_m: float = field(default=200.0, metadata=spec(
-        "side of the square patch centred on the target, metres", lo=0.0, hi=20000.0, lo_open=True))
+    rms_slope_deg: float = field(default=20.0, metadata=spec(
+        "RMS slope over a 1 cm baseline, degrees (regolith: ~20, 15-35)", lo=0.0, hi=60.0))
+    hurst_fine: float = field(default=0.6, metadata=spec(
+        "Hurst exponent below 1 m (Helfenstein & Shepard 1999: 0.5-0.7)", lo=0.0, hi=1.0, lo_open=True))
+    hurst_coarse: float = field(default=0.9, metadata=spec(
+        "Hurst exponent above 1 m (LOLA: maria ~0.76, highlands ~0.95)", lo=0.0, hi=1.0, lo_open=True))
+    min_wavelength_m: float = field(default=0.02, metadata=spec(
+        "shortest octave, metres (two cells of a 1 cm mesh)", lo=0.001, hi=10.0))
+    max_wavelength_m: float = field(default=512.0, metadata=spec(
+        "longest octave, metres", lo=0.01, hi=100000.0))
+
+
+@dataclass(frozen=True)
+class CratersConfig:
+    """Small craters (moonbot/terrain/craters.py): cumulative density N(>=D) = density·D^-2
+    per m² (lunar-physics.md §4.2), degraded simple-crater profiles."""
+
+    density: float = field(default=0.05, metadata=spec(
+        "C in N(>=D) = C·D^-2 per m^2, D in metres (Apollo 15 mare fit 0.0336, up to ~0.08)", lo=0.0, hi=10.0))
+    min_diameter_m: float = field(default=0.5, metadata=spec("smallest crater, metres", lo=0.01, hi=1000.0))
+    max_diameter_m: float = field(default=200.0, metadata=spec("largest crater, metres", lo=0.01, hi=10000.0))
+
+
+@dataclass(frozen=True)
+class RocksConfig:
+    """Rocks (moonbot/terrain/rocks.py): Golombek & Rapp (1997) cumulative fractional area
+    F(D) = k·exp(-q(k)·D), q(k) = 1.79 + 0.152/k, irregular instanced meshes."""
+
+    k_background: float = field(default=0.005, metadata=spec(
+        "rock-covered area fraction away from craters (lunar mare: < 0.01)", lo=0.0, hi=0.5))
+    k_crater: float = field(default=0.1, metadata=spec(
+        "crater location: rock-covered fraction on the crater's rim (fresh ejecta: 0.05-0.4), "
+        "falling off outside as (r/R)^-3 like the ejecta", lo=0.0, hi=0.5))
+    min_diameter_m: float = field(default=0.03, metadata=spec("smallest rock, metres", lo=0.005, hi=10.0))
+    max_diameter_m: float = field(default=1.5, metadata=spec("largest rock, metres", lo=0.005, hi=20.0))
+    reach_m: float = field(default=60.0, metadata=spec(
+        "rocks lie within this distance of the target, metres", lo=0.0, hi=5000.0))
+    clearance_m: float = field(default=0.05, metadata=spec(
+        "no rock lies within this distance of a bag's footprint (the site was cleared), metres", lo=0.0, hi=10.0))
+
+
+@dataclass(frozen=True)
+class TerrainConfig:
+    """The ground (moonbot/terrain/). A procedural location — `flat` (a mare plain), `hilly`,
+    `crater` (beside a simple crater, with rocks) — meshed from 1 cm at the bags out to the
+    horizon on a curved Moon; or an analytic test ground: `plane` (z = 0) or `slope`."""
+
+    location: Literal["flat", "hilly", "crater", "plane", "slope"] = field(default="flat", metadata=spec(
+        "procedural location (flat | hilly | crater) or analytic ground (plane | slope)"))
+    seed: int = field(default=0, metadata=spec(
+        "terrain seed: a location is the same for every sample of a sweep, and cached per worker",
+        lo=0, hi=2**63 - 1))
     albedo: float = field(default=0.12, metadata=spec("Lambertian albedo of regolith", lo=0.0, hi=1.0))
+    extent_m: float = field(default=2000.0, metadata=spec(
+        "half-width of the terrain square around the target, metres (the horizon of a camera 1 m "
+        "up is 1.9 km away)", lo=0.0, hi=20000.0, lo_open=True))
+    detail_m: float = field(default=0.01, metadata=spec(
+        "grid spacing of the fine tile around the target, metres", lo=0.001, hi=1.0))
+    detail_extent_m: float = field(default=2.0, metadata=spec(
+        "half-width of the fine tile, metres", lo=0.01, hi=1000.0))
+    growth: float = field(default=1.02, metadata=spec(
+        "ratio of neighbouring cells outside the fine tile (spacing ≈ (growth-1)·distance)",
+        lo=1.0, hi=2.0, lo_open=True))
+    curvature: bool = field(default=True, metadata=spec(
+        "lower the terrain by the Moon's curvature, R - sqrt(R^2 - d^2), R = 1737.4 km"))
+    roughness: RoughnessConfig = field(default_factory=RoughnessConfig)
+    craters: CratersConfig = field(default_factory=CratersConfig)
+    rocks: RocksConfig = field(default_factory=RocksConfig)
+    hills_rms_slope_deg: float = field(default=8.0, metadata=spec(
+        "hilly: RMS slope of the hills over a 25 m baseline, degrees (LOLA highlands ~5-10)", lo=0.0, hi=40.0))
+    hills_wavelength_m: float = field(default=2048.0, metadata=spec(
+        "hilly: longest wavelength of the hills, metres", lo=8.0, hi=100000.0))
+    crater_diameter_m: float = field(default=20.0, metadata=spec(
+        "crater: rim-crest diameter, metres (depth 0.13 D, rim 0.036 D)", lo=0.0, hi=1000.0, lo_open=True))
+    crater_distance_m: float = field(default=12.0, metadata=spec(
+        "crater: distance of its centre from the target, metres (D/2 = on the rim crest)", lo=0.0, hi=10000.0))
+    crater_azimuth_deg: float = field(default=90.0, metadata=spec(
+        "crater: direction of its centre from the target, clockwise from North, degrees", lo=-360.0, hi=360.0))
     slope_deg: float = field(default=15.0, metadata=spec(
         "slope: inclination of the plane, degrees", lo=0.0, hi=60.0))
     slope_azimuth_deg: float = field(default=90.0, metadata=spec(
         "slope: downhill direction, clockwise from North, degrees", lo=-360.0, hi=360.0))
-    crater_diameter_m: float = field(default=8.0, metadata=spec(
-        "crater: rim-crest diameter, metres (depth 0.13 D, rim 0.036 D)", lo=0.0, hi=1000.0, lo_open=True))
-    crater_distance_m: float = field(default=4.0, metadata=spec(
-        "crater: distance of its centre from the target, metres (D/2 = on the rim crest)", lo=0.0, hi=10000.0))
-    crater_azimuth_deg: float = field(default=90.0, metadata=spec(
-        "crater: direction of its centre from the target, clockwise from North, degrees", lo=-360.0, hi=360.0))
-    detail_m: float = field(default=0.01, metadata=spec(
-        "crater: grid spacing within 2 m of the target, metres (coarser further out)", lo=0.001, hi=1.0))
+
+    def __post_init__(self) -> None:
+        if self.detail_extent_m > self.extent_m:
+            raise ValueError(f"detail_extent_m: must be <= extent_m = {self.extent_m}, got {self.detail_extent_m}")
+        if self.craters.min_diameter_m >= self.craters.max_diameter_m:
+            raise ValueError("craters.min_diameter_m: must be below craters.max_diameter_m")
+        if self.rocks.min_diameter_m >= self.rocks.max_diameter_m:
+            raise ValueError("rocks.min_diameter_m: must be below rocks.max_diameter_m")
+        if self.roughness.min_wavelength_m >= self.roughness.max_wavelength_m:
+            raise ValueError("roughness.min_wavelength_m: must be below roughness.max_wavelength_m")
 
 
 @dataclass(frozen=True)

@@ -14,8 +14,10 @@ def format_summary(config: Config, results: list[ViewResult], sheet: Path | None
     """Scene, per-view stage timings in milliseconds and visible pixels, and where the files are."""
     c = config
     lines = [
-        f"scene   {c.terrain.kind} terrain, {c.bags.count} × {c.bags.mesh}, "
+        f"scene   {c.terrain.location} terrain, {c.bags.count} × {c.bags.mesh}, "
         f"Sun az {c.sun.azimuth_deg:g}° el {c.sun.elevation_deg:g}°",
+        "terrain " + (f"built in {results[0].timings['terrain']:.2f} s" if results and results[0].timings["terrain"] > 0
+                      else "from this process's cache"),
         f"camera  {c.camera.width}×{c.camera.height}, hfov {c.camera.hfov_deg:g}°, orbit r "
         f"{c.orbit.radius_m:g} m h {c.orbit.height_m:g} m, {c.render.spp} spp",
         "bags    " + (f"{c.bags.layout}, settled under {c.bags.settle.gravity_m_s2:g} m/s² in "

@@ -27,12 +27,15 @@ class RenderedView:
 
 
 def build_scene(spec: SceneSpec) -> _core.Scene:
-    """Builds the Embree scene once: one prototype BVH per mesh (bags of one obj_id share it),
-    the terrain as background, each bag as a labelled instance; then commits."""
+    """Builds the Embree scene once: one prototype BVH per mesh (bags of one obj_id share it,
+    rocks of one prototype too), the terrain and rocks as background, each bag as a labelled
+    instance; then commits."""
     scene = _core.Scene()
     mesh_index = {key: scene.add_mesh(v, t) for key, (v, t) in spec.meshes.items()}
     albedo = (spec.terrain_albedo,) * 3
     scene.add_background(mesh_index[TERRAIN_MESH], np.eye(4), albedo)
+    for key, pose in spec.rocks:  # rocks are regolith-coloured background (label 0)
+        scene.add_background(mesh_index[key], pose, albedo)
     for bag in spec.bags:
         scene.add_instance(mesh_index[bag.obj_id], bag.world_from_model, bag.instance_id, bag.albedo)
     scene.commit()

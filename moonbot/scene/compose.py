@@ -3,6 +3,7 @@ material. Pure numpy; the render stage turns it into an Embree scene."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -10,7 +11,8 @@ import numpy as np
 from moonbot.config.schema import Config
 from moonbot.scene.bag_mesh import OBJ_IDS, variant_mesh
 from moonbot.scene.placement import Placement, arrange_bags
-from moonbot.scene.terrain import make_ground
+from moonbot.terrain import get_terrain
+from moonbot.terrain.rocks import RockField, rock_poses
 
 
 @dataclass(frozen=True)
@@ -28,16 +30,37 @@ class BagInstance:
 class SceneSpec:
     """Everything the renderer needs: `meshes` maps obj_id (and 0 for the terrain) to
     (vertices (N, 3) float32 metres, triangles (M, 3) int32); `target` is the orbit centre in
-    the world frame (metres); `placement` records how the bags were placed and settled."""
+    the world frame (metres); `placement` records how the bags were placed and settled;
+    `rocks` are (mesh key, world-from-model (4, 4) float64) background instances;
+    `terrain_seconds` is what building the terrain cost this scene (0 when this process had it
+    cached)."""
 
     meshes: dict[int, tuple[np.ndarray, np.ndarray]]
     terrain_albedo: float
     bags: tuple[BagInstance, ...]
     target: np.ndarray
     placement: Placement
+    rocks: tuple[tuple[int, np.ndarray], ...]
+    terrain_seconds: float
 
 
 TERRAIN_MESH = 0  # key of the terrain in SceneSpec.meshes; bags use their obj_id (≥ 1)
+ROCK_MESH_BASE = 1000  # rock prototype p is SceneSpec.meshes[ROCK_MESH_BASE + p]
+ROCK_PLAN_RADIUS = math.sqrt(0.5)  # a rock's plan radius over its diameter (unit longest extent)
+
+
+def clear_site(rocks: RockField, bag_poses: list[np.ndarray], bag_radius: float, orbit_radius: float,
+               clearance: float) -> RockField:
+    """The rocks that neither touch a bag (plan discs of `bag_radius` around each bag centre,
+    plus `clearance`, metres) nor stand on the camera's orbit circle around the target: the
+    work site is cleared, and no camera sits inside a rock."""
+    reach = ROCK_PLAN_RADIUS * rocks.diameters + clearance
+    keep = np.ones(len(rocks), dtype=bool)
+    for pose in bag_poses:
+        keep &= np.hypot(*(rocks.centres - pose[:2, 3]).T) > bag_radius + reach
+    from_target = np.hypot(*(rocks.centres - bag_poses[0][:2, 3]).T)
+    keep &= np.abs(from_target - orbit_radius) > reach
+    return rocks.subset(keep)
 
 
 def compose_scene(config: Config) -> SceneSpec:
@@ -46,15 +69,25 @@ def compose_scene(config: Config) -> SceneSpec:
     instance ids 1..count, bag 1 the orbit target."""
     obj_id = OBJ_IDS[config.bags.mesh]
     vertices, triangles = variant_mesh(config.meshes, obj_id)
-    ground = make_ground(config.terrain)
-    ground_mesh = ground.mesh()
-    placement = arrange_bags(vertices, triangles, config.bags, ground, ground_mesh, seed=config.seed)
+    terrain, cached = get_terrain(config.terrain)
+    placement = arrange_bags(vertices, triangles, config.bags, terrain.ground, seed=config.seed)
     instances = tuple(BagInstance(obj_id=obj_id, instance_id=i + 1, world_from_model=pose,
                                   albedo=config.bags.albedo) for i, pose in enumerate(placement.poses))
+    meshes = {TERRAIN_MESH: terrain.mesh, obj_id: (vertices, triangles)}
+    rocks: tuple[tuple[int, np.ndarray], ...] = ()
+    if terrain.rocks is not None and len(terrain.rocks):
+        bag_radius = float(np.hypot(vertices[:, 0], vertices[:, 1]).max())
+        field = clear_site(terrain.rocks, placement.poses, bag_radius, config.orbit.radius_m,
+                           config.terrain.rocks.clearance_m)
+        poses = rock_poses(field, terrain.rock_meshes, terrain.ground.height)
+        rocks = tuple((ROCK_MESH_BASE + int(p), pose) for p, pose in zip(field.prototype, poses))
+        meshes.update({ROCK_MESH_BASE + p: m for p, m in enumerate(terrain.rock_meshes)})
     return SceneSpec(
-        meshes={TERRAIN_MESH: ground_mesh, obj_id: (vertices, triangles)},
+        meshes=meshes,
         terrain_albedo=config.terrain.albedo,
         bags=instances,
         target=placement.poses[0][:3, 3].copy(),
         placement=placement,
+        rocks=rocks,
+        terrain_seconds=0.0 if cached else terrain.build_seconds,
     )

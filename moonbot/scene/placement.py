@@ -28,7 +28,7 @@ from scipy.spatial import ConvexHull
 
 from moonbot.config.schema import BagsConfig
 from moonbot.scene.collision import solids_intersect, surfaces_cross, transform, vertical_extent
-from moonbot.scene.terrain import FlatGround, Ground
+from moonbot.terrain.ground import FlatGround, Ground
 
 LAYOUTS = ("single", "scattered", "stacked")
 
@@ -214,9 +214,9 @@ class Placement:
 
 
 def arrange_bags(vertices: np.ndarray, triangles: np.ndarray, bags: BagsConfig, ground: Ground,
-                 ground_mesh: tuple[np.ndarray, np.ndarray], seed: int) -> Placement:
+                 seed: int) -> Placement:
     """Places the configured bags on `ground`, settles them when `bags.settle.enabled`, and
-    checks the result against `ground_mesh` (the mesh the renderer draws)."""
+    checks the result against the ground's mesh (the triangles the renderer draws)."""
     settle_cfg = bags.settle
     clearance = settle_cfg.margin_m + (settle_cfg.drop_m if settle_cfg.enabled else 0.0)
     poses = place_bags(vertices, triangles, bags.count, bags.layout, seed=seed, ground=ground, yaw_deg=bags.yaw_deg,
@@ -228,21 +228,18 @@ def arrange_bags(vertices: np.ndarray, triangles: np.ndarray, bags: BagsConfig, 
         result = settle(vertices, poses, ground, settle_cfg)
         placement = Placement(poses=result.poses, settle_simulated_s=result.simulated_s,
                               settle_steps=result.steps, settle_seconds=result.seconds)
-    check_placement(vertices, triangles, placement.poses, ground, ground_mesh)
+    check_placement(vertices, triangles, placement.poses, ground)
     return placement
 
 
 def check_placement(vertices: np.ndarray, triangles: np.ndarray, poses: list[np.ndarray],
-                    ground: Ground, ground_mesh: tuple[np.ndarray, np.ndarray]) -> None:
-    """Raises ValueError when a bag cuts into the ground mesh, lies below the ground, or shares
-    volume with another bag (exact triangle tests, moonbot.scene.collision)."""
+                    ground: Ground) -> None:
+    """Raises ValueError when a bag cuts into the ground's mesh, lies below the ground, or
+    shares volume with another bag (exact triangle tests, moonbot.scene.collision)."""
     world = [transform(vertices, p) for p in poses]
     lo = np.min([w.min(axis=0) for w in world], axis=0)
     hi = np.max([w.max(axis=0) for w in world], axis=0)
-    gv, gt = np.asarray(ground_mesh[0], dtype=np.float64), np.asarray(ground_mesh[1])
-    corners = gv[gt]
-    near = np.all(corners.max(axis=1)[:, :2] >= lo[:2], axis=1) & np.all(corners.min(axis=1)[:, :2] <= hi[:2], axis=1)
-    gt = gt[near]
+    gv, gt = ground.patch(lo[:2], hi[:2])
     for k, (pose, w) in enumerate(zip(poses, world)):
         if pose[2, 3] < ground.height(pose[0, 3], pose[1, 3]) or surfaces_cross(w, triangles, gv, gt):
             raise ValueError(f"bags: bag {k + 1} cuts into the ground")

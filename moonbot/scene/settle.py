@@ -23,7 +23,7 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 from moonbot.config.schema import SettleConfig
-from moonbot.scene.terrain import Ground
+from moonbot.terrain.ground import Ground
 
 _CHECK_EVERY = 10  # steps between rest checks
 

@@ -1,22 +1,19 @@
-"""Terrain: the ground the bags rest on and the renderer draws.
+"""Grounds: height fields the bags rest on and the renderer draws.
 
 A `Ground` is a height field z = h(x, y) over the world's East-North-Up frame (metres), with
 its gradient and a triangle mesh of it. Placement and physics settling read the height and the
-gradient; the renderer reads the mesh. Three analytic grounds stand in until the terrain stage
-(procedural locations, DEM import, horizon rings) lands:
+gradient; the renderer reads the mesh.
 
-- `FlatGround`: z = 0.
-- `SlopedGround`: a plane falling at `slope_deg` toward `downhill_azimuth_deg` (clockwise from
-  North), through the origin.
-- `CraterGround`: a fresh simple crater (lunar-physics.md §4.1): a parabolic bowl of depth
+- `GridGround`: heights sampled on a (graded) grid, the ground *being* its triangulation; the
+  procedural locations (`location.py`) are GridGrounds.
+- `FlatGround`: z = 0; `SlopedGround`: a plane falling at `slope_deg` toward
+  `downhill_azimuth_deg` (clockwise from North), through the origin. Exact analytic test
+  grounds, meshed with two triangles (the renderer resolves hits in double precision).
+- `CraterGround`: a bare fresh simple crater (lunar-physics.md §4.1): a parabolic bowl of depth
   0.13·D below a rim of height 0.036·D (Pike 1977; Stopar et al. 2017 for D < 400 m), an ejecta
   blanket falling off as (r/R)^-3 outside (McGetchin et al. 1973). Its rim crest is a sharp
-  ridge (the profile is continuous there, its slope is not), which is the hard case for a bag
-  lying across it.
-
-The planes are meshed exactly with two triangles; the crater with a graded grid that is fine
-around the origin (the bags) and coarsens geometrically toward the patch edge.
-"""
+  ridge (the profile is continuous there, its slope is not): the hard case for placement and
+  physics tests."""
 
 from __future__ import annotations
 
@@ -26,10 +23,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from moonbot.config.schema import TerrainConfig
-from moonbot.scene.craters import DEPTH_RATIO as CRATER_DEPTH_RATIO
-from moonbot.scene.craters import EJECTA_EXPONENT
-from moonbot.scene.craters import RIM_RATIO as CRATER_RIM_RATIO
+from moonbot.terrain.craters import DEPTH_RATIO as CRATER_DEPTH_RATIO
+from moonbot.terrain.craters import EJECTA_EXPONENT
+from moonbot.terrain.craters import RIM_RATIO as CRATER_RIM_RATIO
 
 
 class Ground(ABC):
@@ -55,6 +51,15 @@ class Ground(ABC):
     def mesh(self) -> tuple[np.ndarray, np.ndarray]:
         """The ground as triangles: (vertices (N, 3) float32 metres, triangles (M, 3) int32),
         a square of side `size_m` centred on the origin, counter-clockwise seen from above."""
+
+    def patch(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The triangles of `mesh()` whose plan bounds meet the rectangle lo..hi ((2,) metres):
+        (vertices (N, 3) float64, triangles (M, 3) int32), for exact contact checks."""
+        v, t = self.mesh()
+        corners = v[t]
+        near = (np.all(corners.max(axis=1)[:, :2] >= lo, axis=1)
+                & np.all(corners.min(axis=1)[:, :2] <= hi, axis=1))
+        return v.astype(np.float64), t[near]
 
 
 def _plane_mesh(size_m: float, a: float, b: float) -> tuple[np.ndarray, np.ndarray]:
@@ -164,6 +169,69 @@ class CraterGround(Ground):
         return vertices.astype(np.float32), grid_triangles(len(axis), len(axis))
 
 
+class GridGround(Ground):
+    """A height field sampled on a (graded) grid and meshed by `grid_triangles`: heights `z`
+    (ny, nx) float64 metres at the nodes `x_axis` (nx,) × `y_axis` (ny,), both increasing.
+    Between nodes the ground *is* the rendered triangulation: `height` and `gradient`
+    interpolate linearly on the same two triangles per cell, so placement, physics and the
+    renderer agree to float32 rounding. Outside the grid the edge cells extend flat-wise."""
+
+    def __init__(self, x_axis: np.ndarray, y_axis: np.ndarray, z: np.ndarray) -> None:
+        self.x_axis = np.asarray(x_axis, dtype=np.float64)
+        self.y_axis = np.asarray(y_axis, dtype=np.float64)
+        self.z = np.asarray(z, dtype=np.float64)
+        if self.z.shape != (len(self.y_axis), len(self.x_axis)):
+            raise ValueError(f"z: shape {self.z.shape} does not match the axes "
+                             f"({len(self.y_axis)}, {len(self.x_axis)})")
+        if min(self.z.shape) < 2 or np.any(np.diff(self.x_axis) <= 0) or np.any(np.diff(self.y_axis) <= 0):
+            raise ValueError("x_axis, y_axis: need at least 2 strictly increasing nodes each")
+        if not np.all(np.isfinite(self.z)):
+            raise ValueError("z: heights must be finite")
+        self.size_m = float(min(self.x_axis[-1] - self.x_axis[0], self.y_axis[-1] - self.y_axis[0]))
+
+    def _cell(self, x, y):
+        """Cell indices (i, j), fractions (fx, fy) in [0, 1] and cell sizes (dx, dy)."""
+        x, y = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
+        i = np.clip(np.searchsorted(self.x_axis, x, side="right") - 1, 0, len(self.x_axis) - 2)
+        j = np.clip(np.searchsorted(self.y_axis, y, side="right") - 1, 0, len(self.y_axis) - 2)
+        dx = self.x_axis[i + 1] - self.x_axis[i]
+        dy = self.y_axis[j + 1] - self.y_axis[j]
+        return i, j, (x - self.x_axis[i]) / dx, (y - self.y_axis[j]) / dy, dx, dy
+
+    def _corners(self, i, j):
+        z = self.z
+        return z[j, i], z[j, i + 1], z[j + 1, i + 1], z[j + 1, i]  # a, b, c, d as grid_triangles
+
+    def height(self, x, y):
+        i, j, fx, fy, _, _ = self._cell(x, y)
+        a, b, c, d = self._corners(i, j)
+        lower = fx >= fy  # triangle (a, b, c) below the a–c diagonal, else (a, c, d)
+        return np.where(lower, a + fx * (b - a) + fy * (c - b), a + fy * (d - a) + fx * (c - d))
+
+    def gradient(self, x, y):
+        i, j, fx, fy, dx, dy = self._cell(x, y)
+        a, b, c, d = self._corners(i, j)
+        lower = fx >= fy
+        return (np.where(lower, b - a, c - d) / dx, np.where(lower, c - b, d - a) / dy)
+
+    def mesh(self):
+        X, Y = np.meshgrid(self.x_axis, self.y_axis, indexing="xy")
+        vertices = np.column_stack([X.ravel(), Y.ravel(), self.z.ravel()]).astype(np.float32)
+        return vertices, grid_triangles(len(self.x_axis), len(self.y_axis))
+
+    def patch(self, lo, hi):
+        i0 = max(int(np.searchsorted(self.x_axis, lo[0], side="right")) - 1, 0)
+        j0 = max(int(np.searchsorted(self.y_axis, lo[1], side="right")) - 1, 0)
+        i1 = min(int(np.searchsorted(self.x_axis, hi[0], side="left")), len(self.x_axis) - 1)
+        j1 = min(int(np.searchsorted(self.y_axis, hi[1], side="left")), len(self.y_axis) - 1)
+        i1, j1 = max(i1, i0 + 1), max(j1, j0 + 1)
+        xs, ys = self.x_axis[i0:i1 + 1], self.y_axis[j0:j1 + 1]
+        X, Y = np.meshgrid(xs, ys, indexing="xy")
+        # Through float32, as the renderer holds them, so contact checks see the drawn surface.
+        v = np.column_stack([X.ravel(), Y.ravel(), self.z[j0:j1 + 1, i0:i1 + 1].ravel()])
+        return v.astype(np.float32).astype(np.float64), grid_triangles(len(xs), len(ys))
+
+
 def graded_axis(half_m: float, fine_half_m: float, step_m: float, growth: float) -> np.ndarray:
     """Sorted grid coordinates over [-half_m, half_m] (float64, metres): uniform `step_m` within
     ±fine_half_m, then steps growing by `growth` per cell to the ends (both ends included)."""
@@ -189,20 +257,6 @@ def grid_triangles(nx: int, ny: int) -> np.ndarray:
     a, b, c, d = i, i + 1, i + nx + 1, i + nx
     tris = np.stack([np.stack([a, b, c], -1), np.stack([a, c, d], -1)], axis=2)
     return tris.reshape(-1, 3).astype(np.int32)
-
-
-def make_ground(config: TerrainConfig) -> Ground:
-    """The ground a terrain config describes."""
-    if config.kind == "flat":
-        return FlatGround(size_m=config.size_m)
-    if config.kind == "slope":
-        return SlopedGround(config.slope_deg, config.slope_azimuth_deg, size_m=config.size_m)
-    if config.kind == "crater":
-        return CraterGround(diameter_m=config.crater_diameter_m,
-                            centre_distance_m=config.crater_distance_m,
-                            azimuth_deg=config.crater_azimuth_deg, size_m=config.size_m,
-                            detail_m=config.detail_m)
-    raise ValueError(f"terrain.kind: unknown kind {config.kind!r}")
 
 
 def flat_patch(size_m: float) -> tuple[np.ndarray, np.ndarray]:

@@ -12,6 +12,7 @@ is cut off at 2.5 R so that a crater changes nothing beyond it.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -53,7 +54,7 @@ class CraterField:
     degradation: np.ndarray
 
     @staticmethod
-    def sample(seed: int, half_size_m: float, density: float = 0.05, d_min: float = 0.5,
+    def sample(seed: int | list[int], half_size_m: float, density: float = 0.05, d_min: float = 0.5,
                d_max: float = 50.0) -> "CraterField":
         """A Poisson sample over the square ±half_size_m with N(≥D) = density·D^-2 per m²,
         D in [d_min, d_max] (inverse-CDF sampling of the truncated power law)."""
@@ -61,7 +62,7 @@ class CraterField:
             raise ValueError(f"d_min: must be in (0, d_max), got {d_min}")
         if not density >= 0:
             raise ValueError(f"density: must be >= 0, got {density}")
-        rng = np.random.default_rng([seed, 0xC7A7E5])
+        rng = np.random.default_rng([*np.atleast_1d(seed).tolist(), 0xC7A7E5])
         area = (2.0 * half_size_m) ** 2
         a, b = d_min ** -2.0, d_max ** -2.0
         count = rng.poisson(density * area * (a - b))
@@ -70,6 +71,28 @@ class CraterField:
         centres = rng.uniform(-half_size_m, half_size_m, size=(count, 2))
         degradation = rng.uniform(0.3, 1.0, size=count)
         return CraterField(centres, diameters, degradation)
+
+    @staticmethod
+    def sample_graded(seed: int, half_size: Callable[[float], float], density: float = 0.05,
+                      d_min: float = 0.5, d_max: float = 200.0) -> "CraterField":
+        """Craters for a mesh that coarsens away from the origin: diameters in octave bands
+        [d, 2d) from d_min up to d_max, each band a Poisson sample (`sample`) over the square
+        ±half_size(d) in which the mesh can still draw a crater of the band's smallest size.
+        Within its square each band follows N(≥D) = density·D^-2 exactly; beyond it, craters too
+        small for the mesh are left out rather than aliased."""
+        parts = []
+        lo, band = d_min, 0
+        while lo < d_max:
+            hi = min(2.0 * lo, d_max)
+            half = half_size(lo)
+            if half > 0.0:
+                parts.append(CraterField.sample([seed, band], half, density, lo, hi))
+            lo, band = hi, band + 1
+        if not parts:
+            return CraterField(np.zeros((0, 2)), np.zeros(0), np.zeros(0))
+        return CraterField(np.concatenate([p.centres for p in parts]),
+                           np.concatenate([p.diameters for p in parts]),
+                           np.concatenate([p.degradation for p in parts]))
 
     def height(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Sum of all craters' profiles at world (x, y) (metres, float64, shaped like x)."""

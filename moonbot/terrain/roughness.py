@@ -6,7 +6,8 @@ octave a factor 2 finer than the last and rotated by its own angle so no lattice
 An octave of wavelength λ has an amplitude ∝ λ^H, which gives a structure function
 ⟨(Δz)²⟩^½ ∝ baseline^H: the Hurst exponent H. Following lunar-physics.md §4.4, H is 0.9 above
 1 m (LOLA, Rosenburg et al. 2011) and 0.6 below (Helfenstein & Shepard 1999), and the amplitude
-is set so that the RMS slope over a 1 cm baseline is `rms_slope_deg` (~20° for lunar regolith).
+is set so that the RMS slope over a `slope_baseline_m` baseline (1 cm by default) is
+`rms_slope_deg` (~20° at 1 cm for lunar regolith).
 
 Band limiting: where a mesh samples the field with cells of size c, octaves shorter than 2c
 cannot be represented and would alias; `height(..., cell=c)` fades them out between 4c and 2c.
@@ -57,7 +58,8 @@ def _value_noise(seed: int, octave: int, u: np.ndarray, v: np.ndarray) -> np.nda
 @dataclass(frozen=True)
 class Roughness:
     """Band-limited fBm heights. `max_wavelength_m` and `min_wavelength_m` bound the octaves;
-    `break_m` is where the Hurst exponent changes from `hurst_fine` to `hurst_coarse`."""
+    `break_m` is where the Hurst exponent changes from `hurst_fine` to `hurst_coarse`; the
+    amplitude gives an RMS slope of `rms_slope_deg` over `slope_baseline_m`."""
 
     seed: int
     rms_slope_deg: float = 20.0
@@ -66,10 +68,13 @@ class Roughness:
     break_m: float = 1.0
     min_wavelength_m: float = 0.02
     max_wavelength_m: float = 512.0
+    slope_baseline_m: float = 0.01
 
     def __post_init__(self) -> None:
         if not 0 < self.min_wavelength_m < self.max_wavelength_m:
             raise ValueError(f"min_wavelength_m: must be in (0, max_wavelength_m), got {self.min_wavelength_m}")
+        if not self.slope_baseline_m > 0:
+            raise ValueError(f"slope_baseline_m: must be > 0, got {self.slope_baseline_m}")
         if not 0 <= self.rms_slope_deg < 90:
             raise ValueError(f"rms_slope_deg: must be in [0, 90), got {self.rms_slope_deg}")
         for name in ("hurst_fine", "hurst_coarse"):
@@ -90,27 +95,34 @@ class Roughness:
     def _raw(self, x: np.ndarray, y: np.ndarray, cell: np.ndarray | float | None) -> np.ndarray:
         z = np.zeros(np.broadcast(x, y).shape)
         for k, (lam, amp) in enumerate(zip(self.wavelengths, self._shape(self.wavelengths))):
-            weight = 1.0 if cell is None else np.clip(lam / (2.0 * np.asarray(cell)) - 1.0, 0.0, 1.0)
-            if np.all(weight == 0.0):
-                continue  # every point's mesh is too coarse for this octave and the finer ones
+            if cell is None:
+                at, weight = slice(None), 1.0
+            else:
+                # Only the points whose mesh can hold this octave: on a graded mesh the fine
+                # octaves touch a small near field, which keeps a horizon-wide build cheap.
+                weight = np.clip(lam / (2.0 * cell) - 1.0, 0.0, 1.0)
+                at = np.flatnonzero(weight > 0.0)
+                if len(at) == 0:
+                    continue
+                weight = weight[at]
             angle = 2.399963229728653 * k  # the golden angle: octave lattices never line up
             c, s = math.cos(angle), math.sin(angle)
-            u = (c * x + s * y) / lam + 0.5 * k
-            v = (-s * x + c * y) / lam + 0.25 * k
-            z = z + weight * amp * _value_noise(self.seed, k, u, v)
+            u = (c * x[at] + s * y[at]) / lam + 0.5 * k
+            v = (-s * x[at] + c * y[at]) / lam + 0.25 * k
+            z[at] += weight * amp * _value_noise(self.seed, k, u, v)
         return z
 
     @cached_property
     def scale(self) -> float:
-        """Metres per unit of the raw octave sum, so that the RMS slope over a 1 cm baseline is
-        `rms_slope_deg`; measured once on 20 000 fixed point pairs (the same for every seed's
+        """Metres per unit of the raw octave sum, so that the RMS slope over `slope_baseline_m`
+        is `rms_slope_deg`; measured once on 20 000 fixed point pairs (the same for every seed's
         statistics, so deterministic)."""
         if self.rms_slope_deg == 0:
             return 0.0
         rng = np.random.default_rng(20260101)
         p = rng.uniform(-self.max_wavelength_m, self.max_wavelength_m, size=(20000, 2))
         phi = rng.uniform(0.0, 2 * math.pi, size=20000)
-        base = 0.01
+        base = self.slope_baseline_m
         q = p + base * np.column_stack([np.cos(phi), np.sin(phi)])
         dz = self._raw(q[:, 0], q[:, 1], None) - self._raw(p[:, 0], p[:, 1], None)
         return math.tan(math.radians(self.rms_slope_deg)) * base / float(np.sqrt(np.mean(dz * dz)))

@@ -1,0 +1,89 @@
+"""The terrain a config asks for, built once per process and reused.
+
+Building a location samples millions of nodes (seconds); every task of a sweep on one worker
+uses the same terrain config, so the built terrain is kept in a small per-process cache keyed
+by the SHA-256 of the terrain config (every field, defaults filled in). A second task on the
+same worker process gets the same object back without building (bench/bench_terrain.py
+measures both).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import time
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import numpy as np
+
+from moonbot.config.schema import TerrainConfig
+from moonbot.terrain.ground import FlatGround, Ground, SlopedGround
+from moonbot.terrain.location import LOCATIONS, build_location, main_crater
+from moonbot.terrain.rocks import RockField, rock_prototypes, sample_rocks
+
+CACHE_SIZE = 2  # terrains kept per process: a location's mesh and ground take ~100 MB
+
+
+@dataclass(frozen=True)
+class Terrain:
+    """A built terrain: the `ground` (heights for placement and physics), its `mesh`
+    ((N, 3) float32 metres, (M, 3) int32) for the renderer, its `rocks` (positions and sizes;
+    scenes drop those in the way of bags or camera) with the `rock_meshes` they instance, the
+    config `key` it was built from and the wall-clock `build_seconds` it took."""
+
+    ground: Ground
+    mesh: tuple[np.ndarray, np.ndarray]
+    rocks: RockField | None
+    rock_meshes: list[tuple[np.ndarray, np.ndarray]]
+    key: str
+    build_seconds: float
+
+
+_cache: OrderedDict[str, Terrain] = OrderedDict()
+
+
+def terrain_key(config: TerrainConfig) -> str:
+    """SHA-256 of the canonical JSON of a terrain config."""
+    canonical = json.dumps(dataclasses.asdict(config), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(canonical.encode()).hexdigest()
+
+
+def make_ground(config: TerrainConfig) -> Ground:
+    """The ground a terrain config describes (built, not cached)."""
+    if config.location == "plane":
+        return FlatGround(size_m=2.0 * config.extent_m)
+    if config.location == "slope":
+        return SlopedGround(config.slope_deg, config.slope_azimuth_deg, size_m=2.0 * config.extent_m)
+    if config.location in LOCATIONS:
+        return build_location(config)
+    raise ValueError(f"terrain.location: unknown location {config.location!r}")
+
+
+def get_terrain(config: TerrainConfig) -> tuple[Terrain, bool]:
+    """(the terrain of `config`, whether it came from this process's cache)."""
+    key = terrain_key(config)
+    if key in _cache:
+        _cache.move_to_end(key)
+        return _cache[key], True
+    start = time.perf_counter()
+    ground = make_ground(config)
+    mesh = ground.mesh()
+    rocks, rock_meshes = None, []
+    if config.location in LOCATIONS:
+        rocks = sample_rocks(config.seed, config.rocks, main_crater(config))
+        rock_meshes = rock_prototypes(config.seed)
+    for array in (*mesh, *(a for m in rock_meshes for a in m)):
+        array.setflags(write=False)  # shared by every task of this process: nobody may edit it
+    terrain = Terrain(ground=ground, mesh=mesh, rocks=rocks, rock_meshes=rock_meshes, key=key,
+                      build_seconds=time.perf_counter() - start)
+    _cache[key] = terrain
+    while len(_cache) > CACHE_SIZE:
+        _cache.popitem(last=False)
+    return terrain, False
+
+
+def clear_cache() -> None:
+    """Forgets every cached terrain (benchmarks measure cold builds with it)."""
+    _cache.clear()

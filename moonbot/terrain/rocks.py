@@ -1,0 +1,203 @@
+"""Rocks: how many, how large, where, and their irregular shapes (instanced meshes).
+
+**Sizes.** Golombek & Rapp (1997; lunar-physics.md §4.3): the fraction of the ground covered by
+rocks of diameter ≥ D is F(D) = k·exp(−q·D), q = 1.79 + 0.152/k, D in metres. The number of
+rocks per m² with diameter in dD is n(D)dD = −F′(D)/(πD²/4)·dD = (4kq/π)·e^{−qD}/D²·dD, whose
+integral has the closed form G(D) = −e^{−qD}/D + q·E1(qD) (E1 the exponential integral), so the
+mean count per m² in [a, b) is (4kq/π)·(G(b) − G(a)). Sizes are drawn by inverting that
+cumulative count on a fine log-spaced table.
+
+**Where.** A background population with `k_background` everywhere, and at the crater location a
+second one clustered on the crater: its rock fraction is `k_crater` inside the rim and falls
+off outside as (r/R)^−3 like the ejecta that carried the rocks (thinning of a Poisson process,
+so counts per area stay exactly predictable). Both are Poisson processes.
+
+**Only what the camera can see.** Rocks are drawn in octave bands of diameter; a band lies
+within `PIXELS_REACH`·D of the target (a rock subtends at least ~2 pixels of a 640-pixel,
+60° image there) and within `reach_m`.
+
+**Shapes.** `PROTOTYPES` irregular rocks: an 80-face icosphere whose radius is jittered, given a
+few broad random lobes and cut by three random fracture planes, then flattened (rocks lie on
+their broad side) and scaled to unit longest extent. Each rock
+is an instance of one of them: random yaw, scale D, sunk into the ground by 10–70 % of its
+height (lunar-physics.md §4.3).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import exp1
+
+from moonbot.config.schema import RocksConfig
+
+PROTOTYPES = 8  # distinct rock meshes; every rock is an instance of one
+PIXELS_REACH = 300.0  # rocks of diameter D are drawn within PIXELS_REACH·D of the target
+_TABLE = 4096  # inverse-CDF table size for the sizes
+
+
+def golombek_q(k: float) -> float:
+    """The exponent q(k) = 1.79 + 0.152/k of Golombek & Rapp (1997), per metre."""
+    return 1.79 + 0.152 / k
+
+
+def rocks_per_m2(k: float, lo: float, hi: float) -> float:
+    """Mean number of rocks per m² with lo ≤ D < hi (metres) for rock fraction k."""
+    if k <= 0.0:
+        return 0.0
+    q = golombek_q(k)
+
+    def G(d: float) -> float:
+        return -math.exp(-q * d) / d + q * float(exp1(q * d))
+
+    return 4.0 * k * q / math.pi * (G(hi) - G(lo))
+
+
+def _sizes(rng: np.random.Generator, k: float, lo: float, hi: float, count: int) -> np.ndarray:
+    """`count` diameters (metres) from n(D) ∝ e^{−qD}/D² on [lo, hi), by inverse CDF."""
+    d = np.geomspace(lo, hi, _TABLE)
+    cumulative = np.array([rocks_per_m2(k, lo, x) for x in d[1:]])
+    cumulative = np.concatenate([[0.0], cumulative]) / cumulative[-1]
+    return np.interp(rng.random(count), cumulative, d)
+
+
+@dataclass(frozen=True)
+class RockField:
+    """Rocks on the ground: centres (K, 2) metres (world x, y), diameters (K,) metres, the
+    prototype each uses (K,) int, yaw (K,) radians and burial (K,) as a fraction of height."""
+
+    centres: np.ndarray
+    diameters: np.ndarray
+    prototype: np.ndarray
+    yaw: np.ndarray
+    burial: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.diameters)
+
+    def subset(self, keep: np.ndarray) -> "RockField":
+        return RockField(self.centres[keep], self.diameters[keep], self.prototype[keep], self.yaw[keep],
+                         self.burial[keep])
+
+
+def band_half_size(config: RocksConfig, diameter: float) -> float:
+    """Half-width (metres) of the square around the target in which rocks of `diameter` are
+    drawn."""
+    return min(config.reach_m, PIXELS_REACH * diameter)
+
+
+def sample_rocks(seed: int, config: RocksConfig, crater: tuple[np.ndarray, float] | None = None) -> RockField:
+    """The rocks of a location: the background population, plus, with `crater` = (centre (2,)
+    metres, rim diameter metres), the population clustered on it. Deterministic from `seed`."""
+    parts = []
+    lo, band = config.min_diameter_m, 0
+    while lo < config.max_diameter_m:
+        hi = min(2.0 * lo, config.max_diameter_m)
+        half = band_half_size(config, lo)
+        area = (2.0 * half) ** 2
+        rng = np.random.default_rng([seed, 0x0C5, band])
+        # Background: homogeneous Poisson.
+        n = rng.poisson(rocks_per_m2(config.k_background, lo, hi) * area) if half > 0 else 0
+        centres = rng.uniform(-half, half, size=(n, 2))
+        sizes = _sizes(rng, config.k_background, lo, hi, n) if n else np.zeros(0)
+        parts.append((centres, sizes))
+        if crater is not None and config.k_crater > 0 and half > 0:
+            # Clustered on the crater: a Poisson process of the rim's density, thinned by the
+            # ejecta falloff, so the intensity at distance r is λ_rim·min(1, (r/R)^-3).
+            centre, diameter = crater
+            n = rng.poisson(rocks_per_m2(config.k_crater, lo, hi) * area)
+            pts = rng.uniform(-half, half, size=(n, 2))
+            s = np.hypot(*(pts - centre).T) / (diameter / 2.0)
+            keep = rng.random(n) < crater_falloff(s)
+            sizes = _sizes(rng, config.k_crater, lo, hi, n)
+            parts.append((pts[keep], sizes[keep]))
+        lo, band = hi, band + 1
+    centres = np.concatenate([p[0] for p in parts]) if parts else np.zeros((0, 2))
+    diameters = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0)
+    rng = np.random.default_rng([seed, 0x0C5, 0xFFFF])
+    count = len(diameters)
+    return RockField(centres, diameters, rng.integers(0, PROTOTYPES, count), rng.uniform(0, 2 * math.pi, count),
+                     rng.uniform(0.1, 0.7, count))
+
+
+def crater_falloff(s: np.ndarray) -> np.ndarray:
+    """Relative rock fraction at s = r/R from a crater's centre: 1 inside the rim, (r/R)^-3
+    outside (the ejecta thickness law)."""
+    return np.minimum(1.0, np.maximum(s, 1e-12) ** -3.0)
+
+
+def _icosphere(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
+    """A unit icosphere: vertices (N, 3) float64 on the sphere, triangles (M, 3) int32,
+    counter-clockwise seen from outside."""
+    t = (1.0 + math.sqrt(5.0)) / 2.0
+    v = [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t), (0, -1, -t), (0, 1, -t),
+         (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]
+    f = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4), (11, 10, 2),
+         (10, 7, 6), (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8), (3, 8, 9), (4, 9, 5), (2, 4, 11),
+         (6, 2, 10), (8, 6, 7), (9, 8, 1)]
+    vertices = [np.array(p, dtype=np.float64) / np.linalg.norm(p) for p in v]
+    faces = f
+    for _ in range(subdivisions):
+        midpoint: dict[tuple[int, int], int] = {}
+
+        def mid(a: int, b: int) -> int:
+            key = (min(a, b), max(a, b))
+            if key not in midpoint:
+                m = vertices[a] + vertices[b]
+                vertices.append(m / np.linalg.norm(m))
+                midpoint[key] = len(vertices) - 1
+            return midpoint[key]
+
+        faces = [tri for a, b, c in faces
+                 for tri in ((a, mid(a, b), mid(c, a)), (b, mid(b, c), mid(a, b)), (c, mid(c, a), mid(b, c)),
+                             (mid(a, b), mid(b, c), mid(c, a)))]
+    return np.array(vertices), np.array(faces, dtype=np.int32)
+
+
+def rock_prototypes(seed: int = 0) -> list[tuple[np.ndarray, np.ndarray]]:
+    """`PROTOTYPES` irregular rock meshes: (vertices (N, 3) float32, triangles (M, 3) int32),
+    model frame with the longest horizontal extent 1 (so an instance's scale is its diameter D),
+    centred on the origin, z up. Star-shaped about the origin, so they are closed and never
+    self-intersect."""
+    sphere, triangles = _icosphere(1)  # 80 faces: coarse enough to read as angular facets
+    meshes = []
+    for p in range(PROTOTYPES):
+        rng = np.random.default_rng([seed, 0x0C5, 0x9000 + p])
+        radius = 1.0 + rng.uniform(-0.08, 0.08, len(sphere))  # chipped corners
+        for _ in range(6):  # broad lobes and dents
+            axis = rng.normal(size=3)
+            axis /= np.linalg.norm(axis)
+            radius += rng.uniform(-0.25, 0.25) * np.maximum(sphere @ axis, 0.0) ** rng.uniform(2.0, 6.0)
+        for _ in range(3):  # flat fracture faces: clip the radius against random planes
+            normal = rng.normal(size=3)
+            normal /= np.linalg.norm(normal)
+            along = sphere @ normal
+            cut = rng.uniform(0.55, 0.8)
+            radius = np.where(along > 0, np.minimum(radius, cut / np.maximum(along, 1e-9)), radius)
+        v = sphere * radius[:, None] * np.array([1.0, rng.uniform(0.6, 0.9), rng.uniform(0.35, 0.65)])
+        v -= (v.max(axis=0) + v.min(axis=0)) / 2.0
+        v /= max(np.ptp(v[:, 0]), np.ptp(v[:, 1]))
+        meshes.append((v.astype(np.float32), triangles))
+    return meshes
+
+
+def rock_poses(rocks: RockField, prototypes: list[tuple[np.ndarray, np.ndarray]], height) -> np.ndarray:
+    """World-from-model transforms (K, 4, 4) float64 of the rocks: yaw about z, scale by the
+    diameter, and sunk so that `burial` of the rock's height lies below the ground height
+    `height(x, y)` (a callable of metre arrays) under its centre."""
+    K = len(rocks)
+    poses = np.zeros((K, 4, 4))
+    c, s = np.cos(rocks.yaw), np.sin(rocks.yaw)
+    d = rocks.diameters
+    poses[:, 0, 0], poses[:, 0, 1], poses[:, 1, 0], poses[:, 1, 1] = c * d, -s * d, s * d, c * d
+    poses[:, 2, 2] = d
+    poses[:, 3, 3] = 1.0
+    bottom = np.array([float(prototypes[p][0][:, 2].min()) for p in range(len(prototypes))])
+    top = np.array([float(prototypes[p][0][:, 2].max()) for p in range(len(prototypes))])
+    lo, hi = bottom[rocks.prototype] * d, top[rocks.prototype] * d
+    ground = height(rocks.centres[:, 0], rocks.centres[:, 1]) if K else np.zeros(0)
+    poses[:, 0, 3], poses[:, 1, 3] = rocks.centres[:, 0], rocks.centres[:, 1]
+    poses[:, 2, 3] = ground - lo - rocks.burial * (hi - lo)
+    return poses
