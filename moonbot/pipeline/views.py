@@ -11,6 +11,7 @@ from moonbot import __version__
 from moonbot.config import Config, config_hash
 from moonbot.render import build_scene, exposure_scale, render_view
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
+from moonbot.scene.orbit import orbit_height
 from moonbot.writer import staged_directory, write_sample
 
 
@@ -56,7 +57,8 @@ def run_views(config: Config, views: list[int], out_root: Path) -> list[ViewResu
     results = []
     for v in views:
         azimuth = config.orbit.start_azimuth_deg + v * config.orbit.step_deg
-        pose = orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, azimuth)
+        height = orbit_height(spec.target, config.orbit.radius_m, config.orbit.height_m, azimuth, spec.ground)
+        pose = orbit_pose(spec.target, config.orbit.radius_m, height, azimuth)
         seed = view_seed(config.seed, v)
         rendered = render_view(scene, config, K, pose, seed)
         out_dir = out_root / f"view_{v:03d}"
@@ -67,6 +69,7 @@ def run_views(config: Config, views: list[int], out_root: Path) -> list[ViewResu
         meta = {
             "view": v,
             "camera_azimuth_deg": azimuth,
+            "camera_height_m": height,  # above the target; above orbit.height_m where the ground rises
             "sun": {"azimuth_deg": config.sun.azimuth_deg, "elevation_deg": config.sun.elevation_deg,
                     "irradiance_w_m2": config.sun.irradiance_w_m2},
             "render_seed": seed,

@@ -12,6 +12,7 @@ from moonbot.config.schema import Config
 from moonbot.scene.bag_mesh import OBJ_IDS, variant_mesh
 from moonbot.scene.placement import Placement, arrange_bags
 from moonbot.terrain import get_terrain
+from moonbot.terrain.ground import Ground
 from moonbot.terrain.rocks import RockField, rock_poses
 
 
@@ -31,7 +32,7 @@ class SceneSpec:
     """Everything the renderer needs: `meshes` maps obj_id (and 0 for the terrain) to
     (vertices (N, 3) float32 metres, triangles (M, 3) int32); `target` is the orbit centre in
     the world frame (metres); `placement` records how the bags were placed and settled;
-    `rocks` are (mesh key, world-from-model (4, 4) float64) background instances;
+    `ground` is the terrain's height field (the camera keeps clear of it); `rocks` are (mesh key, world-from-model (4, 4) float64) background instances;
     `terrain_seconds` is what building the terrain cost this scene (0 when this process had it
     cached)."""
 
@@ -40,6 +41,7 @@ class SceneSpec:
     bags: tuple[BagInstance, ...]
     target: np.ndarray
     placement: Placement
+    ground: Ground
     rocks: tuple[tuple[int, np.ndarray], ...]
     terrain_seconds: float
 
@@ -88,6 +90,7 @@ def compose_scene(config: Config) -> SceneSpec:
         bags=instances,
         target=placement.poses[0][:3, 3].copy(),
         placement=placement,
+        ground=terrain.ground,
         rocks=rocks,
         terrain_seconds=0.0 if cached else terrain.build_seconds,
     )

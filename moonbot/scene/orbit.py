@@ -53,6 +53,20 @@ def orbit_pose(target: np.ndarray, radius_m: float, height_m: float, azimuth_deg
     return CameraPose(R=R, t=-R @ eye)
 
 
+CAMERA_CLEARANCE_M = 0.05  # the lowest a camera may sit above the ground under it
+
+
+def orbit_height(target: np.ndarray, radius_m: float, height_m: float, azimuth_deg: float, ground) -> float:
+    """The orbit height (metres above the target) to use at `azimuth_deg`: `height_m`, raised
+    where the ground under the camera (`ground.height`, metres) would come within
+    CAMERA_CLEARANCE_M of it. On slopes and hills a fixed height above the target can put the
+    camera inside the hill uphill of it; a real camera rig cannot go there."""
+    a = math.radians(azimuth_deg)
+    x, y = target[0] + radius_m * math.sin(a), target[1] + radius_m * math.cos(a)
+    floor = float(ground.height(np.array([x]), np.array([y]))[0]) + CAMERA_CLEARANCE_M - float(target[2])
+    return max(height_m, floor)
+
+
 def pixel_directions(K: np.ndarray, pose: CameraPose, width: int, height: int) -> np.ndarray:
     """World-frame directions (H, W, 3) float64 of the rays through pixel centres (u + 0.5,
     v + 0.5), scaled so their component along the optical axis is 1: a point at z-depth z along
