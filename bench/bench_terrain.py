@@ -1,0 +1,136 @@
+"""What building a location costs, what the cache saves, and what the grid's growth buys
+(issue 4; principle 1).
+
+Measures, on this machine:
+  1. per location (flat, hilly, crater; default config): triangles, rocks, the cold build
+     (seconds; the Python heights and mesh), the same call again from the per-process cache,
+     the Embree BVH build, one view's render, and memory: the mesh arrays (MB) and the growth
+     of the process's resident set over building terrain + BVH (MB);
+  2. the grid's `growth` knob on the flat location, camera 0.2 m above the target so the horizon
+     is in view: triangles and build + BVH + render time against the error of the depth image
+     (median and 99th percentile of |Δz|/z over pixels, and the share of pixels off by > 1 %)
+     relative to a fine reference (growth 1.01, 7.4 M triangles).
+
+Writes bench/results/terrain-<machine>.json and .svg (time against depth error) and prints
+tables. Run: .venv/bin/python bench/bench_terrain.py
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import gc
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from moonbot.config import load_config
+from moonbot.render import build_scene, render_view
+from moonbot.scene import compose_scene, intrinsics, orbit_pose
+from moonbot.terrain import clear_cache, get_terrain
+
+from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
+from svgplot import time_error_plot
+
+RESULTS = Path(__file__).resolve().parent / "results"
+SCHEMA_VERSION = 1
+GROWTHS = [1.01, 1.02, 1.03, 1.05, 1.1]  # the first is the reference (7.4 M triangles)
+
+
+def rss_mb() -> float:
+    """This process's resident set size now, MB."""
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def view(config, spec, scene):
+    pose = orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, config.orbit.start_azimuth_deg)
+    start = time.perf_counter()
+    out = render_view(scene, config, intrinsics(config.camera), pose, seed=0)
+    return out, time.perf_counter() - start
+
+
+def location_row(location: str) -> dict:
+    clear_cache()
+    gc.collect()
+    config = load_config(None, {"terrain.location": location})
+    before = rss_mb()
+    start = time.perf_counter()
+    terrain, _ = get_terrain(config.terrain)
+    build_s = time.perf_counter() - start
+    start = time.perf_counter()
+    _, cached = get_terrain(config.terrain)
+    cached_s = time.perf_counter() - start
+    assert cached
+    spec = compose_scene(config)
+    start = time.perf_counter()
+    scene = build_scene(spec)
+    bvh_s = time.perf_counter() - start
+    grown = rss_mb() - before
+    _, render_s = view(config, spec, scene)
+    v, t = terrain.mesh
+    return {"location": location, "triangles": int(len(t)), "vertices": int(len(v)),
+            "rocks": len(spec.rocks), "build_s": build_s, "cached_s": cached_s, "bvh_s": bvh_s,
+            "render_view_s": render_s, "mesh_mb": (v.nbytes + t.nbytes) / 2**20, "rss_growth_mb": grown}
+
+
+def growth_rows() -> list[dict]:
+    rows, reference = [], None
+    for growth in GROWTHS:
+        clear_cache()
+        gc.collect()
+        config = load_config(None, {"terrain.location": "flat", "terrain.growth": growth, "orbit.height_m": 0.2})
+        start = time.perf_counter()
+        terrain, _ = get_terrain(config.terrain)
+        spec = compose_scene(config)
+        scene = build_scene(spec)
+        out, render_s = view(config, spec, scene)
+        total = time.perf_counter() - start
+        depth = out.depth.astype(np.float64)
+        row = {"growth": growth, "triangles": int(len(terrain.mesh[1])), "build_s": terrain.build_seconds,
+               "build_bvh_render_s": total, "render_view_s": render_s}
+        if reference is None:
+            reference = depth
+        else:
+            both = (depth > 0) & (reference > 0)
+            rel = np.abs(depth[both] - reference[both]) / reference[both]
+            row.update({"depth_rel_err_median": float(np.median(rel)), "depth_rel_err_p99": float(np.percentile(rel, 99)),
+                        "pixels_off_1pct": float(np.mean(rel > 0.01)),
+                        "hit_mismatch": float(np.mean((depth > 0) != (reference > 0)))})
+        rows.append(row)
+        del scene, spec, terrain
+    return rows
+
+
+def main() -> int:
+    result = {"schema_version": SCHEMA_VERSION, "machine": machine(), "locations": [], "growth": []}
+    print(f"{'location':<8} {'triangles':>10} {'rocks':>6} {'build':>7} {'cached':>8} {'bvh':>6} {'render':>7} "
+          f"{'mesh':>7} {'rss+':>7}")
+    for location in ("flat", "hilly", "crater"):
+        r = location_row(location)
+        result["locations"].append(r)
+        print(f"{r['location']:<8} {r['triangles']:>10} {r['rocks']:>6} {r['build_s']:>6.2f}s {1e6 * r['cached_s']:>6.1f}µs "
+              f"{r['bvh_s']:>5.2f}s {1e3 * r['render_view_s']:>5.0f}ms {r['mesh_mb']:>5.0f}MB {r['rss_growth_mb']:>5.0f}MB")
+    print(f"\n{'growth':>6} {'triangles':>10} {'build+bvh+render':>17} {'|Δz|/z med':>11} {'p99':>8} {'>1 %':>7}")
+    result["growth"] = growth_rows()
+    for r in result["growth"]:
+        err = (f"{r['depth_rel_err_median']:>11.2e} {r['depth_rel_err_p99']:>8.2e} {100 * r['pixels_off_1pct']:>6.2f}%"
+               if "depth_rel_err_median" in r else f"{'reference':>11}")
+        print(f"{r['growth']:>6} {r['triangles']:>10} {r['build_bvh_render_s']:>16.2f}s {err}")
+    RESULTS.mkdir(exist_ok=True)
+    out = RESULTS / f"terrain-{machine_slug(result['machine'])}.json"
+    out.write_text(json.dumps(result, indent=2) + "\n")
+    curve = [(r["build_bvh_render_s"], r["depth_rel_err_p99"], f"{r['growth']}") for r in result["growth"][1:]]
+    time_error_plot(out.with_suffix(".svg"), f"Terrain grid growth: time against depth error "
+                    f"({result['machine']['git_commit'][:7]})", {"flat, growth": curve},
+                    "build + BVH + one view, s", "p99 |Δz|/z vs growth 1.01")
+    print(f"\nwritten {out} and {out.with_suffix('.svg').name}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
