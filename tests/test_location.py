@@ -22,7 +22,7 @@ from moonbot.scene.orbit import CAMERA_CLEARANCE_M, orbit_height
 from moonbot.terrain import clear_cache, get_terrain, make_ground
 from moonbot.terrain.craters import crater_profile
 from moonbot.terrain.ground import GridGround, grid_triangles
-from moonbot.terrain.location import crater_reach, curvature_drop, location_axis, main_crater
+from moonbot.terrain.location import Location, crater_reach, curvature_drop, location_axis, main_crater
 from moonbot.terrain.rocks import (crater_falloff, golombek_q, rock_poses, rock_prototypes, rocks_per_m2,
                                    sample_rocks)
 
@@ -118,6 +118,10 @@ def test_craters_are_kept_only_where_the_grid_can_draw_them():
         half = crater_reach(axis, d)
         inside = (axis[:-1] >= 0) & (axis[1:] <= half)
         assert spacing[inside].max() <= d / 6 + 1e-12
+    # The same craters exist whatever the grid; a coarser grid draws fewer of them.
+    fine, coarse = (Location(small(growth=g), location_axis(small(growth=g))).craters for g in (1.05, 1.2))
+    assert 0 < len(coarse.diameters) < len(fine.diameters)
+    assert {tuple(c) for c in coarse.centres} <= {tuple(c) for c in fine.centres}
 
 
 def test_golombek_count_matches_its_integral():

@@ -72,6 +72,10 @@ class CraterField:
         degradation = rng.uniform(0.3, 1.0, size=count)
         return CraterField(centres, diameters, degradation)
 
+    def subset(self, keep: np.ndarray) -> "CraterField":
+        """The craters selected by a boolean mask or index array."""
+        return CraterField(self.centres[keep], self.diameters[keep], self.degradation[keep])
+
     @staticmethod
     def sample_graded(seed: int, half_size: Callable[[float], float], density: float = 0.05,
                       d_min: float = 0.5, d_max: float = 200.0) -> "CraterField":

@@ -17,8 +17,8 @@ horizon, with the Moon's curvature.
 pixel on ground seen at grazing angles. One grid has no seams and no T-junctions between
 rings, and every feature is sampled consistently: each roughness octave and each crater is
 kept only where the grid can hold it (octaves shorter than two cells fade out; craters are
-kept where their diameter spans at least `CRATER_CELLS` cells), so coarse far terrain never
-aliases. The price is long thin cells along the axes through the fine tile (1 cm × metres),
+kept where their diameter spans at least `CRATER_CELLS` cells, out of those sampled within
+`CRATER_REACH`·D), so coarse far terrain never aliases. The price is long thin cells along the axes through the fine tile (1 cm × metres),
 which are harmless to a height field and to the double-precision hit resolve.
 
 **Curvature.** With `curvature: true` every node is lowered by the sphere's drop
@@ -41,6 +41,7 @@ from moonbot.terrain.roughness import Roughness
 LOCATIONS = ("flat", "hilly", "crater")
 LUNAR_RADIUS_M = float(_core.LUNAR_RADIUS)
 CRATER_CELLS = 6  # a crater is kept where its diameter spans at least this many grid cells
+CRATER_REACH = 60.0  # craters of diameter D are sampled within 60·D (~10 pixels across there)
 HILLS_BASELINE_M = 25.0  # the baseline of hills_rms_slope_deg (LOLA's shortest slope maps)
 
 
@@ -55,6 +56,14 @@ def node_spacing(axis: np.ndarray) -> np.ndarray:
     """The coarser of the two cells beside each node of a sorted axis (metres, like axis)."""
     gaps = np.diff(axis)
     return np.maximum(np.concatenate([gaps[:1], gaps]), np.concatenate([gaps, gaps[-1:]]))
+
+
+def drawable(axis: np.ndarray, centres: np.ndarray, diameters: np.ndarray) -> np.ndarray:
+    """Which craters (centres (K, 2), diameters (K,) metres) span at least CRATER_CELLS cells
+    of the grid `axis` at their centre: a boolean mask (K,)."""
+    spacing = node_spacing(axis)
+    cell = np.maximum(np.interp(centres[:, 0], axis, spacing), np.interp(centres[:, 1], axis, spacing))
+    return diameters >= CRATER_CELLS * cell
 
 
 def crater_reach(axis: np.ndarray, diameter: float) -> float:
@@ -86,9 +95,13 @@ class Location:
                                    hurst_coarse=0.95, min_wavelength_m=4.0,
                                    max_wavelength_m=config.hills_wavelength_m, slope_baseline_m=HILLS_BASELINE_M)
         c = config.craters
-        self.craters = CraterField.sample_graded(
+        # Sampled over squares that do not depend on the grid (so changing the grid's knobs
+        # changes how the same craters are drawn, not which craters exist), then thinned to the
+        # ones the grid can draw where they lie.
+        craters = CraterField.sample_graded(
             seed, density=c.density, d_min=c.min_diameter_m, d_max=c.max_diameter_m,
-            half_size=lambda d: min(crater_reach(axis, d), config.extent_m))
+            half_size=lambda d: min(CRATER_REACH * d, config.extent_m))
+        self.craters = craters.subset(drawable(axis, craters.centres, craters.diameters))
         self.main_crater = main_crater(config)
 
     def surface(self, x: np.ndarray, y: np.ndarray, cell: np.ndarray) -> np.ndarray:
