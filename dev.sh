@@ -6,7 +6,8 @@
 #   ./dev.sh setup     install what is missing, build the core into .venv
 #   ./dev.sh demo      setup, then `moonbot render-one` on the embedded default config
 #   ./dev.sh test      setup, then C++ tests (ctest: release, then ASan+UBSan) and pytest
-#   ./dev.sh bench     setup, then the benchmarks in bench/ (results in bench/results/)
+#   ./dev.sh bench     setup, then the benchmarks in bench/ (results in bench/results/);
+#                      ./dev.sh bench terrain runs bench/bench_terrain.py alone
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -88,12 +89,14 @@ case "${1:-}" in
         log "Python tests"
         "$PY" -m pytest "${@:2}"
         ;;
-    bench)
+    bench)  # ./dev.sh bench [render_one|settle|terrain ...]: those benchmarks, or all of them
         setup
-        "$PY" bench/bench_render_one.py "${@:2}"
+        for name in "${@:2}"; do [ -f "bench/bench_$name.py" ] || { log "no bench/bench_$name.py"; exit 2; }; done
+        for name in "${@:2}"; do "$PY" "bench/bench_$name.py"; done
+        [ $# -gt 1 ] || for name in render_one settle terrain; do "$PY" "bench/bench_$name.py"; done
         ;;
     *)
-        sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'
+        sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'
         exit 2
         ;;
 esac
