@@ -122,6 +122,12 @@ def test_craters_are_kept_only_where_the_grid_can_draw_them():
     fine, coarse = (Location(small(growth=g), location_axis(small(growth=g))).craters for g in (1.05, 1.2))
     assert 0 < len(coarse.diameters) < len(fine.diameters)
     assert {tuple(c) for c in coarse.centres} <= {tuple(c) for c in fine.centres}
+    # The work site lies outside every crater larger than site_max_diameter_m.
+    config = load_config(None, {}).terrain
+    craters = Location(config, location_axis(config)).craters
+    big = craters.diameters > config.craters.site_max_diameter_m
+    assert big.any()
+    assert np.all(np.hypot(*craters.centres[big].T) > craters.diameters[big] / 2 + config.detail_extent_m)
 
 
 def test_golombek_count_matches_its_integral():

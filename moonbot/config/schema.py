@@ -78,6 +78,9 @@ class CratersConfig:
         "C in N(>=D) = C·D^-2 per m^2, D in metres (Apollo 15 mare fit 0.0336, up to ~0.08)", lo=0.0, hi=10.0))
     min_diameter_m: float = field(default=0.5, metadata=spec("smallest crater, metres", lo=0.01, hi=1000.0))
     max_diameter_m: float = field(default=200.0, metadata=spec("largest crater, metres", lo=0.01, hi=10000.0))
+    site_max_diameter_m: float = field(default=5.0, metadata=spec(
+        "no crater larger than this has its bowl within the fine tile: the work site was chosen "
+        "outside large craters, metres", lo=0.0, hi=10000.0))
 
 
 @dataclass(frozen=True)

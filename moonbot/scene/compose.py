@@ -32,7 +32,8 @@ class SceneSpec:
     """Everything the renderer needs: `meshes` maps obj_id (and 0 for the terrain) to
     (vertices (N, 3) float32 metres, triangles (M, 3) int32); `target` is the orbit centre in
     the world frame (metres); `placement` records how the bags were placed and settled;
-    `ground` is the terrain's height field (the camera keeps clear of it); `rocks` are (mesh key, world-from-model (4, 4) float64) background instances;
+    `ground` is the terrain's height field (the camera keeps clear of it); `rocks` are
+    (mesh key, world-from-model (4, 4) float64) background instances, scaled by diameter;
     `terrain_seconds` is what building the terrain cost this scene (0 when this process had it
     cached)."""
 

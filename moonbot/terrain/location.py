@@ -101,7 +101,12 @@ class Location:
         craters = CraterField.sample_graded(
             seed, density=c.density, d_min=c.min_diameter_m, d_max=c.max_diameter_m,
             half_size=lambda d: min(CRATER_REACH * d, config.extent_m))
-        self.craters = craters.subset(drawable(axis, craters.centres, craters.diameters))
+        craters = craters.subset(drawable(axis, craters.centres, craters.diameters))
+        # A work site is chosen outside large craters: drop those whose bowl reaches the fine
+        # tile (otherwise a low Sun can leave the whole site in a crater wall's shadow).
+        reach = craters.diameters / 2.0 + config.detail_extent_m
+        self.craters = craters.subset((craters.diameters <= c.site_max_diameter_m)
+                                      | (np.hypot(*craters.centres.T) > reach))
         self.main_crater = main_crater(config)
 
     def surface(self, x: np.ndarray, y: np.ndarray, cell: np.ndarray) -> np.ndarray:
