@@ -3,6 +3,8 @@
 #include <string>
 #include <utility>
 
+#include <pybind11/stl.h>
+
 #include "arrays.h"
 #include "moonbot/dem.h"
 

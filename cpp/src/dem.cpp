@@ -499,8 +499,14 @@ namespace {
 /// Samples decoded by OpenImageIO: scanline images by rows, tiled images by whole tiles.
 class OiioSource : public DemRaster::Source {
 public:
-    OiioSource(std::string path, const OIIO::ImageSpec& spec) : m_path(std::move(path)), m_spec(spec) {
+    /// `whole_strips`: read TIFF rows in whole strips only. OpenImageIO 2.4.7 returns zeros,
+    /// with success, for float64 rows read from inside a strip (a window starting or ending
+    /// mid-strip); whole-strip reads decode correctly, and libtiff decodes whole strips anyway.
+    OiioSource(std::string path, const OIIO::ImageSpec& spec, bool whole_strips)
+        : m_path(std::move(path)), m_spec(spec) {
         float32 = spec.format.basetype == OIIO::TypeDesc::FLOAT;
+        if (whole_strips && spec.tile_width == 0)
+            m_strip_rows = std::clamp(spec.get_int_attribute("tiff:RowsPerStrip", spec.height), 1, spec.height);
     }
 
     std::vector<double> read_raw(int x0, int y0, int x1, int y1) const override {
@@ -527,14 +533,16 @@ public:
             }
         } else {
             const size_t row_bytes = static_cast<size_t>(m_spec.width) * sample;
-            const int band = std::max(1, static_cast<int>(kChunkBytes / row_bytes));
-            for (int yb = y0; yb < y1; yb += band) {
-                const int ye = std::min(yb + band, y1);
+            const int rps = m_strip_rows;
+            const int band = std::max(1, static_cast<int>(kChunkBytes / (row_bytes * rps))) * rps;
+            // Bands start on a strip and end on one or at the image's last row.
+            for (int yb = y0 / rps * rps; yb < y1; yb += band) {
+                const int ye = std::min({yb + band, (y1 + rps - 1) / rps * rps, m_spec.height});
                 buf.resize(row_bytes * static_cast<size_t>(ye - yb));
                 if (!input->read_scanlines(0, 0, yb + m_spec.y, ye + m_spec.y, m_spec.z, 0, 1, type, buf.data()))
                     throw IoError(m_path + ": cannot decode rows " + std::to_string(yb) + "–" +
                                   std::to_string(ye - 1) + " (" + input->geterror() + ")");
-                copy_rows(buf, row_bytes, 0, yb, yb, ye, x0, w, y0, out);
+                copy_rows(buf, row_bytes, 0, yb, std::max(yb, y0), std::min(ye, y1), x0, w, y0, out);
             }
         }
         return out;
@@ -555,6 +563,7 @@ private:
 
     std::string m_path;
     OIIO::ImageSpec m_spec;
+    int m_strip_rows = 1;
 };
 
 class MemorySource : public DemRaster::Source {
@@ -663,8 +672,8 @@ DemRaster DemRaster::open_geotiff(const std::string& path, const DemHeightUnits&
     const TiffDirectory dir(path);  // first: a non-TIFF fails here with a message naming it
     const OIIO::ImageSpec spec = open_spec(path, "a TIFF");
     // OpenImageIO 2.4.7 returns zeros (and sometimes uninitialised memory), with success, for
-    // tiled float64 TIFFs; striped float64 and tiled float32/int decode correctly. Refuse rather
-    // than import a wrong surface.
+    // every read of a tiled float64 TIFF; tiled float32/int and striped float64 read in whole
+    // strips decode correctly. Refuse rather than import a wrong surface.
     if (spec.tile_width > 0 && spec.format.basetype == OIIO::TypeDesc::DOUBLE)
         throw IoError(path + ": tiled float64 TIFF: OpenImageIO " + std::string(OIIO_VERSION_STRING) +
                       " misreads these (zeros); re-save it striped or as float32");
@@ -696,7 +705,7 @@ DemRaster DemRaster::open_geotiff(const std::string& path, const DemHeightUnits&
     }
     r.m_description = "GeoTIFF " + sample_type_name(spec.format) +
                       (r.m_georef.kind == DemGeoref::Kind::Geographic ? ", geographic" : ", equirectangular");
-    r.m_source = std::make_shared<OiioSource>(path, spec);
+    r.m_source = std::make_shared<OiioSource>(path, spec, true);
     return r;
 }
 
@@ -733,7 +742,7 @@ DemRaster DemRaster::open_png(const std::string& path, const DemPngLayout& layou
     r.m_offset = apply_units(layout.min_m, units);
     r.m_nodata = units.nodata;
     r.m_description = "PNG uint16, local equirectangular";
-    r.m_source = std::make_shared<OiioSource>(path, spec);
+    r.m_source = std::make_shared<OiioSource>(path, spec, false);
     return r;
 }
 
