@@ -80,7 +80,13 @@ public:
     /// Reads the GeoTIFF's georeference (ModelPixelScale 33550, ModelTiepoint 33922,
     /// GeoKeyDirectory 34735 with its double params 34736; GDAL_METADATA 42112; GDAL_NODATA
     /// 42113) from the TIFF directory and checks the pixel layout: one band of int8/16/32,
-    /// uint8/16/32, float32 or float64. Throws IoError naming the file and the tag or field.
+    /// uint8/16/32, float32 or float64 (not tiled float64, which OpenImageIO 2.4.7 misreads).
+    /// GTModelTypeGeoKey 2 is geographic (degrees); 1 is read as equirectangular metres when
+    /// ProjCoordTransGeoKey is 17 or absent and ProjectedCSTypeGeoKey is user-defined or absent;
+    /// its parameters are ProjCenterLong (3088, else ProjNatOriginLong 3080), ProjCenterLat (3089,
+    /// else 3081), ProjStdParallel1 (3078), ProjFalseEasting/Northing (3082/3083), all default 0,
+    /// and GeogSemiMajorAxis (2057, default 1737400 m). Anything else is refused.
+    /// Throws IoError naming the file and the tag or field.
     static DemRaster open_geotiff(const std::string& path, const DemHeightUnits& units = {});
     /// A single-channel 16-bit PNG: sample s → min_m + (max_m − min_m)·s/65535 (then `units`);
     /// pixels form a local equirectangular grid centred on the stated lat/lon, rows going south.
