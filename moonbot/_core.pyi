@@ -65,5 +65,30 @@ class LunarFrame:
 
 def curvature_drop(distance: float, radius: float = ...) -> float: ...
 
+class DemImport(TypedDict):
+    heights: NDArray[np.float64]  # (ny, nx) metres up, row 0 = south, east fastest
+    spacing_m: float
+    lat_deg: float
+    lon_deg: float
+    h0_m: float
+    curvature: bool
+    voids_filled: int
+    source_pixel_m: float
+    source_pixel_east_m: float
+    source_pixel_north_m: float
+    source_format: str
+    source_width: int
+    source_height: int
+    height_scale: float
+    height_offset: float
+    nodata: float | None
+    footprint: tuple[float, float, float, float]
+
+def import_dem(path: str, lat_deg: float, lon_deg: float, size_m: float, spacing_m: float = 0.0,
+               curvature: bool = True, height_scale: float = 1.0, height_offset: float = 0.0,
+               nodata: float | None = None, png_range: tuple[float, float] | None = None,
+               png_pixel_m: float | None = None,
+               png_center: tuple[float, float] | None = None) -> DemImport: ...
+
 def measure_embree_limit(scene: Scene, camera: Camera, sun: Sun, threads: int = 0,
                          repeats: int = 5) -> dict[str, float | int]: ...

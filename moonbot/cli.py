@@ -99,5 +99,58 @@ def meshes(config_path: Path | None, out_dir: Path, overrides: tuple[str, ...]) 
     click.echo(f"\nwritten {out_dir}/models, models_eval, models_info.json")
 
 
+@main.group("terrain")
+def terrain() -> None:
+    """Terrain data: real lunar DEMs as local East-North-Up height grids."""
+
+
+@terrain.command("import")
+@click.argument("dem_path", metavar="FILE", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--lat", "lat_deg", type=float, required=True,
+              help="Latitude of the crop centre (the ENU origin), degrees.")
+@click.option("--lon", "lon_deg", type=float, required=True,
+              help="Longitude of the crop centre, degrees east.")
+@click.option("--size-m", type=float, required=True, help="Side of the square crop, metres.")
+@click.option("--spacing-m", type=float, default=None,
+              help="Grid spacing, metres. Default: the DEM's pixel size at the centre.")
+@click.option("--curvature/--no-curvature", default=True, show_default=True,
+              help="Heights as the true ENU up (the sphere falls away ~d²/2R), or a flat-earth "
+                   "patch (height differences only).")
+@click.option("--scale", type=float, default=1.0, show_default=True,
+              help="Multiply heights (after the file's own scale/offset) by this: 1000 for "
+                   "SLDEM2015 km floats, 0.5 for LOLA int16 without GDAL metadata.")
+@click.option("--offset", type=float, default=0.0, show_default=True,
+              help="Then add this many metres.")
+@click.option("--nodata", type=float, default=None,
+              help="Raw sample value that marks voids (overrides the file's GDAL_NODATA).")
+@click.option("--png-range", type=(float, float), default=None, metavar="MIN MAX",
+              help="16-bit PNG: heights in metres of samples 0 and 65535.")
+@click.option("--png-pixel-m", type=float, default=None, metavar="M",
+              help="16-bit PNG: ground size of a pixel, metres.")
+@click.option("--png-center", type=(float, float), default=None, metavar="LAT LON",
+              help="16-bit PNG: lat/lon of the image centre. Default: --lat/--lon.")
+@click.option("--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="The .npz to write (moonbot.terrain.dem.LocalDem; parent folders are created).")
+def terrain_import(dem_path: Path, lat_deg: float, lon_deg: float, size_m: float,
+                   spacing_m: float | None, curvature: bool, scale: float, offset: float,
+                   nodata: float | None, png_range: tuple[float, float] | None,
+                   png_pixel_m: float | None, png_center: tuple[float, float] | None,
+                   out_path: Path) -> None:
+    """Crop a square around (--lat, --lon) from a DEM FILE (GeoTIFF, or a 16-bit PNG with
+    --png-range and --png-pixel-m), fill its voids and resample it onto a local ENU grid;
+    write it as a LocalDem .npz and print a summary."""
+    from moonbot.terrain.dem import import_dem, summary
+
+    try:
+        dem = import_dem(dem_path, lat_deg, lon_deg, size_m, spacing_m=spacing_m,
+                         curvature=curvature, scale=scale, offset=offset, nodata=nodata,
+                         png_range=png_range, png_pixel_m=png_pixel_m, png_center=png_center)
+        out_path.parent.mkdir(parents=True, exist_ok=True)
+        dem.save(out_path)
+    except (ValueError, OSError) as e:
+        raise click.ClickException(str(e)) from None
+    click.echo(summary(dem, out_path))
+
+
 if __name__ == "__main__":
     main()

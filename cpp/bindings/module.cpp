@@ -12,11 +12,12 @@ void bind_scene(py::module_& m);
 void bind_render(py::module_& m);
 void bind_image(py::module_& m);
 void bind_geo(py::module_& m);
+void bind_dem(py::module_& m);
 void bind_limit(py::module_& m);
 }  // namespace moonbot::bindings
 
 PYBIND11_MODULE(_core, m) {
-    m.doc() = "moonbot's C++ core: Embree scene, camera, Sun, renderer, image I/O, lunar frames.";
+    m.doc() = "moonbot's C++ core: Embree scene, camera, Sun, renderer, image I/O, lunar frames, DEM import.";
     py::register_exception_translator([](std::exception_ptr p) {
         try {
             if (p) std::rethrow_exception(p);
@@ -28,5 +29,6 @@ PYBIND11_MODULE(_core, m) {
     moonbot::bindings::bind_render(m);
     moonbot::bindings::bind_image(m);
     moonbot::bindings::bind_geo(m);
+    moonbot::bindings::bind_dem(m);
     moonbot::bindings::bind_limit(m);
 }

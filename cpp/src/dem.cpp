@@ -1,0 +1,1145 @@
+#include "moonbot/dem.h"
+
+#include <OpenImageIO/imageio.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include "moonbot/image.h"
+
+namespace moonbot {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kPi = 3.14159265358979323846;
+double rad(double deg) { return deg * (kPi / 180.0); }
+double deg(double r) { return r * (180.0 / kPi); }
+
+std::string fmt(double v, int digits = 6) {
+    std::ostringstream s;
+    s.precision(digits);
+    s << v;
+    return s.str();
+}
+
+std::string lower_extension(const std::string& path) {
+    std::string ext = std::filesystem::path(path).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    return ext;
+}
+
+/// A missing or unreadable file is an IoError naming it, before any decoder sees the path.
+void require_regular_file(const std::string& path) {
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec)) throw IoError(path + ": no such file");
+    if (!std::filesystem::is_regular_file(path, ec)) throw IoError(path + ": not a regular file");
+}
+
+// ---------------------------------------------------------------------------------------------
+// TIFF directory. OpenImageIO 2.4 decodes TIFF pixels but keeps none of the GeoTIFF tags
+// (33550, 33922, 34735–34737) or GDAL's (42112, 42113) in its ImageSpec — `oiiotool -v` on a
+// GeoTIFF lists only tiff:* basics — and libtiff's headers are not installed. The directory is
+// a short, fixed layout (TIFF 6.0 §2; BigTIFF: 8-byte counts and offsets), so it is read here,
+// with every count and offset checked against the file size; OIIO still decodes the pixels.
+
+constexpr uint16_t kTagImageWidth = 256;
+constexpr uint16_t kTagImageLength = 257;
+constexpr uint16_t kTagModelPixelScale = 33550;
+constexpr uint16_t kTagModelTiepoint = 33922;
+constexpr uint16_t kTagModelTransformation = 34264;
+constexpr uint16_t kTagGeoKeyDirectory = 34735;
+constexpr uint16_t kTagGeoDoubleParams = 34736;
+constexpr uint16_t kTagGeoAsciiParams = 34737;
+constexpr uint16_t kTagGdalMetadata = 42112;
+constexpr uint16_t kTagGdalNodata = 42113;
+
+// A field larger than this is refused: no real georeference needs it, and a corrupt count must
+// not ask for gigabytes.
+constexpr uint64_t kMaxFieldBytes = 16u << 20;
+
+class TiffDirectory {
+public:
+    explicit TiffDirectory(const std::string& path) : m_path(path) {
+        std::ifstream in(path, std::ios::binary);
+        if (!in) throw IoError(path + ": cannot open for reading");
+        in.seekg(0, std::ios::end);
+        const auto end = in.tellg();
+        if (end < 0) throw IoError(path + ": cannot read its size");
+        m_size = static_cast<uint64_t>(end);
+        const std::vector<uint8_t> head = read_at(in, 0, std::min<uint64_t>(16, m_size), "header");
+        if (head.size() < 8 || !((head[0] == 'I' && head[1] == 'I') || (head[0] == 'M' && head[1] == 'M')))
+            throw IoError(path + ": not a TIFF file (no II/MM byte-order mark); not a GeoTIFF?");
+        m_big_endian = head[0] == 'M';
+        const uint16_t version = static_cast<uint16_t>(uint_at(head, 2, 2));
+        uint64_t ifd = 0;
+        if (version == 42) {
+            ifd = uint_at(head, 4, 4);
+        } else if (version == 43) {  // BigTIFF
+            if (head.size() < 16 || uint_at(head, 4, 2) != 8 || uint_at(head, 6, 2) != 0)
+                throw IoError(path + ": malformed BigTIFF header");
+            m_big = true;
+            ifd = uint_at(head, 8, 8);
+        } else {
+            throw IoError(path + ": not a TIFF file (version " + std::to_string(version) + ")");
+        }
+        const unsigned count_size = m_big ? 8 : 2, entry_size = m_big ? 20 : 12, inline_size = m_big ? 8 : 4;
+        if (ifd > m_size) throw IoError(path + ": TIFF first IFD lies past the end of the file (truncated?)");
+        const uint64_t n = uint_at(read_at(in, ifd, count_size, "first IFD"), 0, count_size);
+        if (n == 0 || n > 4096) throw IoError(path + ": first IFD has " + std::to_string(n) + " entries");
+        const std::vector<uint8_t> entries = read_at(in, ifd + count_size, n * entry_size, "first IFD");
+        for (uint64_t i = 0; i < n; ++i) {
+            const size_t at = static_cast<size_t>(i * entry_size);
+            const auto tag = static_cast<uint16_t>(uint_at(entries, at, 2));
+            const auto type = static_cast<uint16_t>(uint_at(entries, at + 2, 2));
+            const uint64_t count = uint_at(entries, at + 4, m_big ? 8 : 4);
+            if (!wanted(tag)) continue;
+            const unsigned size = type_size(type);
+            if (size == 0) continue;  // TIFF 6.0: readers skip fields of unknown type
+            if (count > kMaxFieldBytes / size)
+                throw IoError(path + ": tag " + std::to_string(tag) + " is implausibly large (" +
+                              std::to_string(count) + " values)");
+            Field f{type, count, {}};
+            const uint64_t bytes = count * size;
+            const size_t value_at = at + (m_big ? 12 : 8);
+            if (bytes <= inline_size) {
+                f.bytes.assign(entries.begin() + static_cast<std::ptrdiff_t>(value_at),
+                               entries.begin() + static_cast<std::ptrdiff_t>(value_at + bytes));
+            } else {
+                f.bytes = read_at(in, uint_at(entries, value_at, inline_size), bytes,
+                                  "tag " + std::to_string(tag));
+            }
+            m_fields.emplace(tag, std::move(f));
+        }
+    }
+
+    bool has(uint16_t tag) const { return m_fields.count(tag) != 0; }
+
+    /// A numeric field's values as doubles (exact for every integer type up to 2⁵³).
+    std::vector<double> numbers(uint16_t tag, const std::string& name) const {
+        const Field& f = field(tag, name);
+        const unsigned size = type_size(f.type);
+        std::vector<double> out;
+        out.reserve(static_cast<size_t>(f.count));
+        for (uint64_t i = 0; i < f.count; ++i) {
+            const size_t at = static_cast<size_t>(i * size);
+            const uint64_t u = uint_at(f.bytes, at, std::min(size, 8u));
+            double v;
+            switch (f.type) {
+                case 1: case 3: case 4: case 16: v = static_cast<double>(u); break;  // unsigned
+                case 6: v = static_cast<int8_t>(u); break;
+                case 8: v = static_cast<int16_t>(u); break;
+                case 9: v = static_cast<int32_t>(u); break;
+                case 17: v = static_cast<double>(static_cast<int64_t>(u)); break;
+                case 11: { uint32_t b = static_cast<uint32_t>(u); float x; std::memcpy(&x, &b, 4); v = x; break; }
+                case 12: std::memcpy(&v, &u, 8); break;
+                case 5: case 10: {
+                    const uint64_t num = uint_at(f.bytes, at, 4), den = uint_at(f.bytes, at + 4, 4);
+                    v = f.type == 5 ? static_cast<double>(num) / static_cast<double>(den)
+                                    : static_cast<double>(static_cast<int32_t>(num)) /
+                                          static_cast<double>(static_cast<int32_t>(den));
+                    break;
+                }
+                default:
+                    throw IoError(m_path + ": " + name + " is not numeric (TIFF type " + std::to_string(f.type) + ")");
+            }
+            out.push_back(v);
+        }
+        return out;
+    }
+
+    /// An ASCII field up to its first NUL.
+    std::string text(uint16_t tag, const std::string& name) const {
+        const Field& f = field(tag, name);
+        if (f.type != 2 && f.type != 1 && f.type != 7)
+            throw IoError(m_path + ": " + name + " is not ASCII (TIFF type " + std::to_string(f.type) + ")");
+        std::string s(f.bytes.begin(), f.bytes.end());
+        return s.substr(0, s.find('\0'));
+    }
+
+private:
+    struct Field {
+        uint16_t type;
+        uint64_t count;
+        std::vector<uint8_t> bytes;
+    };
+
+    static bool wanted(uint16_t tag) {
+        switch (tag) {
+            case kTagImageWidth: case kTagImageLength: case kTagModelPixelScale: case kTagModelTiepoint:
+            case kTagModelTransformation: case kTagGeoKeyDirectory: case kTagGeoDoubleParams:
+            case kTagGeoAsciiParams: case kTagGdalMetadata: case kTagGdalNodata:
+                return true;
+            default:
+                return false;
+        }
+    }
+
+    static unsigned type_size(uint16_t type) {
+        switch (type) {
+            case 1: case 2: case 6: case 7: return 1;
+            case 3: case 8: return 2;
+            case 4: case 9: case 11: case 13: return 4;
+            case 5: case 10: case 12: case 16: case 17: case 18: return 8;
+            default: return 0;
+        }
+    }
+
+    const Field& field(uint16_t tag, const std::string& name) const {
+        auto it = m_fields.find(tag);
+        if (it == m_fields.end()) throw IoError(m_path + ": no " + name + " tag");
+        return it->second;
+    }
+
+    uint64_t uint_at(const std::vector<uint8_t>& b, size_t at, unsigned n) const {
+        uint64_t v = 0;
+        for (unsigned k = 0; k < n; ++k) {
+            const uint64_t byte = b[at + k];
+            v |= m_big_endian ? byte << (8 * (n - 1 - k)) : byte << (8 * k);
+        }
+        return v;
+    }
+
+    std::vector<uint8_t> read_at(std::ifstream& in, uint64_t offset, uint64_t n, const std::string& what) const {
+        if (offset > m_size || n > m_size - offset)
+            throw IoError(m_path + ": TIFF " + what + " lies past the end of the file (truncated?)");
+        std::vector<uint8_t> out(static_cast<size_t>(n));
+        in.seekg(static_cast<std::streamoff>(offset));
+        in.read(reinterpret_cast<char*>(out.data()), static_cast<std::streamsize>(n));
+        if (!in) throw IoError(m_path + ": cannot read TIFF " + what);
+        return out;
+    }
+
+    std::string m_path;
+    uint64_t m_size = 0;
+    bool m_big_endian = false, m_big = false;
+    std::map<uint16_t, Field> m_fields;
+};
+
+// GeoKey ids (GeoTIFF 1.0 §6.2) and the codes this reader accepts.
+constexpr int kGTModelType = 1024, kGTRasterType = 1025, kGeogAngularUnits = 2054,
+              kGeogSemiMajorAxis = 2057, kGeogSemiMinorAxis = 2058, kGeogInvFlattening = 2059,
+              kProjectedCSType = 3072, kProjCoordTrans = 3075, kProjLinearUnits = 3076,
+              kProjStdParallel1 = 3078, kProjNatOriginLong = 3080, kProjNatOriginLat = 3081,
+              kProjFalseEasting = 3082, kProjFalseNorthing = 3083, kProjCenterLong = 3088,
+              kProjCenterLat = 3089;
+constexpr int kModelProjected = 1, kModelGeographic = 2;
+constexpr int kRasterPixelIsArea = 1, kRasterPixelIsPoint = 2;
+constexpr int kUserDefined = 32767, kCTEquirectangular = 17, kLinearMetre = 9001, kAngularDegree = 9102;
+
+/// The numeric GeoKeys of a GeoKeyDirectory, each key's first value (SHORT inline or DOUBLE
+/// from GeoDoubleParams); ASCII keys (citations) are skipped.
+std::map<int, double> read_geokeys(const TiffDirectory& dir, const std::string& path) {
+    if (!dir.has(kTagGeoKeyDirectory))
+        throw IoError(path + ": no GeoKeyDirectory tag (34735); not a GeoTIFF?");
+    const std::vector<double> keys = dir.numbers(kTagGeoKeyDirectory, "GeoKeyDirectory (34735)");
+    if (keys.size() < 4 || keys[0] != 1.0)
+        throw IoError(path + ": GeoKeyDirectory (34735) has no version-1 header");
+    const size_t n = static_cast<size_t>(keys[3]);
+    if (keys.size() < 4 + 4 * n)
+        throw IoError(path + ": GeoKeyDirectory (34735) lists " + std::to_string(n) + " keys but holds " +
+                      std::to_string((keys.size() - 4) / 4));
+    std::vector<double> doubles;
+    if (dir.has(kTagGeoDoubleParams)) doubles = dir.numbers(kTagGeoDoubleParams, "GeoDoubleParams (34736)");
+    std::map<int, double> out;
+    for (size_t k = 0; k < n; ++k) {
+        const int id = static_cast<int>(keys[4 + 4 * k]);
+        const int location = static_cast<int>(keys[5 + 4 * k]);
+        const size_t count = static_cast<size_t>(keys[6 + 4 * k]);
+        const size_t value = static_cast<size_t>(keys[7 + 4 * k]);
+        if (count == 0) continue;
+        if (location == 0) {
+            out.emplace(id, static_cast<double>(value));
+        } else if (location == kTagGeoDoubleParams) {
+            if (value + count > doubles.size())
+                throw IoError(path + ": GeoKey " + std::to_string(id) +
+                              " points past GeoDoubleParams (34736)");
+            out.emplace(id, doubles[value]);
+        } else if (location == kTagGeoKeyDirectory) {
+            if (value >= keys.size())
+                throw IoError(path + ": GeoKey " + std::to_string(id) + " points past GeoKeyDirectory (34735)");
+            out.emplace(id, keys[value]);
+        }  // GeoAsciiParams (34737): citations only, not needed
+    }
+    return out;
+}
+
+DemGeoref georef_from_geotiff(const TiffDirectory& dir, const std::string& path, int width) {
+    if (!dir.has(kTagModelPixelScale)) {
+        if (dir.has(kTagModelTransformation))
+            throw IoError(path + ": georeferenced by ModelTransformation (34264), which is not supported; "
+                                 "need ModelPixelScale (33550) + ModelTiepoint (33922)");
+        throw IoError(path + ": no ModelPixelScale tag (33550); not a GeoTIFF?");
+    }
+    if (!dir.has(kTagModelTiepoint)) throw IoError(path + ": no ModelTiepoint tag (33922); not a GeoTIFF?");
+    const std::vector<double> scale = dir.numbers(kTagModelPixelScale, "ModelPixelScale (33550)");
+    const std::vector<double> tie = dir.numbers(kTagModelTiepoint, "ModelTiepoint (33922)");
+    if (scale.size() < 2) throw IoError(path + ": ModelPixelScale (33550) has fewer than 2 values");
+    for (int i = 0; i < 2; ++i)
+        if (!(std::isfinite(scale[i]) && scale[i] > 0))
+            throw IoError(path + ": ModelPixelScale (33550) " + std::string(i ? "ScaleY" : "ScaleX") + " = " +
+                          fmt(scale[i]) + "; must be positive");
+    if (tie.size() != 6)
+        throw IoError(path + ": ModelTiepoint (33922) holds " + std::to_string(tie.size() / 6) +
+                      " tiepoints; only one (with ModelPixelScale) is supported");
+    for (double t : tie)
+        if (!std::isfinite(t)) throw IoError(path + ": ModelTiepoint (33922) holds a non-finite value");
+
+    const std::map<int, double> keys = read_geokeys(dir, path);
+    auto key = [&](int id) -> std::optional<double> {
+        auto it = keys.find(id);
+        return it == keys.end() ? std::nullopt : std::optional<double>(it->second);
+    };
+    auto require_code = [&](int id, const char* name, int want, const char* meaning) {
+        if (auto v = key(id); v && *v != want)
+            throw IoError(path + ": " + name + " (" + std::to_string(id) + ") = " + fmt(*v) +
+                          "; only " + std::to_string(want) + " (" + meaning + ") is supported");
+    };
+
+    // PixelIsArea (the default): raster point (0, 0) is the outer corner of the first pixel, so
+    // its centre is half a pixel in; PixelIsPoint: the tiepoint's raster point is a centre.
+    double centre = 0.5;
+    if (auto r = key(kGTRasterType)) {
+        if (*r == kRasterPixelIsPoint) centre = 0.0;
+        else if (*r != kRasterPixelIsArea)
+            throw IoError(path + ": GTRasterTypeGeoKey (1025) = " + fmt(*r) + "; must be 1 (area) or 2 (point)");
+    }
+    DemGeoref g;
+    g.dx = scale[0];
+    g.dy = scale[1];
+    g.x0 = tie[3] + (centre - tie[0]) * g.dx;
+    g.y0 = tie[4] - (centre - tie[1]) * g.dy;
+
+    const auto model = key(kGTModelType);
+    if (!model) throw IoError(path + ": GeoKeyDirectory (34735) has no GTModelTypeGeoKey (1024)");
+    require_code(kGeogAngularUnits, "GeogAngularUnitsGeoKey", kAngularDegree, "degree");
+    if (*model == kModelGeographic) {
+        g.kind = DemGeoref::Kind::Geographic;
+        g.wrap_lon_deg = g.x0 + g.dx * (width - 1) / 2.0;
+    } else if (*model == kModelProjected) {
+        g.kind = DemGeoref::Kind::Equirectangular;
+        if (key(kProjCoordTrans)) {
+            require_code(kProjCoordTrans, "ProjCoordTransGeoKey", kCTEquirectangular, "equirectangular");
+        } else if (auto cs = key(kProjectedCSType); cs && *cs != kUserDefined) {
+            throw IoError(path + ": ProjectedCSTypeGeoKey (3072) = " + fmt(*cs) +
+                          " (an EPSG projection); only a user-defined equirectangular projection is supported");
+        }
+        require_code(kProjLinearUnits, "ProjLinearUnitsGeoKey", kLinearMetre, "metre");
+        if (auto a = key(kGeogSemiMajorAxis)) {
+            if (!(std::isfinite(*a) && *a > 0))
+                throw IoError(path + ": GeogSemiMajorAxisGeoKey (2057) = " + fmt(*a) + "; must be positive");
+            g.radius_m = *a;
+            if (auto b = key(kGeogSemiMinorAxis); b && *b != *a)
+                throw IoError(path + ": GeogSemiMinorAxisGeoKey (2058) differs from the semi-major axis; "
+                                     "only a sphere is supported");
+        }
+        if (auto f = key(kGeogInvFlattening); f && *f != 0.0)
+            throw IoError(path + ": GeogInvFlatteningGeoKey (2059) = " + fmt(*f) + "; only a sphere is supported");
+        // Writers name the central meridian and latitude of origin with either the "Center" or
+        // the "NatOrigin" keys; the Center keys win when both are present.
+        g.center_lon_deg = key(kProjCenterLong).value_or(key(kProjNatOriginLong).value_or(0.0));
+        g.origin_lat_deg = key(kProjCenterLat).value_or(key(kProjNatOriginLat).value_or(0.0));
+        g.std_parallel_deg = key(kProjStdParallel1).value_or(0.0);
+        g.false_easting_m = key(kProjFalseEasting).value_or(0.0);
+        g.false_northing_m = key(kProjFalseNorthing).value_or(0.0);
+        g.wrap_lon_deg = g.center_lon_deg;
+    } else {
+        throw IoError(path + ": GTModelTypeGeoKey (1024) = " + fmt(*model) +
+                      "; only 1 (projected, equirectangular) or 2 (geographic) is supported");
+    }
+    try {
+        g.validate();
+    } catch (const std::invalid_argument& e) {
+        throw IoError(path + ": georeference: " + e.what());
+    }
+    return g;
+}
+
+/// A number in a GDAL text field: the whole string (bar surrounding blanks) must parse.
+std::optional<double> parse_number(std::string s) {
+    const auto blank = [](unsigned char c) { return std::isspace(c) != 0; };
+    s.erase(s.begin(), std::find_if_not(s.begin(), s.end(), blank));
+    s.erase(std::find_if_not(s.rbegin(), s.rend(), blank).base(), s.end());
+    if (s.empty()) return std::nullopt;
+    errno = 0;
+    char* end = nullptr;
+    const double v = std::strtod(s.c_str(), &end);
+    if (end != s.c_str() + s.size() || errno == ERANGE) return std::nullopt;
+    return v;
+}
+
+/// GDAL_METADATA (42112) is a small XML document of <Item name=".." sample=".." role="..">value</Item>
+/// elements; band 0's items with role "scale" and "offset" give the raw → height transform.
+void parse_gdal_metadata(const std::string& xml, const std::string& path, double& scale, double& offset) {
+    size_t pos = 0;
+    bool have_scale = false, have_offset = false;
+    while ((pos = xml.find("<Item", pos)) != std::string::npos) {
+        const size_t tag_end = xml.find('>', pos);
+        if (tag_end == std::string::npos) break;
+        const std::string attrs = xml.substr(pos + 5, tag_end - pos - 5);
+        auto attr = [&](const std::string& name) -> std::optional<std::string> {
+            for (size_t at = 0; (at = attrs.find(name, at)) != std::string::npos; at += name.size()) {
+                // Whole attribute names only: "role" must not match inside "xrole".
+                if (at > 0 && !std::isspace(static_cast<unsigned char>(attrs[at - 1]))) continue;
+                size_t eq = attrs.find_first_not_of(" \t\r\n", at + name.size());
+                if (eq == std::string::npos || attrs[eq] != '=') continue;
+                const size_t q = attrs.find_first_not_of(" \t\r\n", eq + 1);
+                if (q == std::string::npos || (attrs[q] != '"' && attrs[q] != '\'')) continue;
+                const size_t close = attrs.find(attrs[q], q + 1);
+                if (close == std::string::npos) return std::nullopt;
+                return attrs.substr(q + 1, close - q - 1);
+            }
+            return std::nullopt;
+        };
+        pos = tag_end + 1;
+        const auto role = attr("role");
+        const auto sample = attr("sample");
+        if (!role || (sample && *sample != "0")) continue;
+        const size_t close = xml.find("</Item>", pos);
+        if (close == std::string::npos)
+            throw IoError(path + ": GDAL_METADATA (42112): unterminated <Item role=\"" + *role + "\">");
+        const std::string body = xml.substr(pos, close - pos);
+        if (*role != "scale" && *role != "offset") continue;
+        const auto v = parse_number(body);
+        if (!v || !std::isfinite(*v))
+            throw IoError(path + ": GDAL_METADATA (42112): " + *role + " '" + body + "' is not a finite number");
+        if (*role == "scale" && !have_scale) {
+            scale = *v;
+            have_scale = true;
+        } else if (*role == "offset" && !have_offset) {
+            offset = *v;
+            have_offset = true;
+        }
+    }
+    if (have_scale && scale == 0.0) throw IoError(path + ": GDAL_METADATA (42112): scale is 0");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Pixel sources.
+
+template <typename T>
+void widen(const uint8_t* src, size_t n, double* dst) {
+    for (size_t i = 0; i < n; ++i) {
+        T v;
+        std::memcpy(&v, src + i * sizeof(T), sizeof(T));
+        dst[i] = static_cast<double>(v);
+    }
+}
+
+/// Native samples → double, exactly (every supported type fits a double's 53-bit mantissa).
+void widen(OIIO::TypeDesc type, const uint8_t* src, size_t n, double* dst) {
+    switch (type.basetype) {
+        case OIIO::TypeDesc::UINT8: widen<uint8_t>(src, n, dst); break;
+        case OIIO::TypeDesc::INT8: widen<int8_t>(src, n, dst); break;
+        case OIIO::TypeDesc::UINT16: widen<uint16_t>(src, n, dst); break;
+        case OIIO::TypeDesc::INT16: widen<int16_t>(src, n, dst); break;
+        case OIIO::TypeDesc::UINT32: widen<uint32_t>(src, n, dst); break;
+        case OIIO::TypeDesc::INT32: widen<int32_t>(src, n, dst); break;
+        case OIIO::TypeDesc::FLOAT: widen<float>(src, n, dst); break;
+        case OIIO::TypeDesc::DOUBLE: widen<double>(src, n, dst); break;
+        default: throw std::logic_error("widen: unsupported sample type");
+    }
+}
+
+std::string sample_type_name(OIIO::TypeDesc t) {
+    switch (t.basetype) {
+        case OIIO::TypeDesc::UINT8: return "uint8";
+        case OIIO::TypeDesc::INT8: return "int8";
+        case OIIO::TypeDesc::UINT16: return "uint16";
+        case OIIO::TypeDesc::INT16: return "int16";
+        case OIIO::TypeDesc::UINT32: return "uint32";
+        case OIIO::TypeDesc::INT32: return "int32";
+        case OIIO::TypeDesc::FLOAT: return "float32";
+        case OIIO::TypeDesc::DOUBLE: return "float64";
+        default: return t.c_str();
+    }
+}
+
+bool supported_sample_type(OIIO::TypeDesc t) {
+    switch (t.basetype) {
+        case OIIO::TypeDesc::UINT8: case OIIO::TypeDesc::INT8: case OIIO::TypeDesc::UINT16:
+        case OIIO::TypeDesc::INT16: case OIIO::TypeDesc::UINT32: case OIIO::TypeDesc::INT32:
+        case OIIO::TypeDesc::FLOAT: case OIIO::TypeDesc::DOUBLE:
+            return t.aggregate == OIIO::TypeDesc::SCALAR && t.arraylen == 0;
+        default:
+            return false;
+    }
+}
+
+// Windows are decoded in pieces of about this many bytes, so a crop of a wide raster (SLDEM2015
+// tiles are 30720 samples across) never holds whole-width rows of the full crop height at once.
+constexpr size_t kChunkBytes = 8u << 20;
+
+}  // namespace
+
+struct DemRaster::Source {
+    virtual ~Source() = default;
+    /// Raw samples of [x0, x1) × [y0, y1) as doubles, row-major.
+    virtual std::vector<double> read_raw(int x0, int y0, int x1, int y1) const = 0;
+    /// Float32 samples compare with the nodata value rounded to float32, as the writer stored it.
+    bool float32 = false;
+};
+
+namespace {
+
+/// Samples decoded by OpenImageIO: scanline images by rows, tiled images by whole tiles.
+class OiioSource : public DemRaster::Source {
+public:
+    /// `whole_strips`: read TIFF rows in whole strips only. OpenImageIO 2.4.7 returns zeros,
+    /// with success, for float64 rows read from inside a strip (a window starting or ending
+    /// mid-strip); whole-strip reads decode correctly, and libtiff decodes whole strips anyway.
+    OiioSource(std::string path, const OIIO::ImageSpec& spec, bool whole_strips)
+        : m_path(std::move(path)), m_spec(spec) {
+        float32 = spec.format.basetype == OIIO::TypeDesc::FLOAT;
+        if (whole_strips && spec.tile_width == 0)
+            m_strip_rows = std::clamp(spec.get_int_attribute("tiff:RowsPerStrip", spec.height), 1, spec.height);
+    }
+
+    std::vector<double> read_raw(int x0, int y0, int x1, int y1) const override {
+        auto input = OIIO::ImageInput::open(m_path);
+        if (!input) throw IoError(m_path + ": cannot open image (" + OIIO::geterror() + ")");
+        const OIIO::TypeDesc type = m_spec.format;
+        const size_t sample = type.size();
+        const int w = x1 - x0;
+        std::vector<double> out(static_cast<size_t>(w) * static_cast<size_t>(y1 - y0));
+        std::vector<uint8_t> buf;
+        if (m_spec.tile_width > 0) {
+            const int tw = m_spec.tile_width, th = std::max(1, m_spec.tile_height);
+            // read_tiles wants tile-aligned bounds, or the image's edge.
+            const int xb = x0 / tw * tw, xe = std::min((x1 + tw - 1) / tw * tw, m_spec.width);
+            const size_t row_bytes = static_cast<size_t>(xe - xb) * sample;
+            const int band = std::max(1, static_cast<int>(kChunkBytes / (row_bytes * th))) * th;
+            for (int yb = y0 / th * th; yb < y1; yb += band) {
+                const int ye = std::min({yb + band, (y1 + th - 1) / th * th, m_spec.height});
+                buf.resize(row_bytes * static_cast<size_t>(ye - yb));
+                if (!input->read_tiles(0, 0, xb + m_spec.x, xe + m_spec.x, yb + m_spec.y, ye + m_spec.y,
+                                       m_spec.z, m_spec.z + 1, 0, 1, type, buf.data()))
+                    throw IoError(m_path + ": cannot decode tiles (" + input->geterror() + ")");
+                copy_rows(buf, row_bytes, xb, yb, std::max(yb, y0), std::min(ye, y1), x0, w, y0, out);
+            }
+        } else {
+            const size_t row_bytes = static_cast<size_t>(m_spec.width) * sample;
+            const int rps = m_strip_rows;
+            const int band = std::max(1, static_cast<int>(kChunkBytes / (row_bytes * rps))) * rps;
+            // Bands start on a strip and end on one or at the image's last row.
+            for (int yb = y0 / rps * rps; yb < y1; yb += band) {
+                const int ye = std::min({yb + band, (y1 + rps - 1) / rps * rps, m_spec.height});
+                buf.resize(row_bytes * static_cast<size_t>(ye - yb));
+                if (!input->read_scanlines(0, 0, yb + m_spec.y, ye + m_spec.y, m_spec.z, 0, 1, type, buf.data()))
+                    throw IoError(m_path + ": cannot decode rows " + std::to_string(yb) + "–" +
+                                  std::to_string(ye - 1) + " (" + input->geterror() + ")");
+                copy_rows(buf, row_bytes, 0, yb, std::max(yb, y0), std::min(ye, y1), x0, w, y0, out);
+            }
+        }
+        return out;
+    }
+
+private:
+    /// Rows [r0, r1) of a decoded block whose first row is `block_y` and first column `block_x`
+    /// → the output window's columns [x0, x0 + w).
+    void copy_rows(const std::vector<uint8_t>& block, size_t row_bytes, int block_x, int block_y, int r0,
+                   int r1, int x0, int w, int y0, std::vector<double>& out) const {
+        const size_t sample = m_spec.format.size();
+        for (int r = r0; r < r1; ++r) {
+            const uint8_t* src = block.data() + static_cast<size_t>(r - block_y) * row_bytes +
+                                 static_cast<size_t>(x0 - block_x) * sample;
+            widen(m_spec.format, src, static_cast<size_t>(w), out.data() + static_cast<size_t>(r - y0) * w);
+        }
+    }
+
+    std::string m_path;
+    OIIO::ImageSpec m_spec;
+    int m_strip_rows = 1;
+};
+
+class MemorySource : public DemRaster::Source {
+public:
+    MemorySource(int width, std::vector<double> heights) : m_width(width), m_heights(std::move(heights)) {}
+    std::vector<double> read_raw(int x0, int y0, int x1, int y1) const override {
+        std::vector<double> out;
+        out.reserve(static_cast<size_t>(x1 - x0) * static_cast<size_t>(y1 - y0));
+        for (int y = y0; y < y1; ++y) {
+            const auto row = m_heights.begin() + static_cast<std::ptrdiff_t>(y) * m_width;
+            out.insert(out.end(), row + x0, row + x1);
+        }
+        return out;
+    }
+
+private:
+    int m_width;
+    std::vector<double> m_heights;
+};
+
+/// Opens `path` with OpenImageIO and checks that it holds one band of a supported sample type.
+OIIO::ImageSpec open_spec(const std::string& path, const std::string& kind) {
+    auto input = OIIO::ImageInput::open(path);
+    if (!input) throw IoError(path + ": cannot open as " + kind + " (" + OIIO::geterror() + ")");
+    const OIIO::ImageSpec spec = input->spec();
+    if (spec.nchannels != 1)
+        throw IoError(path + ": " + std::to_string(spec.nchannels) + " channels (SamplesPerPixel); a DEM has one band");
+    if (spec.depth > 1) throw IoError(path + ": a volume image (depth " + std::to_string(spec.depth) + ")");
+    if (spec.width < 2 || spec.height < 2)
+        throw IoError(path + ": " + std::to_string(spec.width) + "×" + std::to_string(spec.height) +
+                      " pixels; a DEM needs at least 2×2 to interpolate");
+    if (!supported_sample_type(spec.format))
+        throw IoError(path + ": sample type " + sample_type_name(spec.format) +
+                      " (BitsPerSample/SampleFormat) is not supported; use int8/16/32, uint8/16/32, float32 or float64");
+    return spec;
+}
+
+double apply_units(double file_value, const DemHeightUnits& u) { return file_value * u.height_scale + u.height_offset; }
+
+void check_units(const DemHeightUnits& u) {
+    if (!(std::isfinite(u.height_scale) && u.height_scale != 0.0))
+        throw std::invalid_argument("height_scale: must be finite and non-zero");
+    if (!std::isfinite(u.height_offset)) throw std::invalid_argument("height_offset: must be finite (metres)");
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// DemGeoref
+
+void DemGeoref::validate() const {
+    auto finite = [](double v, const char* name) {
+        if (!std::isfinite(v)) throw std::invalid_argument(std::string(name) + ": must be finite");
+    };
+    finite(x0, "x0");
+    finite(y0, "y0");
+    if (!(std::isfinite(dx) && dx > 0)) throw std::invalid_argument("dx: must be positive and finite");
+    if (!(std::isfinite(dy) && dy > 0)) throw std::invalid_argument("dy: must be positive and finite");
+    finite(wrap_lon_deg, "wrap_lon_deg");
+    if (kind == Kind::Equirectangular) {
+        finite(center_lon_deg, "center_lon_deg");
+        finite(false_easting_m, "false_easting_m");
+        finite(false_northing_m, "false_northing_m");
+        if (!(origin_lat_deg >= -90.0 && origin_lat_deg <= 90.0))
+            throw std::invalid_argument("origin_lat_deg: must be in [-90, 90]");
+        if (!(std::abs(std_parallel_deg) < 90.0))
+            throw std::invalid_argument("std_parallel_deg: must be in (-90, 90)");
+        if (!(std::isfinite(radius_m) && radius_m > 0)) throw std::invalid_argument("radius_m: must be positive");
+    }
+}
+
+glm::dvec2 DemGeoref::to_raster(double lat_deg, double lon_deg) const {
+    // Move the longitude by whole turns into [wrap − 180, wrap + 180).
+    const double lon = lon_deg - 360.0 * std::floor((lon_deg - wrap_lon_deg + 180.0) / 360.0);
+    double X, Y;
+    if (kind == Kind::Geographic) {
+        X = lon;
+        Y = lat_deg;
+    } else {
+        X = false_easting_m + radius_m * rad(lon - center_lon_deg) * std::cos(rad(std_parallel_deg));
+        Y = false_northing_m + radius_m * rad(lat_deg - origin_lat_deg);
+    }
+    return {(X - x0) / dx, (y0 - Y) / dy};
+}
+
+glm::dvec2 DemGeoref::to_latlon(double u, double v) const {
+    const double X = x0 + u * dx, Y = y0 - v * dy;
+    if (kind == Kind::Geographic) return {Y, X};
+    return {origin_lat_deg + deg((Y - false_northing_m) / radius_m),
+            center_lon_deg + deg((X - false_easting_m) / (radius_m * std::cos(rad(std_parallel_deg))))};
+}
+
+glm::dvec2 DemGeoref::pixel_size_m(double lat_deg) const {
+    const double c = std::cos(rad(lat_deg));
+    if (kind == Kind::Geographic) return {kLunarRadius * c * rad(dx), kLunarRadius * rad(dy)};
+    // A model metre along a parallel spans 1/(R cos φs) radians of longitude; along a meridian 1/R.
+    return {kLunarRadius * c * dx / (radius_m * std::cos(rad(std_parallel_deg))), kLunarRadius * dy / radius_m};
+}
+
+// ---------------------------------------------------------------------------------------------
+// DemRaster
+
+DemRaster DemRaster::open_geotiff(const std::string& path, const DemHeightUnits& units) {
+    check_units(units);
+    require_regular_file(path);
+    const TiffDirectory dir(path);  // first: a non-TIFF fails here with a message naming it
+    const OIIO::ImageSpec spec = open_spec(path, "a TIFF");
+    // OpenImageIO 2.4.7 returns zeros (and sometimes uninitialised memory), with success, for
+    // every read of a tiled float64 TIFF; tiled float32/int and striped float64 read in whole
+    // strips decode correctly. Refuse rather than import a wrong surface.
+    if (spec.tile_width > 0 && spec.format.basetype == OIIO::TypeDesc::DOUBLE)
+        throw IoError(path + ": tiled float64 TIFF: OpenImageIO " + std::string(OIIO_VERSION_STRING) +
+                      " misreads these (zeros); re-save it striped or as float32");
+    // OIIO decodes the first image in the file, whose directory is the one read above.
+    const std::vector<double> tw = dir.has(kTagImageWidth) ? dir.numbers(kTagImageWidth, "ImageWidth (256)")
+                                                           : std::vector<double>{};
+    const std::vector<double> th = dir.has(kTagImageLength) ? dir.numbers(kTagImageLength, "ImageLength (257)")
+                                                            : std::vector<double>{};
+    if (tw.size() != 1 || th.size() != 1 || tw[0] != spec.width || th[0] != spec.height)
+        throw IoError(path + ": ImageWidth/ImageLength (256/257) disagree with the decoded image size");
+
+    DemRaster r;
+    r.m_name = path;
+    r.m_width = spec.width;
+    r.m_height = spec.height;
+    r.m_georef = georef_from_geotiff(dir, path, spec.width);
+    double file_scale = 1.0, file_offset = 0.0;
+    if (dir.has(kTagGdalMetadata))
+        parse_gdal_metadata(dir.text(kTagGdalMetadata, "GDAL_METADATA (42112)"), path, file_scale, file_offset);
+    r.m_scale = file_scale * units.height_scale;
+    r.m_offset = apply_units(file_offset, units);
+    if (units.nodata) {
+        r.m_nodata = units.nodata;
+    } else if (dir.has(kTagGdalNodata)) {
+        const std::string text = dir.text(kTagGdalNodata, "GDAL_NODATA (42113)");
+        const auto v = parse_number(text);
+        if (!v) throw IoError(path + ": GDAL_NODATA (42113) '" + text + "' is not a number");
+        r.m_nodata = *v;
+    }
+    r.m_description = "GeoTIFF " + sample_type_name(spec.format) +
+                      (r.m_georef.kind == DemGeoref::Kind::Geographic ? ", geographic" : ", equirectangular");
+    r.m_source = std::make_shared<OiioSource>(path, spec, true);
+    return r;
+}
+
+DemRaster DemRaster::open_png(const std::string& path, const DemPngLayout& layout, const DemHeightUnits& units) {
+    check_units(units);
+    if (!(std::isfinite(layout.min_m) && std::isfinite(layout.max_m) && layout.max_m > layout.min_m))
+        throw std::invalid_argument("png_range: max must exceed min (metres), both finite");
+    if (!(std::isfinite(layout.pixel_m) && layout.pixel_m > 0))
+        throw std::invalid_argument("png_pixel_m: must be positive and finite (metres)");
+    if (!(std::abs(layout.center_lat_deg) < 90.0))
+        throw std::invalid_argument("png center_lat_deg: must be in (-90, 90) degrees");
+    if (!std::isfinite(layout.center_lon_deg)) throw std::invalid_argument("png center_lon_deg: must be finite");
+    require_regular_file(path);
+    const OIIO::ImageSpec spec = open_spec(path, "a PNG");
+    if (spec.format.basetype != OIIO::TypeDesc::UINT16)
+        throw IoError(path + ": " + sample_type_name(spec.format) + " samples; a PNG heightmap must be 16-bit grey");
+
+    DemRaster r;
+    r.m_name = path;
+    r.m_width = spec.width;
+    r.m_height = spec.height;
+    // A local equirectangular grid true to scale at the centre: the image centre is model (0, 0).
+    DemGeoref& g = r.m_georef;
+    g.kind = DemGeoref::Kind::Equirectangular;
+    g.dx = g.dy = layout.pixel_m;
+    g.x0 = -(spec.width - 1) / 2.0 * layout.pixel_m;
+    g.y0 = (spec.height - 1) / 2.0 * layout.pixel_m;
+    g.center_lon_deg = g.wrap_lon_deg = layout.center_lon_deg;
+    g.origin_lat_deg = g.std_parallel_deg = layout.center_lat_deg;
+    g.radius_m = kLunarRadius;
+    g.validate();
+    const double file_scale = (layout.max_m - layout.min_m) / 65535.0;
+    r.m_scale = file_scale * units.height_scale;
+    r.m_offset = apply_units(layout.min_m, units);
+    r.m_nodata = units.nodata;
+    r.m_description = "PNG uint16, local equirectangular";
+    r.m_source = std::make_shared<OiioSource>(path, spec, false);
+    return r;
+}
+
+DemRaster DemRaster::open(const std::string& path, const DemHeightUnits& units,
+                          const std::optional<DemPngLayout>& png) {
+    const std::string ext = lower_extension(path);
+    if (ext == ".tif" || ext == ".tiff") {
+        if (png) throw std::invalid_argument("png_range/png_pixel_m: given for a GeoTIFF (" + path + ")");
+        return open_geotiff(path, units);
+    }
+    if (ext == ".png") {
+        if (!png)
+            throw std::invalid_argument(path + ": a PNG heightmap needs png_range (min, max metres) and png_pixel_m");
+        return open_png(path, *png, units);
+    }
+    throw IoError(path + ": unsupported DEM format '" + ext + "' (use .tif/.tiff GeoTIFF or a 16-bit .png)");
+}
+
+DemRaster DemRaster::from_heights(std::string name, int width, int height, std::vector<double> heights_m,
+                                  const DemGeoref& georef) {
+    if (width < 2 || height < 2) throw std::invalid_argument("width, height: a DEM needs at least 2×2 pixels");
+    if (heights_m.size() != static_cast<size_t>(width) * static_cast<size_t>(height))
+        throw std::invalid_argument("heights_m: size must be width × height");
+    georef.validate();
+    DemRaster r;
+    r.m_name = std::move(name);
+    r.m_width = width;
+    r.m_height = height;
+    r.m_georef = georef;
+    r.m_description = "in-memory float64";
+    r.m_source = std::make_shared<MemorySource>(width, std::move(heights_m));
+    return r;
+}
+
+std::vector<double> DemRaster::read(int x0, int y0, int x1, int y1) const {
+    if (!(0 <= x0 && x0 < x1 && x1 <= m_width && 0 <= y0 && y0 < y1 && y1 <= m_height))
+        throw std::invalid_argument(m_name + ": window [" + std::to_string(x0) + ", " + std::to_string(x1) +
+                                    ") × [" + std::to_string(y0) + ", " + std::to_string(y1) +
+                                    ") is empty or leaves the raster");
+    std::vector<double> z = m_source->read_raw(x0, y0, x1, y1);
+    std::optional<double> marker = m_nodata;
+    if (marker && m_source->float32) marker = static_cast<double>(static_cast<float>(*marker));
+    for (double& v : z) {
+        if (!std::isfinite(v) || (marker && v == *marker)) {
+            v = kNaN;
+        } else {
+            v = v * m_scale + m_offset;
+            if (!std::isfinite(v)) v = kNaN;  // out of double's range after scaling: no height
+        }
+    }
+    return z;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Void filling
+
+int64_t fill_voids(std::vector<double>& grid, int width, int height) {
+    if (width < 1 || height < 1 || grid.size() != static_cast<size_t>(width) * static_cast<size_t>(height))
+        throw std::invalid_argument("grid: size must be width × height");
+    const size_t n = grid.size();
+    std::vector<uint8_t> is_void(n);
+    size_t voids = 0;
+    for (size_t i = 0; i < n; ++i) {
+        is_void[i] = !std::isfinite(grid[i]);
+        voids += is_void[i];
+    }
+    if (voids == n) throw std::invalid_argument("grid: every cell is void");
+    if (voids == 0) return 0;
+
+    const auto W = static_cast<size_t>(width);
+    std::vector<uint8_t> seen(n, 0);
+    std::vector<size_t> cells;
+    std::deque<size_t> queue;
+    for (size_t start = 0; start < n; ++start) {
+        if (!is_void[start] || seen[start]) continue;
+        // One 4-connected void region, gathered breadth-first.
+        cells.clear();
+        queue.push_back(start);
+        seen[start] = 1;
+        while (!queue.empty()) {
+            const size_t c = queue.front();
+            queue.pop_front();
+            cells.push_back(c);
+            const size_t x = c % W, y = c / W;
+            const size_t nb[4] = {x > 0 ? c - 1 : n, x + 1 < W ? c + 1 : n, y > 0 ? c - W : n,
+                                  y + 1 < static_cast<size_t>(height) ? c + W : n};
+            for (size_t m : nb)
+                if (m != n && is_void[m] && !seen[m]) {
+                    seen[m] = 1;
+                    queue.push_back(m);
+                }
+        }
+        // Raster order makes the sweep a plain lexicographic Gauss-Seidel, independent of the
+        // breadth-first order.
+        std::sort(cells.begin(), cells.end());
+        size_t xmin = W, xmax = 0, ymin = n, ymax = 0;
+        double seed = 0.0;
+        size_t seeds = 0;
+        for (size_t c : cells) {
+            const size_t x = c % W, y = c / W;
+            xmin = std::min(xmin, x), xmax = std::max(xmax, x), ymin = std::min(ymin, y), ymax = std::max(ymax, y);
+            const size_t nb[4] = {x > 0 ? c - 1 : n, x + 1 < W ? c + 1 : n, y > 0 ? c - W : n,
+                                  y + 1 < static_cast<size_t>(height) ? c + W : n};
+            for (size_t m : nb)
+                if (m != n && !is_void[m]) seed += grid[m], ++seeds;
+        }
+        // A maximal void region that is not the whole grid borders a finite cell, so seeds > 0.
+        seed /= static_cast<double>(seeds);
+        for (size_t c : cells) grid[c] = seed;
+        // Successive over-relaxation with the optimal factor for a square of side L (Young):
+        // ω = 2 / (1 + sin(π/(L+1))); it cuts the sweeps from O(L²) (Gauss-Seidel) to O(L).
+        const double L = static_cast<double>(std::max(xmax - xmin, ymax - ymin) + 1);
+        const double omega = 2.0 / (1.0 + std::sin(kPi / (L + 1.0)));
+        const int max_sweeps = static_cast<int>(100.0 * L) + 1000;
+        for (int sweep = 0; sweep < max_sweeps; ++sweep) {
+            double moved = 0.0;
+            for (size_t c : cells) {
+                const size_t x = c % W, y = c / W;
+                double sum = 0.0;
+                int count = 0;
+                // At the grid's edge only the neighbours inside count: zero normal slope there.
+                if (x > 0) sum += grid[c - 1], ++count;
+                if (x + 1 < W) sum += grid[c + 1], ++count;
+                if (y > 0) sum += grid[c - W], ++count;
+                if (y + 1 < static_cast<size_t>(height)) sum += grid[c + W], ++count;
+                const double step = omega * (sum / count - grid[c]);
+                grid[c] += step;
+                moved = std::max(moved, std::abs(step));
+            }
+            if (moved < 1e-9) break;
+        }
+    }
+    return static_cast<int64_t>(voids);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Import
+
+namespace {
+
+// Source pixels read beyond the footprint on every side, so a void at the footprint's edge is
+// filled from data on both sides of it rather than from the window's edge.
+constexpr int kFillMargin = 8;
+constexpr int kMaxGridSide = 8193;
+constexpr int64_t kMaxWindowPixels = int64_t(1) << 26;  // 512 MiB of float64
+// Horizontal fixed-point tolerance, metres. 0.1 mm would do for the ground's shape; 1 µm costs
+// about one more step and keeps the up error (≈ residual·d/R) below a nanometre.
+constexpr double kConvergedM = 1e-6;
+constexpr int kMaxIterations = 50;
+// Raster coordinates within this of the outermost pixel centre count as inside (rounding).
+constexpr double kEdgeSlack = 1e-9;
+
+/// A bounding box in raster coordinates.
+struct Box {
+    double umin = std::numeric_limits<double>::infinity(), vmin = umin;
+    double umax = -std::numeric_limits<double>::infinity(), vmax = umax;
+    void add(const glm::dvec2& p) {
+        umin = std::min(umin, p.x), umax = std::max(umax, p.x);
+        vmin = std::min(vmin, p.y), vmax = std::max(vmax, p.y);
+    }
+    void add(const Box& b) {
+        umin = std::min(umin, b.umin), umax = std::max(umax, b.umax);
+        vmin = std::min(vmin, b.vmin), vmax = std::max(vmax, b.vmax);
+    }
+};
+
+/// Filled heights of source pixels [x0, x0 + w) × [y0, y0 + h).
+struct Window {
+    int x0 = 0, y0 = 0, w = 0, h = 0;
+    std::vector<double> z;
+
+    /// Bilinear height at raster (u, v); false if (u, v) is outside this window's pixel centres.
+    bool sample(const glm::dvec2& p, double& out) const {
+        double u = p.x - x0, v = p.y - y0;
+        if (!(u >= -kEdgeSlack && u <= w - 1 + kEdgeSlack && v >= -kEdgeSlack && v <= h - 1 + kEdgeSlack))
+            return false;
+        u = std::clamp(u, 0.0, w - 1.0);
+        v = std::clamp(v, 0.0, h - 1.0);
+        // The last column/row interpolates from the cell before it with weight 1 on its own side.
+        const int i = std::min(static_cast<int>(u), w - 2), j = std::min(static_cast<int>(v), h - 2);
+        const double fu = u - i, fv = v - j;
+        const double* r0 = z.data() + static_cast<size_t>(j) * w + i;
+        const double* r1 = r0 + w;
+        out = (1 - fv) * ((1 - fu) * r0[0] + fu * r0[1]) + fv * ((1 - fu) * r1[0] + fu * r1[1]);
+        return true;
+    }
+};
+
+enum class NodeStatus { Ok, Outside, NoConvergence };
+
+/// The height of node (e, n); every raster point it sampled is added to `box`.
+NodeStatus node_height(const LunarFrame& frame, const DemGeoref& g, const Window& win, double e, double n,
+                       double h0, bool curvature, double& up, Box& box) {
+    if (!curvature) {
+        // The radial through the tangent-plane point (e, n, 0): the ground directly below the node.
+        const glm::dvec3 llh = frame.to_geodetic({e, n, 0.0});
+        const glm::dvec2 uv = g.to_raster(llh.x, llh.y);
+        box.add(uv);
+        double h;
+        if (!win.sample(uv, h)) return NodeStatus::Outside;
+        up = h - h0;
+        return NodeStatus::Ok;
+    }
+    // Fixed point: the radial through (e, n, guess) meets the surface at p; p lies off the node
+    // horizontally by about (h_p − h_guess)·d/R, so taking p's up as the next guess converges
+    // by a factor ~d/R per step (two or three steps at 10 km).
+    double guess = 0.0;
+    for (int it = 0; it < kMaxIterations; ++it) {
+        const glm::dvec3 llh = frame.to_geodetic({e, n, guess});
+        const glm::dvec2 uv = g.to_raster(llh.x, llh.y);
+        box.add(uv);
+        double h;
+        if (!win.sample(uv, h)) return NodeStatus::Outside;
+        const glm::dvec3 p = frame.to_enu(llh.x, llh.y, h);
+        if (std::hypot(p.x - e, p.y - n) < kConvergedM) {
+            up = p.z;
+            return NodeStatus::Ok;
+        }
+        guess = p.z;
+    }
+    return NodeStatus::NoConvergence;
+}
+
+/// Throws if the raster points in `need` are not all inside the raster's pixel centres, naming
+/// each edge the crop crosses.
+void require_inside(const DemRaster& dem, const Box& need, const DemCrop& crop) {
+    const DemGeoref& g = dem.georef();
+    const double W = dem.width() - 1.0, H = dem.height() - 1.0;
+    const double uc = std::clamp((need.umin + need.umax) / 2, 0.0, W), vc = std::clamp((need.vmin + need.vmax) / 2, 0.0, H);
+    std::string sides;
+    auto side = [&](const std::string& s) { sides += (sides.empty() ? "" : "; ") + s; };
+    if (need.umin < -kEdgeSlack)
+        side("west edge (it needs column " + fmt(need.umin, 5) + "; the first pixel centre, column 0, is at lon " +
+             fmt(g.to_latlon(0, vc).y, 9) + "°)");
+    if (need.umax > W + kEdgeSlack)
+        side("east edge (it needs column " + fmt(need.umax, 5) + "; the last pixel centre, column " + fmt(W, 9) +
+             ", is at lon " + fmt(g.to_latlon(W, vc).y, 9) + "°)");
+    if (need.vmin < -kEdgeSlack)
+        side("north edge (it needs row " + fmt(need.vmin, 5) + "; the first pixel centre, row 0, is at lat " +
+             fmt(g.to_latlon(uc, 0).x, 9) + "°)");
+    if (need.vmax > H + kEdgeSlack)
+        side("south edge (it needs row " + fmt(need.vmax, 5) + "; the last pixel centre, row " + fmt(H, 9) +
+             ", is at lat " + fmt(g.to_latlon(uc, H).x, 9) + "°)");
+    if (!sides.empty())
+        throw std::invalid_argument(dem.name() + ": a " + fmt(crop.size_m) + " m crop at lat " + fmt(crop.lat_deg, 9) +
+                                    "°, lon " + fmt(crop.lon_deg, 9) + "° leaves the raster (" +
+                                    std::to_string(dem.width()) + "×" + std::to_string(dem.height()) +
+                                    " pixels) past its " + sides);
+}
+
+/// The source pixels a bilinear read of the points in `b` touches, as [x0, x1) × [y0, y1).
+std::array<int, 4> pixel_range(const Box& b, int width, int height) {
+    const auto lo = [](double v, int n) { return std::clamp(static_cast<int>(std::floor(v + kEdgeSlack)), 0, n - 1); };
+    const auto hi = [](double v, int n) { return std::clamp(static_cast<int>(std::floor(v - kEdgeSlack)) + 2, 1, n); };
+    return {lo(b.umin, width), lo(b.vmin, height), hi(b.umax, width), hi(b.vmax, height)};
+}
+
+}  // namespace
+
+LocalDemGrid import_dem(const DemRaster& dem, const DemCrop& crop) {
+    if (!(crop.lat_deg >= -90.0 && crop.lat_deg <= 90.0))
+        throw std::invalid_argument("lat_deg: must be in [-90, 90] degrees");
+    if (!std::isfinite(crop.lon_deg)) throw std::invalid_argument("lon_deg: must be finite");
+    // Beyond a tenth of the radius the tangent-plane grid stops being a local patch (the corner
+    // would sit kilometres below it and the grid would wrap noticeably around the sphere).
+    if (!(std::isfinite(crop.size_m) && crop.size_m > 0 && crop.size_m <= 0.1 * kLunarRadius))
+        throw std::invalid_argument("size_m: must be > 0 and at most " + fmt(0.1 * kLunarRadius) + " m, got " +
+                                    fmt(crop.size_m));
+    if (!(std::isfinite(crop.spacing_m) && crop.spacing_m >= 0))
+        throw std::invalid_argument("spacing_m: must be >= 0 (0 = the source pixel size) and finite");
+
+    const DemGeoref& g = dem.georef();
+    const glm::dvec2 pixel = g.pixel_size_m(crop.lat_deg);
+    const double spacing = crop.spacing_m > 0 ? crop.spacing_m : std::min(pixel.x, pixel.y);
+    // The 1e-9 keeps an exact multiple (size 200, spacing 0.1) from losing a node to rounding.
+    const double half_nodes = std::floor(crop.size_m / (2 * spacing) + 1e-9);
+    if (half_nodes < 1)
+        throw std::invalid_argument("size_m: " + fmt(crop.size_m) + " m is less than 2 × spacing_m (" +
+                                    fmt(spacing) + " m)");
+    if (2 * half_nodes + 1 > kMaxGridSide)
+        throw std::invalid_argument("spacing_m: " + fmt(crop.size_m) + " m at " + fmt(spacing) + " m spacing needs " +
+                                    fmt(2 * half_nodes + 1) + " nodes a side; at most " + std::to_string(kMaxGridSide));
+    const int half = static_cast<int>(half_nodes), n = 2 * half + 1;
+
+    // A first footprint from the grid's boundary nodes on the tangent plane at height 0: the map
+    // from the square to the raster is one-to-one, so the boundary bounds it. Heights shift the
+    // true footprint by about d·Δh/R, which the margin absorbs; if not, the loop below reads again.
+    Box need;
+    {
+        const LunarFrame flat(crop.lat_deg, crop.lon_deg, 0.0);
+        const glm::dvec3 c = flat.to_geodetic({0, 0, 0});
+        need.add(g.to_raster(c.x, c.y));
+        for (int k = -half; k <= half; ++k)
+            for (const glm::dvec2 en : {glm::dvec2(k, -half), glm::dvec2(k, half), glm::dvec2(-half, k), glm::dvec2(half, k)}) {
+                const glm::dvec3 llh = flat.to_geodetic({en.x * spacing, en.y * spacing, 0.0});
+                need.add(g.to_raster(llh.x, llh.y));
+            }
+    }
+    const glm::dvec2 centre_uv = g.to_raster(crop.lat_deg, crop.lon_deg);
+
+    LocalDemGrid out;
+    out.nx = out.ny = n;
+    out.spacing_m = spacing;
+    out.lat_deg = crop.lat_deg;
+    out.lon_deg = crop.lon_deg;
+    out.curvature = crop.curvature;
+    out.source_pixel_east_m = pixel.x;
+    out.source_pixel_north_m = pixel.y;
+    out.heights.assign(static_cast<size_t>(n) * n, 0.0);
+
+    for (int attempt = 0;; ++attempt) {
+        require_inside(dem, need, crop);
+        const std::array<int, 4> core = pixel_range(need, dem.width(), dem.height());
+        Window win;
+        win.x0 = std::max(0, core[0] - kFillMargin);
+        win.y0 = std::max(0, core[1] - kFillMargin);
+        win.w = std::min(dem.width(), core[2] + kFillMargin) - win.x0;
+        win.h = std::min(dem.height(), core[3] + kFillMargin) - win.y0;
+        if (static_cast<int64_t>(win.w) * win.h > kMaxWindowPixels)
+            throw std::invalid_argument("size_m: the crop covers " + std::to_string(win.w) + "×" + std::to_string(win.h) +
+                                        " source pixels of " + dem.name() + "; at most " +
+                                        std::to_string(kMaxWindowPixels) + " are read at once");
+        win.z = dem.read(win.x0, win.y0, win.x0 + win.w, win.y0 + win.h);
+        std::vector<uint8_t> was_void(win.z.size());
+        for (size_t i = 0; i < win.z.size(); ++i) was_void[i] = std::isnan(win.z[i]);
+        auto all_void = [&](const std::array<int, 4>& r) {
+            return std::invalid_argument(dem.name() + ": every source pixel under the crop is void (columns " +
+                                         std::to_string(r[0]) + "–" + std::to_string(r[2] - 1) + ", rows " +
+                                         std::to_string(r[1]) + "–" + std::to_string(r[3] - 1) +
+                                         (dem.nodata() ? ", nodata " + fmt(*dem.nodata(), 9) : std::string()) + ")");
+        };
+        try {
+            fill_voids(win.z, win.w, win.h);
+        } catch (const std::invalid_argument&) {
+            throw all_void(core);
+        }
+
+        double h0;
+        if (!win.sample(centre_uv, h0)) throw std::logic_error("import_dem: the crop centre is outside its window");
+        const LunarFrame frame(crop.lat_deg, crop.lon_deg, h0);
+
+        std::vector<Box> row_box(static_cast<size_t>(n));
+        std::vector<NodeStatus> row_status(static_cast<size_t>(n), NodeStatus::Ok);
+        std::vector<double> row_fail_e(static_cast<size_t>(n), 0.0);
+        // Rows are independent and each writes only its own slots, so the result does not depend
+        // on how TBB splits them.
+        tbb::parallel_for(tbb::blocked_range<int>(0, n), [&](const tbb::blocked_range<int>& rows) {
+            for (int j = rows.begin(); j != rows.end(); ++j) {
+                const double north = (j - half) * spacing;
+                for (int i = 0; i < n; ++i) {
+                    const double east = (i - half) * spacing;
+                    double up = 0.0;
+                    const NodeStatus s = node_height(frame, g, win, east, north, h0, crop.curvature, up,
+                                                     row_box[static_cast<size_t>(j)]);
+                    if (s != NodeStatus::Ok) {
+                        if (row_status[static_cast<size_t>(j)] == NodeStatus::Ok) {
+                            row_status[static_cast<size_t>(j)] = s;
+                            row_fail_e[static_cast<size_t>(j)] = east;
+                        }
+                        continue;
+                    }
+                    out.heights[static_cast<size_t>(j) * n + i] = up;
+                }
+            }
+        });
+        Box used;
+        bool outside = false;
+        for (int j = 0; j < n; ++j) {
+            used.add(row_box[static_cast<size_t>(j)]);
+            if (row_status[static_cast<size_t>(j)] == NodeStatus::NoConvergence)
+                throw std::runtime_error(dem.name() + ": the surface under node (east " +
+                                         fmt(row_fail_e[static_cast<size_t>(j)]) + " m, north " +
+                                         fmt((j - half) * spacing) + " m) was not found in " +
+                                         std::to_string(kMaxIterations) + " steps (a near-vertical cliff?)");
+            outside |= row_status[static_cast<size_t>(j)] == NodeStatus::Outside;
+        }
+        if (outside) {
+            // The surface moved the footprint past the margin: read again around what was asked.
+            if (attempt >= 3) throw std::logic_error("import_dem: the footprint did not settle in 4 reads");
+            need.add(used);
+            continue;
+        }
+
+        const std::array<int, 4> touched = pixel_range(used, dem.width(), dem.height());
+        int64_t voids = 0, pixels = 0;
+        for (int y = touched[1]; y < touched[3]; ++y)
+            for (int x = touched[0]; x < touched[2]; ++x) {
+                voids += was_void[static_cast<size_t>(y - win.y0) * win.w + (x - win.x0)];
+                ++pixels;
+            }
+        if (voids == pixels) throw all_void(touched);
+        out.voids_filled = voids;
+        out.h0_m = h0;
+        out.footprint_min = {used.umin, used.vmin};
+        out.footprint_max = {used.umax, used.vmax};
+        return out;
+    }
+}
+
+}  // namespace moonbot

@@ -1,0 +1,493 @@
+"""DEM import end to end: synthetic GeoTIFFs (written with tifffile, GeoTIFF and GDAL tags set
+by hand) and 16-bit PNGs (Pillow) holding known planes, imported and compared at every node with
+closed forms computed here in numpy, independently of GeographicLib; voids, bad input, the
+LocalDem file and the `terrain import` command."""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+import pytest
+import tifffile
+from click.testing import CliRunner
+from PIL import Image
+
+from moonbot import _core
+from moonbot.cli import main
+from moonbot.terrain.dem import LocalDem, import_dem
+
+R = 1737400.0  # the lunar reference sphere, metres (SLDEM2015's datum)
+
+
+# --- closed forms -------------------------------------------------------------------------------
+
+def radial_latlon(east, north, lat0, lon0, h0):
+    """Lat/lon (degrees) of the radial through the tangent-plane point (east, north, 0) of the
+    ENU frame at (lat0, lon0, h0) on the sphere: the ground directly below a flat-grid node."""
+    p, l = math.radians(lat0), math.radians(lon0)
+    e_axis = np.array([-math.sin(l), math.cos(l), 0.0])
+    n_axis = np.array([-math.sin(p) * math.cos(l), -math.sin(p) * math.sin(l), math.cos(p)])
+    u_axis = np.array([math.cos(p) * math.cos(l), math.cos(p) * math.sin(l), math.sin(p)])
+    v = (np.multiply.outer(east, e_axis) + np.multiply.outer(north, n_axis) + (R + h0) * u_axis)
+    lat = np.degrees(np.arctan2(v[..., 2], np.hypot(v[..., 0], v[..., 1])))
+    lon = np.degrees(np.arctan2(v[..., 1], v[..., 0]))
+    return lat, lon
+
+
+def node_grid(dem: LocalDem):
+    """East and north of every node, (ny, nx) each."""
+    return np.meshgrid(dem.east_m, dem.north_m)
+
+
+def geotiff(path, data, *, model, pixel_scale, tiepoint, raster_type=1, proj=(), gdal_scale=None,
+            gdal_offset=None, nodata=None, **write):
+    """Writes `data` (row 0 = north) as a GeoTIFF. model 2 = geographic (degrees), 1 = projected
+    (equirectangular, metres; `proj` = ((GeoKey id, value), ...) stored in GeoDoubleParams).
+    tiepoint = (i, j, x, y): raster point (i, j) is model point (x, y)."""
+    keys = [(1024, 0, 1, model), (1025, 0, 1, raster_type)]
+    doubles: list[float] = []
+    if model == 2:
+        keys.append((2054, 0, 1, 9102))  # degrees
+    else:
+        keys += [(3072, 0, 1, 32767), (3075, 0, 1, 17), (3076, 0, 1, 9001)]  # user-defined eqc, metres
+        for key, value in proj:
+            keys.append((key, 34736, 1, len(doubles)))
+            doubles.append(value)
+    keys.sort()
+    directory = [1, 1, 0, len(keys)] + [v for k in keys for v in k]
+    i, j, x, y = tiepoint  # raster point (i, j) is model point (x, y)
+    tags = [(33550, "d", 3, (*pixel_scale, 0.0), True),
+            (33922, "d", 6, (i, j, 0.0, x, y, 0.0), True),
+            (34735, "H", len(directory), directory, True)]
+    if doubles:
+        tags.append((34736, "d", len(doubles), doubles, True))
+    items = []
+    if gdal_scale is not None:
+        items.append(f'<Item name="SCALE" sample="0" role="scale">{gdal_scale!r}</Item>')
+    if gdal_offset is not None:
+        items.append(f'<Item name="OFFSET" sample="0" role="offset">{gdal_offset!r}</Item>')
+    if items:
+        tags.append((42112, "s", 0, "<GDALMetadata>\n  " + "\n  ".join(items) + "\n</GDALMetadata>", True))
+    if nodata is not None:
+        tags.append((42113, "s", 0, nodata, True))
+    tifffile.imwrite(path, data, extratags=tags, photometric="minisblack", **write)
+    return path
+
+
+# A geographic raster around (LAT0, LON0): 1/4096° pixels (7.4 m north-south), 301 × 301.
+LAT0, LON0 = 20.0, 10.0
+STEP = 1.0 / 4096
+N_PX = 301
+
+
+def geographic_centres():
+    """Lat/lon of the pixel centres of the geographic test raster, (N_PX,) each."""
+    lon = LON0 - 150 * STEP + np.arange(N_PX) * STEP
+    lat = LAT0 + 150 * STEP - np.arange(N_PX) * STEP
+    return lat, lon
+
+
+def geographic_tiepoint(raster_type):
+    """The tiepoint that puts pixel (0, 0)'s centre at (LAT0 + 150 STEP, LON0 − 150 STEP)."""
+    half = 0.5 * STEP if raster_type == 1 else 0.0  # PixelIsArea ties the pixel's outer corner
+    return (0.0, 0.0, LON0 - 150 * STEP - half, LAT0 + 150 * STEP + half)
+
+
+# --- planes import exactly ----------------------------------------------------------------------
+
+@pytest.mark.parametrize("raster_type", [1, 2], ids=["pixel-is-area", "pixel-is-point"])
+# OpenImageIO 2.4.7 decodes float64 rows correctly only in whole strips; 7-row strips put the
+# crop's first and last rows mid-strip.
+@pytest.mark.parametrize("layout", [{}, {"byteorder": ">"}, {"compression": "zlib"}, {"rowsperstrip": 7}],
+                         ids=["one-strip", "big-endian", "deflate", "7-row-strips"])
+def test_geographic_float64_plane_is_exact(tmp_path, raster_type, layout):
+    """h = a·east + b·north + c with east/north the raster's local metres (linear in its
+    degrees), imported flat: every node matches the plane at the ground below it to 1e-6 m."""
+    a, b, c = 0.12, -0.07, -1234.5
+    lat, lon = geographic_centres()
+    east = R * math.cos(math.radians(LAT0)) * np.radians(lon - LON0)
+    north = R * np.radians(lat - LAT0)
+    heights = a * east[None, :] + b * north[:, None] + c
+    path = geotiff(tmp_path / "plane.tif", heights, model=2, pixel_scale=(STEP, STEP),
+                   tiepoint=geographic_tiepoint(raster_type), raster_type=raster_type, **layout)
+    lat_c, lon_c = LAT0 + 0.003, LON0 - 0.002  # not on a pixel centre
+    dem = import_dem(path, lat_c, lon_c, 600.0, spacing_m=10.0, curvature=False)
+    h_c = a * R * math.cos(math.radians(LAT0)) * math.radians(lon_c - LON0) + b * R * math.radians(lat_c - LAT0) + c
+    assert dem.h0_m == pytest.approx(h_c, abs=1e-9)
+    e, n = node_grid(dem)
+    nlat, nlon = radial_latlon(e, n, lat_c, lon_c, dem.h0_m)
+    want = a * R * math.cos(math.radians(LAT0)) * np.radians(nlon - LON0) + b * R * np.radians(nlat - LAT0) + c - h_c
+    assert dem.shape == (61, 61)
+    np.testing.assert_allclose(dem.heights, want, rtol=0, atol=1e-6)
+    assert dem.heights[30, 30] == pytest.approx(0.0, abs=1e-9)  # the origin node
+    assert dem.source["voids_filled"] == 0
+    assert dem.source["format"] == "GeoTIFF float64, geographic"
+
+
+@pytest.mark.parametrize("tile", [None, (16, 16)], ids=["strips", "tiles"])
+def test_equirectangular_float32_plane_is_exact(tmp_path, tile):
+    """Simple cylindrical metres with a standard parallel, central meridian, latitude of origin
+    and false easting/northing; the plane's samples are dyadic so float32 holds them exactly."""
+    lat_s, lon_c0, lat_o, fe, fn = 15.0, 9.9, 19.5, 1000.0, -2000.0
+    dx = 2.0
+    x = 700.0 + dx * np.arange(N_PX)  # model X of the pixel centres
+    y0 = fn + R * math.radians(LAT0 - lat_o) + 300.0
+    y = y0 - dx * np.arange(N_PX)
+    a, b, c = 1 / 32, -1 / 64, 100.0
+    heights = (a * x[None, :] + b * (y[:, None] - y0) + c).astype(np.float32)
+    assert np.array_equal(heights.astype(np.float64), a * x[None, :] + b * (y[:, None] - y0) + c)
+    proj = ((3078, lat_s), (3082, fe), (3083, fn), (3088, lon_c0), (3089, lat_o))
+    path = geotiff(tmp_path / "eqc.tif", heights, model=1, pixel_scale=(dx, dx),
+                   tiepoint=(0.0, 0.0, x[0] - dx / 2, y0 + dx / 2), proj=proj, tile=tile)
+
+    def model_xy(lat, lon):
+        return (fe + R * np.radians(lon - lon_c0) * math.cos(math.radians(lat_s)),
+                fn + R * np.radians(lat - lat_o))
+
+    # The crop centre in the middle of the raster: model (1000 + 7, y0 − 300 + 5).
+    lat_c = lat_o + math.degrees((y0 - 295.0 - fn) / R)
+    lon_c = lon_c0 + math.degrees((1007.0 - fe) / (R * math.cos(math.radians(lat_s))))
+    dem = import_dem(path, lat_c, lon_c, 400.0, spacing_m=5.0, curvature=False)
+    e, n = node_grid(dem)
+    X, Y = model_xy(*radial_latlon(e, n, lat_c, lon_c, dem.h0_m))
+    np.testing.assert_allclose(dem.heights, a * (X - 1007.0) + b * (Y - (y0 - 295.0)), rtol=0, atol=1e-6)
+    assert dem.h0_m == pytest.approx(a * 1007.0 - b * 295.0 + c, abs=1e-9)
+    assert dem.source["format"] == "GeoTIFF float32, equirectangular"
+    # The source pixel: 2 m model metres, true to scale at 15°, so narrower at ~20°.
+    assert dem.source["pixel_north_m"] == pytest.approx(2.0, rel=1e-12)
+    assert dem.source["pixel_east_m"] == pytest.approx(
+        2.0 * math.cos(math.radians(lat_c)) / math.cos(math.radians(lat_s)), rel=1e-12)
+
+
+def test_int16_plane_with_gdal_scale_offset_is_exact(tmp_path):
+    """LOLA-style int16 with GDAL scale 0.5 and an offset: raw = k + 3i − 2j, h = 0.5·raw + off,
+    a plane in pixel coordinates, exact at every node."""
+    i, j = np.meshgrid(np.arange(N_PX), np.arange(N_PX))
+    raw = (-200 + 3 * i - 2 * j).astype(np.int16)
+    offset = -1500.25
+    path = geotiff(tmp_path / "lola.tif", raw, model=2, pixel_scale=(STEP, STEP),
+                   tiepoint=geographic_tiepoint(1), gdal_scale=0.5, gdal_offset=offset)
+    lat_c, lon_c = LAT0 - 0.001, LON0 + 0.0015
+    dem = import_dem(path, lat_c, lon_c, 500.0, spacing_m=7.0, curvature=False)
+
+    def uv(lat, lon):  # raster coordinates, integers at pixel centres
+        return (lon - (LON0 - 150 * STEP)) / STEP, (LAT0 + 150 * STEP - lat) / STEP
+
+    def relative(d: LocalDem, factor: float):  # the plane under each node, minus h0
+        u, v = uv(*radial_latlon(*node_grid(d), lat_c, lon_c, d.h0_m))
+        return factor * 0.5 * (3 * (u - uc) - 2 * (v - vc))
+
+    uc, vc = uv(lat_c, lon_c)
+    assert dem.h0_m == pytest.approx(0.5 * (-200 + 3 * uc - 2 * vc) + offset, abs=1e-9)
+    np.testing.assert_allclose(dem.heights, relative(dem, 1.0), rtol=0, atol=1e-6)
+    assert dem.source["height_scale"] == 0.5 and dem.source["height_offset_m"] == offset
+
+    # The caller's scale and offset compose with the file's: h = (0.5·raw + off)·2 + 10. (The
+    # nodes sit on the tangent plane at the new h0, so the ground under them moves a little too.)
+    twice = import_dem(path, lat_c, lon_c, 500.0, spacing_m=7.0, curvature=False, scale=2.0, offset=10.0)
+    assert twice.h0_m == pytest.approx(2 * dem.h0_m + 10.0, abs=1e-9)
+    np.testing.assert_allclose(twice.heights, relative(twice, 2.0), rtol=0, atol=1e-6)
+    assert twice.source["height_scale"] == 1.0 and twice.source["height_offset_m"] == 2 * offset + 10.0
+
+
+def test_wide_raster_is_read_in_bands(tmp_path):
+    """A raster too wide to read the crop's rows at once (24000 float32 columns, one row per
+    strip: ~87 rows per 8 MiB band) is decoded in several bands that join seamlessly."""
+    w, h = 24000, 260
+    i, j = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
+    data = (i / 8 - j / 16).astype(np.float32)  # dyadic: exact in float32
+    step = 1.0 / 8192
+    path = geotiff(tmp_path / "wide.tif", data, model=2, pixel_scale=(step, step),
+                   tiepoint=(0.0, 0.0, 100.0, 2.0), rowsperstrip=1)
+    lat_c, lon_c = 2.0 - 130.5 * step, 100.0 + 12000.5 * step  # the centre of pixel (12000, 130)
+    dem = import_dem(path, lat_c, lon_c, 800.0, spacing_m=8.0, curvature=False)
+    fp = dem.source["footprint_px"]
+    assert fp[3] - fp[1] > 100  # the crop spans more than one band of rows
+    nlat, nlon = radial_latlon(*node_grid(dem), lat_c, lon_c, dem.h0_m)
+    u, v = (nlon - 100.0) / step - 0.5, (2.0 - nlat) / step - 0.5
+    np.testing.assert_allclose(dem.heights, (u - 12000) / 8 - (v - 130) / 16, rtol=0, atol=1e-6)
+
+
+# --- voids --------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("marker", ["gdal-nodata", "caller-nodata"])
+def test_voids_are_filled_with_the_plane(tmp_path, marker):
+    """A nodata block and a NaN block inside the crop come back as the plane (to 1e-4 m); no NaN
+    reaches the output; the filled pixels are counted."""
+    a, b = 0.25, 0.125
+    i, j = np.meshgrid(np.arange(N_PX), np.arange(N_PX))
+    plane = 50.0 + a * i + b * j
+    data = plane.astype(np.float32)
+    data[140:150, 135:147] = -9999.0
+    data[155:160, 152:160] = np.nan
+    data[151, 151] = np.inf
+    voids = 10 * 12 + 5 * 8 + 1
+    nodata = {"nodata": "-9999"} if marker == "gdal-nodata" else {}
+    path = geotiff(tmp_path / "holes.tif", data, model=2, pixel_scale=(STEP, STEP),
+                   tiepoint=geographic_tiepoint(1), **nodata)
+    caller = {} if marker == "gdal-nodata" else {"nodata": -9999.0}
+    dem = import_dem(path, LAT0, LON0, 300.0, spacing_m=3.0, curvature=False, **caller)
+    assert np.isfinite(dem.heights).all()
+    assert dem.source["voids_filled"] == voids
+    nlat, nlon = radial_latlon(*node_grid(dem), LAT0, LON0, dem.h0_m)
+    u, v = (nlon - (LON0 - 150 * STEP)) / STEP, (LAT0 + 150 * STEP - nlat) / STEP
+    assert dem.h0_m == pytest.approx(50.0 + a * 150 + b * 150, abs=1e-9)  # the centre pixel
+    np.testing.assert_allclose(dem.heights, a * (u - 150) + b * (v - 150), rtol=0, atol=1e-4)
+    # Without a nodata marker the −9999 block is data, and shows as a pit.
+    if marker == "caller-nodata":
+        pit = import_dem(path, LAT0, LON0, 300.0, spacing_m=3.0, curvature=False)
+        assert pit.heights.min() < -9000 and pit.source["voids_filled"] == voids - 10 * 12
+
+
+# --- 16-bit PNG ---------------------------------------------------------------------------------
+
+def test_png_heightmap_imports_within_one_quantisation_step(tmp_path):
+    """A plane in the PNG's local metres, quantised to 16 bits over [min, max]: the import
+    matches the continuous plane within one step at every node, the crop off the image centre."""
+    w, h, pixel = 241, 201, 1.5
+    lo, hi = -120.0, 535.35
+    step = (hi - lo) / 65535
+    lat_c, lon_c = -45.0, 200.0  # image centre; lon beyond 180 on purpose
+    east = (np.arange(w) - (w - 1) / 2) * pixel
+    north = ((h - 1) / 2 - np.arange(h)) * pixel
+    true = 200.0 + 0.4 * east[None, :] - 0.3 * north[:, None]
+    raw = np.round((true - lo) / step).astype(np.uint16)
+    path = tmp_path / "height.png"
+    Image.fromarray(raw).save(path)
+    with Image.open(path) as written:
+        assert written.mode == "I;16"
+
+    # The crop is centred 30 m east and 20 m south of the image centre.
+    crop_lat = lat_c + math.degrees(-20.0 / R)
+    crop_lon = lon_c - 360 + math.degrees(30.0 / (R * math.cos(math.radians(lat_c))))
+    dem = import_dem(path, crop_lat, crop_lon, 150.0, spacing_m=2.0, curvature=False,
+                     png_range=(lo, hi), png_pixel_m=pixel, png_center=(lat_c, lon_c))
+    nlat, nlon = radial_latlon(*node_grid(dem), crop_lat, crop_lon, dem.h0_m)
+    e = R * np.radians((nlon - lon_c + 180) % 360 - 180) * math.cos(math.radians(lat_c))
+    n = R * np.radians(nlat - lat_c)
+    want = 0.4 * (e - 30.0) - 0.3 * (n + 20.0)
+    assert np.abs(dem.heights - want).max() <= step
+    assert dem.h0_m == pytest.approx(200.0 + 0.4 * 30.0 - 0.3 * -20.0, abs=step)
+    assert dem.source["format"] == "PNG uint16, local equirectangular"
+    assert dem.source["pixel_north_m"] == pytest.approx(pixel, rel=1e-12)
+    assert dem.source["pixel_m"] == pytest.approx(pixel, rel=1e-4)  # east narrows off the centre
+
+
+def test_png_needs_its_layout_and_16_bits(tmp_path):
+    path = tmp_path / "h.png"
+    Image.fromarray(np.zeros((8, 8), np.uint16)).save(path)
+    with pytest.raises(ValueError, match=r"h\.png: a PNG heightmap needs png_range .* and png_pixel_m"):
+        import_dem(path, 0.0, 0.0, 5.0)
+    eight = tmp_path / "h8.png"
+    Image.fromarray(np.zeros((8, 8), np.uint8)).save(eight)
+    with pytest.raises(OSError, match=r"h8\.png: uint8 samples; a PNG heightmap must be 16-bit"):
+        import_dem(eight, 0.0, 0.0, 5.0, png_range=(0.0, 1.0), png_pixel_m=1.0)
+    with pytest.raises(ValueError, match="png_range: max must exceed min"):
+        import_dem(path, 0.0, 0.0, 5.0, png_range=(1.0, 1.0), png_pixel_m=1.0)
+
+
+# --- kilometre scale ----------------------------------------------------------------------------
+
+def test_constant_dem_is_the_same_from_two_centres_2_km_apart(tmp_path):
+    """A constant-height DEM cropped around two centres 2 km apart gives the same heights after
+    the local shift: the sphere's drop below each tangent plane, −(R+h) + √((R+h)² − d²)."""
+    step = 1.0 / 1024  # 29.6 m
+    height = 812.0
+    data = np.full((513, 513), height, np.float32)
+    path = geotiff(tmp_path / "flat.tif", data, model=2, pixel_scale=(step, step),
+                   tiepoint=(0.0, 0.0, 30.0 - 256.5 * step, 5.0 + 256.5 * step))
+    first = import_dem(path, 5.0, 30.0, 3000.0, spacing_m=25.0)
+    shifted_lon = 30.0 + math.degrees(2000.0 / (R * math.cos(math.radians(5.0))))
+    second = import_dem(path, 5.0, shifted_lon, 3000.0, spacing_m=25.0)
+    assert first.shape == second.shape == (121, 121)
+    assert first.h0_m == pytest.approx(height, abs=1e-9) and second.h0_m == pytest.approx(height, abs=1e-9)
+    # Identical up to double rounding of ECEF coordinates at 1737 km (~1e-10 m).
+    np.testing.assert_allclose(first.heights, second.heights, rtol=0, atol=1e-9)
+    e, n = node_grid(first)
+    drop = np.vectorize(_core.curvature_drop)(np.hypot(e, n), R + height)
+    np.testing.assert_allclose(first.heights, -drop, rtol=1e-6, atol=1e-9)
+    assert first.heights[0, 0] == pytest.approx(-(1500 * math.sqrt(2)) ** 2 / (2 * (R + height)), rel=1e-4)
+
+
+# --- bad input ----------------------------------------------------------------------------------
+
+def flat_geographic(tmp_path, name="ok.tif", data=None, **kw):
+    if data is None:
+        data = np.zeros((N_PX, N_PX), np.float32)
+    return geotiff(tmp_path / name, data, model=2, pixel_scale=(STEP, STEP),
+                   tiepoint=geographic_tiepoint(1), **kw)
+
+
+def test_missing_file_names_it(tmp_path):
+    with pytest.raises(OSError, match=r"nope\.tif: no such file"):
+        import_dem(tmp_path / "nope.tif", 0.0, 0.0, 10.0)
+
+
+def test_not_a_geotiff_names_the_file_and_tag(tmp_path):
+    plain = tmp_path / "plain.tif"
+    tifffile.imwrite(plain, np.zeros((4, 4), np.float32))
+    with pytest.raises(OSError, match=r"plain\.tif: no ModelPixelScale tag \(33550\); not a GeoTIFF\?"):
+        import_dem(plain, 0.0, 0.0, 10.0)
+    text = tmp_path / "text.tif"
+    text.write_text("hello, not a tiff")
+    with pytest.raises(OSError, match=r"text\.tif: not a TIFF file"):
+        import_dem(text, 0.0, 0.0, 10.0)
+    truncated = tmp_path / "cut.tif"
+    truncated.write_bytes(flat_geographic(tmp_path).read_bytes()[:12])
+    with pytest.raises(OSError, match=r"cut\.tif: TIFF .* past the end of the file"):
+        import_dem(truncated, 0.0, 0.0, 10.0)
+
+
+def test_unsupported_georeferences_name_the_key(tmp_path):
+    polar = tmp_path / "polar.tif"
+    geotiff(polar, np.zeros((8, 8), np.float32), model=1, pixel_scale=(5.0, 5.0), tiepoint=(0, 0, 0, 0))
+    # Rewrite ProjCoordTransGeoKey 17 → 15 (polar stereographic) in the file's GeoKeyDirectory.
+    blob = bytearray(polar.read_bytes())
+    key = np.array([3075, 0, 1, 17], "<u2").tobytes()
+    assert blob.count(key) == 1
+    at = blob.index(key)
+    blob[at:at + 8] = np.array([3075, 0, 1, 15], "<u2").tobytes()
+    polar.write_bytes(bytes(blob))
+    with pytest.raises(OSError, match=r"polar\.tif: ProjCoordTransGeoKey \(3075\) = 15; only 17"):
+        import_dem(polar, 0.0, 0.0, 10.0)
+    tiled = geotiff(tmp_path / "tiled64.tif", np.zeros((32, 32)), model=2, pixel_scale=(STEP, STEP),
+                    tiepoint=(0, 0, 0, 0), tile=(16, 16))
+    with pytest.raises(OSError, match=r"tiled64\.tif: tiled float64 TIFF"):
+        import_dem(tiled, 0.0, 0.0, 10.0)
+    rgb = tmp_path / "rgb.tif"
+    tifffile.imwrite(rgb, np.zeros((8, 8, 3), np.uint8),
+                     extratags=[(33550, "d", 3, (1.0, 1.0, 0.0), True), (33922, "d", 6, (0,) * 6, True)])
+    with pytest.raises(OSError, match=r"rgb\.tif: 3 channels"):
+        import_dem(rgb, 0.0, 0.0, 10.0)
+
+
+def test_crop_outside_the_raster_names_the_file_and_bound(tmp_path):
+    path = flat_geographic(tmp_path)
+    # The raster spans ±150/4096° ≈ ±1.1 km north-south; a 3 km crop leaves it north and south.
+    with pytest.raises(ValueError, match=r"ok\.tif: a 3000 m crop .* leaves the raster .* north edge"
+                                         r" .*row 0, is at lat 20\.03"):
+        import_dem(path, LAT0, LON0, 3000.0)
+    with pytest.raises(ValueError, match=r"ok\.tif: .* past its west edge"):
+        import_dem(path, LAT0, LON0 - 0.1, 100.0)
+
+
+def test_all_void_crop_names_the_file(tmp_path):
+    data = np.full((N_PX, N_PX), -32768.0, np.float32)
+    data[:, :20] = 1.0  # data far west of the crop
+    path = flat_geographic(tmp_path, "void.tif", data, nodata="-32768")
+    with pytest.raises(ValueError, match=r"void\.tif: every source pixel under the crop is void .*nodata -32768"):
+        import_dem(path, LAT0, LON0, 200.0)
+
+
+@pytest.mark.parametrize("size_m", [0.0, -10.0, math.nan, math.inf])
+def test_bad_size_names_the_field(tmp_path, size_m):
+    with pytest.raises(ValueError, match="^size_m: "):
+        import_dem(flat_geographic(tmp_path), LAT0, LON0, size_m)
+
+
+def test_bad_arguments_name_the_field(tmp_path):
+    path = flat_geographic(tmp_path)
+    with pytest.raises(ValueError, match="^spacing_m: "):
+        import_dem(path, LAT0, LON0, 100.0, spacing_m=0.0)
+    with pytest.raises(ValueError, match="^lat_deg: "):
+        import_dem(path, 95.0, LON0, 100.0)
+    with pytest.raises(ValueError, match="^height_scale: "):
+        import_dem(path, LAT0, LON0, 100.0, scale=0.0)
+    with pytest.raises(ValueError, match="^png_range/png_pixel_m: given for a GeoTIFF"):
+        import_dem(path, LAT0, LON0, 100.0, png_range=(0.0, 1.0), png_pixel_m=1.0)
+
+
+# --- the LocalDem file --------------------------------------------------------------------------
+
+def test_save_load_is_bit_identical_and_deterministic(tmp_path):
+    dem = import_dem(flat_geographic(tmp_path, data=np.random.default_rng(3).normal(size=(N_PX, N_PX)).astype(np.float32)),
+                     LAT0, LON0, 300.0)
+    first, second = dem.save(tmp_path / "a.npz"), dem.save(tmp_path / "b.npz")
+    assert first.read_bytes() == second.read_bytes()
+    back = LocalDem.load(first)
+    assert back.heights.tobytes() == dem.heights.tobytes() and back.heights.dtype == np.float64
+    assert (back.spacing_m, back.lat_deg, back.lon_deg, back.h0_m, back.curvature) == \
+        (dem.spacing_m, dem.lat_deg, dem.lon_deg, dem.h0_m, dem.curvature)
+    assert back.source == dem.source
+    assert not back.heights.flags.writeable
+    with np.load(first) as npz:  # a plain .npz for anyone else
+        assert npz["heights"].shape == dem.shape
+
+
+def test_failed_save_keeps_the_previous_file(tmp_path, monkeypatch):
+    dem = import_dem(flat_geographic(tmp_path), LAT0, LON0, 100.0)
+    target = tmp_path / "dem.npz"
+    dem.save(target)
+    before = target.read_bytes()
+
+    def refuse(src, dst):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(os, "replace", refuse)
+    with pytest.raises(OSError, match=r"dem\.npz: cannot write \(No space left on device\)"):
+        dem.save(target)
+    assert target.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dem.npz", "ok.tif"]  # no temporary left
+
+
+def test_load_errors_name_the_file(tmp_path):
+    with pytest.raises(OSError, match=r"absent\.npz: cannot read"):
+        LocalDem.load(tmp_path / "absent.npz")
+    other = tmp_path / "other.npz"
+    np.savez(other, x=np.zeros(3))
+    with pytest.raises(ValueError, match=r"other\.npz: not a LocalDem file"):
+        LocalDem.load(other)
+    junk = tmp_path / "junk.npz"
+    junk.write_bytes(b"PK\x03\x04 not really")
+    with pytest.raises(ValueError, match=r"junk\.npz: not a LocalDem file"):
+        LocalDem.load(junk)
+
+
+def test_local_dem_rejects_nan_and_bad_fields():
+    good = dict(heights=np.zeros((3, 3)), spacing_m=1.0, lat_deg=0.0, lon_deg=0.0, h0_m=0.0, curvature=True)
+    LocalDem(**good)
+    with pytest.raises(ValueError, match="^heights: must be finite"):
+        LocalDem(**{**good, "heights": np.full((3, 3), np.nan)})
+    with pytest.raises(ValueError, match="^spacing_m: must be > 0"):
+        LocalDem(**{**good, "spacing_m": 0.0})
+    with pytest.raises(ValueError, match="^source: must hold JSON values"):
+        LocalDem(**{**good, "source": {"x": object()}})
+
+
+# --- the command --------------------------------------------------------------------------------
+
+def test_terrain_import_command_writes_what_load_reads(tmp_path):
+    data = (np.arange(N_PX * N_PX, dtype=np.float32).reshape(N_PX, N_PX) % 97) * 0.01
+    data[150, 150] = -9999.0
+    path = flat_geographic(tmp_path, "site.tif", data, nodata="-9999", gdal_scale=1000.0)
+    runner = CliRunner()
+    args = ["terrain", "import", str(path), "--lat", str(LAT0), "--lon", str(LON0), "--size-m", "400",
+            "--spacing-m", "4"]
+    first = runner.invoke(main, [*args, "--out", str(tmp_path / "out" / "a.npz")])
+    assert first.exit_code == 0, first.output
+    assert "101 × 101 grid at 4 m spacing" in first.output
+    assert "1 void pixels filled" in first.output
+    drop = _core.curvature_drop(200 * math.sqrt(2), R + LocalDem.load(tmp_path / "out" / "a.npz").h0_m)
+    assert (f"Curvature on: the sphere falls {drop * 1000:.1f} mm below the tangent plane at the crop corner "
+            "(282.8 m out)") in first.output
+    second = runner.invoke(main, [*args, "--out", str(tmp_path / "out" / "b.npz")])
+    assert second.exit_code == 0, second.output
+    assert (tmp_path / "out" / "a.npz").read_bytes() == (tmp_path / "out" / "b.npz").read_bytes()
+    loaded = LocalDem.load(tmp_path / "out" / "a.npz")
+    direct = import_dem(path, LAT0, LON0, 400.0, spacing_m=4.0)
+    assert loaded.heights.tobytes() == direct.heights.tobytes()
+    assert loaded.source == direct.source and loaded.h0_m == direct.h0_m
+
+    flat = runner.invoke(main, [*args, "--no-curvature", "--out", str(tmp_path / "c.npz")])
+    assert flat.exit_code == 0 and "Curvature off" in flat.output
+    assert not LocalDem.load(tmp_path / "c.npz").curvature
+
+
+def test_terrain_import_command_reports_errors(tmp_path):
+    result = CliRunner().invoke(main, ["terrain", "import", str(tmp_path / "missing.tif"), "--lat", "0",
+                                       "--lon", "0", "--size-m", "10", "--out", str(tmp_path / "x.npz")])
+    assert result.exit_code == 1
+    assert "missing.tif: no such file" in result.output
+    assert not (tmp_path / "x.npz").exists()
