@@ -22,7 +22,7 @@ from moonbot.scene.orbit import CAMERA_CLEARANCE_M, orbit_height
 from moonbot.terrain import clear_cache, get_terrain, make_ground
 from moonbot.terrain.craters import crater_profile
 from moonbot.terrain.ground import GridGround, grid_triangles
-from moonbot.terrain.location import Location, crater_reach, curvature_drop, location_axis, main_crater
+from moonbot.terrain.location import Location, curvature_drop, drawable, location_axis, main_crater, node_spacing
 from moonbot.terrain.rocks import (crater_falloff, golombek_q, rock_poses, rock_prototypes, rocks_per_m2,
                                    sample_rocks)
 
@@ -112,12 +112,15 @@ def test_crater_location_has_the_crater_where_the_config_puts_it():
 
 def test_craters_are_kept_only_where_the_grid_can_draw_them():
     axis = location_axis(small())
-    assert crater_reach(axis, 0.01) == 0.0  # finer than any cell
-    spacing = np.diff(axis)
+    rng = np.random.default_rng(2)
+    centres = rng.uniform(-60.0, 60.0, size=(4000, 2))
+    assert not drawable(axis, centres, np.full(4000, 0.01)).any()  # finer than any cell
+    spacing = node_spacing(axis)
     for d in (0.5, 2.0, 8.0):
-        half = crater_reach(axis, d)
-        inside = (axis[:-1] >= 0) & (axis[1:] <= half)
-        assert spacing[inside].max() <= d / 6 + 1e-12
+        kept = centres[drawable(axis, centres, np.full(4000, d))]
+        assert len(kept)
+        cell = np.maximum(np.interp(kept[:, 0], axis, spacing), np.interp(kept[:, 1], axis, spacing))
+        assert cell.max() <= d / 6 + 1e-12
     # The same craters exist whatever the grid; a coarser grid draws fewer of them.
     fine, coarse = (Location(small(growth=g), location_axis(small(growth=g))).craters for g in (1.05, 1.2))
     assert 0 < len(coarse.diameters) < len(fine.diameters)

@@ -69,8 +69,9 @@ def parse_overrides(items: list[str] | tuple[str, ...]) -> dict[str, Any]:
     return parsed
 
 
-def config_hash(config: Config) -> str:
-    """SHA-256 of the canonical JSON of the resolved config (all defaults filled in)."""
+def config_hash(config: Any) -> str:
+    """SHA-256 of the canonical JSON of a resolved config dataclass (all defaults filled in): the
+    whole `Config`, or one of its sections."""
     canonical = json.dumps(dataclasses.asdict(config), sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(canonical.encode()).hexdigest()
 

@@ -9,15 +9,13 @@ measures both).
 
 from __future__ import annotations
 
-import dataclasses
-import hashlib
-import json
 import time
 from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
 
+from moonbot.config.load import config_hash
 from moonbot.config.schema import TerrainConfig
 from moonbot.terrain.ground import FlatGround, Ground, SlopedGround
 from moonbot.terrain.location import LOCATIONS, build_location, main_crater
@@ -46,8 +44,7 @@ _cache: OrderedDict[str, Terrain] = OrderedDict()
 
 def terrain_key(config: TerrainConfig) -> str:
     """SHA-256 of the canonical JSON of a terrain config."""
-    canonical = json.dumps(dataclasses.asdict(config), sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(canonical.encode()).hexdigest()
+    return config_hash(config)
 
 
 def make_ground(config: TerrainConfig) -> Ground:

@@ -66,15 +66,6 @@ def drawable(axis: np.ndarray, centres: np.ndarray, diameters: np.ndarray) -> np
     return diameters >= CRATER_CELLS * cell
 
 
-def crater_reach(axis: np.ndarray, diameter: float) -> float:
-    """Half-width (metres) of the square in which the grid `axis` resolves a crater of
-    `diameter`: as far out as the node spacing stays ≤ diameter / CRATER_CELLS (0 when even
-    the finest cell is too coarse)."""
-    positive = axis[axis >= 0.0]
-    fits = positive[node_spacing(axis)[axis >= 0.0] <= diameter / CRATER_CELLS]
-    return float(fits.max()) if len(fits) else 0.0
-
-
 class Location:
     """The height function of one procedural location (metres, world East-North-Up, origin at
     the target), deterministic from `config.seed`. `surface(x, y, cell)` is the relief before
