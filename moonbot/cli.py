@@ -30,12 +30,15 @@ def main() -> None:
               help="Directory to write into; one view_NNN/ folder per view.")
 @click.option("--set", "overrides", multiple=True, metavar="FIELD=VALUE",
               help="Override a config field, e.g. --set sun.elevation_deg=5 (YAML value).")
-@click.option("--location", type=click.Choice(["flat", "hilly", "crater", "plane", "slope"]),
+@click.option("--location", type=click.Choice(["flat", "hilly", "crater", "dem", "plane", "slope"]),
               help="Terrain location (shorthand for --set terrain.location=...).")
+@click.option("--dem", "dem_file", type=click.Path(dir_okay=False, path_type=Path),
+              help="A LocalDem .npz from `moonbot terrain import`: render at that site "
+                   "(shorthand for --set terrain.location=dem --set terrain.dem_file=...).")
 @click.option("--sheet/--no-sheet", default=True, show_default=True,
               help="Also write sheet.png: per view rgb | depth | mask, read back from the files.")
 def render_one(config_path: Path | None, views: tuple[int, ...], all_views: bool, out_dir: Path,
-               overrides: tuple[str, ...], location: str | None, sheet: bool) -> None:
+               overrides: tuple[str, ...], location: str | None, dem_file: Path | None, sheet: bool) -> None:
     """Render one sample (or one task) of CONFIG on this machine, for debugging a scene.
 
     CONFIG defaults to the embedded default config. Writes rgb.png (Reinhard, 8-bit sRGB),
@@ -49,8 +52,12 @@ def render_one(config_path: Path | None, views: tuple[int, ...], all_views: bool
     from moonbot.writer import write_sheet
 
     try:
-        config = load_config(config_path, parse_overrides(overrides + ((f"terrain.location={location}",)
-                                                                         if location else ())))
+        settings = parse_overrides(overrides)
+        if location:
+            settings["terrain.location"] = location
+        if dem_file is not None:  # a path, not a YAML value
+            settings.update({"terrain.location": "dem", "terrain.dem_file": str(dem_file)})
+        config = load_config(config_path, settings)
     except ConfigError as e:
         raise click.ClickException(str(e)) from None
     chosen = list(range(config.orbit.views)) if all_views else list(views or (0,))

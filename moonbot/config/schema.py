@@ -104,11 +104,12 @@ class RocksConfig:
 @dataclass(frozen=True)
 class TerrainConfig:
     """The ground (moonbot/terrain/). A procedural location — `flat` (a mare plain), `hilly`,
-    `crater` (beside a simple crater, with rocks) — meshed from 1 cm at the bags out to the
-    horizon on a curved Moon; or an analytic test ground: `plane` (z = 0) or `slope`."""
+    `crater` (beside a simple crater, with rocks) — or `dem`, a real site from a DEM imported
+    with `moonbot terrain import`, each meshed from 1 cm at the bags out to the horizon on a
+    curved Moon; or an analytic test ground: `plane` (z = 0) or `slope`."""
 
-    location: Literal["flat", "hilly", "crater", "plane", "slope"] = field(default="flat", metadata=spec(
-        "procedural location (flat | hilly | crater) or analytic ground (plane | slope)"))
+    location: Literal["flat", "hilly", "crater", "dem", "plane", "slope"] = field(default="flat", metadata=spec(
+        "procedural location (flat | hilly | crater), a DEM site (dem) or analytic ground (plane | slope)"))
     seed: int = field(default=0, metadata=spec(
         "terrain seed: a location is the same for every sample of a sweep, and cached per worker",
         lo=0, hi=2**63 - 1))
@@ -138,12 +139,20 @@ class TerrainConfig:
         "crater: distance of its centre from the target, metres (D/2 = on the rim crest)", lo=0.0, hi=10000.0))
     crater_azimuth_deg: float = field(default=90.0, metadata=spec(
         "crater: direction of its centre from the target, clockwise from North, degrees", lo=-360.0, hi=360.0))
+    dem_file: str = field(default="", metadata=spec(
+        "dem: the LocalDem .npz written by `moonbot terrain import` (absolute, or relative to the "
+        "working directory; every worker must see it)"))
+    dem_site_m: tuple[float, float] = field(default=(0.0, 0.0), metadata=spec(
+        "dem: the work site, metres east and north of the DEM's origin (snapped to the nearest DEM node)",
+        lo=-1e6, hi=1e6, length=2))
     slope_deg: float = field(default=15.0, metadata=spec(
         "slope: inclination of the plane, degrees", lo=0.0, hi=60.0))
     slope_azimuth_deg: float = field(default=90.0, metadata=spec(
         "slope: downhill direction, clockwise from North, degrees", lo=-360.0, hi=360.0))
 
     def __post_init__(self) -> None:
+        if self.location == "dem" and not self.dem_file:
+            raise ValueError("dem_file: required when location is dem (a file from `moonbot terrain import`)")
         if self.detail_extent_m > self.extent_m:
             raise ValueError(f"detail_extent_m: must be <= extent_m = {self.extent_m}, got {self.detail_extent_m}")
         if self.craters.min_diameter_m >= self.craters.max_diameter_m:

@@ -9,6 +9,8 @@ measures both).
 
 from __future__ import annotations
 
+import hashlib
+import os
 import time
 from collections import OrderedDict
 from dataclasses import dataclass
@@ -17,6 +19,7 @@ import numpy as np
 
 from moonbot.config.load import config_hash
 from moonbot.config.schema import TerrainConfig
+from moonbot.terrain.dem import LocalDem
 from moonbot.terrain.ground import FlatGround, Ground, SlopedGround
 from moonbot.terrain.location import LOCATIONS, build_location, main_crater
 from moonbot.terrain.rocks import RockField, rock_prototypes, sample_rocks
@@ -43,8 +46,17 @@ _cache: OrderedDict[str, Terrain] = OrderedDict()
 
 
 def terrain_key(config: TerrainConfig) -> str:
-    """SHA-256 of the canonical JSON of a terrain config."""
-    return config_hash(config)
+    """SHA-256 of the canonical JSON of a terrain config; for a `dem` location also of the DEM
+    file's size and modification time, so a re-imported file is rebuilt (a stat per task, not a
+    read of the whole file)."""
+    key = config_hash(config)
+    if config.location != "dem":
+        return key
+    try:
+        stat = os.stat(config.dem_file)
+    except OSError as e:
+        raise OSError(f"terrain.dem_file: {config.dem_file}: cannot read ({e.strerror or e})") from None
+    return hashlib.sha256(f"{key}:{stat.st_size}:{stat.st_mtime_ns}".encode()).hexdigest()
 
 
 def make_ground(config: TerrainConfig) -> Ground:
@@ -53,6 +65,8 @@ def make_ground(config: TerrainConfig) -> Ground:
         return FlatGround(size_m=2.0 * config.extent_m)
     if config.location == "slope":
         return SlopedGround(config.slope_deg, config.slope_azimuth_deg, size_m=2.0 * config.extent_m)
+    if config.location == "dem":
+        return build_location(config, LocalDem.load(config.dem_file))
     if config.location in LOCATIONS:
         return build_location(config)
     raise ValueError(f"terrain.location: unknown location {config.location!r}")
