@@ -42,16 +42,17 @@ def node_grid(dem: LocalDem):
 
 
 def geotiff(path, data, *, model, pixel_scale, tiepoint, raster_type=1, proj=(), gdal_scale=None,
-            gdal_offset=None, nodata=None, **write):
+            gdal_offset=None, nodata=None, ct=17, **write):
     """Writes `data` (row 0 = north) as a GeoTIFF. model 2 = geographic (degrees), 1 = projected
-    (equirectangular, metres; `proj` = ((GeoKey id, value), ...) stored in GeoDoubleParams).
+    (metres, projection `ct`: 17 equirectangular, 21 orthographic, 15 polar stereographic;
+    `proj` = ((GeoKey id, value), ...) stored in GeoDoubleParams).
     tiepoint = (i, j, x, y): raster point (i, j) is model point (x, y)."""
     keys = [(1024, 0, 1, model), (1025, 0, 1, raster_type)]
     doubles: list[float] = []
     if model == 2:
         keys.append((2054, 0, 1, 9102))  # degrees
     else:
-        keys += [(3072, 0, 1, 32767), (3075, 0, 1, 17), (3076, 0, 1, 9001)]  # user-defined eqc, metres
+        keys += [(3072, 0, 1, 32767), (3075, 0, 1, ct), (3076, 0, 1, 9001)]  # user-defined, metres
         for key, value in proj:
             keys.append((key, 34736, 1, len(doubles)))
             doubles.append(value)
@@ -159,6 +160,50 @@ def test_equirectangular_float32_plane_is_exact(tmp_path, tile):
     assert dem.source["pixel_north_m"] == pytest.approx(2.0, rel=1e-12)
     assert dem.source["pixel_east_m"] == pytest.approx(
         2.0 * math.cos(math.radians(lat_c)) / math.cos(math.radians(lat_s)), rel=1e-12)
+
+
+def ortho_xy(lat, lon, lat0, lon0):
+    """Snyder (1987) eqs. 20-3, 20-4 on the 1737.4 km sphere: orthographic model metres."""
+    p, p0, dl = np.radians(lat), math.radians(lat0), np.radians(lon - lon0)
+    return R * np.cos(p) * np.sin(dl), R * (math.cos(p0) * np.sin(p) - math.sin(p0) * np.cos(p) * np.cos(dl))
+
+
+def polar_xy(lat, lon, lon0, k0, south=True):
+    """Snyder (1987) eqs. 21-5 to 21-9 on the sphere: polar stereographic model metres."""
+    s = -1.0 if south else 1.0
+    rho = 2 * R * k0 * np.tan(math.pi / 4 - s * np.radians(lat) / 2)
+    return rho * np.sin(np.radians(lon - lon0)), -s * rho * np.cos(np.radians(lon - lon0))
+
+
+@pytest.mark.parametrize("projection", ["orthographic", "polar-a", "polar-b"])
+def test_orthographic_and_polar_stereographic_planes_are_exact(tmp_path, projection):
+    """A plane in model metres of an orthographic raster about Kepler crater (as LOLA crater
+    cut-outs are) and of south polar stereographic rasters (as the LOLA polar DEMs are; variant A
+    names k0 at the pole, variant B a latitude of true scale) imports exactly."""
+    dx = 4.0
+    if projection == "orthographic":
+        lat0, lon0 = 8.12, -38.01
+        proj = ((3088, lon0), (3089, lat0))
+        ct, model_xy = 21, (lambda lat, lon: ortho_xy(lat, lon, lat0, lon0))
+        lat_c, lon_c = 8.2, -37.9
+    else:
+        k0 = 1.0 if projection == "polar-a" else (1 + math.sin(math.radians(80.0))) / 2
+        proj = ((3095, 0.0), (3081, -90.0)) if projection == "polar-a" else ((3095, 0.0), (3081, -80.0))
+        ct, model_xy = 15, (lambda lat, lon: polar_xy(lat, lon, 0.0, k0))
+        lat_c, lon_c = -89.4, 45.0  # near Shackleton, where the Artemis sites are
+    xc, yc = model_xy(lat_c, lon_c)
+    x = xc - 600.0 + dx * np.arange(N_PX)
+    y = yc + 600.0 - dx * np.arange(N_PX)
+    a, b, c = 1 / 32, -1 / 64, -2000.0
+    heights = (a * (x[None, :] - x[0]) + b * (y[:, None] - y[0]) + c).astype(np.float32)
+    assert np.array_equal(heights.astype(np.float64), a * (x[None, :] - x[0]) + b * (y[:, None] - y[0]) + c)
+    path = geotiff(tmp_path / "proj.tif", heights, model=1, pixel_scale=(dx, dx),
+                   tiepoint=(0.0, 0.0, x[0] - dx / 2, y[0] + dx / 2), proj=proj, ct=ct)
+    dem = import_dem(path, lat_c, lon_c, 800.0, spacing_m=5.0, curvature=False)
+    e, n = node_grid(dem)
+    X, Y = model_xy(*radial_latlon(e, n, lat_c, lon_c, dem.h0_m))
+    np.testing.assert_allclose(dem.heights, a * (X - xc) + b * (Y - yc), rtol=0, atol=1e-6)
+    assert dem.source["format"] == "GeoTIFF float32, " + ("orthographic" if ct == 21 else "polar stereographic")
 
 
 def test_int16_plane_with_gdal_scale_offset_is_exact(tmp_path):
@@ -341,17 +386,15 @@ def test_not_a_geotiff_names_the_file_and_tag(tmp_path):
 
 
 def test_unsupported_georeferences_name_the_key(tmp_path):
-    polar = tmp_path / "polar.tif"
-    geotiff(polar, np.zeros((8, 8), np.float32), model=1, pixel_scale=(5.0, 5.0), tiepoint=(0, 0, 0, 0))
-    # Rewrite ProjCoordTransGeoKey 17 → 15 (polar stereographic) in the file's GeoKeyDirectory.
-    blob = bytearray(polar.read_bytes())
-    key = np.array([3075, 0, 1, 17], "<u2").tobytes()
-    assert blob.count(key) == 1
-    at = blob.index(key)
-    blob[at:at + 8] = np.array([3075, 0, 1, 15], "<u2").tobytes()
-    polar.write_bytes(bytes(blob))
-    with pytest.raises(OSError, match=r"polar\.tif: ProjCoordTransGeoKey \(3075\) = 15; only 17"):
-        import_dem(polar, 0.0, 0.0, 10.0)
+    albers = geotiff(tmp_path / "albers.tif", np.zeros((8, 8), np.float32), model=1, pixel_scale=(5.0, 5.0),
+                     tiepoint=(0, 0, 0, 0), ct=11)  # CT_AlbersEqualArea
+    with pytest.raises(OSError, match=r"albers\.tif: ProjCoordTransGeoKey \(3075\) = 11; only 17 \(equirectangular\), "
+                                      r"21 \(orthographic\) or 15"):
+        import_dem(albers, 0.0, 0.0, 10.0)
+    both = geotiff(tmp_path / "both.tif", np.zeros((8, 8), np.float32), model=1, pixel_scale=(5.0, 5.0),
+                   tiepoint=(0, 0, 0, 0), ct=15, proj=((3081, -80.0), (3092, 0.99)))
+    with pytest.raises(OSError, match=r"both\.tif: both a latitude of true scale \(3081 = -80\) and a scale"):
+        import_dem(both, -89.0, 0.0, 10.0)
     tiled = geotiff(tmp_path / "tiled64.tif", np.zeros((32, 32)), model=2, pixel_scale=(STEP, STEP),
                     tiepoint=(0, 0, 0, 0), tile=(16, 16))
     with pytest.raises(OSError, match=r"tiled64\.tif: tiled float64 TIFF"):

@@ -236,10 +236,11 @@ constexpr int kGTModelType = 1024, kGTRasterType = 1025, kGeogAngularUnits = 205
               kProjectedCSType = 3072, kProjCoordTrans = 3075, kProjLinearUnits = 3076,
               kProjStdParallel1 = 3078, kProjNatOriginLong = 3080, kProjNatOriginLat = 3081,
               kProjFalseEasting = 3082, kProjFalseNorthing = 3083, kProjCenterLong = 3088,
-              kProjCenterLat = 3089;
+              kProjCenterLat = 3089, kProjScaleAtNatOrigin = 3092, kProjStraightVertPoleLong = 3095;
 constexpr int kModelProjected = 1, kModelGeographic = 2;
 constexpr int kRasterPixelIsArea = 1, kRasterPixelIsPoint = 2;
-constexpr int kUserDefined = 32767, kCTEquirectangular = 17, kLinearMetre = 9001, kAngularDegree = 9102;
+constexpr int kUserDefined = 32767, kCTEquirectangular = 17, kCTOrthographic = 21, kCTPolarStereographic = 15,
+              kLinearMetre = 9001, kAngularDegree = 9102;
 
 /// The numeric GeoKeys of a GeoKeyDirectory, each key's first value (SHORT inline or DOUBLE
 /// from GeoDoubleParams); ASCII keys (citations) are skipped.
@@ -332,11 +333,16 @@ DemGeoref georef_from_geotiff(const TiffDirectory& dir, const std::string& path,
         g.wrap_lon_deg = g.x0 + g.dx * (width - 1) / 2.0;
     } else if (*model == kModelProjected) {
         g.kind = DemGeoref::Kind::Equirectangular;
-        if (key(kProjCoordTrans)) {
-            require_code(kProjCoordTrans, "ProjCoordTransGeoKey", kCTEquirectangular, "equirectangular");
+        if (auto ct = key(kProjCoordTrans)) {
+            if (*ct == kCTOrthographic) g.kind = DemGeoref::Kind::Orthographic;
+            else if (*ct == kCTPolarStereographic) g.kind = DemGeoref::Kind::PolarStereographic;
+            else if (*ct != kCTEquirectangular)
+                throw IoError(path + ": ProjCoordTransGeoKey (3075) = " + fmt(*ct) +
+                              "; only 17 (equirectangular), 21 (orthographic) or 15 (polar stereographic) "
+                              "is supported");
         } else if (auto cs = key(kProjectedCSType); cs && *cs != kUserDefined) {
             throw IoError(path + ": ProjectedCSTypeGeoKey (3072) = " + fmt(*cs) +
-                          " (an EPSG projection); only a user-defined equirectangular projection is supported");
+                          " (an EPSG projection); only user-defined projections (ProjCoordTransGeoKey) are supported");
         }
         require_code(kProjLinearUnits, "ProjLinearUnitsGeoKey", kLinearMetre, "metre");
         if (auto a = key(kGeogSemiMajorAxis)) {
@@ -356,6 +362,22 @@ DemGeoref georef_from_geotiff(const TiffDirectory& dir, const std::string& path,
         g.std_parallel_deg = key(kProjStdParallel1).value_or(0.0);
         g.false_easting_m = key(kProjFalseEasting).value_or(0.0);
         g.false_northing_m = key(kProjFalseNorthing).value_or(0.0);
+        if (g.kind == DemGeoref::Kind::PolarStereographic) {
+            // The pole's meridian has its own key; writers also use the natural-origin one.
+            g.center_lon_deg = key(kProjStraightVertPoleLong).value_or(key(kProjNatOriginLong).value_or(0.0));
+            // Variant A names the pole and k0; variant B names the latitude of true scale φs
+            // instead, which on a sphere is k0 = (1 + sin|φs|)/2 at the pole of φs's sign.
+            const double lat = key(kProjNatOriginLat).value_or(90.0);
+            const double k0 = key(kProjScaleAtNatOrigin).value_or(1.0);
+            if (!(std::abs(lat) > 0.0 && std::abs(lat) <= 90.0))
+                throw IoError(path + ": ProjNatOriginLatGeoKey (3081) = " + fmt(lat) +
+                              "; a polar stereographic raster needs a pole or a latitude of true scale");
+            if (std::abs(lat) != 90.0 && k0 != 1.0)
+                throw IoError(path + ": both a latitude of true scale (3081 = " + fmt(lat) + ") and a scale (3092 = " +
+                              fmt(k0) + ") are given; a polar stereographic raster takes one");
+            g.origin_lat_deg = lat > 0 ? 90.0 : -90.0;
+            g.scale_k0 = std::abs(lat) == 90.0 ? k0 : (1.0 + std::sin(rad(std::abs(lat)))) / 2.0;
+        }
         g.wrap_lon_deg = g.center_lon_deg;
     } else {
         throw IoError(path + ": GTModelTypeGeoKey (1024) = " + fmt(*model) +
@@ -614,6 +636,20 @@ void check_units(const DemHeightUnits& u) {
 // ---------------------------------------------------------------------------------------------
 // DemGeoref
 
+namespace {
+
+const char* kind_name(DemGeoref::Kind kind) {
+    switch (kind) {
+    case DemGeoref::Kind::Geographic: return "geographic";
+    case DemGeoref::Kind::Equirectangular: return "equirectangular";
+    case DemGeoref::Kind::Orthographic: return "orthographic";
+    case DemGeoref::Kind::PolarStereographic: return "polar stereographic";
+    }
+    return "?";
+}
+
+}  // namespace
+
 void DemGeoref::validate() const {
     auto finite = [](double v, const char* name) {
         if (!std::isfinite(v)) throw std::invalid_argument(std::string(name) + ": must be finite");
@@ -623,7 +659,7 @@ void DemGeoref::validate() const {
     if (!(std::isfinite(dx) && dx > 0)) throw std::invalid_argument("dx: must be positive and finite");
     if (!(std::isfinite(dy) && dy > 0)) throw std::invalid_argument("dy: must be positive and finite");
     finite(wrap_lon_deg, "wrap_lon_deg");
-    if (kind == Kind::Equirectangular) {
+    if (kind != Kind::Geographic) {
         finite(center_lon_deg, "center_lon_deg");
         finite(false_easting_m, "false_easting_m");
         finite(false_northing_m, "false_northing_m");
@@ -632,35 +668,89 @@ void DemGeoref::validate() const {
         if (!(std::abs(std_parallel_deg) < 90.0))
             throw std::invalid_argument("std_parallel_deg: must be in (-90, 90)");
         if (!(std::isfinite(radius_m) && radius_m > 0)) throw std::invalid_argument("radius_m: must be positive");
+        if (kind == Kind::PolarStereographic && std::abs(origin_lat_deg) != 90.0)
+            throw std::invalid_argument("origin_lat_deg: a polar stereographic projection is about a pole (±90)");
+        if (!(std::isfinite(scale_k0) && scale_k0 > 0)) throw std::invalid_argument("scale_k0: must be positive");
     }
 }
 
 glm::dvec2 DemGeoref::to_raster(double lat_deg, double lon_deg) const {
     // Move the longitude by whole turns into [wrap − 180, wrap + 180).
     const double lon = lon_deg - 360.0 * std::floor((lon_deg - wrap_lon_deg + 180.0) / 360.0);
-    double X, Y;
-    if (kind == Kind::Geographic) {
+    const double phi = rad(lat_deg), dlam = rad(lon - center_lon_deg), phi0 = rad(origin_lat_deg);
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    double X = 0.0, Y = 0.0;
+    switch (kind) {
+    case Kind::Geographic:
         X = lon;
         Y = lat_deg;
-    } else {
-        X = false_easting_m + radius_m * rad(lon - center_lon_deg) * std::cos(rad(std_parallel_deg));
-        Y = false_northing_m + radius_m * rad(lat_deg - origin_lat_deg);
+        break;
+    case Kind::Equirectangular:
+        X = false_easting_m + radius_m * dlam * std::cos(rad(std_parallel_deg));
+        Y = false_northing_m + radius_m * (phi - phi0);
+        break;
+    case Kind::Orthographic: {
+        const double cos_c = std::sin(phi0) * std::sin(phi) + std::cos(phi0) * std::cos(phi) * std::cos(dlam);
+        if (cos_c < 0) return {nan, nan};  // the far hemisphere is not in the picture
+        X = false_easting_m + radius_m * std::cos(phi) * std::sin(dlam);
+        Y = false_northing_m + radius_m * (std::cos(phi0) * std::sin(phi) - std::sin(phi0) * std::cos(phi) * std::cos(dlam));
+        break;
+    }
+    case Kind::PolarStereographic: {
+        const double s = origin_lat_deg > 0 ? 1.0 : -1.0;  // the pole's hemisphere
+        const double rho = 2.0 * radius_m * scale_k0 * std::tan(kPi / 4 - s * phi / 2);
+        X = false_easting_m + rho * std::sin(dlam);
+        Y = false_northing_m - s * rho * std::cos(dlam);
+        break;
+    }
     }
     return {(X - x0) / dx, (y0 - Y) / dy};
 }
 
 glm::dvec2 DemGeoref::to_latlon(double u, double v) const {
     const double X = x0 + u * dx, Y = y0 - v * dy;
-    if (kind == Kind::Geographic) return {Y, X};
-    return {origin_lat_deg + deg((Y - false_northing_m) / radius_m),
-            center_lon_deg + deg((X - false_easting_m) / (radius_m * std::cos(rad(std_parallel_deg))))};
+    const double x = X - false_easting_m, y = Y - false_northing_m, phi0 = rad(origin_lat_deg);
+    switch (kind) {
+    case Kind::Geographic:
+        return {Y, X};
+    case Kind::Equirectangular:
+        return {origin_lat_deg + deg(y / radius_m), center_lon_deg + deg(x / (radius_m * std::cos(rad(std_parallel_deg))))};
+    case Kind::Orthographic: {
+        const double rho = std::hypot(x, y);
+        if (rho > radius_m) return {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+        if (rho == 0) return {origin_lat_deg, center_lon_deg};
+        const double c = std::asin(rho / radius_m);
+        const double phi = std::asin(std::clamp(std::cos(c) * std::sin(phi0) + y * std::sin(c) * std::cos(phi0) / rho, -1.0, 1.0));
+        const double lam = std::atan2(x * std::sin(c), rho * std::cos(phi0) * std::cos(c) - y * std::sin(phi0) * std::sin(c));
+        return {deg(phi), center_lon_deg + deg(lam)};
+    }
+    case Kind::PolarStereographic: {
+        const double s = origin_lat_deg > 0 ? 1.0 : -1.0;
+        const double rho = std::hypot(x, y);
+        const double phi = s * (kPi / 2 - 2.0 * std::atan(rho / (2.0 * radius_m * scale_k0)));
+        return {deg(phi), center_lon_deg + deg(std::atan2(x, -s * y))};
+    }
+    }
+    return {0.0, 0.0};  // unreachable: every kind returns above
 }
 
-glm::dvec2 DemGeoref::pixel_size_m(double lat_deg) const {
+glm::dvec2 DemGeoref::pixel_size_m(double lat_deg, double lon_deg) const {
     const double c = std::cos(rad(lat_deg));
     if (kind == Kind::Geographic) return {kLunarRadius * c * rad(dx), kLunarRadius * rad(dy)};
     // A model metre along a parallel spans 1/(R cos φs) radians of longitude; along a meridian 1/R.
-    return {kLunarRadius * c * dx / (radius_m * std::cos(rad(std_parallel_deg))), kLunarRadius * dy / radius_m};
+    if (kind == Kind::Equirectangular)
+        return {kLunarRadius * c * dx / (radius_m * std::cos(rad(std_parallel_deg))), kLunarRadius * dy / radius_m};
+    // The others' scale varies across the raster: measure the pixel's u and v steps on the sphere
+    // (central differences; their error is of order (pixel / R)², far below a millimetre).
+    const glm::dvec2 uv = to_raster(lat_deg, lon_deg);
+    auto arc = [&](glm::dvec2 a, glm::dvec2 b) {
+        const glm::dvec2 p = to_latlon(a.x, a.y), q = to_latlon(b.x, b.y);
+        const double s = std::sin(rad(q.x - p.x) / 2), t = std::sin(rad(q.y - p.y) / 2);
+        const double h = s * s + std::cos(rad(p.x)) * std::cos(rad(q.x)) * t * t;
+        return 2.0 * kLunarRadius * std::asin(std::min(1.0, std::sqrt(h)));  // haversine
+    };
+    return {arc(uv - glm::dvec2(0.5, 0.0), uv + glm::dvec2(0.5, 0.0)),
+            arc(uv - glm::dvec2(0.0, 0.5), uv + glm::dvec2(0.0, 0.5))};
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -703,8 +793,7 @@ DemRaster DemRaster::open_geotiff(const std::string& path, const DemHeightUnits&
         if (!v) throw IoError(path + ": GDAL_NODATA (42113) '" + text + "' is not a number");
         r.m_nodata = *v;
     }
-    r.m_description = "GeoTIFF " + sample_type_name(spec.format) +
-                      (r.m_georef.kind == DemGeoref::Kind::Geographic ? ", geographic" : ", equirectangular");
+    r.m_description = "GeoTIFF " + sample_type_name(spec.format) + ", " + kind_name(r.m_georef.kind);
     r.m_source = std::make_shared<OiioSource>(path, spec, true);
     return r;
 }
@@ -900,6 +989,11 @@ struct Box {
     double umin = std::numeric_limits<double>::infinity(), vmin = umin;
     double umax = -std::numeric_limits<double>::infinity(), vmax = umax;
     void add(const glm::dvec2& p) {
+        if (std::isnan(p.x) || std::isnan(p.y)) {  // off the projection (orthographic far side)
+            umin = vmin = -std::numeric_limits<double>::infinity();
+            umax = vmax = std::numeric_limits<double>::infinity();
+            return;
+        }
         umin = std::min(umin, p.x), umax = std::max(umax, p.x);
         vmin = std::min(vmin, p.y), vmax = std::max(vmax, p.y);
     }
@@ -1015,7 +1109,7 @@ LocalDemGrid import_dem(const DemRaster& dem, const DemCrop& crop) {
         throw std::invalid_argument("spacing_m: must be >= 0 (0 = the source pixel size) and finite");
 
     const DemGeoref& g = dem.georef();
-    const glm::dvec2 pixel = g.pixel_size_m(crop.lat_deg);
+    const glm::dvec2 pixel = g.pixel_size_m(crop.lat_deg, crop.lon_deg);
     const double spacing = crop.spacing_m > 0 ? crop.spacing_m : std::min(pixel.x, pixel.y);
     // The 1e-9 keeps an exact multiple (size 200, spacing 0.1) from losing a node to rounding.
     const double half_nodes = std::floor(crop.size_m / (2 * spacing) + 1e-9);
