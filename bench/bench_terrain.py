@@ -2,23 +2,27 @@
 (issue 4; principle 1).
 
 Measures, on this machine:
-  1. per location (flat, hilly, crater; default config): triangles, rocks, the cold build
+  1. per location (flat, hilly, crater, dem; default config): triangles, rocks, the cold build
      (seconds; the Python heights and mesh), the same call again from the per-process cache,
      the Embree BVH build, one view's render, and memory: the mesh arrays (MB) and the growth
-     of the process's resident set over building terrain + BVH (MB);
+     of the process's resident set over building terrain + BVH (MB). The `dem` row reads a
+     6 km square LocalDem at 5 m spacing made here from the hilly location's relief (what it
+     costs depends on the DEM's size, not its content); with `--dem FILE.npz --site E N
+     --extent M` a real imported DEM is measured as well (README: Kepler crater, LOLA);
   2. the grid's `growth` knob on the flat location, camera 0.2 m above the target so the horizon
      is in view: triangles and build + BVH + render time against the error of the depth image
      (median and 99th percentile of |Δz|/z over pixels, and the share of pixels off by > 1 %)
      relative to a fine reference (growth 1.01, 7.4 M triangles).
 
 Writes bench/results/terrain-<machine>.json and .svg (time against depth error) and prints
-tables. Run: .venv/bin/python bench/bench_terrain.py
+tables. Run: .venv/bin/python bench/bench_terrain.py [--dem FILE.npz --site E N --extent M]
 """
 
 from __future__ import annotations
 
-import dataclasses
+import argparse
 import gc
+import tempfile
 import json
 import sys
 import time
@@ -30,12 +34,14 @@ from moonbot.config import load_config
 from moonbot.render import build_scene, render_view
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
 from moonbot.terrain import clear_cache, get_terrain
+from moonbot.terrain.dem import LocalDem
+from moonbot.terrain.location import Location, location_axis
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
 from svgplot import time_error_plot
 
 RESULTS = Path(__file__).resolve().parent / "results"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2  # 2: dem rows
 GROWTHS = [1.01, 1.02, 1.03, 1.05, 1.1]  # the first is the reference (7.4 M triangles)
 
 
@@ -54,10 +60,22 @@ def view(config, spec, scene):
     return out, time.perf_counter() - start
 
 
-def location_row(location: str) -> dict:
+def synthetic_dem(path: Path) -> Path:
+    """A 6 km square LocalDem at 5 m spacing (1201² nodes, flat-earth): the hilly location's
+    relief band-limited to the DEM's pixel, as a DEM of known content and typical size."""
+    config = load_config(None, {"terrain.location": "hilly"}).terrain
+    location = Location(config, location_axis(config))
+    e = (np.arange(1201) - 600) * 5.0
+    E, N = np.meshgrid(e, e)
+    heights = location.surface(E, N, np.full(E.shape, 5.0))
+    return LocalDem(heights=heights, spacing_m=5.0, lat_deg=0.0, lon_deg=0.0, h0_m=0.0, curvature=False,
+                    source={"made_by": "bench_terrain.synthetic_dem (hilly relief, 5 m)"}).save(path)
+
+
+def location_row(location: str, overrides: dict | None = None, label: str | None = None) -> dict:
     clear_cache()
     gc.collect()
-    config = load_config(None, {"terrain.location": location})
+    config = load_config(None, {"terrain.location": location, **(overrides or {})})
     before = rss_mb()
     start = time.perf_counter()
     terrain, _ = get_terrain(config.terrain)
@@ -73,7 +91,7 @@ def location_row(location: str) -> dict:
     grown = rss_mb() - before
     _, render_s = view(config, spec, scene)
     v, t = terrain.mesh
-    return {"location": location, "triangles": int(len(t)), "vertices": int(len(v)),
+    return {"location": label or location, "triangles": int(len(t)), "vertices": int(len(v)),
             "rocks": len(spec.rocks), "build_s": build_s, "cached_s": cached_s, "bvh_s": bvh_s,
             "render_view_s": render_s, "mesh_mb": (v.nbytes + t.nbytes) / 2**20, "rss_growth_mb": grown}
 
@@ -107,14 +125,31 @@ def growth_rows() -> list[dict]:
 
 
 def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--dem", type=Path, help="also measure this LocalDem (moonbot terrain import)")
+    parser.add_argument("--site", type=float, nargs=2, default=(0.0, 0.0), metavar=("E", "N"),
+                        help="its work site, metres east and north of its origin")
+    parser.add_argument("--extent", type=float, default=2000.0, help="terrain.extent_m for it, metres")
+    args = parser.parse_args()
     result = {"schema_version": SCHEMA_VERSION, "machine": machine(), "locations": [], "growth": []}
-    print(f"{'location':<8} {'triangles':>10} {'rocks':>6} {'build':>7} {'cached':>8} {'bvh':>6} {'render':>7} "
+    print(f"{'location':<12} {'triangles':>10} {'rocks':>6} {'build':>7} {'cached':>8} {'bvh':>6} {'render':>7} "
           f"{'mesh':>7} {'rss+':>7}")
-    for location in ("flat", "hilly", "crater"):
-        r = location_row(location)
-        result["locations"].append(r)
-        print(f"{r['location']:<8} {r['triangles']:>10} {r['rocks']:>6} {r['build_s']:>6.2f}s {1e6 * r['cached_s']:>6.1f}µs "
-              f"{r['bvh_s']:>5.2f}s {1e3 * r['render_view_s']:>5.0f}ms {r['mesh_mb']:>5.0f}MB {r['rss_growth_mb']:>5.0f}MB")
+    with tempfile.TemporaryDirectory() as tmp:
+        runs = [(name, {}, None) for name in ("flat", "hilly", "crater")]
+        runs.append(("dem", {"terrain.dem_file": str(synthetic_dem(Path(tmp) / "hilly5m.npz"))}, "dem 5 m"))
+        if args.dem is not None:
+            runs.append(("dem", {"terrain.dem_file": str(args.dem), "terrain.dem_site_m": list(args.site),
+                                 "terrain.extent_m": args.extent}, f"dem {args.dem.stem}"))
+        for location, overrides, label in runs:
+            r = location_row(location, overrides, label)
+            if location == "dem":
+                dem = LocalDem.load(overrides["terrain.dem_file"])
+                r.update({"dem_nodes": list(dem.shape), "dem_spacing_m": dem.spacing_m,
+                          "dem_source": dem.source, "extent_m": overrides.get("terrain.extent_m", 2000.0),
+                          "site_m": overrides.get("terrain.dem_site_m", [0.0, 0.0])})
+            result["locations"].append(r)
+            print(f"{r['location']:<12} {r['triangles']:>10} {r['rocks']:>6} {r['build_s']:>6.2f}s {1e6 * r['cached_s']:>6.1f}µs "
+                f"{r['bvh_s']:>5.2f}s {1e3 * r['render_view_s']:>5.0f}ms {r['mesh_mb']:>5.0f}MB {r['rss_growth_mb']:>5.0f}MB")
     print(f"\n{'growth':>6} {'triangles':>10} {'build+bvh+render':>17} {'|Δz|/z med':>11} {'p99':>8} {'>1 %':>7}")
     result["growth"] = growth_rows()
     for r in result["growth"]:
