@@ -11,7 +11,8 @@ void bind_render(py::module_& m) {
     m.def(
         "render",
         [](const Scene& scene, const Camera& camera, const Sun& sun, int spp, uint64_t seed,
-           int threads, const std::vector<std::string>& passes, bool exact_depth) {
+           int threads, const std::vector<std::string>& passes, bool exact_depth, int light_samples,
+           int bounces, const std::optional<Sun>& earth) {
             bool rgb = false, depth = false, instance = false;
             for (const std::string& p : passes) {
                 if (p == "rgb") rgb = true;
@@ -45,21 +46,26 @@ void bind_render(py::module_& m) {
                 // The buffers are owned by `out`, which outlives this block; the scene guards
                 // itself against modification while the render runs.
                 py::gil_scoped_release release;
-                stats = render(scene, camera, sun, RenderSettings{spp, seed, threads, exact_depth}, view);
+                stats = render(scene, camera, Lights{sun, earth},
+                               RenderSettings{spp, seed, threads, exact_depth, light_samples, bounces}, view);
             }
             out["camera_rays"] = stats.camera_rays;
             out["shadow_rays"] = stats.shadow_rays;
+            out["bounce_rays"] = stats.bounce_rays;
             out["seconds"] = stats.seconds;
             return out;
         },
         py::arg("scene"), py::arg("camera"), py::arg("sun"), py::arg("spp") = 1,
         py::arg("seed") = 0, py::arg("threads") = 0,
         py::arg("passes") = std::vector<std::string>{"rgb", "depth", "instance"},
-        py::arg("exact_depth") = true,
+        py::arg("exact_depth") = true, py::arg("light_samples") = 1, py::arg("bounces") = 0,
+        py::arg("earth") = py::none(),
         "Render one view. Returns a dict with the requested passes — rgb (H, W, 3) float32 "
         "W/(m²·sr), depth (H, W) float32 z-depth in metres (0 = no hit), instance (H, W) uint8 "
-        "(0 = background) — and camera_rays, shadow_rays, seconds. exact_depth re-solves hit "
-        "distances in double (exact at kilometre coordinates); False keeps Embree's float32 t.");
+        "(0 = background) — and camera_rays, shadow_rays, bounce_rays, seconds. exact_depth "
+        "re-solves hit distances in double (exact at kilometre coordinates); False keeps Embree's "
+        "float32 t. light_samples: shadow rays per sample toward each light's disk; bounces: "
+        "diffuse inter-reflections (0 = direct light only); earth: a second light (Earthshine).");
 }
 
 }  // namespace moonbot::bindings

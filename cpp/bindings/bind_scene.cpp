@@ -7,13 +7,41 @@ namespace moonbot::bindings {
 
 namespace {
 
-Material material(const py::handle& albedo) {
-    return Material{glm::vec3(vector<3>(albedo, "albedo"))};
+Material material(const py::handle& albedo, const Photometry& photometry) {
+    return Material{glm::vec3(vector<3>(albedo, "albedo")), photometry};
+}
+
+Photometry make_photometry(const std::string& model, const std::string& phase, double surge_amplitude,
+                           double surge_width) {
+    Photometry p;
+    if (model == "lambert") p.model = Photometry::Model::Lambert;
+    else if (model == "lunar-lambert") p.model = Photometry::Model::LunarLambert;
+    else fail("model", "must be 'lambert' or 'lunar-lambert', got '" + model + "'");
+    if (phase == "exponential") p.phase = Photometry::Phase::Exponential;
+    else if (phase == "mcewen") p.phase = Photometry::Phase::McEwen;
+    else fail("phase", "must be 'exponential' or 'mcewen', got '" + phase + "'");
+    if (!(surge_amplitude >= 0.0 && surge_amplitude <= 10.0)) fail("surge_amplitude", "must be in [0, 10]");
+    if (!(surge_width > 0.0 && surge_width <= 10.0)) fail("surge_width", "must be in (0, 10]");
+    p.surge_amplitude = surge_amplitude;
+    p.surge_width = surge_width;
+    return p;
 }
 
 }  // namespace
 
 void bind_scene(py::module_& m) {
+    py::class_<Photometry>(m, "Photometry",
+                           "A photometric function: BRDF = albedo/π · shape(μi, μo, g) (moonbot/photometry.h).")
+        .def(py::init(&make_photometry), py::arg("model") = "lambert", py::arg("phase") = "exponential",
+             py::arg("surge_amplitude") = 0.0, py::arg("surge_width") = 0.07,
+             "model 'lambert' | 'lunar-lambert' (McEwen); phase weight L(g) 'exponential' (exp(-g/60°)) "
+             "| 'mcewen' (cubic, clamped); opposition surge 1 + B0/(1 + tan(g/2)/h) with B0 = "
+             "surge_amplitude (0 = off), h = surge_width.")
+        .def("shape", [](const Photometry& p, double mu_i, double mu_o, double cos_g) {
+            return photometric_shape(p, mu_i, mu_o, cos_g);
+        }, py::arg("mu_i"), py::arg("mu_o"), py::arg("cos_g"),
+           "BRDF / (albedo/π) for cosines of incidence and emission (both > 0, else 0) and cos phase.");
+
     py::class_<Scene>(m, "Scene", "Triangle-mesh prototypes and their instances; metres, world ENU.")
         .def(py::init<>())
         .def(
@@ -31,21 +59,22 @@ void bind_scene(py::module_& m) {
         .def(
             "add_instance",
             [](Scene& s, uint32_t mesh, const py::handle& world_from_object, int instance_id,
-               const py::handle& albedo) {
+               const py::handle& albedo, const Photometry& photometry) {
                 return s.add_instance(mesh, matrix<4, 4>(world_from_object, "world_from_object"),
-                                      instance_id, material(albedo));
+                                      instance_id, material(albedo, photometry));
             },
             py::arg("mesh"), py::arg("world_from_object"), py::arg("instance_id"),
-            py::arg("albedo"),
+            py::arg("albedo"), py::arg("photometry") = Photometry{},
             "Add a labelled object: world_from_object (4, 4) affine, metres; instance_id 1..255 "
             "(unique); albedo (3,) linear RGB in [0, 1]. Returns the instance index.")
         .def(
             "add_background",
-            [](Scene& s, uint32_t mesh, const py::handle& world_from_object, const py::handle& albedo) {
+            [](Scene& s, uint32_t mesh, const py::handle& world_from_object, const py::handle& albedo,
+               const Photometry& photometry) {
                 return s.add_background(mesh, matrix<4, 4>(world_from_object, "world_from_object"),
-                                        material(albedo));
+                                        material(albedo, photometry));
             },
-            py::arg("mesh"), py::arg("world_from_object"), py::arg("albedo"),
+            py::arg("mesh"), py::arg("world_from_object"), py::arg("albedo"), py::arg("photometry") = Photometry{},
             "Add unlabelled geometry (terrain, rocks): label 0 in masks. Returns the instance index.")
         .def("commit", &Scene::commit, py::call_guard<py::gil_scoped_release>(),
              "Build the top-level BVH; required before rendering.")
@@ -90,14 +119,20 @@ void bind_scene(py::module_& m) {
             "Project world points (N, 3) metres to (u, v, z): pixel coordinates with pixel "
             "centres at +0.5, and z-depth in metres.");
 
-    py::class_<Sun>(m, "Sun", "Directional Sun: azimuth clockwise from North, elevation, W/m².")
-        .def(py::init<double, double, double>(), py::arg("azimuth_deg"), py::arg("elevation_deg"),
-             py::arg("irradiance") = 1361.0)
+    py::class_<Sun>(m, "Sun",
+                    "A distant disk light (the Sun, or the Earth for Earthshine): azimuth clockwise from "
+                    "North, elevation, irradiance W/m², angular diameter (0 = point), linear RGB tint.")
+        .def(py::init([](double az, double el, double irradiance, double diameter, const py::handle& color) {
+                 return Sun(az, el, irradiance, diameter, vector<3>(color, "color"));
+             }),
+             py::arg("azimuth_deg"), py::arg("elevation_deg"), py::arg("irradiance") = 1361.0,
+             py::arg("angular_diameter_deg") = 0.0, py::arg("color") = py::make_tuple(1.0, 1.0, 1.0))
         .def_property_readonly("direction", [](const Sun& s) {
             const glm::dvec3 d = s.direction();
             return py::array_t<double>(3, &d.x);
         }, "Unit vector toward the Sun, world ENU.")
-        .def_property_readonly("irradiance", &Sun::irradiance);
+        .def_property_readonly("irradiance", &Sun::irradiance)
+        .def_property_readonly("angular_diameter_deg", &Sun::angular_diameter_deg);
 }
 
 }  // namespace moonbot::bindings

@@ -37,6 +37,7 @@ struct InstanceData {
     const uint32_t* triangles;
     const float* vertices;
     uint8_t label;
+    Photometry photometry;
 };
 
 inline std::vector<InstanceData> instance_table(const Scene& scene) {
@@ -46,7 +47,7 @@ inline std::vector<InstanceData> instance_table(const Scene& scene) {
         const Mesh& mesh = scene.mesh(inst.mesh);
         table[i] = {inst.normal_to_world, inst.linear,          inst.translation,
                     glm::dvec3(inst.material.albedo), mesh.triangles.data(), mesh.vertices.data(),
-                    inst.label};
+                    inst.label, inst.material.photometry};
     }
     return table;
 }
@@ -182,6 +183,17 @@ public:
 
     const PixelHit& pixel(int i) const { return m_pixels[i]; }
     const TriangleRecord& record(const PixelHit& p) const { return m_records[p.record]; }
+
+    /// Pixel i's record with its unit normals and cosines to `to_sun` filled in, and the pixel's
+    /// `side` set to the one facing its ray `dir` (what shadow_rays does, for a caller that
+    /// makes its own shadow rays).
+    const TriangleRecord& shaded(int i, const glm::dvec3& dir, const glm::dvec3& to_sun) {
+        PixelHit& p = m_pixels[i];
+        TriangleRecord& tri = m_records[p.record];
+        if (!tri.shading_known) shading(tri, to_sun);
+        p.side = glm::dot(tri.normal[0], dir) > 0.0 ? 1 : 0;
+        return tri;
+    }
 
 private:
     static bool same(const TriangleRecord& r, const RayHit& ray) {

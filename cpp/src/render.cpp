@@ -24,6 +24,32 @@ using namespace detail;
 
 constexpr int kMaxSpp = 65536;
 constexpr double kInvPi = 0.31830988618379067154;
+constexpr double kTwoPi = 6.28318530717958647693;
+// Random-number dimensions of one camera sample: 0–1 jitter the pixel, then each light's disk
+// samples, then each bounce's direction and its lights' disk samples.
+// (At most 2 lights × kMaxLightSamples × 2 dimensions fit below kDimBounce.)
+constexpr uint32_t kDimLight = 16, kDimBounce = 8192, kDimsPerBounce = 64;
+
+/// A light as the shading loop uses it.
+struct LightData {
+    glm::dvec3 dir;       // unit vector to the disk's centre
+    glm::dvec3 color;     // linear RGB tint of the irradiance
+    glm::dvec3 a, b;      // with dir, an orthonormal basis for sampling the disk
+    double scale;         // E/π: radiance of a white Lambertian facing the light, W/(m²·sr)
+    double cos_half;      // the disk is the cone of directions within acos(cos_half) of dir
+    bool point;           // no disk to sample: every shadow ray would be the same
+};
+
+/// The end of one pixel's path: where it is, which way it left, what it carries.
+struct PathVertex {
+    glm::dvec3 point;       // world metres
+    glm::dvec3 normal;      // unit, on the side the path arrived from
+    glm::dvec3 wo;          // unit, toward the previous vertex (the camera for the first)
+    glm::dvec3 throughput;  // product of the BRDF weights along the path so far
+    uint32_t instance;
+    double cos_light[2];    // normal · light dir, per light
+    bool alive;
+};
 
 /// Per-thread scratch for one tile.
 struct TileScratch {
@@ -32,16 +58,49 @@ struct TileScratch {
     std::array<glm::dvec3, kTilePixels> dirs;
     TileHits hits;
     std::array<int, kTilePixels> shadow_of;     // which pixel of the tile a shadow ray belongs to
-    std::array<uint64_t, kTilePixels> streams;  // pixel_stream of each pixel, for jittered samples
+    std::array<uint64_t, kTilePixels> streams;  // pixel_stream of each pixel, for random samples
     std::array<glm::dvec3, kTilePixels> radiance;
+    std::array<PathVertex, kTilePixels> path;
+    std::array<int, kTilePixels> visible;       // shadow rays of one light that escaped, per pixel
 };
+
+/// An orthonormal basis (a, b) completing unit w (Duff et al. 2017, "Building an Orthonormal
+/// Basis, Revisited", JCGT 6(1)): branchless and continuous except at w.z = −0.
+void basis(const glm::dvec3& w, glm::dvec3& a, glm::dvec3& b) {
+    const double sign = std::copysign(1.0, w.z);
+    const double k = -1.0 / (sign + w.z);
+    const double xy = w.x * w.y * k;
+    a = {1.0 + sign * w.x * w.x * k, sign * xy, -sign * w.x};
+    b = {xy, sign + w.y * w.y * k, -w.y};
+}
+
+std::vector<LightData> light_table(const Lights& lights) {
+    std::vector<LightData> table;
+    auto add = [&](const Sun& l) {
+        if (l.irradiance() <= 0.0) return;  // a dark light adds nothing and traces nothing
+        LightData d;
+        d.dir = l.direction();
+        d.color = l.color();
+        basis(d.dir, d.a, d.b);
+        d.scale = kInvPi * l.irradiance();
+        d.cos_half = l.cos_half_angle();
+        d.point = l.half_angle() == 0.0;
+        table.push_back(d);
+    };
+    add(lights.sun);
+    if (lights.earth) add(*lights.earth);
+    return table;
+}
 
 class TileRenderer {
 public:
-    TileRenderer(const Scene& scene, const Camera& camera, const Sun& sun,
+    TileRenderer(const Scene& scene, const Camera& camera, const Lights& lights,
                  const RenderSettings& settings, const FrameView& out)
-        : m_scene(scene), m_camera(camera), m_sun(sun), m_settings(settings), m_out(out),
-          m_instances(instance_table(scene)), m_sun_scale(kInvPi * sun.irradiance()) {}
+        : m_scene(scene), m_camera(camera), m_settings(settings), m_out(out),
+          m_instances(instance_table(scene)), m_lights(light_table(lights)) {
+        for (const LightData& l : m_lights) m_random = m_random || !l.point;
+        m_random = m_random || settings.bounces > 0;
+    }
 
     void render_tile(int x0, int y0, int x1, int y1, TileScratch& s, RenderStats& stats) const {
         const int tw = x1 - x0;
@@ -67,17 +126,19 @@ public:
         }
         if (!want_rgb) return;
 
+        if (m_settings.spp > 1 || m_random) {
+            // The (seed, pixel) part of the random numbers' key, once per pixel, not per number.
+            for (int y = y0, i = 0; y < y1; ++y)
+                for (int x = x0; x < x1; ++x, ++i) s.streams[i] = pixel_stream(m_settings.seed, index(x, y));
+        }
         if (m_settings.spp == 1) {
-            shade(n, s, stats);
+            shade(n, s, stats, 0);
         } else {
             std::array<glm::dvec3, kTilePixels> sum;
             sum.fill(glm::dvec3(0.0));
-            // The (seed, pixel) part of the jitter's key, once per pixel rather than per sample.
-            for (int y = y0, i = 0; y < y1; ++y)
-                for (int x = x0; x < x1; ++x, ++i) s.streams[i] = pixel_stream(m_settings.seed, index(x, y));
             for (int sample = 0; sample < m_settings.spp; ++sample) {
                 trace(x0, y0, tw, n, s, stats, sample);
-                shade(n, s, stats);
+                shade(n, s, stats, static_cast<uint32_t>(sample));
                 for (int i = 0; i < n; ++i) sum[i] += s.radiance[i];
             }
             for (int i = 0; i < n; ++i) s.radiance[i] = sum[i] / double(m_settings.spp);
@@ -114,37 +175,172 @@ private:
                        m_settings.exact_depth);
     }
 
-    /// Direct sunlight on the resolved hits, with one shadow ray per hit facing the Sun.
-    void shade(int n, TileScratch& s, RenderStats& stats) const {
+    /// The radiance of the tile's resolved camera hits for one sample: the lights at the hit,
+    /// then at each bounce's vertex.
+    void shade(int n, TileScratch& s, RenderStats& stats, uint32_t sample) const {
         std::fill_n(s.radiance.begin(), n, glm::dvec3(0.0));
-        if (m_sun.irradiance() <= 0.0) return;
-        const int n_shadow = s.hits.shadow_rays(m_camera.center(), s.dirs.data(), m_sun.direction(),
-                                                s.shadow.data(), s.shadow_of.data());
-        if (n_shadow == 0) return;
-        m_scene.accel().occluded(s.shadow.data(), n_shadow, /*coherent=*/true);
-        stats.shadow_rays += n_shadow;
-        for (int k = 0; k < n_shadow; ++k) {
-            if (s.shadow[k].tfar < 0.0f) continue;  // occluded
-            const PixelHit& h = s.hits.pixel(s.shadow_of[k]);
-            const TriangleRecord& tri = s.hits.record(h);
-            s.radiance[s.shadow_of[k]] =
-                m_instances[tri.instance].albedo * (m_sun_scale * tri.cos_sun[h.side]);
+        if (m_lights.empty()) return;
+        const glm::dvec3& origin = m_camera.center();
+        for (int i = 0; i < n; ++i) {
+            PathVertex& v = s.path[i];
+            v.alive = s.hits.pixel(i).hit;
+            if (!v.alive) continue;
+            const glm::dvec3& dir = s.dirs[i];
+            // The record caches the normal and its cosine to the first light (the Sun) per
+            // triangle: neighbouring pixels mostly share them.
+            const TriangleRecord& tri = s.hits.shaded(i, dir, m_lights[0].dir);
+            const PixelHit& h = s.hits.pixel(i);
+            v.point = origin + h.t * dir;
+            v.normal = tri.normal[h.side];
+            v.wo = -dir / glm::length(dir);
+            v.throughput = glm::dvec3(1.0);
+            v.instance = tri.instance;
+            v.cos_light[0] = tri.cos_sun[h.side];
+            for (size_t l = 1; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(v.normal, m_lights[l].dir);
         }
+        light_vertices(n, s, stats, sample, m_settings.light_samples, kDimLight);
+        for (int bounce = 1; bounce <= m_settings.bounces; ++bounce) {
+            const uint32_t dim = kDimBounce + kDimsPerBounce * static_cast<uint32_t>(bounce - 1);
+            if (!extend_paths(n, s, stats, sample, dim)) break;
+            light_vertices(n, s, stats, sample, 1, dim + 2);
+        }
+    }
+
+    /// Adds every light's contribution at the live path vertices to their pixels: `samples`
+    /// shadow rays per light toward its disk (random dimensions dim .. dim + 4·samples), each
+    /// vertex weighted by its path throughput.
+    void light_vertices(int n, TileScratch& s, RenderStats& stats, uint32_t sample, int samples,
+                        uint32_t dim) const {
+        for (size_t l = 0; l < m_lights.size(); ++l) {
+            const LightData& light = m_lights[l];
+            const int rays_per_vertex = light.point ? 1 : samples;
+            std::fill_n(s.visible.begin(), n, 0);
+            for (int k = 0; k < rays_per_vertex; ++k) {
+                const uint32_t d = dim + 2 * static_cast<uint32_t>(l * samples + k);
+                int count = 0;
+                for (int i = 0; i < n; ++i) {
+                    const PathVertex& v = s.path[i];
+                    if (!v.alive || v.cos_light[l] <= 0.0) continue;
+                    glm::dvec3 to_light = light.dir;
+                    if (!light.point) {
+                        // Uniform over the disk's solid angle.
+                        const double u = stream_uniform01(s.streams[i], sample, d);
+                        const double phi = kTwoPi * stream_uniform01(s.streams[i], sample, d + 1);
+                        const double c = 1.0 - u * (1.0 - light.cos_half);
+                        const double r = std::sqrt(std::max(0.0, 1.0 - c * c));
+                        to_light = c * light.dir + r * (std::cos(phi) * light.a + std::sin(phi) * light.b);
+                        if (glm::dot(v.normal, to_light) <= 0.0) continue;  // below the facet's horizon
+                    }
+                    const double scale = std::max({1.0, std::abs(v.point.x), std::abs(v.point.y), std::abs(v.point.z)});
+                    set_ray(s.shadow[count], v.point + v.normal * (kShadowBias * scale), to_light);
+                    s.shadow_of[count++] = i;
+                }
+                if (count == 0) continue;
+                m_scene.accel().occluded(s.shadow.data(), count, /*coherent=*/true);
+                stats.shadow_rays += count;
+                for (int j = 0; j < count; ++j)
+                    if (s.shadow[j].tfar >= 0.0f) ++s.visible[s.shadow_of[j]];
+            }
+            for (int i = 0; i < n; ++i) {
+                if (s.visible[i] == 0) continue;
+                const PathVertex& v = s.path[i];
+                const InstanceData& inst = m_instances[v.instance];
+                const double mu_i = v.cos_light[l];
+                const double shape = inst.photometry.model == Photometry::Model::Lambert
+                                         ? 1.0
+                                         : photometric_shape(inst.photometry, mu_i, glm::dot(v.normal, v.wo),
+                                                             glm::dot(light.dir, v.wo));
+                // Grouped so that a Lambertian surface under a point Sun, seen directly, gets
+                // exactly albedo·(E/π·μi): every other factor is then 1.
+                s.radiance[i] += (inst.albedo * (light.scale * mu_i)) *
+                                 (shape * (double(s.visible[i]) / rays_per_vertex)) * light.color * v.throughput;
+            }
+        }
+    }
+
+    /// Continues every live path by one bounce: a cosine-distributed direction about the normal
+    /// (random dimensions dim, dim + 1), the throughput weighted by π·f·cos/pdf = albedo·shape,
+    /// and the ray traced. Paths that leave the scene end. Returns whether any path lives on.
+    bool extend_paths(int n, TileScratch& s, RenderStats& stats, uint32_t sample, uint32_t dim) const {
+        int count = 0;
+        for (int i = 0; i < n; ++i) {
+            PathVertex& v = s.path[i];
+            if (!v.alive) continue;
+            const double r = std::sqrt(static_cast<double>(stream_uniform01(s.streams[i], sample, dim)));
+            const double phi = kTwoPi * stream_uniform01(s.streams[i], sample, dim + 1);
+            glm::dvec3 a, b;
+            basis(v.normal, a, b);
+            const double mu_i = std::sqrt(std::max(0.0, 1.0 - r * r));
+            const glm::dvec3 wi = r * std::cos(phi) * a + r * std::sin(phi) * b + mu_i * v.normal;
+            const InstanceData& inst = m_instances[v.instance];
+            const double shape = inst.photometry.model == Photometry::Model::Lambert
+                                     ? 1.0
+                                     : photometric_shape(inst.photometry, mu_i, glm::dot(v.normal, v.wo),
+                                                         glm::dot(wi, v.wo));
+            v.throughput *= inst.albedo * shape;
+            if (!(mu_i > 0.0) || v.throughput == glm::dvec3(0.0)) {
+                v.alive = false;
+                continue;
+            }
+            const double scale = std::max({1.0, std::abs(v.point.x), std::abs(v.point.y), std::abs(v.point.z)});
+            v.point += v.normal * (kShadowBias * scale);  // the ray's origin, in double
+            v.wo = wi;                                     // the ray's direction until it hits
+            set_ray(s.rays[count], v.point, wi);
+            s.shadow_of[count++] = i;
+        }
+        if (count == 0) return false;
+        m_scene.accel().intersect(s.rays.data(), count, /*coherent=*/false);
+        stats.bounce_rays += count;
+        for (int j = 0; j < count; ++j) {
+            PathVertex& v = s.path[s.shadow_of[j]];
+            const RayHit& ray = s.rays[j];
+            if (ray.geom_id == kInvalidId) {
+                v.alive = false;  // to the black sky
+                continue;
+            }
+            const InstanceData& inst = m_instances[ray.inst_id];
+            glm::dvec3 normal = inst.normal_to_world * glm::dvec3(ray.ng_x, ray.ng_y, ray.ng_z);
+            const double len = glm::length(normal);
+            if (!(len > 0.0)) {
+                v.alive = false;
+                continue;
+            }
+            normal /= len;
+            const glm::dvec3 wi = v.wo;
+            if (glm::dot(normal, wi) > 0.0) normal = -normal;  // the side the ray arrived from
+            v.point += static_cast<double>(ray.tfar) * wi;
+            v.normal = normal;
+            v.wo = -wi;
+            v.instance = ray.inst_id;
+            for (size_t l = 0; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(normal, m_lights[l].dir);
+        }
+        return true;
     }
 
     const Scene& m_scene;
     const Camera& m_camera;
-    const Sun& m_sun;
     const RenderSettings& m_settings;
     const FrameView& m_out;
     const std::vector<InstanceData> m_instances;
-    const double m_sun_scale;  // E/π: radiance of a white surface facing the Sun, W/(m²·sr)
+    const std::vector<LightData> m_lights;
+    bool m_random = false;  // some shading draws random numbers (disk samples, bounces)
 };
 
 }  // namespace
 
 RenderStats render(const Scene& scene, const Camera& camera, const Sun& sun,
                    const RenderSettings& settings, const FrameView& out) {
+    return render(scene, camera, Lights{sun, std::nullopt}, settings, out);
+}
+
+RenderStats render(const Scene& scene, const Camera& camera, const Lights& lights,
+                   const RenderSettings& settings, const FrameView& out) {
+    if (settings.light_samples < 1 || settings.light_samples > kMaxLightSamples)
+        throw std::invalid_argument("light_samples: must be in 1.." + std::to_string(kMaxLightSamples) + ", got " +
+                                    std::to_string(settings.light_samples));
+    if (settings.bounces < 0 || settings.bounces > kMaxBounces)
+        throw std::invalid_argument("bounces: must be in 0.." + std::to_string(kMaxBounces) + ", got " +
+                                    std::to_string(settings.bounces));
     if (settings.spp < 1 || settings.spp > kMaxSpp)
         throw std::invalid_argument("spp: must be in 1.." + std::to_string(kMaxSpp) + ", got " +
                                     std::to_string(settings.spp));
@@ -159,8 +355,8 @@ RenderStats render(const Scene& scene, const Camera& camera, const Sun& sun,
     const auto start = std::chrono::steady_clock::now();
     const int w = camera.width(), h = camera.height();
     const int tiles_x = (w + kTile - 1) / kTile, tiles_y = (h + kTile - 1) / kTile;
-    const TileRenderer tiles(scene, camera, sun, settings, out);
-    std::atomic<uint64_t> camera_rays{0}, shadow_rays{0};
+    const TileRenderer tiles(scene, camera, lights, settings, out);
+    std::atomic<uint64_t> camera_rays{0}, shadow_rays{0}, bounce_rays{0};
 
     tbb::task_arena arena(settings.threads > 0 ? settings.threads : tbb::task_arena::automatic);
     arena.execute([&] {
@@ -174,17 +370,24 @@ RenderStats render(const Scene& scene, const Camera& camera, const Sun& sun,
             }
             camera_rays += local.camera_rays;
             shadow_rays += local.shadow_rays;
+            bounce_rays += local.bounce_rays;
         });
     });
 
     RenderStats stats;
     stats.camera_rays = camera_rays;
     stats.shadow_rays = shadow_rays;
+    stats.bounce_rays = bounce_rays;
     stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return stats;
 }
 
 Frame render_frame(const Scene& scene, const Camera& camera, const Sun& sun,
+                   const RenderSettings& settings) {
+    return render_frame(scene, camera, Lights{sun, std::nullopt}, settings);
+}
+
+Frame render_frame(const Scene& scene, const Camera& camera, const Lights& lights,
                    const RenderSettings& settings) {
     Frame f;
     f.width = camera.width();
@@ -193,7 +396,7 @@ Frame render_frame(const Scene& scene, const Camera& camera, const Sun& sun,
     f.rgb.assign(3 * n, 0.0f);
     f.depth.assign(n, 0.0f);
     f.instance.assign(n, 0);
-    f.stats = render(scene, camera, sun, settings, {f.rgb.data(), f.depth.data(), f.instance.data()});
+    f.stats = render(scene, camera, lights, settings, {f.rgb.data(), f.depth.data(), f.instance.data()});
     return f;
 }
 

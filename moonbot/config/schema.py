@@ -51,6 +51,33 @@ class SunConfig:
         "above the local horizon, degrees", lo=-90.0, hi=90.0))
     irradiance_w_m2: float = field(default=1361.0, metadata=spec(
         "irradiance on a surface facing the Sun, W/m^2 (1361 at 1 au)", lo=0.0, hi=1e5))
+    angular_diameter_deg: float = field(default=0.533, metadata=spec(
+        "the Sun's disk, degrees (0.533 at 1 au; 0 = a point and hard shadows)", lo=0.0, hi=10.0))
+    earthshine: bool = field(default=False, metadata=spec(
+        "add the sunlit Earth as a second, faint disk light"))
+    earth_azimuth_deg: float = field(default=180.0, metadata=spec(
+        "Earthshine: the Earth's azimuth, clockwise from North, degrees", lo=-360.0, hi=360.0))
+    earth_elevation_deg: float = field(default=30.0, metadata=spec(
+        "Earthshine: the Earth's elevation, degrees", lo=-90.0, hi=90.0))
+    earth_irradiance_w_m2: float = field(default=0.1, metadata=spec(
+        "Earthshine: irradiance facing a full Earth, W/m^2 (reflected visible ~0.07-0.14, i.e. "
+        "5e-5 to 1e-4 of sunlight; lunar-physics.md §2)", lo=0.0, hi=10.0))
+    earth_color: tuple[float, float, float] = field(default=(0.85, 0.95, 1.2), metadata=spec(
+        "Earthshine: linear RGB tint relative to sunlight (bluish: Rayleigh and oceans)", lo=0.0, hi=10.0, length=3))
+
+
+@dataclass(frozen=True)
+class PhotometryConfig:
+    """How regolith (terrain and rocks) reflects: moonbot/photometry.h, lunar-physics.md §1."""
+
+    model: Literal["lunar-lambert", "lambert"] = field(default="lunar-lambert", metadata=spec(
+        "lunar-lambert (McEwen: Lommel-Seeliger blended with Lambert by phase) or lambert"))
+    phase: Literal["exponential", "mcewen"] = field(default="exponential", metadata=spec(
+        "lunar-lambert phase weight L(g): exp(-g/60°) or McEwen's cubic (clamped to [0, 1])"))
+    surge_amplitude: float = field(default=1.8, metadata=spec(
+        "opposition surge B0 in 1 + B0/(1 + tan(g/2)/h) (Sato et al. 2014: 1.8; 0 = off)", lo=0.0, hi=10.0))
+    surge_width: float = field(default=0.07, metadata=spec(
+        "opposition surge width h (Sato et al. 2014: 0.07)", lo=0.0, hi=10.0, lo_open=True))
 
 
 @dataclass(frozen=True)
@@ -113,7 +140,10 @@ class TerrainConfig:
     seed: int = field(default=0, metadata=spec(
         "terrain seed: a location is the same for every sample of a sweep, and cached per worker",
         lo=0, hi=2**63 - 1))
-    albedo: float = field(default=0.12, metadata=spec("Lambertian albedo of regolith", lo=0.0, hi=1.0))
+    albedo: float = field(default=0.12, metadata=spec(
+        "normal albedo of regolith: its reflectance at zero incidence, emission and phase, opposition "
+        "surge included (mare ~0.09, highland ~0.15)", lo=0.0, hi=1.0))
+    photometry: PhotometryConfig = field(default_factory=PhotometryConfig)
     extent_m: float = field(default=2000.0, metadata=spec(
         "half-width of the terrain square around the target, metres (the horizon of a camera 1 m "
         "up is 1.9 km away)", lo=0.0, hi=20000.0, lo_open=True))
@@ -300,6 +330,10 @@ class RenderConfig:
     exact_depth: bool = field(default=True, metadata=spec(
         "re-solve hit distances in double (depth exact at kilometre coordinates, ~15 ns a ray); "
         "false keeps Embree's float32 distance"))
+    light_samples: int = field(default=4, metadata=spec(
+        "shadow rays per sample toward the Sun's disk (soft shadow edges)", lo=1, hi=1024))
+    bounces: int = field(default=2, metadata=spec(
+        "diffuse inter-reflections lighting the shadows (0 = direct sunlight only)", lo=0, hi=16))
 
 
 @dataclass(frozen=True)

@@ -9,16 +9,20 @@ from dataclasses import dataclass
 import numpy as np
 
 from moonbot import _core
-from moonbot.config.schema import Config
+from moonbot.config.schema import Config, PhotometryConfig
 from moonbot.scene.compose import TERRAIN_MESH, SceneSpec
 from moonbot.scene.orbit import CameraPose
+
+
+# The Earth seen from the Moon: 2·asin(6371 km / 384 400 km) = 1.90° (lunar-physics.md §2).
+EARTH_DIAMETER_DEG = 1.9
 
 
 @dataclass(frozen=True)
 class RenderedView:
     """One rendered view. rgb (H, W, 3) float32 linear radiance W/(m²·sr); depth (H, W) float32
     z-depth in metres, 0 where nothing is hit; instance (H, W) uint8 labels, 0 = background.
-    `stats` holds camera_rays, shadow_rays and the core's render seconds."""
+    `stats` holds camera_rays, shadow_rays, bounce_rays and the core's render seconds."""
 
     rgb: np.ndarray
     depth: np.ndarray
@@ -32,14 +36,24 @@ def build_scene(spec: SceneSpec) -> _core.Scene:
     instance; then commits."""
     scene = _core.Scene()
     mesh_index = {key: scene.add_mesh(v, t) for key, (v, t) in spec.meshes.items()}
-    albedo = (spec.terrain_albedo,) * 3
-    scene.add_background(mesh_index[TERRAIN_MESH], np.eye(4), albedo)
-    for key, pose in spec.rocks:  # rocks are regolith-coloured background (label 0)
-        scene.add_background(mesh_index[key], pose, albedo)
+    photometry, albedo = regolith(spec.terrain_photometry, spec.terrain_albedo)
+    scene.add_background(mesh_index[TERRAIN_MESH], np.eye(4), albedo, photometry)
+    for key, pose in spec.rocks:  # rocks are regolith (label 0)
+        scene.add_background(mesh_index[key], pose, albedo, photometry)
     for bag in spec.bags:
         scene.add_instance(mesh_index[bag.obj_id], bag.world_from_model, bag.instance_id, bag.albedo)
     scene.commit()
     return scene
+
+
+def regolith(config: PhotometryConfig, normal_albedo: float) -> tuple[_core.Photometry, tuple[float, ...]]:
+    """The core's photometric function and albedo A (linear RGB) for regolith of the given
+    normal albedo (reflectance at zero incidence, emission and phase). Lunar-Lambert's shape is
+    1 + B0 there (the full opposition surge), so A = normal albedo / (1 + B0); Lambert's is 1."""
+    photometry = _core.Photometry(config.model, config.phase, config.surge_amplitude, config.surge_width)
+    if config.model == "lunar-lambert":
+        normal_albedo /= 1.0 + config.surge_amplitude
+    return photometry, (normal_albedo,) * 3
 
 
 def exposure_scale(config: Config) -> float:
@@ -54,10 +68,16 @@ def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraP
     """Renders rgb, depth and instance passes of one view with the config's Sun and quality."""
     camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], config.camera.width,
                           config.camera.height, pose.R, pose.t)
-    sun = _core.Sun(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2)
+    s = config.sun
+    sun = _core.Sun(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
+    # Earthshine only when asked: no second light, no shadow rays toward it (principle 3).
+    earth = (_core.Sun(s.earth_azimuth_deg, s.earth_elevation_deg, s.earth_irradiance_w_m2, EARTH_DIAMETER_DEG,
+                       s.earth_color) if s.earthshine else None)
     start = time.perf_counter()
     out = _core.render(scene, camera, sun, spp=config.render.spp, seed=seed,
-                       threads=config.render.threads, exact_depth=config.render.exact_depth)
+                       threads=config.render.threads, exact_depth=config.render.exact_depth,
+                       light_samples=config.render.light_samples, bounces=config.render.bounces, earth=earth)
     stats = {"camera_rays": out["camera_rays"], "shadow_rays": out["shadow_rays"],
-             "core_seconds": out["seconds"], "seconds": time.perf_counter() - start}
+             "bounce_rays": out["bounce_rays"], "core_seconds": out["seconds"],
+             "seconds": time.perf_counter() - start}
     return RenderedView(rgb=out["rgb"], depth=out["depth"], instance=out["instance"], stats=stats)

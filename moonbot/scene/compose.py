@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from moonbot.config.schema import Config
+from moonbot.config.schema import Config, PhotometryConfig
 from moonbot.scene.bag_mesh import OBJ_IDS, variant_mesh
 from moonbot.scene.placement import Placement, arrange_bags
 from moonbot.terrain import get_terrain
@@ -32,6 +32,7 @@ class SceneSpec:
     """Everything the renderer needs: `meshes` maps obj_id (and 0 for the terrain) to
     (vertices (N, 3) float32 metres, triangles (M, 3) int32); `target` is the orbit centre in
     the world frame (metres); `placement` records how the bags were placed and settled;
+    `terrain_albedo` is regolith's normal albedo, shaped by `terrain_photometry`;
     `ground` is the terrain's height field (the camera keeps clear of it); `rocks` are
     (mesh key, world-from-model (4, 4) float64) background instances, scaled by diameter;
     `terrain_seconds` is what building the terrain cost this scene (0 when this process had it
@@ -39,6 +40,7 @@ class SceneSpec:
 
     meshes: dict[int, tuple[np.ndarray, np.ndarray]]
     terrain_albedo: float
+    terrain_photometry: PhotometryConfig
     bags: tuple[BagInstance, ...]
     target: np.ndarray
     placement: Placement
@@ -88,6 +90,7 @@ def compose_scene(config: Config) -> SceneSpec:
     return SceneSpec(
         meshes=meshes,
         terrain_albedo=config.terrain.albedo,
+        terrain_photometry=config.terrain.photometry,
         bags=instances,
         target=placement.poses[0][:3, 3].copy(),
         placement=placement,

@@ -10,12 +10,15 @@
 #include <glm/glm.hpp>
 
 #include "moonbot/accel.h"
+#include "moonbot/photometry.h"
 
 namespace moonbot {
 
-/// Lambertian surface. `albedo`: linear RGB reflectance in [0, 1].
+/// A surface: `albedo` linear RGB in [0, 1] and the photometric function that shapes it (the
+/// BRDF is albedo/π · photometric_shape(...); Lambertian by default).
 struct Material {
     glm::vec3 albedo{0.5f};
+    Photometry photometry{};
 };
 
 /// A prototype mesh, held by the scene for the lifetime of its BVH.
