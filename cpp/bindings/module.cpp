@@ -14,10 +14,11 @@ void bind_image(py::module_& m);
 void bind_geo(py::module_& m);
 void bind_dem(py::module_& m);
 void bind_limit(py::module_& m);
+void bind_material(py::module_& m);
 }  // namespace moonbot::bindings
 
 PYBIND11_MODULE(_core, m) {
-    m.doc() = "moonbot's C++ core: Embree scene, camera, Sun, renderer, image I/O, lunar frames, DEM import.";
+    m.doc() = "moonbot's C++ core: Embree scene, camera, Sun, renderer, image I/O, lunar frames, DEM import, bag fabric and stain.";
     py::register_exception_translator([](std::exception_ptr p) {
         try {
             if (p) std::rethrow_exception(p);
@@ -31,4 +32,5 @@ PYBIND11_MODULE(_core, m) {
     moonbot::bindings::bind_geo(m);
     moonbot::bindings::bind_dem(m);
     moonbot::bindings::bind_limit(m);
+    moonbot::bindings::bind_material(m);
 }

@@ -300,6 +300,42 @@ class SettleConfig:
 
 
 @dataclass(frozen=True)
+class FabricConfig:
+    """The bags' woven fabric (paper 3.3.2; cpp/include/moonbot/fabric.h): a plain weave
+    evaluated analytically in metres of fabric, prefiltered over each pixel's footprint. Its
+    mean colour is `bags.albedo`."""
+
+    pitch_m: float = field(default=0.0015, metadata=spec(
+        "centre-to-centre distance of neighbouring yarns, metres (a common PP sandbag's 10 x 10 "
+        "tapes per inch is 0.00254; this tight weave is finer)", lo=1e-5, hi=0.05))
+    relief_m: float = field(default=0.0001, metadata=spec(
+        "height of a yarn float's crown over the pits between yarns, metres", lo=0.0, hi=0.01))
+    contrast: float = field(default=0.04, metadata=spec(
+        "albedo modulation between crowns (+) and pits (-), a fraction of the mean", lo=0.0, hi=1.0))
+
+
+@dataclass(frozen=True)
+class StainConfig:
+    """Dirt on the bags (paper 3.4; cpp/include/moonbot/stain.h): per bag a UV mask of
+    `resolution`^2 texels accumulates `seeds` splats of side `brush_size` (UV units) and
+    opacity `opacity` at random UV centres; base colour = lerp(clean, M * dirt_colour, M)."""
+
+    seeds: int = field(default=0, metadata=spec(
+        "number of stamps per bag (the paper sweeps 0, 15, 30, 90); 0 = clean, no mask allocated",
+        lo=0, hi=100000))
+    brush_size: float = field(default=0.18, metadata=spec(
+        "side of the square one stamp covers, UV units (1 UV = 1.04 m on the default bag's atlas)",
+        lo=0.0, hi=0.5, lo_open=True))
+    opacity: float = field(default=0.5, metadata=spec(
+        "mask added by one stamp at the splat's centre (overlaps add, then clamp at 1)", lo=0.0, hi=1.0))
+    dirt_colour: tuple[float, float, float] = field(default=(0.12, 0.11, 0.10), metadata=spec(
+        "linear RGB of fully stained fabric: regolith dust (lunar-physics.md section 6)",
+        lo=0.0, hi=1.0, length=3))
+    resolution: int = field(default=512, metadata=spec(
+        "mask texels per side (512: 2 mm texels on the default bag, 1 MiB per bag)", lo=1, hi=8192))
+
+
+@dataclass(frozen=True)
 class BagsConfig:
     """Bags as rigid bodies, meshes from `meshes`."""
 
@@ -317,6 +353,8 @@ class BagsConfig:
     yaw_deg: float = field(default=20.0, metadata=spec(
         "rotation of the target (and the wall) about +z, degrees", lo=-360.0, hi=360.0))
     settle: SettleConfig = field(default_factory=SettleConfig)
+    fabric: FabricConfig = field(default_factory=FabricConfig)
+    stain: StainConfig = field(default_factory=StainConfig)
 
     def __post_init__(self) -> None:
         if self.layout == "single" and self.count != 1:

@@ -1,0 +1,60 @@
+#include "moonbot/fabric.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace moonbot {
+
+namespace {
+
+void require(bool ok, const char* field, const std::string& what) {
+    if (!ok) throw std::invalid_argument(std::string(field) + ": " + what);
+}
+
+constexpr double kPi = 3.14159265358979323846;
+
+}  // namespace
+
+void FabricParams::validate() const {
+    require(std::isfinite(pitch_m) && pitch_m > 0, "pitch_m", "must be a finite number > 0");
+    require(std::isfinite(relief_m) && relief_m >= 0, "relief_m", "must be a finite number >= 0");
+    require(std::isfinite(contrast) && contrast >= 0 && contrast <= 1, "contrast", "must be in [0, 1]");
+    for (int c = 0; c < 3; ++c)
+        require(std::isfinite(albedo[c]) && albedo[c] >= 0 && albedo[c] <= 1, "albedo",
+                "every channel must be in [0, 1]");
+}
+
+double weave_height(double a, double b) {
+    return 0.5 - 0.25 * (std::cos(2 * a) + std::cos(2 * b)) +
+           0.125 * (std::sin(3 * a) * std::sin(b) - std::sin(a) * std::sin(3 * b));
+}
+
+FabricSample fabric_eval(const FabricParams& params, double x, double y, double footprint_m) {
+    const double k = kPi / params.pitch_m;  // rad per metre: a = kx
+    const double a = k * x, b = k * y;
+    // One sin/cos per axis; the 2× and 3× angles by the multiple-angle formulas.
+    const double sa = std::sin(a), ca = std::cos(a), sb = std::sin(b), cb = std::cos(b);
+    const double s2a = 2 * sa * ca, c2a = 1 - 2 * sa * sa, s2b = 2 * sb * cb, c2b = 1 - 2 * sb * sb;
+    const double s3a = sa * (3 - 4 * sa * sa), c3a = ca * (4 * ca * ca - 3);
+    const double s3b = sb * (3 - 4 * sb * sb), c3b = cb * (4 * cb * cb - 3);
+
+    // Gaussian prefilter of σ = footprint/2: a sinusoid of angular frequency m·k keeps
+    // g_m = exp(−½(mkσ)²) = g1^(m²); the cross terms (3, 1) keep g3·g1 = g1^10.
+    const double ks = k * 0.5 * footprint_m;
+    const double g1 = std::exp(-0.5 * ks * ks);
+    const double g1_2 = g1 * g1, g2 = g1_2 * g1_2, g31 = g2 * g2 * g1_2;
+
+    const double h = 0.5 - 0.25 * g2 * (c2a + c2b) + 0.125 * g31 * (s3a * sb - sa * s3b);
+    const double dh_da = 0.5 * g2 * s2a + 0.125 * g31 * (3 * c3a * sb - ca * s3b);
+    const double dh_db = 0.5 * g2 * s2b + 0.125 * g31 * (s3a * cb - 3 * sa * c3b);
+
+    FabricSample out;
+    out.albedo = params.albedo * (1.0 + params.contrast * (2.0 * h - 1.0));
+    // n ∝ (−∂z/∂x, −∂z/∂y, 1) for the surface z = relief·h(kx, ky).
+    const double scale = params.relief_m * k;
+    out.normal = glm::normalize(glm::dvec3(-scale * dh_da, -scale * dh_db, 1.0));
+    return out;
+}
+
+}  // namespace moonbot
