@@ -1,3 +1,7 @@
+#include <optional>
+
+#include <pybind11/stl.h>
+
 #include "arrays.h"
 #include "moonbot/camera.h"
 #include "moonbot/scene.h"
@@ -7,8 +11,33 @@ namespace moonbot::bindings {
 
 namespace {
 
-Material material(const py::handle& albedo, const Photometry& photometry) {
-    return Material{glm::vec3(vector<3>(albedo, "albedo")), photometry};
+Material material(const py::handle& albedo, const Photometry& photometry,
+                  const std::optional<WovenSurface>& woven = std::nullopt) {
+    return Material{glm::vec3(vector<3>(albedo, "albedo")), photometry, woven};
+}
+
+WovenSurface make_woven(double pitch_m, double relief_m, double contrast, double metres_per_uv, int stamps,
+                        double brush_size, double opacity, int resolution, uint64_t stain_seed,
+                        const py::handle& dirt_colour) {
+    WovenSurface w;
+    w.fabric.pitch_m = pitch_m;
+    w.fabric.relief_m = relief_m;
+    w.fabric.contrast = contrast;
+    w.metres_per_uv = metres_per_uv;
+    w.stain.stamps = stamps;
+    w.stain.brush_size = brush_size;
+    w.stain.opacity = opacity;
+    w.stain.resolution = resolution;
+    w.stain_seed = stain_seed;
+    w.dirt_colour = vector<3>(dirt_colour, "dirt_colour");
+    try {
+        w.fabric.validate();
+        w.stain.validate();
+    } catch (const std::invalid_argument& e) {
+        throw py::value_error(e.what());
+    }
+    if (!(std::isfinite(metres_per_uv) && metres_per_uv > 0)) fail("metres_per_uv", "must be positive and finite");
+    return w;
 }
 
 Photometry make_photometry(const std::string& model, const std::string& phase, double surge_amplitude,
@@ -42,31 +71,52 @@ void bind_scene(py::module_& m) {
         }, py::arg("mu_i"), py::arg("mu_o"), py::arg("cos_g"),
            "BRDF / (albedo/π) for cosines of incidence and emission (both > 0, else 0) and cos phase.");
 
+    py::class_<WovenSurface>(m, "WovenSurface",
+                             "A bag's cloth: the procedural weave (fabric.h) on the mesh's corner UVs and the "
+                             "paper's dirt stain (stain.h), painted per instance from stain_seed; 0 stamps = clean, "
+                             "no mask.")
+        .def(py::init(&make_woven), py::arg("pitch_m") = 1.5e-3, py::arg("relief_m") = 1.0e-4,
+             py::arg("contrast") = 0.04, py::arg("metres_per_uv") = 1.0, py::arg("stamps") = 0,
+             py::arg("brush_size") = 0.18, py::arg("opacity") = 0.5, py::arg("resolution") = 512,
+             py::arg("stain_seed") = 0, py::arg("dirt_colour") = py::make_tuple(0.12, 0.11, 0.10));
+
     py::class_<Scene>(m, "Scene", "Triangle-mesh prototypes and their instances; metres, world ENU.")
         .def(py::init<>())
         .def(
             "add_mesh",
-            [](Scene& s, const py::handle& vertices, const py::handle& triangles) {
+            [](Scene& s, const py::handle& vertices, const py::handle& triangles, const py::handle& corner_uvs) {
                 auto v = float_rows(vertices, "vertices", 3);
                 const std::vector<uint32_t> t = index_rows(triangles, "triangles");
-                // Safe without the GIL: `v` is our own contiguous copy or a held reference.
+                std::optional<py::array_t<float, py::array::c_style>> uv;
+                if (!corner_uvs.is_none()) {
+                    uv = float_rows(corner_uvs, "corner_uvs", 6);
+                    if (static_cast<size_t>(uv->shape(0)) != t.size() / 3)
+                        fail("corner_uvs", "must have one row per triangle (" + std::to_string(t.size() / 3) +
+                                               "), got " + std::to_string(uv->shape(0)));
+                }
+                // Safe without the GIL: `v` and `uv` are our own contiguous copies or held references.
                 py::gil_scoped_release release;
-                return s.add_mesh(v.data(), static_cast<size_t>(v.shape(0)), t.data(), t.size() / 3);
+                return s.add_mesh(v.data(), static_cast<size_t>(v.shape(0)), t.data(), t.size() / 3,
+                                  uv ? uv->data() : nullptr);
             },
-            py::arg("vertices"), py::arg("triangles"),
-            "Add a prototype mesh: vertices (N, 3) float, metres; triangles (M, 3) int. "
+            py::arg("vertices"), py::arg("triangles"), py::arg("corner_uvs") = py::none(),
+            "Add a prototype mesh: vertices (N, 3) float, metres; triangles (M, 3) int; optional "
+            "corner_uvs (M, 6) float: (u, v) of each triangle's three corners, for woven materials. "
             "Builds its BVH. Returns the mesh index.")
         .def(
             "add_instance",
             [](Scene& s, uint32_t mesh, const py::handle& world_from_object, int instance_id,
-               const py::handle& albedo, const Photometry& photometry) {
-                return s.add_instance(mesh, matrix<4, 4>(world_from_object, "world_from_object"),
-                                      instance_id, material(albedo, photometry));
+               const py::handle& albedo, const Photometry& photometry, const std::optional<WovenSurface>& woven) {
+                const Material mat = material(albedo, photometry, woven);
+                const glm::dmat4 xfm = matrix<4, 4>(world_from_object, "world_from_object");
+                py::gil_scoped_release release;  // painting a stain takes a few milliseconds
+                return s.add_instance(mesh, xfm, instance_id, mat);
             },
             py::arg("mesh"), py::arg("world_from_object"), py::arg("instance_id"),
-            py::arg("albedo"), py::arg("photometry") = Photometry{},
+            py::arg("albedo"), py::arg("photometry") = Photometry{}, py::arg("woven") = py::none(),
             "Add a labelled object: world_from_object (4, 4) affine, metres; instance_id 1..255 "
-            "(unique); albedo (3,) linear RGB in [0, 1]. Returns the instance index.")
+            "(unique); albedo (3,) linear RGB in [0, 1] (a woven surface's mean colour); woven: a "
+            "WovenSurface (the mesh needs corner_uvs). Returns the instance index.")
         .def(
             "add_background",
             [](Scene& s, uint32_t mesh, const py::handle& world_from_object, const py::handle& albedo,

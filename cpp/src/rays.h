@@ -38,6 +38,9 @@ struct InstanceData {
     const float* vertices;
     uint8_t label;
     Photometry photometry;
+    const float* corner_uvs;     // 6 per triangle, or null
+    const WovenSurface* woven;   // null unless the material is woven
+    const StainMask* stain;      // null unless the instance is stained
 };
 
 inline std::vector<InstanceData> instance_table(const Scene& scene) {
@@ -47,7 +50,9 @@ inline std::vector<InstanceData> instance_table(const Scene& scene) {
         const Mesh& mesh = scene.mesh(inst.mesh);
         table[i] = {inst.normal_to_world, inst.linear,          inst.translation,
                     glm::dvec3(inst.material.albedo), mesh.triangles.data(), mesh.vertices.data(),
-                    inst.label, inst.material.photometry};
+                    inst.label, inst.material.photometry,
+                    mesh.corner_uvs.empty() ? nullptr : mesh.corner_uvs.data(),
+                    inst.material.woven ? &*inst.material.woven : nullptr, inst.stain};
     }
     return table;
 }
@@ -110,6 +115,7 @@ struct PixelHit {
     uint8_t side = 0;    // which TriangleRecord::normal faces the ray (set by shadow_rays)
     uint8_t record = 0;  // index of its TriangleRecord in the tile
     double t = 0;        // ray parameter = z-depth (the camera-z of dir is 1)
+    float u = 0, v = 0;  // Embree's barycentrics: the hit is (1 − u − v)·p0 + u·p1 + v·p2
 };
 
 /// The camera-ray hits of one tile, resolved in double precision, and the Sun shadow rays from
@@ -148,6 +154,8 @@ public:
             p.record = static_cast<uint8_t>(k);
             const TriangleRecord& tri = m_records[k];
             p.t = ray.tfar;
+            p.u = ray.u;
+            p.v = ray.v;
             if (!exact) continue;
             const glm::dvec3& dir = dirs[i];
             const double denom = glm::dot(tri.n_raw, dir);

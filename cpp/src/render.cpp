@@ -43,12 +43,15 @@ struct LightData {
 /// The end of one pixel's path: where it is, which way it left, what it carries.
 struct PathVertex {
     glm::dvec3 point;       // world metres
-    glm::dvec3 normal;      // unit, on the side the path arrived from
+    glm::dvec3 normal;      // unit geometric normal, on the side the path arrived from
+    glm::dvec3 shading;     // unit shading normal (the weave's, on cloth; else `normal`)
+    glm::dvec3 albedo;      // linear RGB here (the fabric's and the stain's, on cloth)
     glm::dvec3 wo;          // unit, toward the previous vertex (the camera for the first)
     glm::dvec3 throughput;  // product of the BRDF weights along the path so far
     uint32_t instance;
     double cos_light[2];    // normal · light dir, per light
     bool alive;
+    bool shaded_apart;      // `shading` differs from `normal`
 };
 
 /// Per-thread scratch for one tile.
@@ -195,6 +198,11 @@ private:
             v.wo = -dir / glm::length(dir);
             v.throughput = glm::dvec3(1.0);
             v.instance = tri.instance;
+            const InstanceData& inst = m_instances[tri.instance];
+            v.albedo = inst.albedo;
+            v.shading = v.normal;
+            v.shaded_apart = inst.woven != nullptr;
+            if (v.shaded_apart) cloth(inst, tri, h, dir, v);
             v.cos_light[0] = tri.cos_sun[h.side];
             for (size_t l = 1; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(v.normal, m_lights[l].dir);
         }
@@ -204,6 +212,52 @@ private:
             if (!extend_paths(n, s, stats, sample, dim)) break;
             light_vertices(n, s, stats, sample, 1, dim + 2);
         }
+    }
+
+    /// The bag's cloth at a camera hit: where the hit lies in the UV atlas, the weave there
+    /// prefiltered over the pixel's footprint, the stain mask's value, and the weave's normal in
+    /// the world (the tangent frame follows the atlas: +u along the warp, +v along the weft).
+    void cloth(const InstanceData& inst, const TriangleRecord& tri, const PixelHit& h, const glm::dvec3& dir,
+               PathVertex& v) const {
+        const WovenSurface& w = *inst.woven;
+        const float* uv = inst.corner_uvs + 6 * static_cast<size_t>(tri.prim);
+        const glm::dvec2 uv0(uv[0], uv[1]), uv1(uv[2], uv[3]), uv2(uv[4], uv[5]);
+        const double b1 = h.u, b2 = h.v;
+        const glm::dvec2 st = (1.0 - b1 - b2) * uv0 + b1 * uv1 + b2 * uv2;
+        const uint32_t* corner = inst.triangles + 3 * static_cast<size_t>(tri.prim);
+        auto world = [&](uint32_t k) {
+            const float* p = inst.vertices + 3 * static_cast<size_t>(corner[k]);
+            return inst.linear * glm::dvec3(p[0], p[1], p[2]);  // edges only: no translation
+        };
+        const glm::dvec3 p0 = world(0), e1 = world(1) - p0, e2 = world(2) - p0;
+        const glm::dvec2 d1 = uv1 - uv0, d2 = uv2 - uv0;
+        const double det = d1.x * d2.y - d2.x * d1.y;
+        const glm::dvec3& n = v.normal;
+        glm::dvec3 t, b;
+        if (std::abs(det) > 1e-20) {
+            t = (e1 * d2.y - e2 * d1.y) / det;  // ∂p/∂u
+            t -= n * glm::dot(n, t);
+            const double len = glm::length(t);
+            if (len > 0.0) {
+                t /= len;
+                b = glm::cross(n, t);
+                if (glm::dot(b, (e2 * d1.x - e1 * d2.x) / det) < 0.0) b = -b;  // along +v
+            } else {
+                basis(n, t, b);
+            }
+        } else {
+            basis(n, t, b);  // a degenerate UV triangle: any frame (the weave is then arbitrary)
+        }
+        // One pixel's width on the cloth: its angle 1/fx at the hit's distance, stretched by the
+        // obliquity (capped so a grazing hit still gets a finite blur).
+        const double length = glm::length(dir);
+        const double distance = h.t * length;
+        const double obliquity = std::max(std::abs(glm::dot(n, dir)) / length, 0.1);
+        const double footprint = distance / m_camera.intrinsics().fx / obliquity;
+        const FabricSample f = fabric_eval(w.fabric, st.x * w.metres_per_uv, st.y * w.metres_per_uv, footprint);
+        v.albedo = inst.stain ? stained_base_colour(f.albedo, inst.stain->sample(st.x, st.y), w.dirt_colour) : f.albedo;
+        const glm::dvec3 shading = t * f.normal.x + b * f.normal.y + n * f.normal.z;
+        v.shading = shading / glm::length(shading);
     }
 
     /// Adds every light's contribution at the live path vertices to their pixels: `samples`
@@ -245,14 +299,15 @@ private:
                 if (s.visible[i] == 0) continue;
                 const PathVertex& v = s.path[i];
                 const InstanceData& inst = m_instances[v.instance];
-                const double mu_i = v.cos_light[l];
+                // Visibility follows the geometry; brightness the shading normal.
+                const double mu_i = v.shaded_apart ? std::max(0.0, glm::dot(v.shading, light.dir)) : v.cos_light[l];
                 const double shape = inst.photometry.model == Photometry::Model::Lambert
                                          ? 1.0
-                                         : photometric_shape(inst.photometry, mu_i, glm::dot(v.normal, v.wo),
+                                         : photometric_shape(inst.photometry, mu_i, glm::dot(v.shading, v.wo),
                                                              glm::dot(light.dir, v.wo));
                 // Grouped so that a Lambertian surface under a point Sun, seen directly, gets
                 // exactly albedo·(E/π·μi): every other factor is then 1.
-                s.radiance[i] += (inst.albedo * (light.scale * mu_i)) *
+                s.radiance[i] += (v.albedo * (light.scale * mu_i)) *
                                  (shape * (double(s.visible[i]) / rays_per_vertex)) * light.color * v.throughput;
             }
         }
@@ -277,7 +332,7 @@ private:
                                      ? 1.0
                                      : photometric_shape(inst.photometry, mu_i, glm::dot(v.normal, v.wo),
                                                          glm::dot(wi, v.wo));
-            v.throughput *= inst.albedo * shape;
+            v.throughput *= v.albedo * shape;
             if (!(mu_i > 0.0) || v.throughput == glm::dvec3(0.0)) {
                 v.alive = false;
                 continue;
@@ -310,6 +365,11 @@ private:
             if (glm::dot(normal, wi) > 0.0) normal = -normal;  // the side the ray arrived from
             v.point += static_cast<double>(ray.tfar) * wi;
             v.normal = normal;
+            v.shading = normal;
+            v.shaded_apart = false;
+            // Cloth met by a bounce shows its mean colour: neither weave nor stain is resolved
+            // by the light it passes on.
+            v.albedo = inst.albedo;
             v.wo = -wi;
             v.instance = ray.inst_id;
             for (size_t l = 0; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(normal, m_lights[l].dir);

@@ -13,6 +13,15 @@ void check_material(const Material& m) {
         if (!(m.albedo[c] >= 0.0f && m.albedo[c] <= 1.0f))
             throw std::invalid_argument("albedo: each channel must be in [0, 1], got " +
                                         std::to_string(m.albedo[c]));
+    if (!m.woven) return;
+    const WovenSurface& w = *m.woven;
+    w.fabric.validate();
+    w.stain.validate();
+    if (!(std::isfinite(w.metres_per_uv) && w.metres_per_uv > 0))
+        throw std::invalid_argument("metres_per_uv: must be positive and finite");
+    for (int c = 0; c < 3; ++c)
+        if (!(w.dirt_colour[c] >= 0.0 && w.dirt_colour[c] <= 1.0))
+            throw std::invalid_argument("dirt_colour: each channel must be in [0, 1]");
 }
 
 // Transforms go to Embree in float32; a finite double beyond float32's range would become
@@ -45,7 +54,7 @@ void Scene::require_not_rendering() const {
 }
 
 uint32_t Scene::add_mesh(const float* vertices, size_t n_vertices, const uint32_t* triangles,
-                         size_t n_triangles) {
+                         size_t n_triangles, const float* corner_uvs) {
     require_not_rendering();
     if (n_vertices == 0) throw std::invalid_argument("vertices: mesh has no vertices");
     if (n_triangles == 0) throw std::invalid_argument("triangles: mesh has no triangles");
@@ -59,7 +68,12 @@ uint32_t Scene::add_mesh(const float* vertices, size_t n_vertices, const uint32_
             throw std::invalid_argument("triangles: index " + std::to_string(triangles[i]) +
                                         " out of range for " + std::to_string(n_vertices) +
                                         " vertices (triangle " + std::to_string(i / 3) + ")");
+    if (corner_uvs)
+        for (size_t i = 0; i < 6 * n_triangles; ++i)
+            if (!std::isfinite(corner_uvs[i]))
+                throw std::invalid_argument("corner_uvs: non-finite coordinate at triangle " + std::to_string(i / 6));
     auto mesh = std::make_unique<Mesh>();
+    if (corner_uvs) mesh->corner_uvs.assign(corner_uvs, corner_uvs + 6 * n_triangles);
     mesh->vertices.assign(vertices, vertices + 3 * n_vertices);
     mesh->vertices.push_back(0.0f);  // Embree reads 16 bytes at the last vertex
     mesh->triangles.assign(triangles, triangles + 3 * n_triangles);
@@ -93,6 +107,9 @@ uint32_t Scene::add(uint32_t mesh, const glm::dmat4& world_from_object, uint8_t 
                                     std::to_string(m_meshes.size()) + ")");
     check_transform(world_from_object);
     check_material(material);
+    if (material.woven && m_meshes[mesh]->corner_uvs.empty())
+        throw std::invalid_argument("material: a woven surface needs the mesh's corner_uvs (mesh " +
+                                    std::to_string(mesh) + " has none)");
     float xfm[12];
     for (int c = 0; c < 4; ++c)
         for (int r = 0; r < 3; ++r) xfm[3 * c + r] = static_cast<float>(world_from_object[c][r]);
@@ -104,6 +121,15 @@ uint32_t Scene::add(uint32_t mesh, const glm::dmat4& world_from_object, uint8_t 
     inst.normal_to_world = glm::transpose(glm::inverse(inst.linear));
     inst.label = label;
     inst.material = material;
+    if (material.woven) {
+        // Whatever the instance, fabric colour is the material's albedo.
+        inst.material.woven->fabric.albedo = glm::dvec3(material.albedo);
+        std::unique_ptr<StainMask> mask = paint_stain(material.woven->stain, material.woven->stain_seed);
+        if (mask) {  // zero stamps: no mask, nothing allocated
+            inst.stain = mask.get();
+            m_stains.push_back(std::move(mask));
+        }
+    }
     const uint32_t index = m_accel.add_instance(mesh, xfm);
     m_instances.push_back(inst);
     m_committed = false;

@@ -35,13 +35,21 @@ def build_scene(spec: SceneSpec) -> _core.Scene:
     rocks of one prototype too), the terrain and rocks as background, each bag as a labelled
     instance; then commits."""
     scene = _core.Scene()
-    mesh_index = {key: scene.add_mesh(v, t) for key, (v, t) in spec.meshes.items()}
+    bag_ids = {bag.obj_id for bag in spec.bags}
+    mesh_index = {key: scene.add_mesh(v, t, spec.bag_uvs.reshape(len(t), 6) if key in bag_ids else None)
+                  for key, (v, t) in spec.meshes.items()}
     photometry, albedo = regolith(spec.terrain_photometry, spec.terrain_albedo)
     scene.add_background(mesh_index[TERRAIN_MESH], np.eye(4), albedo, photometry)
     for key, pose in spec.rocks:  # rocks are regolith (label 0)
         scene.add_background(mesh_index[key], pose, albedo, photometry)
+    f, st = spec.fabric, spec.stain
     for bag in spec.bags:
-        scene.add_instance(mesh_index[bag.obj_id], bag.world_from_model, bag.instance_id, bag.albedo)
+        # Zero stain seeds: the core paints and allocates no mask (principle 3).
+        woven = _core.WovenSurface(pitch_m=f.pitch_m, relief_m=f.relief_m, contrast=f.contrast,
+                                   metres_per_uv=spec.bag_metres_per_uv, stamps=st.seeds,
+                                   brush_size=st.brush_size, opacity=st.opacity, resolution=st.resolution,
+                                   stain_seed=bag.stain_seed, dirt_colour=st.dirt_colour)
+        scene.add_instance(mesh_index[bag.obj_id], bag.world_from_model, bag.instance_id, bag.albedo, woven=woven)
     scene.commit()
     return scene
 

@@ -182,9 +182,17 @@ def uv_atlas(shape: BagShape = BagShape()) -> np.ndarray:
         [face == 5, face == 4],
         [H + (y + hy), -(y + hy)],
         default=z + hz)
-    scale = max(2 * (L + W), H + 2 * W)
+    scale = atlas_metres_per_uv(shape)
     uv = np.stack([s / scale, (t + W) / scale], axis=-1)
     return uv.astype(np.float32)
+
+
+def atlas_metres_per_uv(shape: BagShape = BagShape()) -> float:
+    """Metres of the sharp box's surface per unit of `uv_atlas` coordinates (the same along u
+    and v): the longer of the belt of side faces, 2(L + W), and the column of top, −y face and
+    bottom, H + 2W."""
+    L, W, H = shape.size_m
+    return float(max(2 * (L + W), H + 2 * W))
 
 
 # The SynBag-1.0 mesh variants by BOP obj_id: (name, mesh maker with the variant's defaults).
@@ -196,10 +204,14 @@ VARIANTS = {
 OBJ_IDS = {name: obj_id for obj_id, (name, _) in VARIANTS.items()}
 
 
+def variant_shape(meshes: MeshesConfig, obj_id: int) -> BagShape:
+    """The configured shape of one variant."""
+    return {1: meshes.sandbag_01, 2: meshes.sandbag_02, 3: meshes.sandbag_03}[obj_id]
+
+
 def variant_mesh(meshes: MeshesConfig, obj_id: int) -> tuple[np.ndarray, np.ndarray]:
     """One variant with its configured shape."""
-    shapes = {1: meshes.sandbag_01, 2: meshes.sandbag_02, 3: meshes.sandbag_03}
-    return VARIANTS[obj_id][1](shapes[obj_id])
+    return VARIANTS[obj_id][1](variant_shape(meshes, obj_id))
 
 
 def variant_meshes(meshes: MeshesConfig) -> dict[int, tuple[np.ndarray, np.ndarray]]:

@@ -3,13 +3,14 @@ material. Pure numpy; the render stage turns it into an Embree scene."""
 
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from moonbot.config.schema import Config, PhotometryConfig
-from moonbot.scene.bag_mesh import OBJ_IDS, variant_mesh
+from moonbot.config.schema import Config, FabricConfig, PhotometryConfig, StainConfig
+from moonbot.scene.bag_mesh import OBJ_IDS, atlas_metres_per_uv, uv_atlas, variant_mesh, variant_shape
 from moonbot.scene.placement import Placement, arrange_bags
 from moonbot.terrain import get_terrain
 from moonbot.terrain.ground import Ground
@@ -19,12 +20,14 @@ from moonbot.terrain.rocks import RockField, rock_poses
 @dataclass(frozen=True)
 class BagInstance:
     """One bag: `obj_id` is the BOP model id (mesh variant), `instance_id` the mask label (1..255),
-    `world_from_model` (4, 4) float64 rigid transform in metres."""
+    `world_from_model` (4, 4) float64 rigid transform in metres, `albedo` its cloth's mean
+    linear RGB, `stain_seed` the seed its dirt stain is painted from."""
 
     obj_id: int
     instance_id: int
     world_from_model: np.ndarray
     albedo: tuple[float, float, float]
+    stain_seed: int
 
 
 @dataclass(frozen=True)
@@ -32,7 +35,9 @@ class SceneSpec:
     """Everything the renderer needs: `meshes` maps obj_id (and 0 for the terrain) to
     (vertices (N, 3) float32 metres, triangles (M, 3) int32); `target` is the orbit centre in
     the world frame (metres); `placement` records how the bags were placed and settled;
-    `terrain_albedo` is regolith's normal albedo, shaped by `terrain_photometry`;
+    `terrain_albedo` is regolith's normal albedo, shaped by `terrain_photometry`; `bag_uvs`
+    (M, 3, 2) float32 are the bag mesh's corner UVs (its cloth's atlas, `bag_metres_per_uv`
+    metres per unit), woven and stained as `fabric` and `stain` say;
     `ground` is the terrain's height field (the camera keeps clear of it); `rocks` are
     (mesh key, world-from-model (4, 4) float64) background instances, scaled by diameter;
     `terrain_seconds` is what building the terrain cost this scene (0 when this process had it
@@ -41,6 +46,10 @@ class SceneSpec:
     meshes: dict[int, tuple[np.ndarray, np.ndarray]]
     terrain_albedo: float
     terrain_photometry: PhotometryConfig
+    bag_uvs: np.ndarray
+    bag_metres_per_uv: float
+    fabric: FabricConfig
+    stain: StainConfig
     bags: tuple[BagInstance, ...]
     target: np.ndarray
     placement: Placement
@@ -68,6 +77,13 @@ def clear_site(rocks: RockField, bag_poses: list[np.ndarray], bag_radius: float,
     return rocks.subset(keep)
 
 
+def stain_seed(dataset_seed: int, instance_id: int) -> int:
+    """The seed a bag's dirt stain is painted from: a 64-bit hash of the dataset seed and the
+    bag's instance id, so every bag of every sample is stained differently and reproducibly."""
+    digest = hashlib.blake2b(f"moonbot.stain:{dataset_seed}:{instance_id}".encode(), digest_size=8).digest()
+    return int.from_bytes(digest, "little")
+
+
 def compose_scene(config: Config) -> SceneSpec:
     """`bags.count` bags of the configured mesh variant on the configured ground, placed by
     `bags.layout` and settled (moonbot.scene.placement; deterministic from the dataset seed),
@@ -77,7 +93,9 @@ def compose_scene(config: Config) -> SceneSpec:
     terrain, cached = get_terrain(config.terrain)
     placement = arrange_bags(vertices, triangles, config.bags, terrain.ground, seed=config.seed)
     instances = tuple(BagInstance(obj_id=obj_id, instance_id=i + 1, world_from_model=pose,
-                                  albedo=config.bags.albedo) for i, pose in enumerate(placement.poses))
+                                  albedo=config.bags.albedo, stain_seed=stain_seed(config.seed, i + 1))
+                      for i, pose in enumerate(placement.poses))
+    shape = variant_shape(config.meshes, obj_id)
     meshes = {TERRAIN_MESH: terrain.mesh, obj_id: (vertices, triangles)}
     rocks: tuple[tuple[int, np.ndarray], ...] = ()
     if terrain.rocks is not None and len(terrain.rocks):
@@ -91,6 +109,10 @@ def compose_scene(config: Config) -> SceneSpec:
         meshes=meshes,
         terrain_albedo=config.terrain.albedo,
         terrain_photometry=config.terrain.photometry,
+        bag_uvs=uv_atlas(shape),
+        bag_metres_per_uv=atlas_metres_per_uv(shape),
+        fabric=config.bags.fabric,
+        stain=config.bags.stain,
         bags=instances,
         target=placement.poses[0][:3, 3].copy(),
         placement=placement,

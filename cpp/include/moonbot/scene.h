@@ -5,26 +5,42 @@
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include <glm/glm.hpp>
 
 #include "moonbot/accel.h"
+#include "moonbot/fabric.h"
 #include "moonbot/photometry.h"
+#include "moonbot/stain.h"
 
 namespace moonbot {
 
+/// A bag's cloth: the woven fabric (fabric.h; its mean colour is the material's albedo) laid on
+/// the mesh's corner UVs at `metres_per_uv`, and the paper's dirt stain (stain.h) painted for
+/// this instance from `stain_seed` — with stain.stamps = 0, no mask is painted or allocated.
+struct WovenSurface {
+    FabricParams fabric;
+    double metres_per_uv = 1.0;  ///< fabric metres per atlas UV unit (bag_mesh.uv_atlas's scale)
+    StainParams stain;
+    uint64_t stain_seed = 0;
+    glm::dvec3 dirt_colour{0.12, 0.11, 0.10};  ///< linear RGB
+};
+
 /// A surface: `albedo` linear RGB in [0, 1] and the photometric function that shapes it (the
-/// BRDF is albedo/π · photometric_shape(...); Lambertian by default).
+/// BRDF is albedo/π · photometric_shape(...); Lambertian by default); optionally woven.
 struct Material {
     glm::vec3 albedo{0.5f};
     Photometry photometry{};
+    std::optional<WovenSurface> woven;
 };
 
 /// A prototype mesh, held by the scene for the lifetime of its BVH.
 struct Mesh {
     std::vector<float> vertices;      // xyz per vertex, metres, plus one padding float (Embree rule)
     std::vector<uint32_t> triangles;  // three vertex indices per triangle
+    std::vector<float> corner_uvs;    // (u, v) per triangle corner, 6 per triangle; empty if none
     size_t vertex_count() const { return (vertices.size() - 1) / 3; }
     size_t triangle_count() const { return triangles.size() / 3; }
     /// Vertex i in double precision (object frame, metres).
@@ -42,6 +58,7 @@ struct Instance {
     glm::dmat3 normal_to_world{1.0};  // inverse transpose of the linear part
     uint8_t label = 0;                 // instance id in masks; 0 = background (terrain, rocks)
     Material material;
+    const StainMask* stain = nullptr;  // this instance's dirt mask (owned by the scene); none if clean
 };
 
 class Scene {
@@ -53,11 +70,14 @@ public:
     /// Adds a prototype: `vertices` is n_vertices×3 (metres, object frame, finite), `triangles`
     /// is n_triangles×3 indices into it. Both are copied. Throws std::invalid_argument naming the
     /// argument on an empty mesh, a non-finite vertex or an index out of range. Returns its index.
+    /// `corner_uvs` (optional, n_triangles×3×2, finite) are texture coordinates per triangle
+    /// corner, which a woven material needs.
     uint32_t add_mesh(const float* vertices, size_t n_vertices, const uint32_t* triangles,
-                      size_t n_triangles);
+                      size_t n_triangles, const float* corner_uvs = nullptr);
 
     /// Adds a labelled object (label 1–255, unique in the scene) with a world-from-object affine
-    /// transform (metres). Returns the instance index.
+    /// transform (metres). A woven material paints its stain mask here (none for 0 stamps).
+    /// Returns the instance index.
     uint32_t add_instance(uint32_t mesh, const glm::dmat4& world_from_object, int label,
                           const Material& material);
 
@@ -101,6 +121,7 @@ private:
     // unique_ptr: the vertex buffers are shared with Embree and must never move.
     std::vector<std::unique_ptr<Mesh>> m_meshes;
     std::vector<Instance> m_instances;
+    std::vector<std::unique_ptr<StainMask>> m_stains;  // painted masks; instances point into them
     bool m_label_used[256] = {};
     bool m_committed = false;
     mutable std::atomic<int> m_readers{0};
