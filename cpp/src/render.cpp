@@ -267,7 +267,9 @@ private:
                         uint32_t dim) const {
         for (size_t l = 0; l < m_lights.size(); ++l) {
             const LightData& light = m_lights[l];
-            const int rays_per_vertex = light.point ? 1 : samples;
+            // The Earth's light is ~1e-4 of the Sun's: one shadow ray toward its disk leaves noise
+            // far below the Sun's, so only the Sun gets `samples`.
+            const int rays_per_vertex = light.point || l > 0 ? 1 : samples;
             std::fill_n(s.visible.begin(), n, 0);
             for (int k = 0; k < rays_per_vertex; ++k) {
                 const uint32_t d = dim + 2 * static_cast<uint32_t>(l * samples + k);

@@ -23,8 +23,8 @@ struct RenderSettings {
     /// float32 rounding at any coordinates) instead of keeping Embree's float32 t, whose error
     /// grows with the distance of the scene from the origin. Costs ~15 ns a camera ray.
     bool exact_depth = true;
-    /// Shadow rays per camera sample toward each light's disk (soft shadow edges); 1..1024. With
-    /// a point light every one would agree, so one is traced.
+    /// Shadow rays per camera sample toward the Sun's disk (soft shadow edges); 1..1024. A point
+    /// light, and the faint Earth, get one.
     int light_samples = 1;
     /// Diffuse inter-reflection: path vertices after the first hit, each lit by the lights
     /// through a shadow ray (next-event estimation); 0 = direct light only, at most kMaxBounces.
