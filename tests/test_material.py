@@ -148,3 +148,42 @@ def test_config_fields():
     ]:
         with pytest.raises(ConfigError, match=message.replace("(", r"\(")):
             load_config(None, {field: value})
+
+
+# --- in the render -------------------------------------------------------------------------------
+
+def render_bag(stain_seeds: int, opacity: float = 0.5):
+    """View 0 of a close orbit around one bag on the plane, in a process-wide fresh scene; returns
+    (rgb, stain mask bytes alive while the scene lived, masks allocated by building it)."""
+    from moonbot.render import build_scene, render_view
+    from moonbot.scene import compose_scene, intrinsics, orbit_pose
+
+    config = load_config(None, {"terrain.location": "plane", "bags.stain.seeds": stain_seeds,
+                                "bags.stain.opacity": opacity, "orbit.radius_m": 0.5, "orbit.height_m": 0.35,
+                                "sun.elevation_deg": 35.0, "camera.width": 160, "camera.height": 120,
+                                "render.bounces": 1})
+    spec = compose_scene(config)
+    allocated = _core.stain_masks_allocated()
+    scene = build_scene(spec)
+    alive = _core.stain_mask_bytes()
+    allocated = _core.stain_masks_allocated() - allocated
+    pose = orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, 30.0)
+    rgb = render_view(scene, config, intrinsics(config.camera), pose, seed=3).rgb
+    del scene
+    gc.collect()
+    return rgb, alive, allocated
+
+
+def test_clean_bags_allocate_no_mask_and_match_a_blank_stain_bit_for_bit():
+    """Zero stain seeds paint and allocate nothing (principle 3), and the image is the same bytes
+    as bags whose 15 stamps have zero opacity (masks allocated, all zero): lerp(clean, 0, 0) is
+    clean exactly. With opacity the stain shows."""
+    gc.collect()
+    clean, alive, allocated = render_bag(0)
+    assert alive == 0 and allocated == 0
+    blank, alive, allocated = render_bag(15, opacity=0.0)
+    assert allocated == 1 and alive == 512 * 512 * 4
+    assert clean.tobytes() == blank.tobytes()
+    stained, *_ = render_bag(15)
+    assert stained.tobytes() != clean.tobytes()
+    assert stained.mean() < clean.mean()  # regolith-coloured dirt darkens the tan cloth
