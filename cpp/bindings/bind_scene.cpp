@@ -84,7 +84,8 @@ void bind_scene(py::module_& m) {
         .def(py::init<>())
         .def(
             "add_mesh",
-            [](Scene& s, const py::handle& vertices, const py::handle& triangles, const py::handle& corner_uvs) {
+            [](Scene& s, const py::handle& vertices, const py::handle& triangles, const py::handle& corner_uvs,
+               const py::handle& vertex_albedo) {
                 auto v = float_rows(vertices, "vertices", 3);
                 const std::vector<uint32_t> t = index_rows(triangles, "triangles");
                 std::optional<py::array_t<float, py::array::c_style>> uv;
@@ -94,15 +95,25 @@ void bind_scene(py::module_& m) {
                         fail("corner_uvs", "must have one row per triangle (" + std::to_string(t.size() / 3) +
                                                "), got " + std::to_string(uv->shape(0)));
                 }
-                // Safe without the GIL: `v` and `uv` are our own contiguous copies or held references.
+                std::optional<py::array_t<float, py::array::c_style>> va;
+                if (!vertex_albedo.is_none()) {
+                    va = float_rows(py::reinterpret_borrow<py::object>(vertex_albedo).attr("reshape")(-1, 1),
+                                    "vertex_albedo", 1);
+                    if (va->shape(0) != v.shape(0))
+                        fail("vertex_albedo", "must have one value per vertex (" + std::to_string(v.shape(0)) +
+                                                  "), got " + std::to_string(va->shape(0)));
+                }
+                // Safe without the GIL: the arrays are our own contiguous copies or held references.
                 py::gil_scoped_release release;
                 return s.add_mesh(v.data(), static_cast<size_t>(v.shape(0)), t.data(), t.size() / 3,
-                                  uv ? uv->data() : nullptr);
+                                  uv ? uv->data() : nullptr, va ? va->data() : nullptr);
             },
             py::arg("vertices"), py::arg("triangles"), py::arg("corner_uvs") = py::none(),
+            py::arg("vertex_albedo") = py::none(),
             "Add a prototype mesh: vertices (N, 3) float, metres; triangles (M, 3) int; optional "
-            "corner_uvs (M, 6) float: (u, v) of each triangle's three corners, for woven materials. "
-            "Builds its BVH. Returns the mesh index.")
+            "corner_uvs (M, 6) float: (u, v) of each triangle's three corners, for woven materials; "
+            "optional vertex_albedo (N,) float >= 0: a factor on the albedo per vertex. Builds its "
+            "BVH. Returns the mesh index.")
         .def(
             "add_instance",
             [](Scene& s, uint32_t mesh, const py::handle& world_from_object, int instance_id,

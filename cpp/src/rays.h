@@ -41,7 +41,18 @@ struct InstanceData {
     const float* corner_uvs;     // 6 per triangle, or null
     const WovenSurface* woven;   // null unless the material is woven
     const StainMask* stain;      // null unless the instance is stained
+    const float* vertex_albedo;  // per-vertex albedo factors, or null
 };
+
+/// The albedo of instance `inst` at barycentrics (u, v) of triangle `prim`: the material's,
+/// times the mesh's per-vertex factor there when it has one.
+inline glm::dvec3 albedo_at(const InstanceData& inst, uint32_t prim, double u, double v) {
+    if (!inst.vertex_albedo) return inst.albedo;
+    const uint32_t* c = inst.triangles + 3 * static_cast<size_t>(prim);
+    const double f = (1.0 - u - v) * inst.vertex_albedo[c[0]] + u * inst.vertex_albedo[c[1]] +
+                     v * inst.vertex_albedo[c[2]];
+    return inst.albedo * f;
+}
 
 inline std::vector<InstanceData> instance_table(const Scene& scene) {
     std::vector<InstanceData> table(scene.instance_count());
@@ -52,7 +63,8 @@ inline std::vector<InstanceData> instance_table(const Scene& scene) {
                     glm::dvec3(inst.material.albedo), mesh.triangles.data(), mesh.vertices.data(),
                     inst.label, inst.material.photometry,
                     mesh.corner_uvs.empty() ? nullptr : mesh.corner_uvs.data(),
-                    inst.material.woven ? &*inst.material.woven : nullptr, inst.stain};
+                    inst.material.woven ? &*inst.material.woven : nullptr, inst.stain,
+                    mesh.vertex_albedo.empty() ? nullptr : mesh.vertex_albedo.data()};
     }
     return table;
 }

@@ -199,7 +199,7 @@ private:
             v.throughput = glm::dvec3(1.0);
             v.instance = tri.instance;
             const InstanceData& inst = m_instances[tri.instance];
-            v.albedo = inst.albedo;
+            v.albedo = albedo_at(inst, tri.prim, h.u, h.v);
             v.shading = v.normal;
             v.shaded_apart = inst.woven != nullptr;
             if (v.shaded_apart) cloth(inst, tri, h, dir, v);
@@ -371,7 +371,7 @@ private:
             v.shaded_apart = false;
             // Cloth met by a bounce shows its mean colour: neither weave nor stain is resolved
             // by the light it passes on.
-            v.albedo = inst.albedo;
+            v.albedo = albedo_at(inst, ray.prim_id, ray.u, ray.v);
             v.wo = -wi;
             v.instance = ray.inst_id;
             for (size_t l = 0; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(normal, m_lights[l].dir);

@@ -54,7 +54,7 @@ void Scene::require_not_rendering() const {
 }
 
 uint32_t Scene::add_mesh(const float* vertices, size_t n_vertices, const uint32_t* triangles,
-                         size_t n_triangles, const float* corner_uvs) {
+                         size_t n_triangles, const float* corner_uvs, const float* vertex_albedo) {
     require_not_rendering();
     if (n_vertices == 0) throw std::invalid_argument("vertices: mesh has no vertices");
     if (n_triangles == 0) throw std::invalid_argument("triangles: mesh has no triangles");
@@ -72,8 +72,14 @@ uint32_t Scene::add_mesh(const float* vertices, size_t n_vertices, const uint32_
         for (size_t i = 0; i < 6 * n_triangles; ++i)
             if (!std::isfinite(corner_uvs[i]))
                 throw std::invalid_argument("corner_uvs: non-finite coordinate at triangle " + std::to_string(i / 6));
+    if (vertex_albedo)
+        for (size_t i = 0; i < n_vertices; ++i)
+            if (!(std::isfinite(vertex_albedo[i]) && vertex_albedo[i] >= 0.0f))
+                throw std::invalid_argument("vertex_albedo: must be finite and >= 0, got " +
+                                            std::to_string(vertex_albedo[i]) + " at vertex " + std::to_string(i));
     auto mesh = std::make_unique<Mesh>();
     if (corner_uvs) mesh->corner_uvs.assign(corner_uvs, corner_uvs + 6 * n_triangles);
+    if (vertex_albedo) mesh->vertex_albedo.assign(vertex_albedo, vertex_albedo + n_vertices);
     mesh->vertices.assign(vertices, vertices + 3 * n_vertices);
     mesh->vertices.push_back(0.0f);  // Embree reads 16 bytes at the last vertex
     mesh->triangles.assign(triangles, triangles + 3 * n_triangles);

@@ -144,6 +144,12 @@ class TerrainConfig:
         "normal albedo of regolith: its reflectance at zero incidence, emission and phase, opposition "
         "surge included (mare ~0.09, highland ~0.15)", lo=0.0, hi=1.0))
     photometry: PhotometryConfig = field(default_factory=PhotometryConfig)
+    albedo_variation: float = field(default=0.2, metadata=spec(
+        "procedural locations: albedo varies by up to this fraction at 50-400 m wavelengths (mature and "
+        "immature soil; lunar-physics.md §6: ±20 %)", lo=0.0, hi=0.9))
+    ejecta_brightening: float = field(default=0.5, metadata=spec(
+        "crater: fresh ejecta are brighter by this fraction at the rim, falling as (r/R)^-3 (+50-100 %)",
+        lo=0.0, hi=2.0))
     extent_m: float = field(default=2000.0, metadata=spec(
         "half-width of the terrain square around the target, metres (the horizon of a camera 1 m "
         "up is 1.9 km away)", lo=0.0, hi=20000.0, lo_open=True))

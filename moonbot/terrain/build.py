@@ -19,6 +19,7 @@ import numpy as np
 
 from moonbot.config.load import config_hash
 from moonbot.config.schema import TerrainConfig
+from moonbot.terrain.albedo import albedo_factor
 from moonbot.terrain.dem import LocalDem
 from moonbot.terrain.ground import FlatGround, Ground, SlopedGround
 from moonbot.terrain.location import LOCATIONS, build_location, main_crater
@@ -30,12 +31,15 @@ CACHE_SIZE = 2  # terrains kept per process: a location's mesh and ground take ~
 @dataclass(frozen=True)
 class Terrain:
     """A built terrain: the `ground` (heights for placement and physics), its `mesh`
-    ((N, 3) float32 metres, (M, 3) int32) for the renderer, its `rocks` (positions and sizes;
-    scenes drop those in the way of bags or camera) with the `rock_meshes` they instance, the
-    config `key` it was built from and the wall-clock `build_seconds` it took."""
+    ((N, 3) float32 metres, (M, 3) int32) for the renderer with `albedo_scale` ((N,) float32
+    factors on the regolith albedo per vertex, or None for the analytic grounds), its `rocks`
+    (positions and sizes; scenes drop those in the way of bags or camera) with the
+    `rock_meshes` they instance, the config `key` it was built from and the wall-clock
+    `build_seconds` it took."""
 
     ground: Ground
     mesh: tuple[np.ndarray, np.ndarray]
+    albedo_scale: np.ndarray | None
     rocks: RockField | None
     rock_meshes: list[tuple[np.ndarray, np.ndarray]]
     key: str
@@ -81,14 +85,15 @@ def get_terrain(config: TerrainConfig) -> tuple[Terrain, bool]:
     start = time.perf_counter()
     ground = make_ground(config)
     mesh = ground.mesh()
-    rocks, rock_meshes = None, []
+    rocks, rock_meshes, albedo_scale = None, [], None
     if config.location in LOCATIONS:
         rocks = sample_rocks(config.seed, config.rocks, main_crater(config))
         rock_meshes = rock_prototypes(config.seed)
-    for array in (*mesh, *(a for m in rock_meshes for a in m)):
+        albedo_scale = albedo_factor(config, mesh[0][:, 0], mesh[0][:, 1])
+    for array in (*mesh, *(a for m in rock_meshes for a in m), *([albedo_scale] if albedo_scale is not None else [])):
         array.setflags(write=False)  # shared by every task of this process: nobody may edit it
-    terrain = Terrain(ground=ground, mesh=mesh, rocks=rocks, rock_meshes=rock_meshes, key=key,
-                      build_seconds=time.perf_counter() - start)
+    terrain = Terrain(ground=ground, mesh=mesh, albedo_scale=albedo_scale, rocks=rocks, rock_meshes=rock_meshes,
+                      key=key, build_seconds=time.perf_counter() - start)
     _cache[key] = terrain
     while len(_cache) > CACHE_SIZE:
         _cache.popitem(last=False)

@@ -43,7 +43,7 @@ def _lattice(seed: int, octave: int, i: np.ndarray, j: np.ndarray) -> np.ndarray
     return (h >> np.uint64(11)).astype(np.float64) * (2.0 / 2.0**53) - 1.0
 
 
-def _value_noise(seed: int, octave: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+def value_noise(seed: int, octave: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Smooth value noise of unit lattice spacing at (u, v) (float64), C2 (quintic fade)."""
     i, j = np.floor(u), np.floor(v)
     fu, fv = u - i, v - j
@@ -109,7 +109,7 @@ class Roughness:
             c, s = math.cos(angle), math.sin(angle)
             u = (c * x[at] + s * y[at]) / lam + 0.5 * k
             v = (-s * x[at] + c * y[at]) / lam + 0.25 * k
-            z[at] += weight * amp * _value_noise(self.seed, k, u, v)
+            z[at] += weight * amp * value_noise(self.seed, k, u, v)
         return z
 
     @cached_property

@@ -41,6 +41,7 @@ struct Mesh {
     std::vector<float> vertices;      // xyz per vertex, metres, plus one padding float (Embree rule)
     std::vector<uint32_t> triangles;  // three vertex indices per triangle
     std::vector<float> corner_uvs;    // (u, v) per triangle corner, 6 per triangle; empty if none
+    std::vector<float> vertex_albedo;  // a factor on the material's albedo per vertex; empty if none
     size_t vertex_count() const { return (vertices.size() - 1) / 3; }
     size_t triangle_count() const { return triangles.size() / 3; }
     /// Vertex i in double precision (object frame, metres).
@@ -71,9 +72,12 @@ public:
     /// is n_triangles×3 indices into it. Both are copied. Throws std::invalid_argument naming the
     /// argument on an empty mesh, a non-finite vertex or an index out of range. Returns its index.
     /// `corner_uvs` (optional, n_triangles×3×2, finite) are texture coordinates per triangle
-    /// corner, which a woven material needs.
+    /// corner, which a woven material needs. `vertex_albedo` (optional, n_vertices, finite,
+    /// ≥ 0) multiplies the albedo of any material on the mesh, interpolated across triangles
+    /// (regolith's albedo varies over a site).
     uint32_t add_mesh(const float* vertices, size_t n_vertices, const uint32_t* triangles,
-                      size_t n_triangles, const float* corner_uvs = nullptr);
+                      size_t n_triangles, const float* corner_uvs = nullptr,
+                      const float* vertex_albedo = nullptr);
 
     /// Adds a labelled object (label 1–255, unique in the scene) with a world-from-object affine
     /// transform (metres). A woven material paints its stain mask here (none for 0 stamps).
