@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 
@@ -40,13 +39,6 @@ def build_scene(spec: SceneSpec) -> _core.Scene:
         scene.add_instance(mesh_index[bag.obj_id], bag.world_from_model, bag.instance_id, bag.albedo)
     scene.commit()
     return scene
-
-
-def exposure_scale(config: Config) -> float:
-    """Linear exposure in sr·m²/W: a white Lambertian surface facing the Sun (radiance E/π)
-    maps to 2^exposure_stops before Reinhard."""
-    irradiance = max(config.sun.irradiance_w_m2, 1e-12)  # a dark Sun keeps a finite exposure
-    return 2.0 ** config.tonemap.exposure_stops * math.pi / irradiance
 
 
 def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraPose,
