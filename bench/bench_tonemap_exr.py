@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import statistics
 import sys
 import tempfile
@@ -73,6 +74,7 @@ def main() -> int:
     attributes = {"whiteLuminance": LUMINOUS_EFFICACY_LM_W, "moonbot:radianceUnit": RADIANCE_UNIT,
                   "moonbot:ev100": exposure.ev100}
     r = args.repeats
+    load_before = os.getloadavg()[0]
     result = {"schema_version": SCHEMA_VERSION, "benchmark": "tonemap-exr", "machine": m,
               "view": {"config": "embedded default", "width": int(rgb.shape[1]), "height": int(rgb.shape[0]),
                        "spp": config.render.spp, "ev100": exposure.ev100, "invalid_pixels": invalid,
@@ -108,6 +110,8 @@ def main() -> int:
                 seconds.append(gt["timings_s"]["encode_write"])
             stage[f"exr_{str(exr).lower()}"] = statistics.median(seconds)
         result["encode_write_stage_s"] = stage
+    # Other processes on the machine inflate every figure; the load says how much to trust them.
+    result["load_average_1m"] = {"before": load_before, "after": os.getloadavg()[0]}
 
     e, p, h = result["rgb_exr_float32_zip"], result["rgb_png_level1"], result["rgb_exr_half_zip_openexr_package"]
     print(f"view     {rgb.shape[1]}×{rgb.shape[0]}, EV100 {exposure.ev100:.2f}, invalid pixels {invalid}")
@@ -118,6 +122,8 @@ def main() -> int:
     print(f"rgb.png  level 1             {1e3 * p['write_s']:7.2f} ms  {p['bytes'] / 1e6:6.2f} MB")
     print(f"encode + write stage: {1e3 * stage['exr_false']:.1f} ms without rgb.exr, "
           f"{1e3 * stage['exr_true']:.1f} ms with it")
+    print(f"load     1-minute average {load_before:.1f} before, {result['load_average_1m']['after']:.1f} after "
+          f"({m['cores']} cores)")
 
     out = args.out or RESULTS / f"tonemap-exr-{machine_slug(m)}.json"
     out.parent.mkdir(parents=True, exist_ok=True)
