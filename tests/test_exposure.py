@@ -113,6 +113,9 @@ def test_invalid_radiance_gives_finite_output_and_is_counted():
     assert out[0, :3].max() == 0 and out[0, 3].tolist() == [255] * 3
     assert out[0, 4].tolist() == [0, 197, 197]  # (0, 1, 1): Y = 0.7874 → 1/1.7874 = 0.5595 → 197.2
     assert out[0, 6].tolist() == [0] * 3 and out[0, 7].tolist() == [188] * 3
+    # An exposure just above float32's largest (finite as a double) keeps black black.
+    black, _ = _core.tonemap_reinhard(np.zeros((1, 2, 3), np.float32), 3.4028235677973366e38)
+    assert (black == 0).all()
     clean = finite_radiance(rgb)
     assert np.isfinite(clean).all() and (clean >= 0).all() and clean.dtype == np.float32
     assert clean[0, 3].tolist() == [np.finfo(np.float32).max] * 3 and clean[0, :3].max() == 0

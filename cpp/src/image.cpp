@@ -101,7 +101,8 @@ size_t tonemap_reinhard_srgb8(const float* rgb, size_t n_pixels, double exposure
     // luminance sum of three such channels (≤ 1e30) stays far from FLT_MAX, so 1/(1+Y) is a
     // normal float and Y'/Y stays finite.
     constexpr float kBrightest = 1e30f;
-    const auto e = static_cast<float>(exposure);
+    // An exposure above FLT_MAX would round to +Inf in float, and 0 · Inf is NaN.
+    const auto e = static_cast<float>(std::min(exposure, double(std::numeric_limits<float>::max())));
     std::atomic<size_t> invalid{0};
     // Each pixel is independent, so splitting the work cannot change a byte (nor the count).
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n_pixels, 4096), [&](const auto& range) {
@@ -110,9 +111,10 @@ size_t tonemap_reinhard_srgb8(const float* rgb, size_t n_pixels, double exposure
             float v[3];
             bool bad = false;
             for (int c = 0; c < 3; ++c) {
-                // ≥ 0 or +Inf, times a positive finite exposure: ≥ 0 or +Inf, never NaN.
+                // ≥ 0 or +Inf, times a positive finite float exposure: ≥ 0 or +Inf, never NaN;
+                // the comparison would send a NaN to 0 all the same.
                 const float x = sanitized_sample(rgb[3 * i + c], bad) * e;
-                v[c] = std::min(x, kBrightest);
+                v[c] = x > 0.0f ? std::min(x, kBrightest) : 0.0f;
             }
             bad_pixels += bad;
             const float y = 0.2126f * v[0] + 0.7152f * v[1] + 0.0722f * v[2];

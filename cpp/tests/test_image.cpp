@@ -37,6 +37,10 @@ TEST_CASE(tonemap_is_finite_monotone_and_bounded) {
     uint8_t px[3];
     CHECK(tonemap_reinhard_srgb8(one, 1, 1e300, px) == 0);
     CHECK(px[0] == 255 && px[1] == 255 && px[2] == 255);
+    // An exposure above FLT_MAX (finite in double) must not make 0 · Inf = NaN: black stays black.
+    const float zero[3] = {0.0f, 0.0f, 0.0f};
+    tonemap_reinhard_srgb8(zero, 1, 3.4028235677973366e38, px);
+    CHECK(px[0] == 0 && px[1] == 0 && px[2] == 0);
     CHECK_THROWS(std::invalid_argument, tonemap_reinhard_srgb8(rgb.data(), 1, 0.0, out.data()));
 }
 
