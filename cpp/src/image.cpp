@@ -161,7 +161,9 @@ void write_image(const std::string& path, const void* pixels, int width, int hei
     // Our buffers hold straight (unassociated) values; without this OIIO would un-premultiply a
     // fourth channel on its way into a PNG and change the colour channels.
     spec.attribute("oiio:UnassociatedAlpha", 1);
-    if (target.extension() == ".exr") spec.attribute("compression", "zip");
+    // EXR zip is deflate like PNG's, so it takes the same level: 1 writes a 640×480 float32 render
+    // in half the time of OIIO's default (4) for 7 % more bytes (bench/bench_tonemap_exr.py).
+    if (target.extension() == ".exr") spec.attribute("compression", "zip:" + std::to_string(png_compression));
     spec.attribute("oiio:ColorSpace", type == PixelType::F32 ? "Linear" : "sRGB");
     for (const auto& a : attributes) {
         if (const auto* text = std::get_if<std::string>(&a.value))

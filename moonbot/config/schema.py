@@ -317,9 +317,11 @@ class ToneMapConfig:
 @dataclass(frozen=True)
 class OutputConfig:
     png_compression: int = field(default=1, metadata=spec(
-        "PNG deflate level 0-9 (1 is ~2.5x faster than 6 for ~20 % more bytes)", lo=0, hi=9))
+        "PNG deflate level 0-9, also rgb.exr's zip level (1 is ~2.5x faster than 6 for ~20 % more bytes)",
+        lo=0, hi=9))
     exr: bool = field(default=False, metadata=spec(
-        "also write rgb.exr: the linear radiance before tone mapping, float32 RGB, W/(m^2·sr), zip"))
+        "also write rgb.exr: the linear radiance before tone mapping, float32 RGB, W/(m^2·sr), zip "
+        "at png_compression's level"))
 
 
 @dataclass(frozen=True)

@@ -69,7 +69,8 @@ def write_sample(out_dir: Path, view: RenderedView, exposure: Exposure, K: np.nd
                  camera: CameraPose, bags: tuple[BagInstance, ...], png_compression: int,
                  meta: dict, timings: dict, exr: bool = False) -> dict:
     """Encodes and writes one view into `out_dir` (which must exist): rgb.png tone-mapped at
-    `exposure`, and with `exr` also rgb.exr (linear float32 radiance, W/(m²·sr), zip; its header
+    `exposure`, and with `exr` also rgb.exr (linear float32 radiance, W/(m²·sr), zip at
+    `png_compression`'s level; its header
     has `whiteLuminance` = cd/m² of RGB 1.0 and moonbot:radianceUnit, moonbot:ev100). Every file is
     written to a temporary name and renamed into place; gt.json comes last, so its presence marks
     a complete sample. `timings` (seconds per stage so far) is extended with this stage's and
@@ -123,7 +124,8 @@ def write_sample(out_dir: Path, view: RenderedView, exposure: Exposure, K: np.nd
         "exposure": exposure.metadata(),
         "rgb_invalid_pixels": invalid_pixels,
         **({"rgb_exr": {"file": "rgb.exr", "unit": RADIANCE_UNIT, "sample_type": "float32",
-                        "compression": "zip", "white_luminance_cd_m2": LUMINOUS_EFFICACY_LM_W}} if exr else {}),
+                        "compression": f"zip:{png_compression}",
+                        "white_luminance_cd_m2": LUMINOUS_EFFICACY_LM_W}} if exr else {}),
         **meta,
         "timings_s": timings,
     }

@@ -45,7 +45,7 @@ enum class PixelType { U8, U16, F32 };
 
 /// Writes a width×height×channels row-major buffer. The format follows the extension:
 /// .png (U8 or U16; `png_compression` 0–9, 1 is ~2.5× faster than the default 6 for ~20 % more
-/// bytes), .exr (F32, zip), .tif. `attributes` go into the header (names must be non-empty).
+/// bytes), .exr (F32, zip at the same deflate level), .tif. `attributes` go into the header (names must be non-empty).
 /// Writes `<dir>/.<name>.<pid>.tmp<ext>` and renames it over the target, so a reader never sees a
 /// partial file. Throws IoError naming the path on failure.
 void write_image(const std::string& path, const void* pixels, int width, int height,
