@@ -11,7 +11,7 @@ spectrum unchanged). Photometry and a camera model turn that into a sensor signa
    exposure H = q·L·t/N², q = 0.65 for a typical lens and field position): the luminance that just
    saturates an ISO 100 sensor at EV100 = log2(N²/t) is L_sat = 78 / (100 · 0.65) · 2^EV100
    = 1.2 · 2^EV100 cd/m². The same relation is in Lagarde & de Rousiers, "Moving Frostbite to
-   Physically Based Rendering 3.0" (SIGGRAPH 2014 course notes, §5.1).
+   Physically Based Rendering 3.0" (SIGGRAPH 2014 course notes, the section on the camera).
 3. The signal the tone map compresses is v = L_v / L_sat, so v = 1 is sensor saturation; the core
    takes `scale` = K_sun / L_sat in sr·m²/W and applies Reinhard (2002) v/(1+v) on luminance, so
    nothing above saturation clips: it rolls off toward white.

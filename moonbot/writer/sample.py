@@ -70,9 +70,8 @@ def write_sample(out_dir: Path, view: RenderedView, exposure: Exposure, K: np.nd
                  meta: dict, timings: dict, exr: bool = False) -> dict:
     """Encodes and writes one view into `out_dir` (which must exist): rgb.png tone-mapped at
     `exposure`, and with `exr` also rgb.exr (linear float32 radiance, W/(m²·sr), zip at
-    `png_compression`'s level; its header
-    has `whiteLuminance` = cd/m² of RGB 1.0 and moonbot:radianceUnit, moonbot:ev100). Every file is
-    written to a temporary name and renamed into place; gt.json comes last, so its presence marks
+    `png_compression`'s level; its header has `whiteLuminance` = cd/m² of RGB 1.0,
+    moonbot:radianceUnit and moonbot:ev100). Every file is written to a temporary name and renamed into place; gt.json comes last, so its presence marks
     a complete sample. `timings` (seconds per stage so far) is extended with this stage's and
     recorded in gt.json as `timings_s`. gt.json also records the exposure and
     `rgb_invalid_pixels`, the pixels with a NaN, ±Inf or negative channel (0 for a sound render;
