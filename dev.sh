@@ -89,11 +89,11 @@ case "${1:-}" in
         log "Python tests"
         "$PY" -m pytest "${@:2}"
         ;;
-    bench)  # ./dev.sh bench [render_one|settle|terrain ...]: those benchmarks, or all of them
+    bench)  # ./dev.sh bench [render_one|settle|terrain|tonemap_exr ...]: those benchmarks, or all of them
         setup
         for name in "${@:2}"; do [ -f "bench/bench_$name.py" ] || { log "no bench/bench_$name.py"; exit 2; }; done
         for name in "${@:2}"; do "$PY" "bench/bench_$name.py"; done
-        [ $# -gt 1 ] || for name in render_one settle terrain accuracy; do "$PY" "bench/bench_$name.py"; done
+        [ $# -gt 1 ] || for name in render_one settle terrain tonemap_exr accuracy; do "$PY" "bench/bench_$name.py"; done
         ;;
     *)
         sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'

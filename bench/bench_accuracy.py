@@ -82,8 +82,8 @@ def errors(rgb: np.ndarray, reference: np.ndarray, exposure: float) -> dict:
     rmse = float(np.sqrt(np.mean((rgb - reference) ** 2)))
     mean = float(reference.mean())
     peak = float(np.percentile(reference, 99.9))
-    a = _core.tonemap_reinhard(rgb.astype(np.float32), exposure).astype(np.float64)
-    b = _core.tonemap_reinhard(reference.astype(np.float32), exposure).astype(np.float64)
+    a = _core.tonemap_reinhard(rgb.astype(np.float32), exposure)[0].astype(np.float64)
+    b = _core.tonemap_reinhard(reference.astype(np.float32), exposure)[0].astype(np.float64)
     rmse8 = float(np.sqrt(np.mean((a - b) ** 2)))
     return {"rel_rmse": rmse / mean if mean > 0 else float("nan"),
             "psnr_linear_db": 20 * np.log10(peak / rmse) if rmse > 0 else float("inf"),

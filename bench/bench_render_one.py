@@ -77,13 +77,13 @@ def spp_sweep(repeats: int, reference_spp: int) -> dict:
     config, scene, camera, sun = default_view()
     exposure = exposure_scale(config)
     ref = _core.render(scene, camera, sun, spp=reference_spp, seed=12345)["rgb"].astype(np.float64)
-    ref8 = _core.tonemap_reinhard(ref.astype(np.float32), exposure).astype(np.float64)
+    ref8 = _core.tonemap_reinhard(ref.astype(np.float32), exposure)[0].astype(np.float64)
     rows = []
     for spp in (1, 2, 4, 8, 16):
         seconds = median_of(repeats, lambda: _core.render(scene, camera, sun, spp=spp)["seconds"])
         rgb = _core.render(scene, camera, sun, spp=spp)["rgb"].astype(np.float64)
         rmse = float(np.sqrt(np.mean((rgb - ref) ** 2)))
-        mse8 = float(np.mean((_core.tonemap_reinhard(rgb.astype(np.float32), exposure) - ref8) ** 2))
+        mse8 = float(np.mean((_core.tonemap_reinhard(rgb.astype(np.float32), exposure)[0] - ref8) ** 2))
         rows.append({"spp": spp, "render_s": seconds, "rmse_linear_w_m2_sr": rmse,
                      "rel_rmse_linear": rmse / float(np.sqrt(np.mean(ref ** 2))),
                      "psnr_8bit_db": float("inf") if mse8 == 0 else 10 * np.log10(255**2 / mse8)})

@@ -468,15 +468,19 @@ VALID_TONEMAP = dict(
 @given(kwargs=calls(VALID_TONEMAP, dict(rgb=anything(*IMAGE_SHAPES), exposure=ANY_FLOAT)))
 def test_tonemap_survives_anything(kwargs):
     """tonemap_reinhard never crashes and raises only the allowed types; on success it returns a
-    uint8 (H, W, 3) image in which every channel whose scaled input is NaN, infinite or not
-    positive is 0 -- NaN and Inf never reach an image."""
-    out, error = attempt(_core.tonemap_reinhard, **kwargs)
+    uint8 (H, W, 3) image in which every channel whose scaled input is NaN or not positive is 0,
+    and the number of pixels whose input has a NaN, infinite or negative channel -- NaN and Inf
+    never reach an image."""
+    result, error = attempt(_core.tonemap_reinhard, **kwargs)
     if error is not None:
         return
+    out, invalid = result
     with np.errstate(over="ignore", invalid="ignore"):
-        scaled = np.asarray(kwargs["rgb"]).astype(np.float32) * np.float32(kwargs["exposure"])
+        rgb = np.asarray(kwargs["rgb"]).astype(np.float32)
+        scaled = rgb * np.float32(kwargs["exposure"])
     assert out.dtype == np.uint8 and out.shape == scaled.shape
-    assert (out[~(np.isfinite(scaled) & (scaled > 0))] == 0).all()
+    assert (out[~(scaled > 0)] == 0).all()
+    assert invalid == int(np.count_nonzero((~(rgb >= 0) | np.isinf(rgb)).any(axis=-1)))
 
 
 # The extensions the docstring promises, one that is refused, and none at all. (Every other

@@ -50,6 +50,13 @@ def test_hash_is_stable_and_sensitive():
     ({"meshes": {"sandbag_01": {"edge_radius_m": 0.5}}}, "meshes.sandbag_01.edge_radius_m: must be in"),
     ({"meshes": {"sandbag_02": {"seam_height_m": 0.003, "edge_radius_m": 0.0}}},
      "meshes.sandbag_02.seam_height_m: a seam needs rounded edges"),
+    ({"tonemap": {"ev100": "bright"}}, "tonemap.ev100: must be a number or auto, got 'bright'"),
+    ({"tonemap": {"ev100": True}}, "tonemap.ev100: must be a number or auto, got True"),
+    ({"tonemap": {"ev100": None}}, "tonemap.ev100: must be a number or auto, got None"),
+    ({"tonemap": {"ev100": 31}}, "tonemap.ev100: must be <= 30.0, got 31.0"),
+    ({"tonemap": {"ev100": -11.5}}, "tonemap.ev100: must be >= -10.0, got -11.5"),
+    ({"tonemap": {"exposure_stops": 2.0}}, "tonemap.exposure_stops: unknown field (known: ev100)"),
+    ({"output": {"exr": "yes"}}, "output.exr: must be true or false, got 'yes'"),
 ], ids=lambda x: None if isinstance(x, str) else json.dumps(x))
 def test_errors_name_the_field(tmp_path, data, message):
     path = tmp_path / "bad.yaml"
@@ -57,6 +64,19 @@ def test_errors_name_the_field(tmp_path, data, message):
     with pytest.raises(ConfigError, match="bad.yaml") as caught:
         load_config(path)
     assert message in str(caught.value)
+
+
+def test_ev100_is_a_number_or_auto(tmp_path):
+    """YAML's number or `auto`, from a file or from --set; a number stays a float."""
+    assert load_config(None, {"tonemap.ev100": 14}).tonemap.ev100 == 14.0
+    assert isinstance(load_config(None, {"tonemap.ev100": 14}).tonemap.ev100, float)
+    assert load_config(None, {"tonemap.ev100": "auto"}).tonemap.ev100 == "auto"
+    path = tmp_path / "c.yaml"
+    path.write_text("tonemap:\n  ev100: 12.7\noutput:\n  exr: true\n")
+    config = load_config(path)
+    assert config.tonemap.ev100 == 12.7 and config.output.exr is True
+    with pytest.raises(ConfigError, match="tonemap.ev100: must be finite"):
+        load_config(None, {"tonemap.ev100": float("nan")})
 
 
 def test_top_level_must_be_a_mapping(tmp_path):

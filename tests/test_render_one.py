@@ -134,6 +134,35 @@ def test_several_views_share_one_scene(tmp_path):
     assert len({g["render_seed"] for g in gts}) == 3
 
 
+def test_exr_output_is_the_radiance_behind_rgb_png(tmp_path):
+    """With output.exr the view also has rgb.exr (decoded by the OpenEXR package): finite linear
+    radiance that the core's tone map at gt.json's EV100 turns into rgb.png byte for byte; the
+    summary lists it and the default exposure is `auto` metering of the regolith."""
+    import OpenEXR
+
+    from moonbot import _core
+    from moonbot.config import load_config
+    from moonbot.render.exposure import auto_ev100, regolith_reflectance
+
+    result = CliRunner().invoke(main, ["render-one", "--out", str(tmp_path), *SMALL, "--set", "output.exr=true",
+                                       "--set", "sun.elevation_deg=30"])
+    assert result.exit_code == 0, result.output
+    expected_ev = auto_ev100(regolith_reflectance(load_config(None, {"sun.elevation_deg": 30})), 30.0, 1361.0)
+    assert "view_NNN/rgb.exr" in result.output and f"EV100 {expected_ev:.2f} (auto)" in result.output
+    view = tmp_path / "view_000"
+    assert sorted(p.name for p in view.iterdir()) == sorted(FILES + ("rgb.exr",))
+    gt = json.loads((view / "gt.json").read_text())
+    assert gt["exposure"]["ev100_setting"] == "auto"
+    assert gt["exposure"]["ev100"] == expected_ev
+    assert gt["rgb_exr"]["unit"] == "W/(m^2*sr)" and gt["rgb_invalid_pixels"] == 0
+    with OpenEXR.File(str(view / "rgb.exr")) as f:
+        channels = f.channels()
+        hdr = channels["RGB"].pixels if "RGB" in channels else np.stack([channels[c].pixels for c in "RGB"], axis=-1)
+    assert hdr.dtype == np.float32 and hdr.shape == (120, 160, 3) and np.isfinite(hdr).all()
+    rgb8, _ = _core.tonemap_reinhard(hdr, gt["exposure"]["scale_sr_m2_w"])
+    np.testing.assert_array_equal(np.array(Image.open(view / "rgb.png")), rgb8)
+
+
 def test_a_scene_that_does_not_settle_has_no_settle_stage(tmp_path):
     out = render_one(tmp_path, "--set", "bags.settle.enabled=false")
     gt = json.loads((out / "view_000" / "gt.json").read_text())

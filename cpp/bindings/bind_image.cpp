@@ -1,4 +1,6 @@
+#include <cmath>
 #include <cstring>
+#include <limits>
 #include <string>
 
 #include "arrays.h"
@@ -25,19 +27,21 @@ void bind_image(py::module_& m) {
             const size_t n = static_cast<size_t>(a.shape(0) * a.shape(1));
             const float* src = in.data();
             uint8_t* dst = out.mutable_data();
+            size_t invalid = 0;
             {
                 py::gil_scoped_release release;
-                tonemap_reinhard_srgb8(src, n, exposure, dst);
+                invalid = tonemap_reinhard_srgb8(src, n, exposure, dst);
             }
-            return out;
+            return py::make_tuple(out, invalid);
         },
         py::arg("rgb"), py::arg("exposure"),
-        "Linear radiance (H, W, 3) × exposure (sr·m²/W) → Reinhard on luminance → 8-bit sRGB "
-        "(H, W, 3) uint8. NaN, Inf and negatives become 0.");
+        "Linear radiance (H, W, 3) × exposure (sr·m²/W) → Reinhard on luminance → 8-bit sRGB. "
+        "Returns ((H, W, 3) uint8, number of pixels with a NaN, ±Inf or negative channel). NaN, "
+        "-Inf and negatives count as 0; +Inf and overflow as the brightest value (1e30).");
 
     m.def(
         "write_image",
-        [](const std::string& path, const py::handle& pixels, int png_compression) {
+        [](const std::string& path, const py::handle& pixels, int png_compression, const py::dict& attributes) {
             py::array a = as_array(pixels, "pixels");
             if (a.ndim() != 2 && a.ndim() != 3) fail("pixels", "must have shape (H, W) or (H, W, C), got " + shape_of(a));
             if (a.shape(0) < 1 || a.shape(1) < 1) fail("pixels", "must not be empty");
@@ -62,15 +66,33 @@ void bind_image(py::module_& m) {
             } else {
                 fail("pixels", "dtype must be uint8, uint16 or float32, got " + std::string(py::str(a.dtype())));
             }
+            std::vector<ImageAttribute> attrs;
+            for (const auto& [key, value] : attributes) {
+                if (!py::isinstance<py::str>(key) || py::len(key) == 0)
+                    fail("attributes", "names must be non-empty strings");
+                const auto name = key.cast<std::string>();
+                if (py::isinstance<py::str>(value)) {
+                    attrs.push_back({name, value.cast<std::string>()});
+                } else if (py::isinstance<py::float_>(value) ||
+                           (py::isinstance<py::int_>(value) && !py::isinstance<py::bool_>(value))) {
+                    const double v = value.cast<double>();
+                    if (!std::isfinite(v) || std::abs(v) > std::numeric_limits<float>::max())
+                        fail("attributes", name + " must be a finite float32, got " + std::string(py::repr(value)));
+                    attrs.push_back({name, static_cast<float>(v)});
+                } else {
+                    fail("attributes", name + " must be a string or a number, got " + std::string(py::repr(value)));
+                }
+            }
             const std::string& target = checked_path(path);
             const void* data = c.data();
             const int h = static_cast<int>(a.shape(0)), w = static_cast<int>(a.shape(1));
             py::gil_scoped_release release;  // `c` keeps the buffer alive; encoding is long
-            write_image(target, data, w, h, channels, type, png_compression);
+            write_image(target, data, w, h, channels, type, png_compression, attrs);
         },
-        py::arg("path"), py::arg("pixels"), py::arg("png_compression") = 1,
+        py::arg("path"), py::arg("pixels"), py::arg("png_compression") = 1, py::arg("attributes") = py::dict(),
         "Write an image through OpenImageIO, atomically. Format from the extension: .png "
-        "(uint8/uint16), .exr (float32), .tif/.tiff. Raises OSError naming the path on failure.");
+        "(uint8/uint16), .exr (float32), .tif/.tiff. `attributes` ({name: str or float}) go into "
+        "the header (EXR keeps all). Raises OSError naming the path on failure.");
 
     m.def(
         "read_image",

@@ -11,6 +11,7 @@ import dataclasses
 import hashlib
 import json
 import math
+import types
 import typing
 from importlib import resources
 from pathlib import Path
@@ -99,6 +100,15 @@ def from_mapping(cls: type, data: Any, path: str = "") -> Any:
 def _convert(kind: Any, value: Any, meta: typing.Mapping[str, Any], path: str) -> Any:
     if dataclasses.is_dataclass(kind):
         return from_mapping(kind, value, path)
+    if get_origin(kind) in (typing.Union, types.UnionType):
+        # A value of one of several kinds (`float | Literal["auto"]`): the first member whose
+        # kind the value has converts it, ranges included; a value of no member's kind names all.
+        members = get_args(kind)
+        for member in members:
+            if _has_kind(member, value):
+                return _convert(member, value, meta, path)
+        wanted = " or ".join(_describe(m) for m in members)
+        raise ConfigError(f"{path}: must be {wanted}, got {value!r}")
     if get_origin(kind) is Literal:
         choices = get_args(kind)
         if value not in choices:
@@ -131,6 +141,21 @@ def _convert(kind: Any, value: Any, meta: typing.Mapping[str, Any], path: str) -
             raise ConfigError(f"{path}: must be a string, got {value!r}")
         return value
     raise TypeError(f"{path}: schema type {kind!r} has no converter")  # a schema bug, not input
+
+
+def _has_kind(kind: Any, value: Any) -> bool:
+    """Whether `value` is of the kind a union member converts (before range checks)."""
+    if get_origin(kind) is Literal:
+        return value in get_args(kind)
+    if kind in (int, float):
+        return not isinstance(value, bool) and isinstance(value, (int, float) if kind is float else int)
+    return isinstance(value, kind)
+
+
+def _describe(kind: Any) -> str:
+    if get_origin(kind) is Literal:
+        return " or ".join(map(str, get_args(kind)))
+    return {float: "a number", int: "an integer", str: "a string", bool: "true or false"}.get(kind, str(kind))
 
 
 def _check_range(value: float, meta: typing.Mapping[str, Any], path: str) -> Any:

@@ -382,15 +382,24 @@ class RenderConfig:
 
 @dataclass(frozen=True)
 class ToneMapConfig:
-    exposure_stops: float = field(default=2.0, metadata=spec(
-        "exposure in stops above the level at which a white Lambertian surface facing the Sun "
-        "maps to 1.0 before Reinhard", lo=-30.0, hi=30.0))
+    """Camera exposure, then Reinhard (2002) on luminance to 8-bit sRGB (moonbot/render/exposure.py
+    has the photometry and its sources)."""
+
+    ev100: float | Literal["auto"] = field(default="auto", metadata=spec(
+        "camera exposure value at ISO 100 (saturation-based: luminance 1.2·2^EV100 cd/m² saturates; "
+        "Apollo's sunlit setting is 14.2), or auto: the EV100 at which a Lambertian of terrain.albedo "
+        "under the configured Sun (held at >= 1° elevation) reads as a reflected-light meter's "
+        "mid-grey (K = 12.5): 12.98 for the default 12° Sun and albedo 0.12", lo=-10.0, hi=30.0))
 
 
 @dataclass(frozen=True)
 class OutputConfig:
     png_compression: int = field(default=1, metadata=spec(
-        "PNG deflate level 0-9 (1 is ~2.5x faster than 6 for ~20 % more bytes)", lo=0, hi=9))
+        "PNG deflate level 0-9, also rgb.exr's zip level (1 is ~2.5x faster than 6 for ~20 % more bytes)",
+        lo=0, hi=9))
+    exr: bool = field(default=False, metadata=spec(
+        "also write rgb.exr: the linear radiance before tone mapping, float32 RGB, W/(m^2·sr), zip "
+        "at png_compression's level"))
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,7 @@ import numpy as np
 
 from moonbot.config import Config
 from moonbot.pipeline.views import ViewResult
+from moonbot.render import resolve_exposure
 
 
 def format_summary(config: Config, results: list[ViewResult], sheet: Path | None = None) -> str:
@@ -19,7 +20,8 @@ def format_summary(config: Config, results: list[ViewResult], sheet: Path | None
         "terrain " + (f"built in {results[0].timings['terrain']:.2f} s" if results and results[0].timings["terrain"] > 0
                       else "from this process's cache"),
         f"camera  {c.camera.width}×{c.camera.height}, hfov {c.camera.hfov_deg:g}°, orbit r "
-        f"{c.orbit.radius_m:g} m h {c.orbit.height_m:g} m, {c.render.spp} spp",
+        f"{c.orbit.radius_m:g} m h {c.orbit.height_m:g} m, {c.render.spp} spp, "
+        f"EV100 {resolve_exposure(c).ev100:.2f}" + (" (auto)" if c.tonemap.ev100 == "auto" else ""),
         "bags    " + (f"{c.bags.layout}, settled under {c.bags.settle.gravity_m_s2:g} m/s² in "
                       f"{1e3 * results[0].timings['settle']:.1f} ms" if results and "settle" in results[0].timings
                       else f"{c.bags.layout}, at geometric rest (not settled)"),
@@ -38,7 +40,9 @@ def format_summary(config: Config, results: list[ViewResult], sheet: Path | None
                            f"visible px {min(pixels)}–{max(pixels)}"]
     lines += rows
     lines += ["", "files   " + (str(results[0].out_dir.parent) if results else "(none)")]
-    for name in ("rgb.png", "depth.npy", "depth.png", "depth_preview.png", "mask.png", "gt.json"):
+    names = ("rgb.png",) + (("rgb.exr",) if c.output.exr else ()) + (
+        "depth.npy", "depth.png", "depth_preview.png", "mask.png", "gt.json")
+    for name in names:
         lines.append(f"        view_NNN/{name}")
     if sheet is not None:
         lines.append(f"        {sheet.name} (rgb | depth | mask per view)")

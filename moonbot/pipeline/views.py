@@ -9,7 +9,7 @@ from pathlib import Path
 
 from moonbot import __version__
 from moonbot.config import Config, config_hash
-from moonbot.render import build_scene, exposure_scale, render_view
+from moonbot.render import build_scene, render_view, resolve_exposure
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
 from moonbot.scene.orbit import orbit_height
 from moonbot.writer import staged_directory, write_sample
@@ -52,7 +52,7 @@ def run_views(config: Config, views: list[int], out_root: Path) -> list[ViewResu
     build_s = time.perf_counter() - start
 
     K = intrinsics(config.camera)
-    exposure = exposure_scale(config)
+    exposure = resolve_exposure(config)
     digest = config_hash(config)
     results = []
     for v in views:
@@ -78,7 +78,7 @@ def run_views(config: Config, views: list[int], out_root: Path) -> list[ViewResu
         }
         with staged_directory(out_dir) as staging:
             gt = write_sample(staging, rendered, exposure, K, pose, spec.bags,
-                              config.output.png_compression, meta, timings)
+                              config.output.png_compression, meta, timings, exr=config.output.exr)
         rays = {k: rendered.stats[k] for k in ("camera_rays", "shadow_rays")}
         pixels = {i["instance_id"]: i["px_count_visib"] for i in gt["instances"]}
         results.append(ViewResult(v, out_dir, gt["timings_s"], rays, pixels))

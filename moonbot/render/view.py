@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 
@@ -63,13 +62,6 @@ def regolith(config: PhotometryConfig, normal_albedo: float) -> tuple[_core.Phot
     if config.model == "lunar-lambert":
         normal_albedo /= 1.0 + config.surge_amplitude
     return photometry, (normal_albedo,) * 3
-
-
-def exposure_scale(config: Config) -> float:
-    """Linear exposure in sr·m²/W: a white Lambertian surface facing the Sun (radiance E/π)
-    maps to 2^exposure_stops before Reinhard."""
-    irradiance = max(config.sun.irradiance_w_m2, 1e-12)  # a dark Sun keeps a finite exposure
-    return 2.0 ** config.tonemap.exposure_stops * math.pi / irradiance
 
 
 def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraPose,

@@ -1,5 +1,6 @@
-"""Writes one rendered view as files: rgb.png, depth.npy, depth.png, depth_preview.png, mask.png
-and gt.json (intrinsics, per-instance model-to-camera poses in the BOP convention)."""
+"""Writes one rendered view as files: rgb.png, depth.npy, depth.png, depth_preview.png, mask.png,
+optionally rgb.exr (the linear radiance), and gt.json (intrinsics, per-instance model-to-camera
+poses in the BOP convention, the exposure)."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from moonbot import _core
+from moonbot.render.exposure import LUMINOUS_EFFICACY_LM_W, Exposure
 from moonbot.render.view import RenderedView
 from moonbot.scene.compose import BagInstance
 from moonbot.scene.orbit import CameraPose
@@ -19,6 +21,19 @@ from moonbot.writer.staging import atomic_write
 
 # BOP depth_scale: depth_mm = png_value × DEPTH_SCALE_MM. 1 mm steps, 65.535 m at most.
 DEPTH_SCALE_MM = 1.0
+# rgb.exr holds the renderer's float32 radiance unchanged: bit-exact, and no ceiling (half floats
+# overflow at 65504, below the Sun's disk at 2e7 W/(m²·sr)).
+RADIANCE_UNIT = "W/(m^2*sr)"
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
+def finite_radiance(rgb: np.ndarray) -> np.ndarray:
+    """Radiance (H, W, 3) float32 with every sample finite and >= 0, as rgb.exr stores it: NaN,
+    -Inf and negatives become 0, +Inf the largest float32 (the tone map's policy: NaN is no
+    light, +Inf the brightest). A new array; the input is not changed."""
+    out = np.nan_to_num(rgb, nan=0.0, posinf=FLOAT32_MAX, neginf=0.0)
+    np.maximum(out, 0.0, out=out)  # also turns -0.0 into +0.0
+    return out
 
 
 def depth_to_png16(depth_m: np.ndarray) -> np.ndarray:
@@ -50,16 +65,20 @@ def pose_m2c(camera: CameraPose, world_from_model: np.ndarray) -> tuple[np.ndarr
     return R, t_m * 1000.0
 
 
-def write_sample(out_dir: Path, view: RenderedView, exposure: float, K: np.ndarray,
+def write_sample(out_dir: Path, view: RenderedView, exposure: Exposure, K: np.ndarray,
                  camera: CameraPose, bags: tuple[BagInstance, ...], png_compression: int,
-                 meta: dict, timings: dict) -> dict:
-    """Encodes and writes one view into `out_dir` (which must exist). Every file is written to a
-    temporary name and renamed into place; gt.json comes last, so its presence marks a complete
-    sample. `timings` (seconds per stage so far) is extended with this stage's and recorded in
-    gt.json as `timings_s`. Returns the gt.json content."""
+                 meta: dict, timings: dict, exr: bool = False) -> dict:
+    """Encodes and writes one view into `out_dir` (which must exist): rgb.png tone-mapped at
+    `exposure`, and with `exr` also rgb.exr (linear float32 radiance, W/(m²·sr), zip at
+    `png_compression`'s level; its header has `whiteLuminance` = cd/m² of RGB 1.0,
+    moonbot:radianceUnit and moonbot:ev100). Every file is written to a temporary name and renamed into place; gt.json comes last, so its presence marks
+    a complete sample. `timings` (seconds per stage so far) is extended with this stage's and
+    recorded in gt.json as `timings_s`. gt.json also records the exposure and
+    `rgb_invalid_pixels`, the pixels with a NaN, ±Inf or negative channel (0 for a sound render;
+    both outputs replace such samples, see finite_radiance). Returns the gt.json content."""
     timings = dict(timings)
     start = time.perf_counter()
-    rgb8 = _core.tonemap_reinhard(view.rgb, exposure)
+    rgb8, invalid_pixels = _core.tonemap_reinhard(view.rgb, exposure.scale)
     timings["tonemap"] = time.perf_counter() - start
 
     start = time.perf_counter()
@@ -72,6 +91,12 @@ def write_sample(out_dir: Path, view: RenderedView, exposure: float, K: np.ndarr
         lambda: _core.write_image(str(out_dir / "mask.png"), view.instance, png_compression),
         lambda: _save_npy_atomic(out_dir / "depth.npy", view.depth),
     ]
+    if exr:
+        # The tone map has counted the invalid pixels already: a sound render is written as is.
+        hdr = view.rgb if invalid_pixels == 0 else finite_radiance(view.rgb)
+        attributes = {"whiteLuminance": LUMINOUS_EFFICACY_LM_W, "moonbot:radianceUnit": RADIANCE_UNIT,
+                      "moonbot:ev100": exposure.ev100}
+        jobs.append(lambda: _core.write_image(str(out_dir / "rgb.exr"), hdr, attributes=attributes))
     with ThreadPoolExecutor(max_workers=min(len(jobs), os.cpu_count() or 1)) as pool:
         for future in [pool.submit(job) for job in jobs]:
             future.result()
@@ -95,6 +120,11 @@ def write_sample(out_dir: Path, view: RenderedView, exposure: float, K: np.ndarr
         "cam_R_w2c": camera.R.reshape(-1).tolist(),
         "cam_t_w2c": (camera.t * 1000.0).tolist(),
         "instances": instances,
+        "exposure": exposure.metadata(),
+        "rgb_invalid_pixels": invalid_pixels,
+        **({"rgb_exr": {"file": "rgb.exr", "unit": RADIANCE_UNIT, "sample_type": "float32",
+                        "compression": f"zip:{png_compression}",
+                        "white_luminance_cd_m2": LUMINOUS_EFFICACY_LM_W}} if exr else {}),
         **meta,
         "timings_s": timings,
     }

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <variant>
 #include <vector>
 
 namespace moonbot {
@@ -16,21 +17,40 @@ public:
     using std::runtime_error::runtime_error;
 };
 
-/// Maps linear radiance to 8-bit sRGB: v = exposure · rgb (exposure in sr·m²/W, so v is
-/// dimensionless), luminance Y = 0.2126 r + 0.7152 g + 0.0722 b (Rec. 709), Y' = Y / (1 + Y),
-/// rgb' = v · Y'/Y clamped to [0, 1], sRGB-encoded and rounded. Non-finite or negative input
-/// becomes 0, so NaN/Inf never reach an image. `rgb`: n_pixels×3 float32; `out`: n_pixels×3.
-void tonemap_reinhard_srgb8(const float* rgb, size_t n_pixels, double exposure, uint8_t* out);
+/// Maps linear radiance to 8-bit sRGB. `exposure` (sr·m²/W) scales radiance to the dimensionless
+/// signal Reinhard compresses: moonbot passes K_v / L_sat(EV100) (moonbot/render/exposure.py), so
+/// v = 1 is the luminance that saturates an ISO 100 sensor at that EV100. Per pixel:
+/// v = exposure · rgb, Y = 0.2126 r + 0.7152 g + 0.0722 b (Rec. 709 luminance of linear sRGB),
+/// Y' = Y / (1 + Y) (Reinhard et al. 2002, eq. 3), rgb' = v · Y'/Y clamped to [0, 1], then the
+/// sRGB transfer curve, rounded to the nearest 8-bit code (exactly, not by a lookup table).
+/// `rgb`: n_pixels×3 float32; `out`: n_pixels×3 uint8.
+///
+/// Invalid samples never reach an image and never make it non-finite: NaN, -Inf and negative
+/// channels count as 0 (black); +Inf, and any v that overflows or exceeds 1e30, counts as 1e30
+/// (the brightest value, so the curve stays monotone up to the largest float); subnormal inputs
+/// (< 1.2e-38) count as 0 whatever the thread's denormal mode. Returns the number of pixels with
+/// at least one NaN, ±Inf or negative channel in `rgb` (-0.0 is not counted).
+/// Throws std::invalid_argument unless exposure is positive and finite.
+size_t tonemap_reinhard_srgb8(const float* rgb, size_t n_pixels, double exposure, uint8_t* out);
+
+/// A header attribute written with an image: a name and a string or float value. EXR keeps every
+/// one of them in its header; PNG keeps what it has a field for and drops the rest.
+struct ImageAttribute {
+    std::string name;
+    std::variant<std::string, float> value;
+};
 
 /// Sample type of an image buffer.
 enum class PixelType { U8, U16, F32 };
 
 /// Writes a width×height×channels row-major buffer. The format follows the extension:
 /// .png (U8 or U16; `png_compression` 0–9, 1 is ~2.5× faster than the default 6 for ~20 % more
-/// bytes), .exr (F32, zip), .tif. Writes `<dir>/.<name>.<pid>.tmp<ext>` and renames it over the
-/// target, so a reader never sees a partial file. Throws IoError naming the path on failure.
+/// bytes), .exr (F32, zip at the same deflate level), .tif. `attributes` go into the header (names must be non-empty).
+/// Writes `<dir>/.<name>.<pid>.tmp<ext>` and renames it over the target, so a reader never sees a
+/// partial file. Throws IoError naming the path on failure.
 void write_image(const std::string& path, const void* pixels, int width, int height,
-                 int channels, PixelType type, int png_compression = 1);
+                 int channels, PixelType type, int png_compression = 1,
+                 const std::vector<ImageAttribute>& attributes = {});
 
 /// A decoded image: row-major width×height×channels samples of `type`, as stored in the file.
 struct Image {
