@@ -87,7 +87,7 @@ void gauss_legendre01(int n, std::vector<double>& x, std::vector<double>& a) {
 }
 
 /// Chandrasekhar's H-function for isotropic scattering with albedo w, "exactly": the nonlinear
-/// integral equation in its second form (Chandrasekhar 1960, Radiative Transfer, ch. V)
+/// integral equation in its alternative form (Chandrasekhar 1960, Radiative Transfer, ch. V)
 ///   1/H(μ) = √(1 − w) + (w/2)·∫₀¹ μ'·H(μ')/(μ + μ') dμ'
 /// iterated on Gauss-Legendre nodes, then evaluated at μ by the same equation (Nyström).
 struct ExactH {
@@ -181,7 +181,7 @@ TEST_CASE(hapke_reciprocity) {
 
 TEST_CASE(hapke_smooth_isotropic_closed_form) {
     // θ̄ = 0, no surges, b = 0 (isotropic p = 1 whatever c), φ = 0 (K = 1): Hapke's r reduces to
-    // the Chandrasekhar-Hapke form r = w/(4π)·μ0/(μ0 + μ)·H(μ0)·H(μ) (Hapke 2002 eq. 38, IMSA).
+    // the Chandrasekhar-Hapke form r = w/(4π)·μ0/(μ0 + μ)·H(μ0)·H(μ) (Hapke 2002, IMSA).
     for (double w : {0.05, 0.32, 0.7, 0.99, 1.0}) {
         const Photometry p = lunar_hapke(w, 0.0, 0.0, 0.0, 0.0, 0.3);
         CHECK(p.hapke.K == 1.0 && p.hapke.chi == 1.0);
@@ -198,7 +198,7 @@ TEST_CASE(hapke_smooth_isotropic_closed_form) {
 
 TEST_CASE(h_function_against_chandrasekhar) {
     // The exact solver is itself checked: Chandrasekhar's moment identity ∫₀¹H dμ = (2/w)(1 − √(1 − w))
-    // and his tabulated conservative value H(1) = 2.90781 (w = 1; Chandrasekhar 1960, Table XI).
+    // and his tabulated conservative value H(1) = 2.90781 (w = 1; Chandrasekhar 1960, ch. V tables).
     double worst = 0.0, worst_w = 0.0, worst_mu = 0.0;
     for (double w : {0.1, 0.3, 0.5, 0.7, 0.9, 0.95, 0.99, 1.0}) {
         const ExactH exact(w);

@@ -90,14 +90,16 @@ inline double opposition_surge(const Photometry& p, double cos_g) {
 // Hapke's model. Notation (Hapke 2012): i, e incidence and emission angles, μ0 = cos i,
 // μ = cos e, g the phase angle, ψ the azimuth between the planes of incidence and emission
 // (ψ = 0: Sun and viewer on the same side, g = |i − e|; ψ = π: opposite sides, g = i + e).
-// Written from the published equations; sources per function.
+// Written from the published equations; sources per function. Equation numbers are given only
+// where cited widely (Hapke 2002 eq. 13); the rest are cited by paper and, for the 2012 book,
+// by chapter — not checked against the texts while writing this.
 
 /// Chandrasekhar's H-function for isotropic scatterers of single-scattering albedo w, in
-/// Hapke's 2002 approximation (Hapke 2002, Icarus 157:523, eq. 13; also Hapke 2012 ch. 8):
+/// Hapke's 2002 approximation (Hapke 2002, Icarus 157:523, eq. 13; restated in Hapke 2012):
 ///   H(x) ≈ 1 / (1 − w·x·[r0 + (1 − 2·r0·x)/2 · ln((1 + x)/x)]),
 ///   r0 = (1 − γ)/(1 + γ), γ = √(1 − w)  (r0: the diffusive reflectance).
-/// Hapke states a relative error below 1 % for all w and x; tests/test_photometry.cpp checks
-/// it against a numerical solution of Chandrasekhar's integral equation. x ≤ 0 gives 1 (the
+/// Hapke states a relative error below 1 %; cpp/tests/test_photometry.cpp finds at most 0.97 %
+/// (w = 0.99, x = 1) against a numerical solution of Chandrasekhar's integral equation. x ≤ 0 gives 1 (the
 /// limit: x·ln(1/x) → 0). Finite for w ∈ [0, 1], x ≥ 0.
 inline double hapke_H(double w, double x) {
     if (!(x > 0.0)) return 1.0;
@@ -107,8 +109,8 @@ inline double hapke_H(double w, double x) {
     return 1.0 / (1.0 - w * x * (r0 + 0.5 * (1.0 - 2.0 * r0 * x) * std::log1p(1.0 / x)));
 }
 
-/// The double Henyey-Greenstein single-particle phase function p(g) for cos g (Hapke 2012
-/// ch. 6; the two-parameter form fitted by Sato et al. 2014):
+/// The double Henyey-Greenstein single-particle phase function p(g) for cos g (the two-parameter
+/// form of Hapke 2012 fitted by Sato et al. 2014):
 ///   p(g) = (1 + c)/2 · (1 − b²)/(1 − 2b·cos g + b²)^{3/2} + (1 − c)/2 · (1 − b²)/(1 + 2b·cos g + b²)^{3/2}.
 /// The first lobe peaks at g = 0 (light going back toward the source), so c > 0 means
 /// back-scattering. Normalised: (1/4π)∫p dΩ = 1. b = 0 (or the b → 0 limit) is isotropic, p = 1,
@@ -121,8 +123,8 @@ inline double hapke_phase(double b, double c, double cos_g) {
     return 0.5 * (1.0 + c) * back + 0.5 * (1.0 - c) * forward;
 }
 
-/// The coherent-backscatter opposition function B_C(g) ∈ [0, 1], B_C(0) = 1 (Hapke 2002 eq. 31;
-/// Hapke 2012 ch. 9): with y = tan(g/2)/h_C,
+/// The coherent-backscatter opposition function B_C(g) ∈ [0, 1], B_C(0) = 1 (Hapke 2002; Hapke
+/// 2012): with y = tan(g/2)/h_C,
 ///   B_C = [1 + (1 − e^{−y})/y] / [2·(1 + y)²].
 inline double hapke_cboe(double width, double cos_g) {
     const double c = std::clamp(cos_g, -1.0, 1.0);
@@ -134,7 +136,7 @@ inline double hapke_cboe(double width, double cos_g) {
 }
 
 /// Hapke's porosity factor K(φ) for filling factor φ = 1 − porosity (Hapke 2008, Icarus
-/// 195:918; Hapke 2012 ch. 7): K = −ln(1 − 1.209·φ^{2/3}) / (1.209·φ^{2/3}). K(0) = 1 (the
+/// 195:918; Hapke 2012): K = −ln(1 − 1.209·φ^{2/3}) / (1.209·φ^{2/3}). K(0) = 1 (the
 /// limit), K(0.3) ≈ 1.440, K grows without bound as φ → 1.209^{−3/2} ≈ 0.752.
 inline double hapke_porosity_factor(double filling_factor) {
     if (!(filling_factor > 0.0)) return 1.0;
@@ -231,8 +233,8 @@ inline double hapke_cos_psi(double mu_i, double mu_o, double cos_g) {
 /// Hapke's BRDF f = r/μ0 in sr⁻¹ (r: Hapke's bidirectional reflectance, radiance over
 /// collimated irradiance) for cosines μi = cos i, μo = cos e and cos g; 0 unless μi, μo > 0.
 /// The form is Hapke 2012's IMSA model with porosity, both opposition effects and roughness
-/// (Hapke 2012 ch. 12, the full expression; the IMSA version of Hapke 2002 eq. 38 with
-/// K = 1 and M = H·H − 1):
+/// (Hapke 2012 ch. 12, the full expression; with K = 1 it is Hapke 2002's model with the
+/// isotropic multiple-scattering term M = H·H − 1):
 ///   r(i, e, g) = K·(w/4π)·μ0e/(μ0e + μe)·[p(g)·(1 + B_S0·B_S(g)) + H(μ0e/K)·H(μe/K) − 1]
 ///                ·[1 + B_C0·B_C(g)]·S(i, e, g),
 /// B_S(g) = 1/(1 + tan(g/2)/h_S) (SHOE, opposition_surge()), H = hapke_H, p = hapke_phase,
