@@ -41,16 +41,38 @@ WovenSurface make_woven(double pitch_m, double relief_m, double contrast, double
 }
 
 Photometry make_photometry(const std::string& model, const std::string& phase, double surge_amplitude,
-                           double surge_width) {
+                           double surge_width, double w, double b, double c, double roughness_deg,
+                           double filling_factor, double cboe_amplitude, double cboe_width) {
     Photometry p;
     if (model == "lambert") p.model = Photometry::Model::Lambert;
     else if (model == "lunar-lambert") p.model = Photometry::Model::LunarLambert;
-    else fail("model", "must be 'lambert' or 'lunar-lambert', got '" + model + "'");
+    else if (model == "hapke") p.model = Photometry::Model::Hapke;
+    else fail("model", "must be 'lambert', 'lunar-lambert' or 'hapke', got '" + model + "'");
     if (phase == "exponential") p.phase = Photometry::Phase::Exponential;
     else if (phase == "mcewen") p.phase = Photometry::Phase::McEwen;
     else fail("phase", "must be 'exponential' or 'mcewen', got '" + phase + "'");
     if (!(surge_amplitude >= 0.0 && surge_amplitude <= 10.0)) fail("surge_amplitude", "must be in [0, 10]");
     if (!(surge_width > 0.0 && surge_width <= 10.0)) fail("surge_width", "must be in (0, 10]");
+    // Hapke's parameters are checked whatever the model, so a bad value never waits silently
+    // for the day someone switches to Hapke. Ranges: photometry.h, Photometry::HapkeParams.
+    if (!(w >= 0.0 && w <= 1.0)) fail("w", "must be in [0, 1]");
+    if (!(b >= 0.0 && b < 1.0)) fail("b", "must be in [0, 1)");
+    if (!(c >= -1.0 && c <= 1.0)) fail("c", "must be in [-1, 1]");
+    if (!(roughness_deg >= 0.0 && roughness_deg <= 60.0)) fail("roughness_deg", "must be in [0, 60]");
+    if (!(filling_factor >= 0.0 && filling_factor <= 0.75)) fail("filling_factor", "must be in [0, 0.75]");
+    if (!(cboe_amplitude >= 0.0 && cboe_amplitude <= 1.0)) fail("cboe_amplitude", "must be in [0, 1]");
+    if (!(cboe_width > 0.0 && cboe_width <= 10.0)) fail("cboe_width", "must be in (0, 10]");
+    if (p.model == Photometry::Model::Hapke) {
+        Photometry::HapkeParams h;
+        h.w = w;
+        h.b = b;
+        h.c = c;
+        h.roughness_rad = roughness_deg * (3.14159265358979323846 / 180.0);
+        h.filling_factor = filling_factor;
+        h.cboe_amplitude = cboe_amplitude;
+        h.cboe_width = cboe_width;
+        return make_hapke(h, surge_amplitude, surge_width);
+    }
     p.surge_amplitude = surge_amplitude;
     p.surge_width = surge_width;
     return p;
@@ -62,14 +84,39 @@ void bind_scene(py::module_& m) {
     py::class_<Photometry>(m, "Photometry",
                            "A photometric function: BRDF = albedo/π · shape(μi, μo, g) (moonbot/photometry.h).")
         .def(py::init(&make_photometry), py::arg("model") = "lambert", py::arg("phase") = "exponential",
-             py::arg("surge_amplitude") = 0.0, py::arg("surge_width") = 0.07,
-             "model 'lambert' | 'lunar-lambert' (McEwen); phase weight L(g) 'exponential' (exp(-g/60°)) "
-             "| 'mcewen' (cubic, clamped); opposition surge 1 + B0/(1 + tan(g/2)/h) with B0 = "
-             "surge_amplitude (0 = off), h = surge_width.")
+             py::arg("surge_amplitude") = 0.0, py::arg("surge_width") = 0.07, py::kw_only(),
+             py::arg("w") = 0.32, py::arg("b") = 0.24, py::arg("c") = 0.30, py::arg("roughness_deg") = 23.4,
+             py::arg("filling_factor") = 0.3, py::arg("cboe_amplitude") = 0.0, py::arg("cboe_width") = 1.0,
+             "model 'lambert' | 'lunar-lambert' (McEwen) | 'hapke' (Hapke 2012 with porosity, SHOE, "
+             "CBOE, roughness; shape normalised to 1 at i = e = g = 0); phase weight L(g) 'exponential' "
+             "(exp(-g/60°)) | 'mcewen' (cubic, clamped), lunar-lambert only; opposition surge 1 + B0/(1 + "
+             "tan(g/2)/h) with B0 = surge_amplitude (0 = off), h = surge_width (Hapke's B_S0, h_S). "
+             "Hapke only (keywords): w single-scattering albedo; b, c double Henyey-Greenstein (c > 0 "
+             "back-scattering); roughness_deg mean slope θ̄, degrees; filling_factor φ (porosity "
+             "factor K); cboe_amplitude B_C0, cboe_width h_C. Defaults: Sato et al. 2014 lunar set.")
         .def("shape", [](const Photometry& p, double mu_i, double mu_o, double cos_g) {
             return photometric_shape(p, mu_i, mu_o, cos_g);
         }, py::arg("mu_i"), py::arg("mu_o"), py::arg("cos_g"),
-           "BRDF / (albedo/π) for cosines of incidence and emission (both > 0, else 0) and cos phase.");
+           "BRDF / (albedo/π) for cosines of incidence and emission (both > 0, else 0) and cos phase.")
+        .def_property_readonly("model", [](const Photometry& p) {
+            return p.model == Photometry::Model::Lambert ? "lambert"
+                   : p.model == Photometry::Model::LunarLambert ? "lunar-lambert" : "hapke";
+        })
+        .def("hapke_reflectance", [](const Photometry& p, double mu_i, double mu_o, double cos_g) {
+            if (p.model != Photometry::Model::Hapke) fail("model", "hapke_reflectance needs model 'hapke'");
+            return mu_i > 0.0 ? mu_i * hapke_brdf(p, mu_i, mu_o, cos_g) : 0.0;
+        }, py::arg("mu_i"), py::arg("mu_o"), py::arg("cos_g"),
+           "Hapke's bidirectional reflectance r(i, e, g) = μi·BRDF, per steradian, un-normalised "
+           "(radiance / collimated irradiance).")
+        .def_property_readonly("hapke_normal_albedo", [](const Photometry& p) -> py::object {
+            if (p.model != Photometry::Model::Hapke) return py::none();
+            return py::float_(p.hapke.normal_albedo);
+        }, "Hapke's normal albedo A_N = π·r(0, 0, 0) for these parameters (the shape's normaliser); "
+           "None for other models.")
+        .def_property_readonly("porosity_factor", [](const Photometry& p) -> py::object {
+            if (p.model != Photometry::Model::Hapke) return py::none();
+            return py::float_(p.hapke.K);
+        }, "Hapke's porosity factor K(filling_factor); None for other models.");
 
     py::class_<WovenSurface>(m, "WovenSurface",
                              "A bag's cloth: the procedural weave (fabric.h) on the mesh's corner UVs and the "

@@ -68,16 +68,44 @@ class SunConfig:
 
 @dataclass(frozen=True)
 class PhotometryConfig:
-    """How regolith (terrain and rocks) reflects: moonbot/photometry.h, lunar-physics.md §1."""
+    """How regolith (terrain and rocks) reflects: moonbot/photometry.h, lunar-physics.md §1.
 
-    model: Literal["lunar-lambert", "lambert"] = field(default="lunar-lambert", metadata=spec(
-        "lunar-lambert (McEwen: Lommel-Seeliger blended with Lambert by phase) or lambert"))
+    Whatever the model, terrain.albedo is the normal albedo (reflectance at zero incidence,
+    emission and phase, opposition surge included); the model sets only the angular shape.
+    The Hapke fields are read only when model is "hapke"; their defaults are the global lunar
+    set of Sato et al. 2014 (JGR 119:1775, doi:10.1002/2013JE004580), which implies a normal
+    albedo of 0.266 — ignored here in favour of terrain.albedo."""
+
+    model: Literal["lunar-lambert", "lambert", "hapke"] = field(default="lunar-lambert", metadata=spec(
+        "lunar-lambert (McEwen: Lommel-Seeliger blended with Lambert by phase), lambert, or hapke "
+        "(Hapke 2012 with porosity, both opposition effects and roughness: a slower reference)"))
     phase: Literal["exponential", "mcewen"] = field(default="exponential", metadata=spec(
         "lunar-lambert phase weight L(g): exp(-g/60°) or McEwen's cubic (clamped to [0, 1])"))
     surge_amplitude: float = field(default=1.8, metadata=spec(
-        "opposition surge B0 in 1 + B0/(1 + tan(g/2)/h) (Sato et al. 2014: 1.8; 0 = off)", lo=0.0, hi=10.0))
+        "shadow-hiding opposition surge B0 in 1 + B0/(1 + tan(g/2)/h), lunar-lambert and hapke "
+        "(Hapke's B_S0; Sato et al. 2014: 1.8; 0 = off)", lo=0.0, hi=10.0))
     surge_width: float = field(default=0.07, metadata=spec(
-        "opposition surge width h (Sato et al. 2014: 0.07)", lo=0.0, hi=10.0, lo_open=True))
+        "opposition surge width h, lunar-lambert and hapke (Hapke's h_S; Sato et al. 2014: 0.07)",
+        lo=0.0, hi=10.0, lo_open=True))
+    w: float = field(default=0.32, metadata=spec(
+        "hapke: single-scattering albedo of a grain (Sato et al. 2014, 643 nm: 0.32)", lo=0.0, hi=1.0))
+    b: float = field(default=0.24, metadata=spec(
+        "hapke: width of the double Henyey-Greenstein phase function's lobes (0 = isotropic; "
+        "Sato et al. 2014: 0.24)", lo=0.0, hi=0.99))
+    c: float = field(default=0.30, metadata=spec(
+        "hapke: weight of the back-scattering lobe, p = (1+c)/2·back + (1-c)/2·forward; c > 0 "
+        "scatters back toward the Sun (Sato et al. 2014: 0.30)", lo=-1.0, hi=1.0))
+    roughness_deg: float = field(default=23.4, metadata=spec(
+        "hapke: macroscopic roughness, the mean facet slope θ̄ of Hapke 1984, degrees (Sato et al. "
+        "2014 held it at 23.4; 0 = smooth)", lo=0.0, hi=60.0))
+    filling_factor: float = field(default=0.3, metadata=spec(
+        "hapke: volume fraction of grains φ (1 - porosity), giving Hapke's porosity factor "
+        "K = -ln(1 - 1.209 φ^(2/3))/(1.209 φ^(2/3)) (0.3: K = 1.44; 0: K = 1)", lo=0.0, hi=0.75))
+    cboe_amplitude: float = field(default=0.0, metadata=spec(
+        "hapke: coherent-backscatter opposition amplitude B_C0 (Sato et al. 2014: 0, off)", lo=0.0, hi=1.0))
+    cboe_width: float = field(default=1.0, metadata=spec(
+        "hapke: coherent-backscatter width h_C (unused while cboe_amplitude is 0)",
+        lo=0.0, hi=10.0, lo_open=True))
 
 
 @dataclass(frozen=True)

@@ -56,12 +56,15 @@ def build_scene(spec: SceneSpec) -> _core.Scene:
 
 def regolith(config: PhotometryConfig, normal_albedo: float) -> tuple[_core.Photometry, tuple[float, ...]]:
     """The core's photometric function and albedo A (linear RGB) for regolith of the given
-    normal albedo (reflectance at zero incidence, emission and phase). Lunar-Lambert's shape is
-    1 + B0 there (the full opposition surge), so A = normal albedo / (1 + B0); Lambert's is 1."""
-    photometry = _core.Photometry(config.model, config.phase, config.surge_amplitude, config.surge_width)
-    if config.model == "lunar-lambert":
-        normal_albedo /= 1.0 + config.surge_amplitude
-    return photometry, (normal_albedo,) * 3
+    normal albedo (reflectance at zero incidence, emission and phase). The core's BRDF is
+    A/π·shape, so A = normal albedo / shape(1, 1, 1): Lambert's shape is 1 there, Lunar-Lambert's
+    1 + B0 (the full opposition surge) and Hapke's 1 (it is normalised by its own normal albedo)."""
+    photometry = _core.Photometry(
+        config.model, config.phase, config.surge_amplitude, config.surge_width,
+        w=config.w, b=config.b, c=config.c, roughness_deg=config.roughness_deg,
+        filling_factor=config.filling_factor, cboe_amplitude=config.cboe_amplitude, cboe_width=config.cboe_width)
+    # i = e = g = 0: cos i = cos e = cos g = 1.
+    return photometry, (normal_albedo / photometry.shape(1.0, 1.0, 1.0),) * 3
 
 
 def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraPose,
