@@ -247,3 +247,21 @@ def test_vertex_albedo_scales_radiance_and_varies_over_a_site():
     crater = load_config(None, {"terrain.location": "crater", "terrain.albedo_variation": 0.0}).terrain
     rim = albedo_factor(crater, np.array([12.0 + 10.0, 12.0 + 25.0, 12.0 + 100.0]), np.zeros(3))
     np.testing.assert_allclose(rim, [1.5, 1.0 + 0.5 * 2.5 ** -3, 1.0], rtol=1e-6)
+
+
+def test_effects_not_asked_for_trace_no_rays():
+    """Principle 3: no bounce ray without bounces, no shadow ray toward an Earth that is not
+    there, and one shadow ray a hit toward a point Sun however many disk samples are asked."""
+    scene = plane_scene(0.12)
+    camera, _, _ = look_at([1.2, -1.6, 3.0], [0.0, 0.0, 0.0])
+    hits = 64 * 48
+    direct = _core.render(scene, camera, _core.Sun(200.0, 30.0, E, 0.533), light_samples=3, bounces=0)
+    assert direct["bounce_rays"] == 0 and direct["shadow_rays"] == 3 * hits
+    point = _core.render(scene, camera, _core.Sun(200.0, 30.0, E, 0.0), light_samples=3)
+    assert point["shadow_rays"] == hits
+    earth = _core.Sun(20.0, 40.0, 0.1, 1.9, (0.85, 0.95, 1.2))
+    with_earth = _core.render(scene, camera, _core.Sun(200.0, 30.0, E, 0.533), light_samples=3, earth=earth)
+    assert with_earth["shadow_rays"] == 4 * hits  # the Earth's one a hit on top of the Sun's three
+    assert (with_earth["rgb"] > direct["rgb"]).all()
+    dark = _core.render(scene, camera, _core.Sun(200.0, 30.0, 0.0, 0.533), light_samples=3, bounces=2)
+    assert dark["shadow_rays"] == 0 and dark["bounce_rays"] == 0 and (dark["rgb"] == 0).all()

@@ -402,7 +402,7 @@ class RenderConfig:
     exact_depth: bool = field(default=True, metadata=spec(
         "re-solve hit distances in double (depth exact at kilometre coordinates, ~15 ns a ray); "
         "false keeps Embree's float32 distance"))
-    light_samples: int = field(default=4, metadata=spec(
+    light_samples: int = field(default=2, metadata=spec(
         "shadow rays per sample toward the Sun's disk (soft shadow edges)", lo=1, hi=1024))
     bounces: int = field(default=2, metadata=spec(
         "diffuse inter-reflections lighting the shadows (0 = direct sunlight only)", lo=0, hi=16))
