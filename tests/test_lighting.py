@@ -265,3 +265,31 @@ def test_effects_not_asked_for_trace_no_rays():
     assert (with_earth["rgb"] > direct["rgb"]).all()
     dark = _core.render(scene, camera, _core.Sun(200.0, 30.0, 0.0, 0.533), light_samples=3, bounces=2)
     assert dark["shadow_rays"] == 0 and dark["bounce_rays"] == 0 and (dark["rgb"] == 0).all()
+
+
+def test_vertex_normals_shade_a_tessellated_sphere_as_a_sphere():
+    """A coarse icosphere (320 facets) lit by a point Sun: with its vertex normals the shading
+    follows the true sphere's cosine, E·a/π·max(0, n·s) at each hit, several times closer than
+    flat facets do; the silhouette and shadows still follow the triangles."""
+    sphere = trimesh.creation.icosphere(subdivisions=2)
+    vertices = sphere.vertices.astype(np.float32)
+    camera, K, R = look_at([0.0, -4.0, 0.0], [0.0, 0.0, 0.0], width=96, height=96, f=120.0)
+    sun = _core.Sun(60.0, 35.0, E)
+    s = sun_vector(60.0, 35.0)
+    errors = {}
+    for smooth in (False, True):
+        scene = _core.Scene()
+        mesh = scene.add_mesh(vertices, sphere.faces, vertex_normals=vertices if smooth else None)
+        scene.add_background(mesh, np.eye(4), (0.5,) * 3)
+        scene.commit()
+        out = _core.render(scene, camera, sun)
+        hit = out["depth"] > 0
+        d = pixel_rays(K, R, 96, 96)
+        # Depth is camera z; the hit point is the camera centre + depth × (ray with camera-z 1).
+        points = np.array([0.0, -4.0, 0.0]) + (out["depth"][..., None] / (d @ R[2])[..., None]) * d
+        normal = points / np.linalg.norm(points, axis=-1, keepdims=True)
+        expected = E * 0.5 / math.pi * np.maximum(0.0, normal @ s)
+        lit = hit & (expected > 0.2 * expected.max())  # away from the terminator
+        errors[smooth] = float(np.abs(out["rgb"][..., 0] - expected)[lit].mean() / expected[lit].mean())
+    assert errors[True] < 0.25 * errors[False]
+    assert errors[True] < 0.01

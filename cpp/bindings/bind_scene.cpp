@@ -132,7 +132,7 @@ void bind_scene(py::module_& m) {
         .def(
             "add_mesh",
             [](Scene& s, const py::handle& vertices, const py::handle& triangles, const py::handle& corner_uvs,
-               const py::handle& vertex_albedo) {
+               const py::handle& vertex_albedo, const py::handle& vertex_normals) {
                 auto v = float_rows(vertices, "vertices", 3);
                 const std::vector<uint32_t> t = index_rows(triangles, "triangles");
                 std::optional<py::array_t<float, py::array::c_style>> uv;
@@ -150,17 +150,25 @@ void bind_scene(py::module_& m) {
                         fail("vertex_albedo", "must have one value per vertex (" + std::to_string(v.shape(0)) +
                                                   "), got " + std::to_string(va->shape(0)));
                 }
+                std::optional<py::array_t<float, py::array::c_style>> vn;
+                if (!vertex_normals.is_none()) {
+                    vn = float_rows(vertex_normals, "vertex_normals", 3);
+                    if (vn->shape(0) != v.shape(0))
+                        fail("vertex_normals", "must have one row per vertex (" + std::to_string(v.shape(0)) +
+                                                   "), got " + std::to_string(vn->shape(0)));
+                }
                 // Safe without the GIL: the arrays are our own contiguous copies or held references.
                 py::gil_scoped_release release;
                 return s.add_mesh(v.data(), static_cast<size_t>(v.shape(0)), t.data(), t.size() / 3,
-                                  uv ? uv->data() : nullptr, va ? va->data() : nullptr);
+                                  uv ? uv->data() : nullptr, va ? va->data() : nullptr, vn ? vn->data() : nullptr);
             },
             py::arg("vertices"), py::arg("triangles"), py::arg("corner_uvs") = py::none(),
-            py::arg("vertex_albedo") = py::none(),
+            py::arg("vertex_albedo") = py::none(), py::arg("vertex_normals") = py::none(),
             "Add a prototype mesh: vertices (N, 3) float, metres; triangles (M, 3) int; optional "
             "corner_uvs (M, 6) float: (u, v) of each triangle's three corners, for woven materials; "
-            "optional vertex_albedo (N,) float >= 0: a factor on the albedo per vertex. Builds its "
-            "BVH. Returns the mesh index.")
+            "optional vertex_albedo (N,) float >= 0: a factor on the albedo per vertex; optional "
+            "vertex_normals (N, 3) float: smooth shading normals (object frame). Builds its BVH. "
+            "Returns the mesh index.")
         .def(
             "add_instance",
             [](Scene& s, uint32_t mesh, const py::handle& world_from_object, int instance_id,

@@ -42,7 +42,25 @@ struct InstanceData {
     const WovenSurface* woven;   // null unless the material is woven
     const StainMask* stain;      // null unless the instance is stained
     const float* vertex_albedo;  // per-vertex albedo factors, or null
+    const float* vertex_normals; // per-vertex unit shading normals (object frame), or null
 };
+
+/// The interpolated shading normal of instance `inst` at barycentrics (u, v) of triangle
+/// `prim`, in the world, unit, turned to the side of `geometric` (the unit geometric normal the
+/// ray sees). Only for instances with vertex normals.
+inline glm::dvec3 shading_normal_at(const InstanceData& inst, uint32_t prim, double u, double v,
+                                    const glm::dvec3& geometric) {
+    const uint32_t* c = inst.triangles + 3 * static_cast<size_t>(prim);
+    auto normal = [&](int k) {
+        const float* n = inst.vertex_normals + 3 * static_cast<size_t>(c[k]);
+        return glm::dvec3(n[0], n[1], n[2]);
+    };
+    glm::dvec3 n = inst.normal_to_world * ((1.0 - u - v) * normal(0) + u * normal(1) + v * normal(2));
+    const double len = glm::length(n);
+    if (!(len > 0.0)) return geometric;
+    n /= len;
+    return glm::dot(n, geometric) < 0.0 ? -n : n;
+}
 
 /// The albedo of instance `inst` at barycentrics (u, v) of triangle `prim`: the material's,
 /// times the mesh's per-vertex factor there when it has one.
@@ -64,7 +82,8 @@ inline std::vector<InstanceData> instance_table(const Scene& scene) {
                     inst.label, inst.material.photometry,
                     mesh.corner_uvs.empty() ? nullptr : mesh.corner_uvs.data(),
                     inst.material.woven ? &*inst.material.woven : nullptr, inst.stain,
-                    mesh.vertex_albedo.empty() ? nullptr : mesh.vertex_albedo.data()};
+                    mesh.vertex_albedo.empty() ? nullptr : mesh.vertex_albedo.data(),
+                    mesh.vertex_normals.empty() ? nullptr : mesh.vertex_normals.data()};
     }
     return table;
 }

@@ -201,8 +201,9 @@ private:
             const InstanceData& inst = m_instances[tri.instance];
             v.albedo = albedo_at(inst, tri.prim, h.u, h.v);
             v.shading = v.normal;
-            v.shaded_apart = inst.woven != nullptr;
-            if (v.shaded_apart) cloth(inst, tri, h, dir, v);
+            v.shaded_apart = inst.woven != nullptr || inst.vertex_normals != nullptr;
+            if (inst.vertex_normals) v.shading = shading_normal_at(inst, tri.prim, h.u, h.v, v.normal);
+            if (inst.woven) cloth(inst, tri, h, dir, v);
             v.cos_light[0] = tri.cos_sun[h.side];
             for (size_t l = 1; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(v.normal, m_lights[l].dir);
         }
@@ -232,7 +233,7 @@ private:
         const glm::dvec3 p0 = world(0), e1 = world(1) - p0, e2 = world(2) - p0;
         const glm::dvec2 d1 = uv1 - uv0, d2 = uv2 - uv0;
         const double det = d1.x * d2.y - d2.x * d1.y;
-        const glm::dvec3& n = v.normal;
+        const glm::dvec3 n = v.shading;  // the geometric normal, or the mesh's smooth one
         glm::dvec3 t, b;
         if (std::abs(det) > 1e-20) {
             t = (e1 * d2.y - e2 * d1.y) / det;  // ∂p/∂u

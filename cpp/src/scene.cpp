@@ -54,7 +54,8 @@ void Scene::require_not_rendering() const {
 }
 
 uint32_t Scene::add_mesh(const float* vertices, size_t n_vertices, const uint32_t* triangles,
-                         size_t n_triangles, const float* corner_uvs, const float* vertex_albedo) {
+                         size_t n_triangles, const float* corner_uvs, const float* vertex_albedo,
+                         const float* vertex_normals) {
     require_not_rendering();
     if (n_vertices == 0) throw std::invalid_argument("vertices: mesh has no vertices");
     if (n_triangles == 0) throw std::invalid_argument("triangles: mesh has no triangles");
@@ -80,6 +81,16 @@ uint32_t Scene::add_mesh(const float* vertices, size_t n_vertices, const uint32_
     auto mesh = std::make_unique<Mesh>();
     if (corner_uvs) mesh->corner_uvs.assign(corner_uvs, corner_uvs + 6 * n_triangles);
     if (vertex_albedo) mesh->vertex_albedo.assign(vertex_albedo, vertex_albedo + n_vertices);
+    if (vertex_normals) {
+        mesh->vertex_normals.resize(3 * n_vertices);
+        for (size_t i = 0; i < n_vertices; ++i) {
+            const double x = vertex_normals[3 * i], y = vertex_normals[3 * i + 1], z = vertex_normals[3 * i + 2];
+            const double len = std::sqrt(x * x + y * y + z * z);
+            if (!(std::isfinite(len) && len > 0.0))
+                throw std::invalid_argument("vertex_normals: must be finite and non-zero, at vertex " + std::to_string(i));
+            for (int c = 0; c < 3; ++c) mesh->vertex_normals[3 * i + c] = static_cast<float>(vertex_normals[3 * i + c] / len);
+        }
+    }
     mesh->vertices.assign(vertices, vertices + 3 * n_vertices);
     mesh->vertices.push_back(0.0f);  // Embree reads 16 bytes at the last vertex
     mesh->triangles.assign(triangles, triangles + 3 * n_triangles);

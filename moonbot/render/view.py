@@ -35,8 +35,9 @@ def build_scene(spec: SceneSpec) -> _core.Scene:
     instance; then commits."""
     scene = _core.Scene()
     bag_ids = {bag.obj_id for bag in spec.bags}
+    terrain = {"vertex_albedo": spec.terrain_albedo_scale, "vertex_normals": spec.terrain_normals}
     mesh_index = {key: scene.add_mesh(v, t, spec.bag_uvs.reshape(len(t), 6) if key in bag_ids else None,
-                                      spec.terrain_albedo_scale if key == TERRAIN_MESH else None)
+                                      **(terrain if key == TERRAIN_MESH else {}))
                   for key, (v, t) in spec.meshes.items()}
     photometry, albedo = regolith(spec.terrain_photometry, spec.terrain_albedo)
     scene.add_background(mesh_index[TERRAIN_MESH], np.eye(4), albedo, photometry)

@@ -36,7 +36,8 @@ class SceneSpec:
     (vertices (N, 3) float32 metres, triangles (M, 3) int32); `target` is the orbit centre in
     the world frame (metres); `placement` records how the bags were placed and settled;
     `terrain_albedo` is regolith's normal albedo, varied per terrain vertex by
-    `terrain_albedo_scale` ((N,) float32 or None) and shaped by `terrain_photometry`; `bag_uvs`
+    `terrain_albedo_scale` ((N,) float32 or None), shaded with the smooth `terrain_normals`
+    ((N, 3) float32 or None) and shaped by `terrain_photometry`; `bag_uvs`
     (M, 3, 2) float32 are the bag mesh's corner UVs (its cloth's atlas, `bag_metres_per_uv`
     metres per unit), woven and stained as `fabric` and `stain` say;
     `ground` is the terrain's height field (the camera keeps clear of it); `rocks` are
@@ -47,6 +48,7 @@ class SceneSpec:
     meshes: dict[int, tuple[np.ndarray, np.ndarray]]
     terrain_albedo: float
     terrain_albedo_scale: np.ndarray | None
+    terrain_normals: np.ndarray | None
     terrain_photometry: PhotometryConfig
     bag_uvs: np.ndarray
     bag_metres_per_uv: float
@@ -111,6 +113,7 @@ def compose_scene(config: Config) -> SceneSpec:
         meshes=meshes,
         terrain_albedo=config.terrain.albedo,
         terrain_albedo_scale=terrain.albedo_scale,
+        terrain_normals=terrain.normals,
         terrain_photometry=config.terrain.photometry,
         bag_uvs=uv_atlas(shape),
         bag_metres_per_uv=atlas_metres_per_uv(shape),

@@ -32,7 +32,8 @@ CACHE_SIZE = 2  # terrains kept per process: a location's mesh and ground take ~
 class Terrain:
     """A built terrain: the `ground` (heights for placement and physics), its `mesh`
     ((N, 3) float32 metres, (M, 3) int32) for the renderer with `albedo_scale` ((N,) float32
-    factors on the regolith albedo per vertex, or None for the analytic grounds), its `rocks`
+    factors on the regolith albedo per vertex) and smooth shading `normals` ((N, 3) float32),
+    both None for the analytic grounds, its `rocks`
     (positions and sizes; scenes drop those in the way of bags or camera) with the
     `rock_meshes` they instance, the config `key` it was built from and the wall-clock
     `build_seconds` it took."""
@@ -40,6 +41,7 @@ class Terrain:
     ground: Ground
     mesh: tuple[np.ndarray, np.ndarray]
     albedo_scale: np.ndarray | None
+    normals: np.ndarray | None
     rocks: RockField | None
     rock_meshes: list[tuple[np.ndarray, np.ndarray]]
     key: str
@@ -85,15 +87,17 @@ def get_terrain(config: TerrainConfig) -> tuple[Terrain, bool]:
     start = time.perf_counter()
     ground = make_ground(config)
     mesh = ground.mesh()
-    rocks, rock_meshes, albedo_scale = None, [], None
+    rocks, rock_meshes, albedo_scale, normals = None, [], None, None
     if config.location in LOCATIONS:
         rocks = sample_rocks(config.seed, config.rocks, main_crater(config))
         rock_meshes = rock_prototypes(config.seed)
         albedo_scale = albedo_factor(config, mesh[0][:, 0], mesh[0][:, 1])
-    for array in (*mesh, *(a for m in rock_meshes for a in m), *([albedo_scale] if albedo_scale is not None else [])):
+        normals = ground.vertex_normals()
+    per_vertex = [a for a in (albedo_scale, normals) if a is not None]
+    for array in (*mesh, *(a for m in rock_meshes for a in m), *per_vertex):
         array.setflags(write=False)  # shared by every task of this process: nobody may edit it
-    terrain = Terrain(ground=ground, mesh=mesh, albedo_scale=albedo_scale, rocks=rocks, rock_meshes=rock_meshes,
-                      key=key, build_seconds=time.perf_counter() - start)
+    terrain = Terrain(ground=ground, mesh=mesh, albedo_scale=albedo_scale, normals=normals, rocks=rocks,
+                      rock_meshes=rock_meshes, key=key, build_seconds=time.perf_counter() - start)
     _cache[key] = terrain
     while len(_cache) > CACHE_SIZE:
         _cache.popitem(last=False)

@@ -219,6 +219,14 @@ class GridGround(Ground):
         vertices = np.column_stack([X.ravel(), Y.ravel(), self.z.ravel()]).astype(np.float32)
         return vertices, grid_triangles(len(self.x_axis), len(self.y_axis))
 
+    def vertex_normals(self) -> np.ndarray:
+        """Smooth shading normals (N, 3) float32, unit, one per `mesh()` vertex: the surface's
+        normal from central differences of the heights on the graded grid (one-sided at its
+        edges), so the renderer can shade the triangulation as the smooth ground it samples."""
+        dz_dy, dz_dx = np.gradient(self.z, self.y_axis, self.x_axis)
+        n = np.stack([-dz_dx, -dz_dy, np.ones_like(self.z)], axis=-1).reshape(-1, 3)
+        return (n / np.linalg.norm(n, axis=1, keepdims=True)).astype(np.float32)
+
     def patch(self, lo, hi):
         i0 = max(int(np.searchsorted(self.x_axis, lo[0], side="right")) - 1, 0)
         j0 = max(int(np.searchsorted(self.y_axis, lo[1], side="right")) - 1, 0)

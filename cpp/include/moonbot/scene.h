@@ -42,6 +42,7 @@ struct Mesh {
     std::vector<uint32_t> triangles;  // three vertex indices per triangle
     std::vector<float> corner_uvs;    // (u, v) per triangle corner, 6 per triangle; empty if none
     std::vector<float> vertex_albedo;  // a factor on the material's albedo per vertex; empty if none
+    std::vector<float> vertex_normals;  // unit shading normal per vertex (object frame, xyz); empty if none
     size_t vertex_count() const { return (vertices.size() - 1) / 3; }
     size_t triangle_count() const { return triangles.size() / 3; }
     /// Vertex i in double precision (object frame, metres).
@@ -74,10 +75,13 @@ public:
     /// `corner_uvs` (optional, n_triangles×3×2, finite) are texture coordinates per triangle
     /// corner, which a woven material needs. `vertex_albedo` (optional, n_vertices, finite,
     /// ≥ 0) multiplies the albedo of any material on the mesh, interpolated across triangles
-    /// (regolith's albedo varies over a site).
+    /// (regolith's albedo varies over a site). `vertex_normals` (optional, n_vertices×3, finite,
+    /// non-zero; normalised here) are shading normals interpolated across triangles, so a
+    /// tessellated smooth surface does not shade as facets; visibility still follows the
+    /// triangles themselves.
     uint32_t add_mesh(const float* vertices, size_t n_vertices, const uint32_t* triangles,
                       size_t n_triangles, const float* corner_uvs = nullptr,
-                      const float* vertex_albedo = nullptr);
+                      const float* vertex_albedo = nullptr, const float* vertex_normals = nullptr);
 
     /// Adds a labelled object (label 1–255, unique in the scene) with a world-from-object affine
     /// transform (metres). A woven material paints its stain mask here (none for 0 stamps).
