@@ -15,10 +15,11 @@ void bind_geo(py::module_& m);
 void bind_dem(py::module_& m);
 void bind_limit(py::module_& m);
 void bind_material(py::module_& m);
+void bind_dust(py::module_& m);
 }  // namespace moonbot::bindings
 
 PYBIND11_MODULE(_core, m) {
-    m.doc() = "moonbot's C++ core: Embree scene, camera, Sun, renderer, image I/O, lunar frames, DEM import, bag fabric and stain.";
+    m.doc() = "moonbot's C++ core: Embree scene, camera, Sun, renderer, image I/O, lunar frames, DEM import, bag fabric and stain, dust.";
     py::register_exception_translator([](std::exception_ptr p) {
         try {
             if (p) std::rethrow_exception(p);
@@ -33,4 +34,5 @@ PYBIND11_MODULE(_core, m) {
     moonbot::bindings::bind_dem(m);
     moonbot::bindings::bind_limit(m);
     moonbot::bindings::bind_material(m);
+    moonbot::bindings::bind_dust(m);
 }
