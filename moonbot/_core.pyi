@@ -146,3 +146,21 @@ def splat_support_area() -> float: ...
 def stained_base_colour(clean: ArrayLike, mask: ArrayLike, dirt: ArrayLike) -> NDArray[np.float64]: ...
 def stain_mask_bytes() -> int: ...
 def stain_masks_allocated() -> int: ...
+
+MAX_DUST_STEP: float
+
+class EjectaState(TypedDict):
+    position: NDArray[np.float64]  # (N, 3) metres, world
+    velocity: NDArray[np.float64]  # (N, 3) m/s
+    diameter: NDArray[np.float64]  # (N,) metres
+    age: NDArray[np.float64]       # (N,) seconds since launch
+    bounces: NDArray[np.int32]
+    resting: NDArray[np.bool_]
+
+def simulate_ejecta(scene: Scene, seed: int, time_s: float, dt_s: float = 0.01, origin: ArrayLike = (0.0, 0.0, 0.0),
+                    count: int = 200, spawn_radius_m: float = 0.1, cone_half_angle_deg: float = 45.0,
+                    mean_speed_m_s: float = 0.5, min_diameter_m: float = 0.01, max_diameter_m: float = 0.02,
+                    gravity_m_s2: float = 1.62, restitution: float = 0.4, friction: float = 0.6,
+                    rest_speed_m_s: float = 0.02, burst_period_s: float = 2.0, threads: int = 0) -> EjectaState: ...
+def puff_optical_depth(centre: ArrayLike, sigma_m: float, peak_extinction: float, origin: ArrayLike,
+                       direction: ArrayLike, t_max: float = ...) -> float: ...

@@ -92,3 +92,28 @@ def test_bad_arguments_name_the_field():
         _core.simulate_ejecta(scene, seed=0, time_s=-1.0)
     with pytest.raises(ValueError, match="scene: not committed"):
         _core.simulate_ejecta(_core.Scene(), seed=0, time_s=1.0)
+
+
+def test_puff_transmittance_matches_its_integral():
+    """Beer–Lambert through one Gaussian puff: the closed-form optical depth equals a fine
+    quadrature of the extinction along the ray, on rays through, beside, starting inside and
+    ending inside the puff; through the centre to infinity it is peak·σ·√(2π)."""
+    from scipy.integrate import quad
+
+    rng = np.random.default_rng(8)
+    centre, sigma, peak = np.array([0.3, -0.2, 0.5]), 0.25, 3.0
+    for _ in range(40):
+        origin = centre + rng.normal(0.0, 0.6, 3)
+        direction = rng.normal(size=3)
+        direction /= np.linalg.norm(direction)
+        t_max = float(rng.uniform(0.05, 2.0))
+        k = lambda t: peak * np.exp(-np.sum((origin + t * direction - centre) ** 2) / (2 * sigma**2))  # noqa: E731
+        expected, _ = quad(k, 0.0, t_max, epsabs=1e-13, epsrel=1e-11, points=[max(0.0, -(origin - centre) @ direction)])
+        tau = _core.puff_optical_depth(centre, sigma, peak, origin, direction, t_max)
+        assert tau == pytest.approx(expected, rel=1e-9, abs=1e-13)
+    through = _core.puff_optical_depth(centre, sigma, peak, centre - [5.0, 0, 0], [1.0, 0, 0])
+    assert through == pytest.approx(peak * sigma * np.sqrt(2 * np.pi), rel=1e-12)
+    assert np.exp(-through) == pytest.approx(np.exp(-peak * sigma * np.sqrt(2 * np.pi)), rel=1e-12)
+    assert _core.puff_optical_depth(centre, sigma, 0.0, centre, [0, 0, 1.0]) == 0.0
+    with pytest.raises(ValueError, match="sigma_m: must be positive"):
+        _core.puff_optical_depth(centre, 0.0, peak, centre, [0, 0, 1.0])

@@ -1,3 +1,6 @@
+#include <cmath>
+#include <limits>
+
 #include "arrays.h"
 #include "moonbot/dust.h"
 
@@ -69,6 +72,22 @@ void bind_dust(py::module_& m) {
         "position (N, 3) and velocity (N, 3) float64 (metres, m/s, world), diameter (N,) metres, "
         "age (N,) seconds since launch, bounces (N,) int32 and resting (N,) bool.");
     m.attr("MAX_DUST_STEP") = kMaxDustStep;
+    m.def(
+        "puff_optical_depth",
+        [](const py::handle& centre, double sigma_m, double peak_extinction, const py::handle& origin,
+           const py::handle& direction, double t_max) {
+            if (!(sigma_m > 0.0 && std::isfinite(sigma_m))) fail("sigma_m", "must be positive and finite");
+            if (!(peak_extinction >= 0.0 && std::isfinite(peak_extinction))) fail("peak_extinction", "must be >= 0");
+            glm::dvec3 d = vector<3>(direction, "direction");
+            const double len = glm::length(d);
+            if (!(len > 0.0)) fail("direction", "must be non-zero");
+            return optical_depth(Puff{vector<3>(centre, "centre"), sigma_m, peak_extinction}, vector<3>(origin, "origin"),
+                                 d / len, t_max);
+        },
+        py::arg("centre"), py::arg("sigma_m"), py::arg("peak_extinction"), py::arg("origin"), py::arg("direction"),
+        py::arg("t_max") = std::numeric_limits<double>::infinity(),
+        "Optical depth of one Gaussian dust puff (extinction peak·exp(-|x-centre|²/2σ²) per metre) "
+        "along the ray origin + t·direction/|direction|, t in [0, t_max] metres; closed form.");
 }
 
 }  // namespace moonbot::bindings

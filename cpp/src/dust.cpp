@@ -110,6 +110,21 @@ void fly(const Scene& scene, const EjectaParams& p, Fragment& f, double duration
 
 }  // namespace
 
+double optical_depth(const Puff& puff, const glm::dvec3& origin, const glm::dvec3& dir, double t_max) {
+    if (!(t_max > 0.0) || puff.peak_extinction == 0.0) return 0.0;
+    const glm::dvec3 p = origin - puff.centre;
+    const double b = glm::dot(p, dir);
+    const double q2 = std::max(0.0, glm::dot(p, p) - b * b);
+    const double s = puff.sigma_m * std::sqrt(2.0);
+    // erf(x) − erf(y) = erfc(y) − erfc(x); for a ray starting past the centre (b > 0) the erfc
+    // form keeps the digits that the difference of two erfs near 1 would lose.
+    const bool endless = std::isinf(t_max);
+    const double span = b > 0.0 ? std::erfc(b / s) - (endless ? 0.0 : std::erfc((t_max + b) / s))
+                                : (endless ? 1.0 : std::erf((t_max + b) / s)) - std::erf(b / s);
+    return puff.peak_extinction * std::exp(-q2 / (2.0 * puff.sigma_m * puff.sigma_m)) * puff.sigma_m *
+           std::sqrt(kPi / 2.0) * span;
+}
+
 void EjectaParams::validate() const {
     require(std::isfinite(origin.x) && std::isfinite(origin.y) && std::isfinite(origin.z), "origin", "must be finite");
     require(spawn_radius_m >= 0.0 && spawn_radius_m <= 100.0, "spawn_radius_m", "must be in [0, 100]");

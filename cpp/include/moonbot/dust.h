@@ -63,4 +63,19 @@ std::vector<Fragment> simulate_ejecta(const Scene& scene, const EjectaParams& pa
 /// The largest time step simulate_ejecta accepts, seconds.
 constexpr double kMaxDustStep = 0.1;
 
+/// One puff of the fine-dust cloud (emitter 2): an isotropic Gaussian of extinction coefficient
+/// k(x) = peak·exp(−|x − centre|²/(2σ²)) per metre. A cloud is a sum of puffs; its light is
+/// attenuated by exp(−Σ optical depths) (Beer–Lambert).
+struct Puff {
+    glm::dvec3 centre{0.0};        ///< world metres
+    double sigma_m = 0.1;          ///< standard deviation, metres (> 0)
+    double peak_extinction = 1.0;  ///< k at the centre, 1/m (≥ 0)
+};
+
+/// The optical depth ∫₀^t_max k(origin + t·dir) dt of a puff along a ray (`dir` unit), in closed
+/// form: with p = origin − centre, b = p·dir and q² = |p|² − b² (the ray's squared distance
+/// from the centre), τ = peak·exp(−q²/2σ²)·σ·√(π/2)·[erf((t_max + b)/(σ√2)) − erf(b/(σ√2))].
+/// t_max may be +infinity. Exact to rounding; a few flops and two erf.
+double optical_depth(const Puff& puff, const glm::dvec3& origin, const glm::dvec3& dir, double t_max);
+
 }  // namespace moonbot
