@@ -31,8 +31,9 @@ class RenderedView:
 
 def build_scene(spec: SceneSpec) -> _core.Scene:
     """Builds the Embree scene once: one prototype BVH per mesh (bags of one obj_id share it,
-    rocks of one prototype too), the terrain and rocks as background, each bag as a labelled
-    instance; then commits."""
+    rocks of one prototype too); the terrain (with its per-vertex albedo factors and smooth
+    normals) and the rocks as regolith background; each bag as a labelled instance of woven
+    cloth on its atlas UVs, its stain painted by the core (none for zero seeds); then commits."""
     scene = _core.Scene()
     bag_ids = {bag.obj_id for bag in spec.bags}
     terrain = {"vertex_albedo": spec.terrain_albedo_scale, "vertex_normals": spec.terrain_normals}
