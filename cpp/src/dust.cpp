@@ -12,6 +12,7 @@
 
 #include "moonbot/render.h"  // kMaxThreads
 #include "moonbot/rng.h"
+#include "rays.h"               // set_ray
 
 namespace moonbot {
 
@@ -58,17 +59,9 @@ void fly(const Scene& scene, const EjectaParams& p, Fragment& f, double duration
         const double length = glm::length(chord);
         RayHit ray{};
         if (length > 0.0) {
-            ray.org_x = static_cast<float>(from.x);
-            ray.org_y = static_cast<float>(from.y);
-            ray.org_z = static_cast<float>(from.z);
-            ray.dir_x = static_cast<float>(chord.x / length);
-            ray.dir_y = static_cast<float>(chord.y / length);
-            ray.dir_z = static_cast<float>(chord.z / length);
-            ray.tnear = 0.0f;
+            detail::set_ray(ray, from, chord / length);
             ray.tfar = static_cast<float>(length);
-            ray.mask = 0xFFFFFFFFu;
-            ray.geom_id = ray.inst_id = ray.prim_id = kInvalidId;
-            scene.accel().intersect(&ray, 1, /*coherent=*/false);
+            scene.accel().intersect_single(&ray, 1);  // one ray: no stream to build
         }
         if (length == 0.0 || ray.geom_id == kInvalidId) {
             f.position = next;

@@ -26,6 +26,13 @@ constexpr int kTilePixels = kTile * kTile;
 // two orders of magnitude (no acne at grazing Sun) while staying far below any feature we model.
 constexpr double kShadowBias = 2e-5;
 
+/// Where rays leaving a surface start: `point` moved off the surface along the unit `normal` (on
+/// the side they leave from) by kShadowBias of its largest coordinate (of 1 m at least).
+inline glm::dvec3 lift_off(const glm::dvec3& point, const glm::dvec3& normal) {
+    const double scale = std::max({1.0, std::abs(point.x), std::abs(point.y), std::abs(point.z)});
+    return point + normal * (kShadowBias * scale);
+}
+
 /// What the per-pixel path needs of one instance, gathered once per render into a flat table:
 /// reaching it through Scene::instance → Scene::mesh → the mesh's vectors was a chain of five
 /// dependent loads per hit. Values are copies (albedo widened to double exactly).
@@ -212,9 +219,7 @@ public:
             const glm::dvec3& dir = dirs[i];
             p.side = glm::dot(tri.normal[0], dir) > 0.0 ? 1 : 0;
             if (tri.cos_sun[p.side] <= 0.0) continue;
-            const glm::dvec3 point = origin + p.t * dir;
-            const double scale = std::max({1.0, std::abs(point.x), std::abs(point.y), std::abs(point.z)});
-            set_ray(rays[count], point + tri.normal[p.side] * (kShadowBias * scale), to_sun);
+            set_ray(rays[count], lift_off(origin + p.t * dir, tri.normal[p.side]), to_sun);
             of[count++] = i;
         }
         return count;

@@ -43,6 +43,7 @@ struct LightData {
 /// The end of one pixel's path: where it is, which way it left, what it carries.
 struct PathVertex {
     glm::dvec3 point;       // world metres
+    glm::dvec3 lifted;      // where its shadow and bounce rays start (lift_off)
     glm::dvec3 normal;      // unit geometric normal, on the side the path arrived from
     glm::dvec3 shading;     // unit shading normal (the weave's, on cloth; else `normal`)
     glm::dvec3 albedo;      // linear RGB here (the fabric's and the stain's, on cloth)
@@ -75,6 +76,13 @@ void basis(const glm::dvec3& w, glm::dvec3& a, glm::dvec3& b) {
     const double xy = w.x * w.y * k;
     a = {1.0 + sign * w.x * w.x * k, sign * xy, -sign * w.x};
     b = {xy, sign + w.y * w.y * k, -w.y};
+}
+
+/// The photometric shape of an instance's surface (photometry.h). Lambert's is 1 outright: no
+/// call, and a Lambertian seen past its smooth shading normal's horizon still takes its light.
+double shape_at(const InstanceData& inst, double mu_i, double mu_o, double cos_g) {
+    if (inst.photometry.model == Photometry::Model::Lambert) return 1.0;
+    return photometric_shape(inst.photometry, mu_i, mu_o, cos_g);
 }
 
 std::vector<LightData> light_table(const Lights& lights) {
@@ -195,6 +203,7 @@ private:
             const PixelHit& h = s.hits.pixel(i);
             v.point = origin + h.t * dir;
             v.normal = tri.normal[h.side];
+            v.lifted = lift_off(v.point, v.normal);
             v.wo = -dir / glm::length(dir);
             v.throughput = glm::dvec3(1.0);
             v.instance = tri.instance;
@@ -288,8 +297,7 @@ private:
                         to_light = c * light.dir + r * (std::cos(phi) * light.a + std::sin(phi) * light.b);
                         if (glm::dot(v.normal, to_light) <= 0.0) continue;  // below the facet's horizon
                     }
-                    const double scale = std::max({1.0, std::abs(v.point.x), std::abs(v.point.y), std::abs(v.point.z)});
-                    set_ray(s.shadow[count], v.point + v.normal * (kShadowBias * scale), to_light);
+                    set_ray(s.shadow[count], v.lifted, to_light);
                     s.shadow_of[count++] = i;
                 }
                 if (count == 0) continue;
@@ -304,10 +312,7 @@ private:
                 const InstanceData& inst = m_instances[v.instance];
                 // Visibility follows the geometry; brightness the shading normal.
                 const double mu_i = v.shaded_apart ? std::max(0.0, glm::dot(v.shading, light.dir)) : v.cos_light[l];
-                const double shape = inst.photometry.model == Photometry::Model::Lambert
-                                         ? 1.0
-                                         : photometric_shape(inst.photometry, mu_i, glm::dot(v.shading, v.wo),
-                                                             glm::dot(light.dir, v.wo));
+                const double shape = shape_at(inst, mu_i, glm::dot(v.shading, v.wo), glm::dot(light.dir, v.wo));
                 // Grouped so that a Lambertian surface under a point Sun, seen directly, gets
                 // exactly albedo·(E/π·μi): every other factor is then 1.
                 s.radiance[i] += (v.albedo * (light.scale * mu_i)) *
@@ -331,18 +336,14 @@ private:
             const double mu_i = std::sqrt(std::max(0.0, 1.0 - r * r));
             const glm::dvec3 wi = r * std::cos(phi) * a + r * std::sin(phi) * b + mu_i * v.normal;
             const InstanceData& inst = m_instances[v.instance];
-            const double shape = inst.photometry.model == Photometry::Model::Lambert
-                                     ? 1.0
-                                     : photometric_shape(inst.photometry, mu_i, glm::dot(v.normal, v.wo),
-                                                         glm::dot(wi, v.wo));
+            const double shape = shape_at(inst, mu_i, glm::dot(v.normal, v.wo), glm::dot(wi, v.wo));
             v.throughput *= v.albedo * shape;
             if (!(mu_i > 0.0) || v.throughput == glm::dvec3(0.0)) {
                 v.alive = false;
                 continue;
             }
-            const double scale = std::max({1.0, std::abs(v.point.x), std::abs(v.point.y), std::abs(v.point.z)});
-            v.point += v.normal * (kShadowBias * scale);  // the ray's origin, in double
-            v.wo = wi;                                     // the ray's direction until it hits
+            v.point = v.lifted;  // the ray's origin, in double
+            v.wo = wi;           // the ray's direction until it hits
             set_ray(s.rays[count], v.point, wi);
             s.shadow_of[count++] = i;
         }
@@ -368,6 +369,7 @@ private:
             if (glm::dot(normal, wi) > 0.0) normal = -normal;  // the side the ray arrived from
             v.point += static_cast<double>(ray.tfar) * wi;
             v.normal = normal;
+            v.lifted = lift_off(v.point, normal);
             v.shading = normal;
             v.shaded_apart = false;
             // Cloth met by a bounce shows its mean colour: neither weave nor stain is resolved
