@@ -1,4 +1,5 @@
 #include <cmath>
+#include <algorithm>
 #include <limits>
 
 #include "arrays.h"
@@ -52,7 +53,14 @@ void bind_dust(py::module_& m) {
                 B(i) = f.bounces;
                 R(i) = f.resting;
             }
+            const FragmentMesh mesh = fragment_mesh(fragments, seed);
+            py::array_t<float> vertices({static_cast<py::ssize_t>(mesh.vertices.size() / 3), py::ssize_t(3)});
+            py::array_t<uint32_t> triangles({static_cast<py::ssize_t>(mesh.triangles.size() / 3), py::ssize_t(3)});
+            std::copy(mesh.vertices.begin(), mesh.vertices.end(), vertices.mutable_data());
+            std::copy(mesh.triangles.begin(), mesh.triangles.end(), triangles.mutable_data());
             py::dict out;
+            out["vertices"] = vertices;
+            out["triangles"] = triangles;
             out["position"] = position;
             out["velocity"] = velocity;
             out["diameter"] = diameter;
@@ -68,10 +76,72 @@ void bind_dust(py::module_& m) {
         py::arg("friction") = 0.6, py::arg("rest_speed_m_s") = 0.02, py::arg("burst_period_s") = 2.0,
         py::arg("threads") = 0,
         "Granular ejecta (moonbot/dust.h) of the burst under way at time_s, flown in vacuum under "
-        "gravity from launch in steps of at most dt_s and bounced on the scene's geometry. Returns "
+        "gravity from launch in steps of at most dt_s and bounced on the scene's geometry (call it "
+        "before the fragments' own mesh is in the scene, or they collide with themselves). Returns "
         "position (N, 3) and velocity (N, 3) float64 (metres, m/s, world), diameter (N,) metres, "
-        "age (N,) seconds since launch, bounces (N,) int32 and resting (N,) bool.");
+        "age (N,) seconds since launch, bounces (N,) int32, resting (N,) bool, and the fragments "
+        "as one mesh in world metres: vertices (12 N, 3) float32, triangles (20 N, 3) uint32.");
     m.attr("MAX_DUST_STEP") = kMaxDustStep;
+    m.def(
+        "cloud_puffs",
+        [](uint64_t seed, double time_s, const py::handle& origin, const py::handle& box_m, double vertical_offset_m,
+           const py::handle& axis, double cone_half_angle_deg, double speed_m_s, double gravity_m_s2, double lifetime_s,
+           double rate_per_s, double sigma_m, double growth_m_s, double optical_depth, double rise_fraction) {
+            CloudParams p;
+            p.origin = vector<3>(origin, "origin");
+            p.box_m = vector<3>(box_m, "box_m");
+            p.vertical_offset_m = vertical_offset_m;
+            p.axis = vector<3>(axis, "axis");
+            p.cone_half_angle_deg = cone_half_angle_deg;
+            p.speed_m_s = speed_m_s;
+            p.gravity_m_s2 = gravity_m_s2;
+            p.lifetime_s = lifetime_s;
+            p.rate_per_s = rate_per_s;
+            p.sigma_m = sigma_m;
+            p.growth_m_s = growth_m_s;
+            p.optical_depth = optical_depth;
+            p.rise_fraction = rise_fraction;
+            const std::vector<Puff> puffs = cloud_puffs(p, seed, time_s);
+            py::array_t<double> out({static_cast<py::ssize_t>(puffs.size()), py::ssize_t(5)});
+            auto O = out.mutable_unchecked<2>();
+            for (py::ssize_t i = 0; i < O.shape(0); ++i) {
+                const Puff& f = puffs[static_cast<size_t>(i)];
+                O(i, 0) = f.centre.x, O(i, 1) = f.centre.y, O(i, 2) = f.centre.z;
+                O(i, 3) = f.sigma_m, O(i, 4) = f.peak_extinction;
+            }
+            return out;
+        },
+        py::arg("seed"), py::arg("time_s"), py::arg("origin") = py::make_tuple(0.0, 0.0, 0.0),
+        py::arg("box_m") = py::make_tuple(0.7, 2.0, 0.5), py::arg("vertical_offset_m") = -1.7,
+        py::arg("axis") = py::make_tuple(1.0, 0.0, 500.0), py::arg("cone_half_angle_deg") = 45.0,
+        py::arg("speed_m_s") = 0.7, py::arg("gravity_m_s2") = 0.0, py::arg("lifetime_s") = 5.0,
+        py::arg("rate_per_s") = 40.0, py::arg("sigma_m") = 0.15, py::arg("growth_m_s") = 0.08,
+        py::arg("optical_depth") = 0.5, py::arg("rise_fraction") = 0.1,
+        "The fine-dust cloud (moonbot/dust.h, emitter 2) at time_s: the puffs alive then, (N, 5) "
+        "float64 rows of centre x, y, z (world metres), sigma (metres) and peak extinction (1/m).");
+    py::class_<Medium>(m, "Medium", "Dust as a participating medium (moonbot/medium.h): Gaussian puffs, "
+                                    "their single-scattering albedo and Henyey-Greenstein asymmetry.")
+        .def(py::init([](const py::handle& puffs, const py::handle& albedo, double asymmetry, int scatter_samples) {
+                 const auto rows = converted<double>(as_array(puffs, "puffs"), "puffs");
+                 if (!(rows.ndim() == 2 && rows.shape(1) == 5) && !(rows.ndim() == 1 && rows.shape(0) == 0))
+                     fail("puffs", "must be (N, 5) rows of centre x, y, z, sigma, peak extinction; got " + shape_of(rows));
+                 Medium medium;
+                 const py::ssize_t n = rows.ndim() == 2 ? rows.shape(0) : 0;
+                 for (py::ssize_t i = 0; i < n; ++i) {
+                     const double* r = rows.data() + 5 * i;
+                     medium.puffs.push_back(Puff{{r[0], r[1], r[2]}, r[3], r[4]});
+                 }
+                 medium.albedo = vector<3>(albedo, "albedo");
+                 medium.asymmetry = asymmetry;
+                 medium.scatter_samples = scatter_samples;
+                 medium.validate();  // std::invalid_argument → ValueError
+                 return medium;
+             }),
+             py::arg("puffs"), py::arg("albedo") = py::make_tuple(0.55, 0.51, 0.45), py::arg("asymmetry") = 0.7,
+             py::arg("scatter_samples") = 8)
+        .def_property_readonly("puff_count", [](const Medium& m) { return m.puffs.size(); });
+    m.def("henyey_greenstein", &henyey_greenstein, py::arg("cos_theta"), py::arg("g"),
+          "Henyey-Greenstein phase function per steradian (g > 0: forward).");
     m.def(
         "puff_optical_depth",
         [](const py::handle& centre, double sigma_m, double peak_extinction, const py::handle& origin,

@@ -12,7 +12,7 @@ void bind_render(py::module_& m) {
         "render",
         [](const Scene& scene, const Camera& camera, const Sun& sun, int spp, uint64_t seed,
            int threads, const std::vector<std::string>& passes, bool exact_depth, int light_samples,
-           int bounces, const std::optional<Sun>& earth) {
+           int bounces, const std::optional<Sun>& earth, const Medium* medium) {
             bool rgb = false, depth = false, instance = false;
             for (const std::string& p : passes) {
                 if (p == "rgb") rgb = true;
@@ -47,11 +47,13 @@ void bind_render(py::module_& m) {
                 // itself against modification while the render runs.
                 py::gil_scoped_release release;
                 stats = render(scene, camera, Lights{sun, earth},
-                               RenderSettings{spp, seed, threads, exact_depth, light_samples, bounces}, view);
+                               RenderSettings{spp, seed, threads, exact_depth, light_samples, bounces}, view,
+                               medium);
             }
             out["camera_rays"] = stats.camera_rays;
             out["shadow_rays"] = stats.shadow_rays;
             out["bounce_rays"] = stats.bounce_rays;
+            out["medium_rays"] = stats.medium_rays;
             out["seconds"] = stats.seconds;
             return out;
         },
@@ -59,13 +61,15 @@ void bind_render(py::module_& m) {
         py::arg("seed") = 0, py::arg("threads") = 0,
         py::arg("passes") = std::vector<std::string>{"rgb", "depth", "instance"},
         py::arg("exact_depth") = true, py::arg("light_samples") = 1, py::arg("bounces") = 0,
-        py::arg("earth") = py::none(),
+        py::arg("earth") = py::none(), py::arg("medium") = nullptr,
         "Render one view. Returns a dict with the requested passes — rgb (H, W, 3) float32 "
         "W/(m²·sr), depth (H, W) float32 z-depth in metres (0 = no hit), instance (H, W) uint8 "
-        "(0 = background) — and camera_rays, shadow_rays, bounce_rays, seconds. exact_depth "
+        "(0 = background) — and camera_rays, shadow_rays, bounce_rays, medium_rays, seconds. exact_depth "
         "re-solves hit distances in double (exact at kilometre coordinates); False keeps Embree's "
         "float32 t. light_samples: shadow rays per sample toward each light's disk; bounces: "
-        "diffuse inter-reflections (0 = direct light only); earth: a second light (Earthshine).");
+        "diffuse inter-reflections (0 = direct light only); earth: a second light (Earthshine); "
+        "medium: dust (a Medium) attenuating and scattering sunlight in rgb only (medium_rays: its "
+        "shadow rays toward the Sun).");
 }
 
 }  // namespace moonbot::bindings

@@ -170,6 +170,17 @@ void bind_scene(py::module_& m) {
             "vertex_normals (N, 3) float: smooth shading normals (object frame). Builds its BVH. "
             "Returns the mesh index.")
         .def(
+            "update_mesh",
+            [](Scene& s, uint32_t mesh, const py::handle& vertices) {
+                auto v = float_rows(vertices, "vertices", 3);
+                py::gil_scoped_release release;
+                s.update_mesh(mesh, v.data(), static_cast<size_t>(v.shape(0)));
+            },
+            py::arg("mesh"), py::arg("vertices"),
+            "Move mesh `mesh`'s vertices to `vertices` (N, 3) float, metres, the same N (triangles "
+            "stay) and rebuild that mesh's BVH alone; commit() before the next render. For geometry "
+            "that moves between views (the dust's ejecta); not for meshes with vertex normals.")
+        .def(
             "add_instance",
             [](Scene& s, uint32_t mesh, const py::handle& world_from_object, int instance_id,
                const py::handle& albedo, const Photometry& photometry, const std::optional<WovenSurface>& woven) {

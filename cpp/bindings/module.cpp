@@ -28,11 +28,11 @@ PYBIND11_MODULE(_core, m) {
         }
     });
     moonbot::bindings::bind_scene(m);
+    moonbot::bindings::bind_dust(m);  // before render, which takes its Medium
     moonbot::bindings::bind_render(m);
     moonbot::bindings::bind_image(m);
     moonbot::bindings::bind_geo(m);
     moonbot::bindings::bind_dem(m);
     moonbot::bindings::bind_limit(m);
     moonbot::bindings::bind_material(m);
-    moonbot::bindings::bind_dust(m);
 }

@@ -83,6 +83,7 @@ struct Accel::Impl {
     RTCDevice device = nullptr;
     RTCScene top = nullptr;
     std::vector<RTCScene> prototypes;
+    std::vector<uint32_t> instance_prototype;  // per instance id: the prototype it instances
     uint32_t n_instances = 0;
 };
 
@@ -142,7 +143,23 @@ uint32_t Accel::add_instance(uint32_t prototype, const float world_from_object_3
     const uint32_t id = m_impl->n_instances++;
     rtcAttachGeometryByID(m_impl->top, inst, id);
     rtcReleaseGeometry(inst);
+    m_impl->instance_prototype.push_back(prototype);
     return id;
+}
+
+void Accel::update_prototype(uint32_t prototype) {
+    if (prototype >= m_impl->prototypes.size())
+        throw std::out_of_range("embree: no prototype " + std::to_string(prototype));
+    RTCScene scene = m_impl->prototypes[prototype];
+    RTCGeometry geom = rtcGetGeometry(scene, 0);
+    rtcUpdateGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0);
+    rtcCommitGeometry(geom);
+    rtcCommitScene(scene);
+    if (rtcGetDeviceError(m_impl->device) != RTC_ERROR_NONE) throw_device_error(m_impl->device, "prototype rebuild");
+    ++m_builds;
+    // Its instances' bounds changed: re-commit them so the next top-level build sees it.
+    for (uint32_t id = 0; id < m_impl->n_instances; ++id)
+        if (m_impl->instance_prototype[id] == prototype) rtcCommitGeometry(rtcGetGeometry(m_impl->top, id));
 }
 
 void Accel::commit() {

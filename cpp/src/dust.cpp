@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include <glm/gtc/quaternion.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -22,6 +23,8 @@ constexpr double kPi = 3.14159265358979323846;
 // A fragment that bounces more often than this in one flight is put to rest: after so many
 // bounces at restitution ≤ 0.95 its normal speed is gone, and it guards the loop.
 constexpr int kMaxBounces = 1000;
+// How far above the emitter's origin a fragment's spawn point looks down for the ground, metres.
+constexpr double kSpawnProbe = 1.0;
 // Dimensions of the fragment's random numbers (key: the seed's ejecta stream, fragment, burst).
 enum Dim : uint32_t { kSpawnR, kSpawnPhi, kCone, kAzimuth, kSpeed, kDiameter };
 
@@ -30,13 +33,22 @@ void require(bool ok, const std::string& field, const std::string& what) {
 }
 
 /// Where a fragment starts, given the seed's ejecta stream, its index and burst.
-Fragment launch(const EjectaParams& p, uint64_t stream, uint32_t index, uint32_t burst) {
+Fragment launch(const Scene& scene, const EjectaParams& p, uint64_t stream, uint32_t index, uint32_t burst) {
     auto u = [&](uint32_t dim) { return static_cast<double>(stream_uniform01(stream, index, burst * 8u + dim)); };
     Fragment f{};
+    f.index = index;
+    f.burst = burst;
     f.diameter_m = p.min_diameter_m + u(kDiameter) * (p.max_diameter_m - p.min_diameter_m);
     const double r = p.spawn_radius_m * std::sqrt(u(kSpawnR)), phi = 2 * kPi * u(kSpawnPhi);
-    // Resting on the ground at the emitter: centre one radius up.
-    f.position = p.origin + glm::dvec3(r * std::cos(phi), r * std::sin(phi), f.diameter_m / 2);
+    // Lying on whatever is under its spawn point (the ground is rarely level at the origin's
+    // height): the first surface below kSpawnProbe above the origin, centre one radius up.
+    f.position = p.origin + glm::dvec3(r * std::cos(phi), r * std::sin(phi), 0.0);
+    RayHit down{};
+    detail::set_ray(down, f.position + glm::dvec3(0.0, 0.0, kSpawnProbe), glm::dvec3(0.0, 0.0, -1.0));
+    down.tfar = static_cast<float>(2 * kSpawnProbe);
+    scene.accel().intersect_single(&down, 1);
+    if (down.geom_id != kInvalidId) f.position.z += kSpawnProbe - static_cast<double>(down.tfar);
+    f.position.z += f.diameter_m / 2;
     // Uniform over the cone's solid angle about +z.
     const double cos_max = std::cos(p.cone_half_angle_deg * kPi / 180.0);
     const double c = 1.0 - u(kCone) * (1.0 - cos_max), s = std::sqrt(std::max(0.0, 1.0 - c * c));
@@ -67,6 +79,7 @@ void fly(const Scene& scene, const EjectaParams& p, Fragment& f, double duration
             f.position = next;
             f.velocity += g * h;
             f.age_s += h;
+            f.flight_s = f.age_s;
             continue;
         }
         // Contact after the chord's fraction s of the step: the chord is parametrised nearly
@@ -88,6 +101,7 @@ void fly(const Scene& scene, const EjectaParams& p, Fragment& f, double duration
         f.velocity = rebound * n + vt * kept_t;
         f.age_s += tau;
         ++f.bounces;
+        f.flight_s = f.age_s;
         if (rebound < p.rest_speed_m_s || f.bounces >= kMaxBounces) {
             // Too slow to leave the ground again: at rest where it touched (a micro-bounce would
             // otherwise repeat endlessly).
@@ -103,19 +117,42 @@ void fly(const Scene& scene, const EjectaParams& p, Fragment& f, double duration
 
 }  // namespace
 
-double optical_depth(const Puff& puff, const glm::dvec3& origin, const glm::dvec3& dir, double t_max) {
-    if (!(t_max > 0.0) || puff.peak_extinction == 0.0) return 0.0;
-    const glm::dvec3 p = origin - puff.centre;
-    const double b = glm::dot(p, dir);
-    const double q2 = std::max(0.0, glm::dot(p, p) - b * b);
-    const double s = puff.sigma_m * std::sqrt(2.0);
-    // erf(x) − erf(y) = erfc(y) − erfc(x); for a ray starting past the centre (b > 0) the erfc
-    // form keeps the digits that the difference of two erfs near 1 would lose.
-    const bool endless = std::isinf(t_max);
-    const double span = b > 0.0 ? std::erfc(b / s) - (endless ? 0.0 : std::erfc((t_max + b) / s))
-                                : (endless ? 1.0 : std::erf((t_max + b) / s)) - std::erf(b / s);
-    return puff.peak_extinction * std::exp(-q2 / (2.0 * puff.sigma_m * puff.sigma_m)) * puff.sigma_m *
-           std::sqrt(kPi / 2.0) * span;
+FragmentMesh fragment_mesh(const std::vector<Fragment>& fragments, uint64_t seed) {
+    // The regular icosahedron: 12 vertices (0, ±1, ±φ) cyclically, 20 faces, outward winding.
+    static const double phi = (1.0 + std::sqrt(5.0)) / 2.0;
+    static const glm::dvec3 ico[12] = {{-1, phi, 0}, {1, phi, 0}, {-1, -phi, 0}, {1, -phi, 0},
+                                       {0, -1, phi}, {0, 1, phi}, {0, -1, -phi}, {0, 1, -phi},
+                                       {phi, 0, -1}, {phi, 0, 1}, {-phi, 0, -1}, {-phi, 0, 1}};
+    static const uint32_t faces[kFragmentTriangles][3] = {
+        {0, 11, 5}, {0, 5, 1}, {0, 1, 7}, {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+        {11, 10, 2}, {10, 7, 6}, {7, 1, 8}, {3, 9, 4}, {3, 4, 2}, {3, 2, 6}, {3, 6, 8},
+        {3, 8, 9}, {4, 9, 5}, {2, 4, 11}, {6, 2, 10}, {8, 6, 7}, {9, 8, 1}};
+    const double ico_radius = std::sqrt(1.0 + phi * phi);
+    const uint64_t stream = pixel_stream(seed, 0xE7EC7A0000000001ull);  // shapes: their own stream
+    FragmentMesh mesh;
+    mesh.vertices.reserve(fragments.size() * kFragmentVertices * 3);
+    mesh.triangles.reserve(fragments.size() * kFragmentTriangles * 3);
+    for (const Fragment& f : fragments) {
+        auto u = [&](uint32_t dim) { return static_cast<double>(stream_uniform01(stream, f.index, f.burst * 32u + dim)); };
+        // A uniform random orientation (Shoemake 1992, from three uniforms) ...
+        const double u1 = u(0), a1 = 2 * kPi * u(1), a2 = 2 * kPi * u(2);
+        const glm::dquat q0(std::sqrt(u1) * std::cos(a2), std::sqrt(1 - u1) * std::sin(a1),
+                            std::sqrt(1 - u1) * std::cos(a1), std::sqrt(u1) * std::sin(a2));
+        // ... turned about a uniform axis at up to 3 turns/s for as long as it has flown.
+        const double cz = 2 * u(3) - 1, az = 2 * kPi * u(4), sz = std::sqrt(std::max(0.0, 1 - cz * cz));
+        const glm::dvec3 axis(sz * std::cos(az), sz * std::sin(az), cz);
+        const double angle = 2 * kPi * 3.0 * u(5) * f.flight_s;
+        const glm::dmat3 R = glm::mat3_cast(glm::angleAxis(angle, axis) * q0);
+        const auto base = static_cast<uint32_t>(mesh.vertices.size() / 3);
+        for (int k = 0; k < kFragmentVertices; ++k) {
+            const double radius = f.diameter_m / 2 * (0.6 + 0.4 * u(6 + static_cast<uint32_t>(k)));
+            const glm::dvec3 p = f.position + R * (ico[k] * (radius / ico_radius));
+            for (int c = 0; c < 3; ++c) mesh.vertices.push_back(static_cast<float>(p[c]));
+        }
+        for (const auto& face : faces)
+            for (uint32_t c : face) mesh.triangles.push_back(base + c);
+    }
+    return mesh;
 }
 
 void EjectaParams::validate() const {
@@ -131,6 +168,62 @@ void EjectaParams::validate() const {
     require(friction >= 0.0 && friction <= 10.0, "friction", "must be in [0, 10]");
     require(rest_speed_m_s > 0.0 && rest_speed_m_s <= 10.0, "rest_speed_m_s", "must be in (0, 10]");
     require(burst_period_s > 0.0 && burst_period_s <= 3600.0, "burst_period_s", "must be in (0, 3600]");
+}
+
+void CloudParams::validate() const {
+    require(std::isfinite(origin.x) && std::isfinite(origin.y) && std::isfinite(origin.z), "origin", "must be finite");
+    for (int c = 0; c < 3; ++c) require(box_m[c] >= 0.0 && box_m[c] <= 1000.0, "box_m", "each side must be in [0, 1000]");
+    require(std::abs(vertical_offset_m) <= 1000.0, "vertical_offset_m", "must be in [-1000, 1000]");
+    require(std::isfinite(glm::length(axis)) && glm::length(axis) > 0.0, "axis", "must be finite and non-zero");
+    require(cone_half_angle_deg >= 0.0 && cone_half_angle_deg <= 180.0, "cone_half_angle_deg", "must be in [0, 180]");
+    require(speed_m_s >= 0.0 && speed_m_s <= 100.0, "speed_m_s", "must be in [0, 100]");
+    require(gravity_m_s2 >= 0.0 && gravity_m_s2 <= 100.0, "gravity_m_s2", "must be in [0, 100]");
+    require(lifetime_s > 0.0 && lifetime_s <= 3600.0, "lifetime_s", "must be in (0, 3600]");
+    require(rate_per_s >= 0.0 && rate_per_s * lifetime_s <= 100000.0, "rate_per_s",
+            "must be >= 0 with at most 100000 puffs alive (rate_per_s × lifetime_s)");
+    require(sigma_m > 0.0 && sigma_m <= 100.0, "sigma_m", "must be in (0, 100]");
+    require(growth_m_s >= 0.0 && growth_m_s <= 100.0, "growth_m_s", "must be in [0, 100]");
+    require(optical_depth >= 0.0 && optical_depth <= 100.0, "optical_depth", "must be in [0, 100]");
+    require(rise_fraction > 0.0 && rise_fraction < 1.0, "rise_fraction", "must be in (0, 1)");
+}
+
+std::vector<Puff> cloud_puffs(const CloudParams& p, uint64_t seed, double time_s) {
+    p.validate();
+    require(std::isfinite(time_s) && time_s >= 0.0, "time_s", "must be finite and >= 0");
+    std::vector<Puff> puffs;
+    if (p.rate_per_s == 0.0 || p.optical_depth == 0.0) return puffs;
+    // Puff k is born at k / rate: those alive now were born in (time − lifetime, time].
+    const double first = std::max(0.0, std::floor((time_s - p.lifetime_s) * p.rate_per_s) + 1.0);
+    const double last = std::floor(time_s * p.rate_per_s);
+    require(last < 4.0e9, "time_s", "too many puffs since time 0 for their random keys");
+    const uint64_t stream = pixel_stream(seed, 0xC10D000000000000ull);  // the cloud's own stream
+    const glm::dvec3 w = glm::normalize(p.axis);
+    // A basis across the cone's axis (any will do: the cone is round).
+    const glm::dvec3 helper = std::abs(w.z) < 0.9 ? glm::dvec3(0, 0, 1) : glm::dvec3(1, 0, 0);
+    const glm::dvec3 a = glm::normalize(glm::cross(helper, w)), b = glm::cross(w, a);
+    const double cos_max = std::cos(p.cone_half_angle_deg * kPi / 180.0);
+    const glm::dvec3 g(0.0, 0.0, -p.gravity_m_s2);
+    for (double k = first; k <= last; k += 1.0) {
+        const auto key = static_cast<uint32_t>(k);
+        auto u = [&](uint32_t dim) { return static_cast<double>(stream_uniform01(stream, key, dim)); };
+        const double age = time_s - k / p.rate_per_s;
+        const double life = age / p.lifetime_s;
+        if (!(life >= 0.0 && life < 1.0)) continue;
+        const glm::dvec3 start = p.origin + glm::dvec3((u(0) - 0.5) * p.box_m.x, (u(1) - 0.5) * p.box_m.y,
+                                                       p.vertical_offset_m + (u(2) - 0.5) * p.box_m.z);
+        const double c = 1.0 - u(3) * (1.0 - cos_max), s = std::sqrt(std::max(0.0, 1.0 - c * c));
+        const double phi = 2 * kPi * u(4);
+        const glm::dvec3 velocity = p.speed_m_s * (c * w + s * (std::cos(phi) * a + std::sin(phi) * b));
+        const double opacity = life < p.rise_fraction ? life / p.rise_fraction
+                                                      : std::pow((1.0 - life) / (1.0 - p.rise_fraction), 2.0);
+        Puff puff;
+        puff.centre = start + velocity * age + 0.5 * g * (age * age);
+        puff.sigma_m = p.sigma_m + p.growth_m_s * age;
+        // τ through the centre of a Gaussian is peak·σ·√(2π).
+        puff.peak_extinction = p.optical_depth * opacity / (puff.sigma_m * std::sqrt(2.0 * kPi));
+        if (puff.peak_extinction > 0.0) puffs.push_back(puff);
+    }
+    return puffs;
 }
 
 std::vector<Fragment> simulate_ejecta(const Scene& scene, const EjectaParams& params, uint64_t seed,
@@ -151,7 +244,7 @@ std::vector<Fragment> simulate_ejecta(const Scene& scene, const EjectaParams& pa
     arena.execute([&] {
         tbb::parallel_for(tbb::blocked_range<int>(0, params.count), [&](const auto& range) {
             for (int i = range.begin(); i != range.end(); ++i) {
-                Fragment f = launch(params, stream, static_cast<uint32_t>(i), burst_index);
+                Fragment f = launch(scene, params, stream, static_cast<uint32_t>(i), burst_index);
                 fly(scene, params, f, flight, dt_s);
                 fragments[static_cast<size_t>(i)] = f;
             }

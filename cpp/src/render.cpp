@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -24,11 +25,14 @@ using namespace detail;
 
 constexpr int kMaxSpp = 65536;
 constexpr double kInvPi = 0.31830988618379067154;
+constexpr double kPi = 3.14159265358979323846;
 constexpr double kTwoPi = 6.28318530717958647693;
 // Random-number dimensions of one camera sample: 0–1 jitter the pixel, then each light's disk
 // samples, then each bounce's direction and its lights' disk samples.
 // (At most 2 lights × kMaxLightSamples × 2 dimensions fit below kDimBounce.)
 constexpr uint32_t kDimLight = 16, kDimBounce = 8192, kDimsPerBounce = 64;
+// Then the dust's scattering samples, three dimensions each (position, disk point).
+constexpr uint32_t kDimMedium = 16384;
 
 /// A light as the shading loop uses it.
 struct LightData {
@@ -66,6 +70,12 @@ struct TileScratch {
     std::array<glm::dvec3, kTilePixels> radiance;
     std::array<PathVertex, kTilePixels> path;
     std::array<int, kTilePixels> visible;       // shadow rays of one light that escaped, per pixel
+    // Dust, used only when the render has a medium:
+    std::array<double, kTilePixels> sun_dust;   // transmittance toward the Sun at each first hit
+    std::vector<uint32_t> tile_puffs;           // puffs that may meet the tile's camera rays
+    std::vector<RayPuff> ray_puffs;             // those one ray passes through
+    std::array<RayHit, kMaxScatterSamples> dust_shadow;
+    std::array<double, kMaxScatterSamples> dust_weight;
 };
 
 /// An orthonormal basis (a, b) completing unit w (Duff et al. 2017, "Building an Orthonormal
@@ -106,11 +116,13 @@ std::vector<LightData> light_table(const Lights& lights) {
 class TileRenderer {
 public:
     TileRenderer(const Scene& scene, const Camera& camera, const Lights& lights,
-                 const RenderSettings& settings, const FrameView& out)
+                 const RenderSettings& settings, const FrameView& out, const MediumIndex* medium)
         : m_scene(scene), m_camera(camera), m_settings(settings), m_out(out),
-          m_instances(instance_table(scene)), m_lights(light_table(lights)) {
+          m_instances(instance_table(scene)), m_lights(light_table(lights)), m_medium(medium) {
         for (const LightData& l : m_lights) m_random = m_random || !l.point;
-        m_random = m_random || settings.bounces > 0;
+        m_random = m_random || settings.bounces > 0 || medium != nullptr;
+        // Light 0 is the Sun unless the Sun is dark (light_table leaves dark lights out).
+        if (lights.sun.irradiance() > 0.0) m_sun = &m_lights[0];
     }
 
     void render_tile(int x0, int y0, int x1, int y1, TileScratch& s, RenderStats& stats) const {
@@ -137,6 +149,12 @@ public:
         }
         if (!want_rgb) return;
 
+        if (m_medium) {
+            // The puffs this tile's camera rays may meet, once for all its samples.
+            const glm::dvec3 corners[4] = {m_camera.direction(x0, y0), m_camera.direction(x1, y0),
+                                           m_camera.direction(x1, y1), m_camera.direction(x0, y1)};
+            m_medium->cull(m_camera.center(), corners, s.tile_puffs);
+        }
         if (m_settings.spp > 1 || m_random) {
             // The (seed, pixel) part of the random numbers' key, once per pixel, not per number.
             for (int y = y0, i = 0; y < y1; ++y)
@@ -215,12 +233,67 @@ private:
             if (inst.woven) cloth(inst, tri, h, dir, v);
             v.cos_light[0] = tri.cos_sun[h.side];
             for (size_t l = 1; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(v.normal, m_lights[l].dir);
+            if (m_medium && m_sun) s.sun_dust[i] = std::exp(-m_medium->sun_depth(v.point));
         }
-        light_vertices(n, s, stats, sample, m_settings.light_samples, kDimLight);
+        light_vertices(n, s, stats, sample, m_settings.light_samples, kDimLight,
+                       m_medium && m_sun ? s.sun_dust.data() : nullptr);
         for (int bounce = 1; bounce <= m_settings.bounces; ++bounce) {
             const uint32_t dim = kDimBounce + kDimsPerBounce * static_cast<uint32_t>(bounce - 1);
             if (!extend_paths(n, s, stats, sample, dim)) break;
-            light_vertices(n, s, stats, sample, 1, dim + 2);
+            light_vertices(n, s, stats, sample, 1, dim + 2, nullptr);
+        }
+        if (m_medium && !s.tile_puffs.empty()) through_dust(n, s, stats, sample);
+    }
+
+    /// The dust between the camera and each pixel's first hit (or the sky): the radiance behind
+    /// it attenuated, and the sunlight it scatters toward the camera added (render.h).
+    void through_dust(int n, TileScratch& s, RenderStats& stats, uint32_t sample) const {
+        const glm::dvec3& origin = m_camera.center();
+        const Medium& medium = m_medium->medium();
+        const int count = medium.scatter_samples;
+        for (int i = 0; i < n; ++i) {
+            const PixelHit& h = s.hits.pixel(i);
+            const double length = glm::length(s.dirs[i]);
+            const glm::dvec3 dir = s.dirs[i] / length;
+            const double s_max = h.hit ? h.t * length : INFINITY;
+            double enter, exit;
+            m_medium->along(s.tile_puffs, origin, dir, s_max, s.ray_puffs, enter, exit);
+            if (s.ray_puffs.empty()) continue;
+            s.radiance[i] *= std::exp(-MediumIndex::depth_to(s.ray_puffs, s_max));
+            if (!m_sun) continue;
+            const LightData& sun = *m_sun;
+            // Stratified points along [enter, exit], each weighted by k·T·T_sun·step and tested
+            // for the Sun's disk by one shadow ray.
+            const double step = (exit - enter) / count;
+            int rays = 0;
+            for (int k = 0; k < count; ++k) {
+                const uint32_t d = kDimMedium + 3 * static_cast<uint32_t>(k);
+                const double at = enter + (k + stream_uniform01(s.streams[i], sample, d)) * step;
+                const double extinction = MediumIndex::extinction_at(s.ray_puffs, at);
+                if (!(extinction > 0.0)) continue;
+                const glm::dvec3 point = origin + at * dir;
+                const double weight = step * extinction * std::exp(-MediumIndex::depth_to(s.ray_puffs, at)) *
+                                      std::exp(-m_medium->sun_depth(point));
+                glm::dvec3 to_sun = sun.dir;
+                if (!sun.point) {
+                    const double u = stream_uniform01(s.streams[i], sample, d + 1);
+                    const double phi = kTwoPi * stream_uniform01(s.streams[i], sample, d + 2);
+                    const double c = 1.0 - u * (1.0 - sun.cos_half);
+                    const double r = std::sqrt(std::max(0.0, 1.0 - c * c));
+                    to_sun = c * sun.dir + r * (std::cos(phi) * sun.a + std::sin(phi) * sun.b);
+                }
+                set_ray(s.dust_shadow[rays], point, to_sun);
+                s.dust_weight[rays++] = weight;
+            }
+            if (rays == 0) continue;
+            m_scene.accel().occluded(s.dust_shadow.data(), rays, /*coherent=*/false);
+            stats.medium_rays += rays;
+            double lit = 0.0;
+            for (int j = 0; j < rays; ++j)
+                if (s.dust_shadow[j].tfar >= 0.0f) lit += s.dust_weight[j];
+            // Irradiance E = π·scale; light travels along −sun.dir, then toward the camera, −dir.
+            const double phase = henyey_greenstein(glm::dot(sun.dir, dir), medium.asymmetry);
+            s.radiance[i] += medium.albedo * sun.color * (lit * phase * sun.scale * kPi);
         }
     }
 
@@ -272,9 +345,10 @@ private:
 
     /// Adds every light's contribution at the live path vertices to their pixels: `samples`
     /// shadow rays per light toward its disk (random dimensions dim .. dim + 4·samples), each
-    /// vertex weighted by its path throughput.
+    /// vertex weighted by its path throughput (and the Sun's by `sun_dust`, the dust's
+    /// transmittance toward it, per pixel, where given).
     void light_vertices(int n, TileScratch& s, RenderStats& stats, uint32_t sample, int samples,
-                        uint32_t dim) const {
+                        uint32_t dim, const double* sun_dust) const {
         for (size_t l = 0; l < m_lights.size(); ++l) {
             const LightData& light = m_lights[l];
             // The Earth's light is ~1e-4 of the Sun's: one shadow ray toward its disk leaves noise
@@ -315,8 +389,9 @@ private:
                 const double shape = shape_at(inst, mu_i, glm::dot(v.shading, v.wo), glm::dot(light.dir, v.wo));
                 // Grouped so that a Lambertian surface under a point Sun, seen directly, gets
                 // exactly albedo·(E/π·μi): every other factor is then 1.
+                const double dust = sun_dust && &light == m_sun ? sun_dust[i] : 1.0;
                 s.radiance[i] += (v.albedo * (light.scale * mu_i)) *
-                                 (shape * (double(s.visible[i]) / rays_per_vertex)) * light.color * v.throughput;
+                                 (shape * (double(s.visible[i]) / rays_per_vertex) * dust) * light.color * v.throughput;
             }
         }
     }
@@ -388,6 +463,8 @@ private:
     const FrameView& m_out;
     const std::vector<InstanceData> m_instances;
     const std::vector<LightData> m_lights;
+    const MediumIndex* m_medium;        // null: no dust, and none of its code runs
+    const LightData* m_sun = nullptr;   // the Sun's entry in m_lights, if it shines
     bool m_random = false;  // some shading draws random numbers (disk samples, bounces)
 };
 
@@ -399,7 +476,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Sun& sun,
 }
 
 RenderStats render(const Scene& scene, const Camera& camera, const Lights& lights,
-                   const RenderSettings& settings, const FrameView& out) {
+                   const RenderSettings& settings, const FrameView& out, const Medium* medium) {
     if (settings.light_samples < 1 || settings.light_samples > kMaxLightSamples)
         throw std::invalid_argument("light_samples: must be in 1.." + std::to_string(kMaxLightSamples) + ", got " +
                                     std::to_string(settings.light_samples));
@@ -420,8 +497,12 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     const auto start = std::chrono::steady_clock::now();
     const int w = camera.width(), h = camera.height();
     const int tiles_x = (w + kTile - 1) / kTile, tiles_y = (h + kTile - 1) / kTile;
-    const TileRenderer tiles(scene, camera, lights, settings, out);
-    std::atomic<uint64_t> camera_rays{0}, shadow_rays{0}, bounce_rays{0};
+    if (medium) medium->validate();
+    // A medium without puffs is no medium: nothing of the dust's runs (principle 3).
+    std::optional<MediumIndex> dust;
+    if (medium && !medium->puffs.empty()) dust.emplace(*medium, lights.sun.direction());
+    const TileRenderer tiles(scene, camera, lights, settings, out, dust ? &*dust : nullptr);
+    std::atomic<uint64_t> camera_rays{0}, shadow_rays{0}, bounce_rays{0}, medium_rays{0};
 
     tbb::task_arena arena(settings.threads > 0 ? settings.threads : tbb::task_arena::automatic);
     arena.execute([&] {
@@ -436,6 +517,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
             camera_rays += local.camera_rays;
             shadow_rays += local.shadow_rays;
             bounce_rays += local.bounce_rays;
+            medium_rays += local.medium_rays;
         });
     });
 
@@ -443,6 +525,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     stats.camera_rays = camera_rays;
     stats.shadow_rays = shadow_rays;
     stats.bounce_rays = bounce_rays;
+    stats.medium_rays = medium_rays;
     stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return stats;
 }
@@ -453,7 +536,7 @@ Frame render_frame(const Scene& scene, const Camera& camera, const Sun& sun,
 }
 
 Frame render_frame(const Scene& scene, const Camera& camera, const Lights& lights,
-                   const RenderSettings& settings) {
+                   const RenderSettings& settings, const Medium* medium) {
     Frame f;
     f.width = camera.width();
     f.height = camera.height();
@@ -461,7 +544,7 @@ Frame render_frame(const Scene& scene, const Camera& camera, const Lights& light
     f.rgb.assign(3 * n, 0.0f);
     f.depth.assign(n, 0.0f);
     f.instance.assign(n, 0);
-    f.stats = render(scene, camera, lights, settings, {f.rgb.data(), f.depth.data(), f.instance.data()});
+    f.stats = render(scene, camera, lights, settings, {f.rgb.data(), f.depth.data(), f.instance.data()}, medium);
     return f;
 }
 

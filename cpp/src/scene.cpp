@@ -1,5 +1,6 @@
 #include "moonbot/scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -98,6 +99,26 @@ uint32_t Scene::add_mesh(const float* vertices, size_t n_vertices, const uint32_
                                               mesh->triangles.data(), n_triangles);
     m_meshes.push_back(std::move(mesh));
     return id;
+}
+
+void Scene::update_mesh(uint32_t mesh, const float* vertices, size_t n_vertices) {
+    require_not_rendering();
+    if (mesh >= m_meshes.size())
+        throw std::invalid_argument("mesh: no mesh " + std::to_string(mesh) + " in the scene (has " +
+                                    std::to_string(m_meshes.size()) + ")");
+    Mesh& m = *m_meshes[mesh];
+    if (!m.vertex_normals.empty())
+        throw std::invalid_argument("mesh: mesh " + std::to_string(mesh) + " has vertex normals, which moving it would leave stale");
+    if (n_vertices != m.vertex_count())
+        throw std::invalid_argument("vertices: mesh " + std::to_string(mesh) + " has " + std::to_string(m.vertex_count()) +
+                                    " vertices, got " + std::to_string(n_vertices));
+    for (size_t i = 0; i < 3 * n_vertices; ++i)
+        if (!std::isfinite(vertices[i]))
+            throw std::invalid_argument("vertices: non-finite coordinate at vertex " + std::to_string(i / 3));
+    // In place: Embree shares this buffer, so it must not move.
+    std::copy(vertices, vertices + 3 * n_vertices, m.vertices.begin());
+    m_accel.update_prototype(mesh);
+    m_committed = false;
 }
 
 uint32_t Scene::add_instance(uint32_t mesh, const glm::dmat4& world_from_object, int label,

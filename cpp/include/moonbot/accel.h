@@ -73,6 +73,11 @@ public:
     /// Instances are numbered 0, 1, 2, ... in the order added; hits report that number in inst_id.
     uint32_t add_instance(uint32_t prototype, const float world_from_object_3x4[12]);
 
+    /// Rebuilds `prototype`'s BVH after its vertex buffer (the one given to add_prototype, same
+    /// vertex count) was rewritten in place, and marks its instances for the next commit. Only
+    /// this prototype's BVH is rebuilt; the others are left alone.
+    void update_prototype(uint32_t prototype);
+
     /// Builds the top-level BVH. Cheap next to prototype builds: it only bounds instances.
     void commit();
 

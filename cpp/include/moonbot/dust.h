@@ -17,6 +17,7 @@
 
 #include <glm/glm.hpp>
 
+#include "moonbot/medium.h"
 #include "moonbot/scene.h"
 
 namespace moonbot {
@@ -47,6 +48,9 @@ struct Fragment {
     glm::dvec3 velocity;  ///< m/s (zero at rest)
     double diameter_m;
     double age_s;         ///< time since this burst's launch
+    double flight_s;      ///< time it has flown: age_s, or when it came to rest
+    uint32_t index;       ///< its number in the burst (with `burst`, keys its shape and spin)
+    uint32_t burst;
     int bounces;
     bool resting;
 };
@@ -60,22 +64,52 @@ struct Fragment {
 std::vector<Fragment> simulate_ejecta(const Scene& scene, const EjectaParams& params, uint64_t seed,
                                       double time_s, double dt_s, int threads = 0);
 
+/// The fragments as one triangle soup in world coordinates, kFragmentVertices vertices and
+/// kFragmentTriangles triangles per fragment in order: each a jagged icosahedron (vertex radii
+/// 0.6–1 of its half-diameter, keyed by seed, index and burst), turned by a keyed orientation and
+/// tumbling about a keyed axis at up to 3 turns a second while it flies (still once at rest).
+/// `vertices` is 3 floats per vertex, metres; `triangles` 3 indices per triangle.
+struct FragmentMesh {
+    std::vector<float> vertices;
+    std::vector<uint32_t> triangles;
+};
+constexpr int kFragmentVertices = 12, kFragmentTriangles = 20;
+FragmentMesh fragment_mesh(const std::vector<Fragment>& fragments, uint64_t seed);
+
 /// The largest time step simulate_ejecta accepts, seconds.
 constexpr double kMaxDustStep = 0.1;
 
-/// One puff of the fine-dust cloud (emitter 2): an isotropic Gaussian of extinction coefficient
-/// k(x) = peak·exp(−|x − centre|²/(2σ²)) per metre. A cloud is a sum of puffs; its light is
-/// attenuated by exp(−Σ optical depths) (Beer–Lambert).
-struct Puff {
-    glm::dvec3 centre{0.0};        ///< world metres
-    double sigma_m = 0.1;          ///< standard deviation, metres (> 0)
-    double peak_extinction = 1.0;  ///< k at the centre, 1/m (≥ 0)
+/// Emitter 2, the fine-dust cloud: puffs (medium.h) born at a steady rate in a box below the
+/// emitter, drifting out along a cone, growing, their opacity rising fast then fading over their
+/// life. Defaults are the paper's (box 0.7 × 2.0 × 0.5 m, cone 45° about (1, 0, 500), 0.7 m/s,
+/// vertical offset −1.7 m, lifetime 5 s) and ours for what it leaves open (rate, size, opacity).
+///
+/// Gravity defaults to 0, as the paper's sprites drift: in vacuum fine dust is ballistic too (set
+/// 1.62), but a 0.7 m/s launch then rises 15 cm and lands within 0.9 s — no haze lasting 5 s. The
+/// paper's cloud stands for dust lofted and renewed by a working rover, which we do not model.
+struct CloudParams {
+    glm::dvec3 origin{0.0};            ///< the emitter on the ground, world metres
+    glm::dvec3 box_m{0.7, 2.0, 0.5};   ///< spawn box east × north × up, metres
+    double vertical_offset_m = -1.7;   ///< the box's centre this far above `origin`
+    glm::dvec3 axis{1.0, 0.0, 500.0};  ///< cone axis, world (normalised here)
+    double cone_half_angle_deg = 45.0;
+    double speed_m_s = 0.7;
+    double gravity_m_s2 = 0.0;
+    double lifetime_s = 5.0;
+    double rate_per_s = 40.0;          ///< puffs born a second: rate × lifetime alive at once
+    double sigma_m = 0.15;             ///< a puff's standard deviation at birth
+    double growth_m_s = 0.08;          ///< ... growing linearly with age
+    double optical_depth = 0.5;        ///< through a puff's centre at its most opaque
+    double rise_fraction = 0.1;        ///< opacity rises linearly over this fraction of life, then falls as ((1−u)/(1−rise))²
+
+    /// Throws std::invalid_argument naming the field.
+    void validate() const;
 };
 
-/// The optical depth ∫₀^t_max k(origin + t·dir) dt of a puff along a ray (`dir` unit), in closed
-/// form: with p = origin − centre, b = p·dir and q² = |p|² − b² (the ray's squared distance
-/// from the centre), τ = peak·exp(−q²/2σ²)·σ·√(π/2)·[erf((t_max + b)/(σ√2)) − erf(b/(σ√2))].
-/// t_max may be +infinity. Exact to rounding; a few flops and two erf.
-double optical_depth(const Puff& puff, const glm::dvec3& origin, const glm::dvec3& dir, double t_max);
+/// The puffs alive at `time_s` (≥ 0): puff k is born at k / rate and lives `lifetime_s`; its
+/// place, size and opacity are closed-form functions of its age and of (seed, k), so any time is
+/// evaluated directly, with no stepping, and is the same whatever was evaluated before.
+std::vector<Puff> cloud_puffs(const CloudParams& params, uint64_t seed, double time_s);
+
 
 }  // namespace moonbot

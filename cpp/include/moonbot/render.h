@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "moonbot/camera.h"
+#include "moonbot/medium.h"
 #include "moonbot/scene.h"
 #include "moonbot/sun.h"
 
@@ -48,6 +49,7 @@ struct RenderStats {
     uint64_t camera_rays = 0;
     uint64_t shadow_rays = 0;
     uint64_t bounce_rays = 0;
+    uint64_t medium_rays = 0;  ///< shadow rays toward the Sun from points in the dust
     double seconds = 0.0;
 };
 
@@ -61,8 +63,16 @@ struct RenderStats {
 /// over it err by O(half-angle²) ≈ 2e-5 for the Sun; where the disk straddles a facet's own
 /// horizon, the part below it counts as hidden.) With `bounces` > 0 each path continues in a
 /// cosine-distributed direction, weighted by π·f, and is lit again at every vertex.
+///
+/// Dust (`medium`, optional; null or puff-free costs nothing): each camera sample's radiance is
+/// attenuated by the dust's transmittance T(s_hit) along its ray (closed form), the Sun's light
+/// at its first hit by the transmittance toward the Sun, and it gains the sunlight the dust
+/// scatters toward the camera, ∫ k(s)·ω·p_HG(θ)·E_sun·T(s)·T_sun(s)·V(s) ds, estimated at
+/// `scatter_samples` stratified points of the ray's stretch through the dust, each with one
+/// shadow ray toward the Sun's disk (V). Bounce paths do not see the dust, nor does the Earth's
+/// light; depth and labels stay those of the geometry.
 RenderStats render(const Scene& scene, const Camera& camera, const Lights& lights,
-                   const RenderSettings& settings, const FrameView& out);
+                   const RenderSettings& settings, const FrameView& out, const Medium* medium = nullptr);
 /// The same, lit by the Sun alone.
 RenderStats render(const Scene& scene, const Camera& camera, const Sun& sun,
                    const RenderSettings& settings, const FrameView& out);
@@ -75,7 +85,7 @@ struct Frame {
     RenderStats stats;
 };
 Frame render_frame(const Scene& scene, const Camera& camera, const Lights& lights,
-                   const RenderSettings& settings);
+                   const RenderSettings& settings, const Medium* medium = nullptr);
 Frame render_frame(const Scene& scene, const Camera& camera, const Sun& sun,
                    const RenderSettings& settings);
 

@@ -83,6 +83,13 @@ public:
                       size_t n_triangles, const float* corner_uvs = nullptr,
                       const float* vertex_albedo = nullptr, const float* vertex_normals = nullptr);
 
+    /// Moves the vertices of mesh `mesh` (one without vertex normals, whose shading would go
+    /// stale) to `vertices` (n_vertices×3, the mesh's own count, finite; triangles and UVs stay)
+    /// and rebuilds that mesh's BVH alone: per view, the dust's ejecta move while the terrain's
+    /// and the bags' BVHs are kept. Needs a commit before the next render. Throws
+    /// std::invalid_argument naming the argument.
+    void update_mesh(uint32_t mesh, const float* vertices, size_t n_vertices);
+
     /// Adds a labelled object (label 1–255, unique in the scene) with a world-from-object affine
     /// transform (metres). A woven material paints its stain mask here (none for 0 stamps).
     /// Returns the instance index.
