@@ -1,9 +1,14 @@
 #include "moonbot/medium.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <stdexcept>
 #include <string>
+
+#include <tbb/parallel_for.h>
+
+#include "rays.h"
 
 namespace moonbot {
 
@@ -11,9 +16,6 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 const double kSqrtHalfPi = std::sqrt(kPi / 2.0);
-// The Sun grid has at most this many cells a side: a cloud spread far wider than its puffs gets
-// coarser cells (more puffs a cell) rather than an unbounded grid.
-constexpr int kMaxCellsPerSide = 256;
 
 /// ∫ from a to b of exp(−x²) dx·2/√π = erf(b) − erf(a), b ≥ a, computed from the side of
 /// the origin where the difference of two values near ±1 would not cancel.
@@ -54,132 +56,197 @@ void Medium::validate() const {
         if (!(albedo[c] >= 0.0 && albedo[c] <= 1.0))
             throw std::invalid_argument("albedo: each channel must be in [0, 1]");
     if (!(asymmetry > -1.0 && asymmetry < 1.0)) throw std::invalid_argument("asymmetry: must be in (-1, 1)");
-    if (scatter_samples < 1 || scatter_samples > kMaxScatterSamples)
-        throw std::invalid_argument("scatter_samples: must be in 1.." + std::to_string(kMaxScatterSamples) + ", got " +
-                                    std::to_string(scatter_samples));
+    if (!(voxel_m >= 1e-3 && voxel_m <= 100.0)) throw std::invalid_argument("voxel_m: must be in [0.001, 100]");
+    if (std::isnan(floor_z) || floor_z == INFINITY) throw std::invalid_argument("floor_z: must be a number below +inf");
 }
 
-MediumIndex::MediumIndex(const Medium& medium, const glm::dvec3& sun_dir) : m_medium(medium), m_sun(sun_dir) {
-    // A basis across the Sun's direction (Duff et al.'s, as the renderer's).
-    const double sign = std::copysign(1.0, m_sun.z);
-    const double k = -1.0 / (sign + m_sun.z);
-    const double xy = m_sun.x * m_sun.y * k;
-    m_a = {1.0 + sign * m_sun.x * m_sun.x * k, sign * xy, -sign * m_sun.x};
-    m_b = {xy, sign + m_sun.y * m_sun.y * k, -m_sun.y};
+double puff_reach(const Puff& puff) {
+    if (!(puff.peak_extinction > kExtinctionFloor)) return 0.0;
+    return puff.sigma_m * std::min(kPuffReach, std::sqrt(2.0 * std::log(puff.peak_extinction / kExtinctionFloor)));
+}
+
+DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& sun_dir)
+    : m_medium(medium), m_sun(sun_dir) {
     const std::vector<Puff>& puffs = medium.puffs;
-    if (puffs.empty()) return;
-    double a_lo = INFINITY, a_hi = -INFINITY, b_lo = INFINITY, b_hi = -INFINITY, reach = 0.0;
-    for (const Puff& p : puffs) {
-        const double r = kPuffReach * p.sigma_m, pa = glm::dot(p.centre, m_a), pb = glm::dot(p.centre, m_b);
-        a_lo = std::min(a_lo, pa - r), a_hi = std::max(a_hi, pa + r);
-        b_lo = std::min(b_lo, pb - r), b_hi = std::max(b_hi, pb + r);
-        reach = std::max(reach, r);
+    std::vector<double> reach(puffs.size());
+    m_lo = glm::dvec3(INFINITY), m_hi = glm::dvec3(-INFINITY);
+    for (size_t p = 0; p < puffs.size(); ++p) {
+        reach[p] = puff_reach(puffs[p]);
+        if (reach[p] <= 0.0) continue;
+        m_lo = glm::min(m_lo, puffs[p].centre - reach[p]);
+        m_hi = glm::max(m_hi, puffs[p].centre + reach[p]);
     }
-    m_cell = std::max({reach, (a_hi - a_lo) / kMaxCellsPerSide, (b_hi - b_lo) / kMaxCellsPerSide});
-    m_a0 = a_lo, m_b0 = b_lo;
-    m_na = std::max(1, static_cast<int>(std::ceil((a_hi - a_lo) / m_cell)));
-    m_nb = std::max(1, static_cast<int>(std::ceil((b_hi - b_lo) / m_cell)));
-    // Two passes: count each cell's puffs, then fill (compressed rows, no per-cell vectors).
-    m_cell_start.assign(static_cast<size_t>(m_na) * m_nb + 1, 0);
-    auto span = [&](const Puff& p, int& i0, int& i1, int& j0, int& j1) {
-        const double r = kPuffReach * p.sigma_m, pa = glm::dot(p.centre, m_a) - m_a0, pb = glm::dot(p.centre, m_b) - m_b0;
-        i0 = std::clamp(static_cast<int>(std::floor((pa - r) / m_cell)), 0, m_na - 1);
-        i1 = std::clamp(static_cast<int>(std::floor((pa + r) / m_cell)), 0, m_na - 1);
-        j0 = std::clamp(static_cast<int>(std::floor((pb - r) / m_cell)), 0, m_nb - 1);
-        j1 = std::clamp(static_cast<int>(std::floor((pb + r) / m_cell)), 0, m_nb - 1);
+    m_lo.z = std::max(m_lo.z, medium.floor_z);
+    if (!(m_lo.x < m_hi.x && m_lo.y < m_hi.y && m_lo.z < m_hi.z)) {  // nothing that counts
+        m_n[0] = m_n[1] = m_n[2] = 0;
+        return;
+    }
+    const glm::dvec3 extent = m_hi - m_lo;
+    m_h = std::max(medium.voxel_m, std::max({extent.x, extent.y, extent.z}) / (kMaxGridNodes - 1));
+    for (int a = 0; a < 3; ++a) {
+        m_n[a] = std::max(2, static_cast<int>(std::ceil(extent[a] / m_h)) + 1);
+        m_hi[a] = m_lo[a] + (m_n[a] - 1) * m_h;
+    }
+    const size_t count = static_cast<size_t>(m_n[0]) * m_n[1] * m_n[2];
+    m_extinction.assign(count, 0.0f);
+    m_sun_depth.assign(count, 0.0f);
+    m_visible.assign(count, 1.0f);
+
+    // Extinction: a Gaussian is separable, so each puff adds peak·gx[i]·gy[j]·gz[k] over the
+    // nodes of its reach: no transcendental per node. Slices in parallel, each summing the puffs
+    // in their fixed order: the same bits whatever the threads.
+    tbb::parallel_for(0, m_n[2], [&](int k) {
+        const double z = m_lo.z + k * m_h;
+        std::vector<double> gx, gy;
+        for (size_t p = 0; p < puffs.size(); ++p) {
+            const Puff& puff = puffs[p];
+            const double r = reach[p];
+            if (r <= 0.0 || std::abs(z - puff.centre.z) > r) continue;
+            const double inv = 1.0 / (2.0 * puff.sigma_m * puff.sigma_m);
+            const double dz = z - puff.centre.z;
+            const double wz = puff.peak_extinction * std::exp(-dz * dz * inv);
+            auto range = [&](int a, int& first, int& last) {
+                first = std::max(0, static_cast<int>(std::ceil((puff.centre[a] - r - m_lo[a]) / m_h)));
+                last = std::min(m_n[a] - 1, static_cast<int>(std::floor((puff.centre[a] + r - m_lo[a]) / m_h)));
+            };
+            int i0, i1, j0, j1;
+            range(0, i0, i1);
+            range(1, j0, j1);
+            if (i0 > i1 || j0 > j1) continue;
+            gx.resize(static_cast<size_t>(i1 - i0 + 1));
+            gy.resize(static_cast<size_t>(j1 - j0 + 1));
+            for (int i = i0; i <= i1; ++i) {
+                const double d = m_lo.x + i * m_h - puff.centre.x;
+                gx[static_cast<size_t>(i - i0)] = std::exp(-d * d * inv);
+            }
+            for (int j = j0; j <= j1; ++j) {
+                const double d = m_lo.y + j * m_h - puff.centre.y;
+                gy[static_cast<size_t>(j - j0)] = wz * std::exp(-d * d * inv);
+            }
+            for (int j = j0; j <= j1; ++j) {
+                float* row = &m_extinction[node(0, j, k)];
+                const double wy = gy[static_cast<size_t>(j - j0)];
+                for (int i = i0; i <= i1; ++i) row[i] += static_cast<float>(wy * gx[static_cast<size_t>(i - i0)]);
+            }
+        }
+    });
+
+    // Optical depth toward the Sun, slice by slice from the Sun's side along the axis the Sun's
+    // direction is steepest in: a node's depth is that of the point one slice sunward on its
+    // Sun ray (bilinear in the slice already done) plus the trapezoid of the extinction between.
+    int a = 0;
+    for (int c = 1; c < 3; ++c)
+        if (std::abs(m_sun[c]) > std::abs(m_sun[a])) a = c;
+    const int b = (a + 1) % 3, c = (a + 2) % 3;
+    const double along = m_h / std::abs(m_sun[a]);  // path length between slices
+    const double db = m_sun[b] / std::abs(m_sun[a]), dc = m_sun[c] / std::abs(m_sun[a]);  // in nodes
+    const int towards = m_sun[a] > 0.0 ? 1 : -1;
+    auto at = [&](int ia, int ib, int ic) {
+        int idx[3];
+        idx[a] = ia, idx[b] = ib, idx[c] = ic;
+        return node(idx[0], idx[1], idx[2]);
     };
-    for (const Puff& p : puffs) {
-        int i0, i1, j0, j1;
-        span(p, i0, i1, j0, j1);
-        for (int j = j0; j <= j1; ++j)
-            for (int i = i0; i <= i1; ++i) ++m_cell_start[static_cast<size_t>(j) * m_na + i + 1];
+    const int first = towards > 0 ? m_n[a] - 1 : 0;
+    for (int ia = first - towards; ia >= 0 && ia < m_n[a]; ia -= towards) {
+        const int up = ia + towards;
+        tbb::parallel_for(0, m_n[c], [&](int ic) {
+            for (int ib = 0; ib < m_n[b]; ++ib) {
+                const double fb = ib + db, fc = ic + dc;
+                double depth_up = 0.0, ext_up = 0.0;
+                // Outside the slice's sides the Sun ray has left the grid's box, which holds all
+                // the dust: nothing more lies sunward.
+                if (fb >= 0.0 && fb <= m_n[b] - 1 && fc >= 0.0 && fc <= m_n[c] - 1) {
+                    const int jb = std::min(static_cast<int>(fb), m_n[b] - 2), jc = std::min(static_cast<int>(fc), m_n[c] - 2);
+                    const double tb = fb - jb, tc = fc - jc;
+                    const size_t n00 = at(up, jb, jc), n10 = at(up, jb + 1, jc), n01 = at(up, jb, jc + 1),
+                                 n11 = at(up, jb + 1, jc + 1);
+                    auto lerp2 = [&](const std::vector<float>& f) {
+                        return (1 - tc) * ((1 - tb) * f[n00] + tb * f[n10]) + tc * ((1 - tb) * f[n01] + tb * f[n11]);
+                    };
+                    depth_up = lerp2(m_sun_depth);
+                    ext_up = lerp2(m_extinction);
+                }
+                const size_t here = at(ia, ib, ic);
+                m_sun_depth[here] = static_cast<float>(depth_up + 0.5 * along * (ext_up + m_extinction[here]));
+            }
+        });
     }
-    for (size_t c = 1; c < m_cell_start.size(); ++c) m_cell_start[c] += m_cell_start[c - 1];
-    m_cell_puffs.resize(m_cell_start.back());
-    std::vector<uint32_t> fill(m_cell_start.begin(), m_cell_start.end() - 1);
-    for (uint32_t index = 0; index < puffs.size(); ++index) {
-        int i0, i1, j0, j1;
-        span(puffs[index], i0, i1, j0, j1);
-        for (int j = j0; j <= j1; ++j)
-            for (int i = i0; i <= i1; ++i) m_cell_puffs[fill[static_cast<size_t>(j) * m_na + i]++] = index;
-    }
+
+    // Geometric shade: one shadow ray toward the Sun's centre from each node with dust near it
+    // (nodes whose whole neighbourhood is clear keep 1: they only blend into empty space).
+    std::atomic<uint64_t> rays{0};
+    tbb::parallel_for(0, m_n[2], [&](int k) {
+        std::vector<RayHit> batch(static_cast<size_t>(m_n[0]));
+        std::vector<int> which(static_cast<size_t>(m_n[0]));
+        for (int j = 0; j < m_n[1]; ++j) {
+            int n = 0;
+            for (int i = 0; i < m_n[0]; ++i) {
+                if (!(m_extinction[node(i, j, k)] > 1e-6f)) continue;
+                detail::set_ray(batch[static_cast<size_t>(n)], m_lo + glm::dvec3(i, j, k) * m_h, m_sun);
+                which[static_cast<size_t>(n++)] = i;
+            }
+            if (n == 0) continue;
+            scene.accel().occluded(batch.data(), static_cast<size_t>(n), /*coherent=*/true);
+            rays += static_cast<uint64_t>(n);
+            for (int r = 0; r < n; ++r)
+                if (batch[static_cast<size_t>(r)].tfar < 0.0f) m_visible[node(which[static_cast<size_t>(r)], j, k)] = 0.0f;
+        }
+    });
+    m_shadow_rays = rays;
+    // What the renderer reads per step: the Sun's light left at each node.
+    for (size_t n = 0; n < count; ++n) m_visible[n] *= static_cast<float>(std::exp(-double(m_sun_depth[n])));
 }
 
-void MediumIndex::cull(const glm::dvec3& apex, const glm::dvec3 corners[4], std::vector<uint32_t>& out) const {
-    out.clear();
-    const glm::dvec3 middle = corners[0] + corners[1] + corners[2] + corners[3];
-    glm::dvec3 normal[4];
-    for (int k = 0; k < 4; ++k) {
-        normal[k] = glm::cross(corners[k], corners[(k + 1) % 4]);
-        const double len = glm::length(normal[k]);
-        normal[k] = len > 0.0 ? normal[k] / len : glm::dvec3(0.0);
-        if (glm::dot(normal[k], middle) < 0.0) normal[k] = -normal[k];  // inward
+bool DustGrid::clip(const glm::dvec3& origin, const glm::dvec3& dir, double s_max, double& enter, double& exit) const {
+    if (m_n[0] == 0) return false;
+    enter = 0.0, exit = s_max;
+    for (int a = 0; a < 3; ++a) {
+        if (dir[a] == 0.0) {
+            if (origin[a] < m_lo[a] || origin[a] > m_hi[a]) return false;
+            continue;
+        }
+        double t0 = (m_lo[a] - origin[a]) / dir[a], t1 = (m_hi[a] - origin[a]) / dir[a];
+        if (t0 > t1) std::swap(t0, t1);
+        enter = std::max(enter, t0), exit = std::min(exit, t1);
     }
-    const std::vector<Puff>& puffs = m_medium.puffs;
-    for (uint32_t index = 0; index < puffs.size(); ++index) {
-        const glm::dvec3 to = puffs[index].centre - apex;
-        const double r = kPuffReach * puffs[index].sigma_m;
-        bool inside = true;
-        for (int k = 0; k < 4 && inside; ++k) inside = glm::dot(normal[k], to) >= -r;
-        if (inside) out.push_back(index);
-    }
+    return enter < exit;
 }
 
-void MediumIndex::along(const std::vector<uint32_t>& candidates, const glm::dvec3& origin, const glm::dvec3& dir,
-                        double s_max, std::vector<RayPuff>& out, double& enter, double& exit) const {
-    out.clear();
-    enter = INFINITY, exit = -INFINITY;
-    for (uint32_t index : candidates) {
-        const Puff& puff = m_medium.puffs[index];
-        const glm::dvec3 p = origin - puff.centre;
-        const double b = glm::dot(p, dir);
-        const double q2 = std::max(0.0, glm::dot(p, p) - b * b);
-        const double r = kPuffReach * puff.sigma_m;
-        if (q2 >= r * r) continue;
-        const double half = std::sqrt(r * r - q2);
-        const double in = std::max(0.0, -b - half), out_s = std::min(s_max, -b + half);
-        if (!(in < out_s)) continue;
-        out.push_back({b, puff.sigma_m, puff.peak_extinction * std::exp(-q2 / (2.0 * puff.sigma_m * puff.sigma_m)), in,
-                       out_s});
-        enter = std::min(enter, in), exit = std::max(exit, out_s);
+double DustGrid::trilinear(const std::vector<float>& field, const glm::dvec3& point) const {
+    int i[3];
+    double t[3];
+    for (int a = 0; a < 3; ++a) {
+        const double f = std::clamp((point[a] - m_lo[a]) / m_h, 0.0, double(m_n[a] - 1));
+        i[a] = std::min(static_cast<int>(f), m_n[a] - 2);
+        t[a] = f - i[a];
     }
+    const size_t n0 = node(i[0], i[1], i[2]);
+    const size_t sy = static_cast<size_t>(m_n[0]), sz = sy * m_n[1];
+    auto x = [&](size_t n) { return (1 - t[0]) * field[n] + t[0] * field[n + 1]; };
+    const double y0 = (1 - t[1]) * x(n0) + t[1] * x(n0 + sy);
+    const double y1 = (1 - t[1]) * x(n0 + sz) + t[1] * x(n0 + sz + sy);
+    return (1 - t[2]) * y0 + t[2] * y1;
 }
 
-double MediumIndex::depth_to(const std::vector<RayPuff>& puffs, double s) {
+void DustGrid::sample(const glm::dvec3& point, double& extinction, double& sunlight) const {
+    extinction = trilinear(m_extinction, point);
+    sunlight = trilinear(m_visible, point);
+}
+
+double DustGrid::sun_transmittance(const glm::dvec3& point) const {
+    double enter, exit;
+    if (!clip(point, m_sun, INFINITY, enter, exit)) return 1.0;  // its Sun ray misses all the dust
+    if (enter == 0.0) return std::exp(-trilinear(m_sun_depth, point));  // inside the grid
     double tau = 0.0;
-    for (const RayPuff& p : puffs) {
-        const double w = p.sigma * std::sqrt(2.0);
-        tau += p.weight * p.sigma * kSqrtHalfPi * erf_span(p.b / w, (s + p.b) / w);
-    }
-    return tau;
-}
-
-double MediumIndex::extinction_at(const std::vector<RayPuff>& puffs, double s) {
-    double k = 0.0;
-    for (const RayPuff& p : puffs) {
-        const double d = (s + p.b) / p.sigma;
-        k += p.weight * std::exp(-0.5 * d * d);
-    }
-    return k;
-}
-
-double MediumIndex::sun_depth(const glm::dvec3& point) const {
-    if (m_cell_puffs.empty()) return 0.0;
-    const int i = static_cast<int>(std::floor((glm::dot(point, m_a) - m_a0) / m_cell));
-    const int j = static_cast<int>(std::floor((glm::dot(point, m_b) - m_b0) / m_cell));
-    if (i < 0 || j < 0 || i >= m_na || j >= m_nb) return 0.0;  // beside every puff's reach
-    const size_t c = static_cast<size_t>(j) * m_na + i;
-    double tau = 0.0;
-    for (uint32_t k = m_cell_start[c]; k < m_cell_start[c + 1]; ++k) {
-        const Puff& puff = m_medium.puffs[m_cell_puffs[k]];
+    for (const Puff& puff : m_medium.puffs) {
+        const double r = puff_reach(puff);
+        if (r <= 0.0) continue;
         const glm::dvec3 p = point - puff.centre;
         const double b = glm::dot(p, m_sun);
-        const double q2 = std::max(0.0, glm::dot(p, p) - b * b);
-        const double r = kPuffReach * puff.sigma_m;
-        if (q2 >= r * r || b >= r) continue;  // passes beside it, or already beyond it
+        if (glm::dot(p, p) - b * b >= r * r || b >= r) continue;  // beside it, or beyond it
         tau += optical_depth(puff, point, m_sun, INFINITY);
     }
-    return tau;
+    return std::exp(-tau);
 }
 
 }  // namespace moonbot

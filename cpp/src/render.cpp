@@ -31,8 +31,10 @@ constexpr double kTwoPi = 6.28318530717958647693;
 // samples, then each bounce's direction and its lights' disk samples.
 // (At most 2 lights × kMaxLightSamples × 2 dimensions fit below kDimBounce.)
 constexpr uint32_t kDimLight = 16, kDimBounce = 8192, kDimsPerBounce = 64;
-// Then the dust's scattering samples, three dimensions each (position, disk point).
+// Then the offset of the dust's march (sample 0 only).
 constexpr uint32_t kDimMedium = 16384;
+// A march stops once the dust's optical depth passes this: nothing behind shows (e^-20 ≈ 2e-9).
+constexpr double kOpaqueDepth = 20.0;
 
 /// A light as the shading loop uses it.
 struct LightData {
@@ -71,11 +73,9 @@ struct TileScratch {
     std::array<PathVertex, kTilePixels> path;
     std::array<int, kTilePixels> visible;       // shadow rays of one light that escaped, per pixel
     // Dust, used only when the render has a medium:
-    std::array<double, kTilePixels> sun_dust;   // transmittance toward the Sun at each first hit
-    std::vector<uint32_t> tile_puffs;           // puffs that may meet the tile's camera rays
-    std::vector<RayPuff> ray_puffs;             // those one ray passes through
-    std::array<RayHit, kMaxScatterSamples> dust_shadow;
-    std::array<double, kMaxScatterSamples> dust_weight;
+    std::array<double, kTilePixels> sun_dust;       // transmittance toward the Sun at each first hit
+    std::array<double, kTilePixels> dust_through;   // transmittance from the camera to the hit
+    std::array<glm::dvec3, kTilePixels> dust_glow;  // sunlight the dust scatters toward the camera
 };
 
 /// An orthonormal basis (a, b) completing unit w (Duff et al. 2017, "Building an Orthonormal
@@ -116,7 +116,7 @@ std::vector<LightData> light_table(const Lights& lights) {
 class TileRenderer {
 public:
     TileRenderer(const Scene& scene, const Camera& camera, const Lights& lights,
-                 const RenderSettings& settings, const FrameView& out, const MediumIndex* medium)
+                 const RenderSettings& settings, const FrameView& out, const DustGrid* medium)
         : m_scene(scene), m_camera(camera), m_settings(settings), m_out(out),
           m_instances(instance_table(scene)), m_lights(light_table(lights)), m_medium(medium) {
         for (const LightData& l : m_lights) m_random = m_random || !l.point;
@@ -129,8 +129,14 @@ public:
         const int tw = x1 - x0;
         const int n = tw * (y1 - y0);
         const bool want_rgb = m_out.rgb != nullptr;
-        const bool centre_pass = m_out.depth || m_out.instance || (want_rgb && m_settings.spp == 1);
+        // The dust is marched once per pixel along its centre ray (it varies over many pixels).
+        const bool centre_pass = m_out.depth || m_out.instance || (want_rgb && (m_settings.spp == 1 || m_medium));
 
+        if (m_settings.spp > 1 || m_random) {
+            // The (seed, pixel) part of the random numbers' key, once per pixel, not per number.
+            for (int y = y0, i = 0; y < y1; ++y)
+                for (int x = x0; x < x1; ++x, ++i) s.streams[i] = pixel_stream(m_settings.seed, index(x, y));
+        }
         if (centre_pass) {
             trace(x0, y0, tw, n, s, stats, /*sample=*/-1);
             // Locals, not members: a uint8_t store may alias anything, so the compiler would
@@ -149,17 +155,7 @@ public:
         }
         if (!want_rgb) return;
 
-        if (m_medium) {
-            // The puffs this tile's camera rays may meet, once for all its samples.
-            const glm::dvec3 corners[4] = {m_camera.direction(x0, y0), m_camera.direction(x1, y0),
-                                           m_camera.direction(x1, y1), m_camera.direction(x0, y1)};
-            m_medium->cull(m_camera.center(), corners, s.tile_puffs);
-        }
-        if (m_settings.spp > 1 || m_random) {
-            // The (seed, pixel) part of the random numbers' key, once per pixel, not per number.
-            for (int y = y0, i = 0; y < y1; ++y)
-                for (int x = x0; x < x1; ++x, ++i) s.streams[i] = pixel_stream(m_settings.seed, index(x, y));
-        }
+        if (m_medium) march_dust(n, s);
         if (m_settings.spp == 1) {
             shade(n, s, stats, 0);
         } else {
@@ -172,6 +168,8 @@ public:
             }
             for (int i = 0; i < n; ++i) s.radiance[i] = sum[i] / double(m_settings.spp);
         }
+        if (m_medium)
+            for (int i = 0; i < n; ++i) s.radiance[i] = s.radiance[i] * s.dust_through[i] + s.dust_glow[i];
         for (int y = y0, i = 0; y < y1; ++y) {
             float* px = m_out.rgb + 3 * index(x0, y);
             for (int x = 0; x < tw; ++x, ++i, px += 3)
@@ -233,7 +231,7 @@ private:
             if (inst.woven) cloth(inst, tri, h, dir, v);
             v.cos_light[0] = tri.cos_sun[h.side];
             for (size_t l = 1; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(v.normal, m_lights[l].dir);
-            if (m_medium && m_sun) s.sun_dust[i] = std::exp(-m_medium->sun_depth(v.point));
+            if (m_medium && m_sun) s.sun_dust[i] = m_medium->sun_transmittance(v.point);
         }
         light_vertices(n, s, stats, sample, m_settings.light_samples, kDimLight,
                        m_medium && m_sun ? s.sun_dust.data() : nullptr);
@@ -242,58 +240,38 @@ private:
             if (!extend_paths(n, s, stats, sample, dim)) break;
             light_vertices(n, s, stats, sample, 1, dim + 2, nullptr);
         }
-        if (m_medium && !s.tile_puffs.empty()) through_dust(n, s, stats, sample);
     }
 
-    /// The dust between the camera and each pixel's first hit (or the sky): the radiance behind
-    /// it attenuated, and the sunlight it scatters toward the camera added (render.h).
-    void through_dust(int n, TileScratch& s, RenderStats& stats, uint32_t sample) const {
+    /// The dust between the camera and each pixel's first hit (or the sky), along the resolved
+    /// pixel-centre rays: marched in steps of the grid's spacing from a random offset, it gives
+    /// the transmittance to the hit and the sunlight scattered toward the camera (render.h).
+    void march_dust(int n, TileScratch& s) const {
         const glm::dvec3& origin = m_camera.center();
         const Medium& medium = m_medium->medium();
-        const int count = medium.scatter_samples;
+        const double step = medium.voxel_m;
         for (int i = 0; i < n; ++i) {
+            s.dust_through[i] = 1.0;
+            s.dust_glow[i] = glm::dvec3(0.0);
             const PixelHit& h = s.hits.pixel(i);
             const double length = glm::length(s.dirs[i]);
             const glm::dvec3 dir = s.dirs[i] / length;
-            const double s_max = h.hit ? h.t * length : INFINITY;
             double enter, exit;
-            m_medium->along(s.tile_puffs, origin, dir, s_max, s.ray_puffs, enter, exit);
-            if (s.ray_puffs.empty()) continue;
-            s.radiance[i] *= std::exp(-MediumIndex::depth_to(s.ray_puffs, s_max));
-            if (!m_sun) continue;
-            const LightData& sun = *m_sun;
-            // Stratified points along [enter, exit], each weighted by k·T·T_sun·step and tested
-            // for the Sun's disk by one shadow ray.
-            const double step = (exit - enter) / count;
-            int rays = 0;
-            for (int k = 0; k < count; ++k) {
-                const uint32_t d = kDimMedium + 3 * static_cast<uint32_t>(k);
-                const double at = enter + (k + stream_uniform01(s.streams[i], sample, d)) * step;
-                const double extinction = MediumIndex::extinction_at(s.ray_puffs, at);
-                if (!(extinction > 0.0)) continue;
-                const glm::dvec3 point = origin + at * dir;
-                const double weight = step * extinction * std::exp(-MediumIndex::depth_to(s.ray_puffs, at)) *
-                                      std::exp(-m_medium->sun_depth(point));
-                glm::dvec3 to_sun = sun.dir;
-                if (!sun.point) {
-                    const double u = stream_uniform01(s.streams[i], sample, d + 1);
-                    const double phi = kTwoPi * stream_uniform01(s.streams[i], sample, d + 2);
-                    const double c = 1.0 - u * (1.0 - sun.cos_half);
-                    const double r = std::sqrt(std::max(0.0, 1.0 - c * c));
-                    to_sun = c * sun.dir + r * (std::cos(phi) * sun.a + std::sin(phi) * sun.b);
-                }
-                set_ray(s.dust_shadow[rays], point, to_sun);
-                s.dust_weight[rays++] = weight;
+            if (!m_medium->clip(origin, dir, h.hit ? h.t * length : INFINITY, enter, exit)) continue;
+            const double offset = stream_uniform01(s.streams[i], 0, kDimMedium);
+            double depth = 0.0, lit = 0.0;
+            for (double a = enter; a < exit && depth < kOpaqueDepth; a += step) {
+                const double length_here = std::min(step, exit - a);
+                const double at = a + offset * length_here;
+                double extinction, sunlight;
+                m_medium->sample(origin + at * dir, extinction, sunlight);
+                lit += std::exp(-(depth + extinction * (at - a))) * extinction * sunlight * length_here;
+                depth += extinction * length_here;
             }
-            if (rays == 0) continue;
-            m_scene.accel().occluded(s.dust_shadow.data(), rays, /*coherent=*/false);
-            stats.medium_rays += rays;
-            double lit = 0.0;
-            for (int j = 0; j < rays; ++j)
-                if (s.dust_shadow[j].tfar >= 0.0f) lit += s.dust_weight[j];
+            s.dust_through[i] = std::exp(-depth);
+            if (!m_sun || lit == 0.0) continue;
             // Irradiance E = π·scale; light travels along −sun.dir, then toward the camera, −dir.
-            const double phase = henyey_greenstein(glm::dot(sun.dir, dir), medium.asymmetry);
-            s.radiance[i] += medium.albedo * sun.color * (lit * phase * sun.scale * kPi);
+            const double phase = henyey_greenstein(glm::dot(m_sun->dir, dir), medium.asymmetry);
+            s.dust_glow[i] = medium.albedo * m_sun->color * (lit * phase * m_sun->scale * kPi);
         }
     }
 
@@ -463,7 +441,7 @@ private:
     const FrameView& m_out;
     const std::vector<InstanceData> m_instances;
     const std::vector<LightData> m_lights;
-    const MediumIndex* m_medium;        // null: no dust, and none of its code runs
+    const DustGrid* m_medium;           // null: no dust, and none of its code runs
     const LightData* m_sun = nullptr;   // the Sun's entry in m_lights, if it shines
     bool m_random = false;  // some shading draws random numbers (disk samples, bounces)
 };
@@ -499,12 +477,13 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     const int tiles_x = (w + kTile - 1) / kTile, tiles_y = (h + kTile - 1) / kTile;
     if (medium) medium->validate();
     // A medium without puffs is no medium: nothing of the dust's runs (principle 3).
-    std::optional<MediumIndex> dust;
-    if (medium && !medium->puffs.empty()) dust.emplace(*medium, lights.sun.direction());
-    const TileRenderer tiles(scene, camera, lights, settings, out, dust ? &*dust : nullptr);
-    std::atomic<uint64_t> camera_rays{0}, shadow_rays{0}, bounce_rays{0}, medium_rays{0};
-
+    std::optional<DustGrid> dust;
     tbb::task_arena arena(settings.threads > 0 ? settings.threads : tbb::task_arena::automatic);
+    if (medium && !medium->puffs.empty() && out.rgb)
+        arena.execute([&] { dust.emplace(*medium, scene, lights.sun.direction()); });
+    const TileRenderer tiles(scene, camera, lights, settings, out, dust ? &*dust : nullptr);
+    std::atomic<uint64_t> camera_rays{0}, shadow_rays{0}, bounce_rays{0};
+
     arena.execute([&] {
         tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y), [&](const auto& range) {
             TileScratch scratch;
@@ -517,7 +496,6 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
             camera_rays += local.camera_rays;
             shadow_rays += local.shadow_rays;
             bounce_rays += local.bounce_rays;
-            medium_rays += local.medium_rays;
         });
     });
 
@@ -525,7 +503,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     stats.camera_rays = camera_rays;
     stats.shadow_rays = shadow_rays;
     stats.bounce_rays = bounce_rays;
-    stats.medium_rays = medium_rays;
+    stats.medium_rays = dust ? dust->shadow_rays() : 0;
     stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return stats;
 }

@@ -4,10 +4,13 @@
 // The medium changes radiance only: depth and labels stay those of the geometry.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
 #include <glm/glm.hpp>
+
+#include "moonbot/scene.h"
 
 namespace moonbot {
 
@@ -29,11 +32,12 @@ double optical_depth(const Puff& puff, const glm::dvec3& origin, const glm::dvec
 /// the angle between the light's travel before and after scattering (g > 0: forward).
 double henyey_greenstein(double cos_theta, double g);
 
-/// A puff is cut off beyond this many σ from its centre: its extinction there is below
-/// exp(−12.5) ≈ 4e-6 of its peak.
+/// A puff is taken to reach as far as its extinction stays above kExtinctionFloor per metre (at
+/// most kPuffReach σ): beyond, ten metres of it would add an optical depth under 1e-3.
+constexpr double kExtinctionFloor = 1e-4;
 constexpr double kPuffReach = 5.0;
-/// The most scattering samples a camera sample may take through the dust.
-constexpr int kMaxScatterSamples = 256;
+/// The dust grid has at most this many nodes along an axis (a wider cloud gets coarser voxels).
+constexpr int kMaxGridNodes = 512;
 
 /// What a render needs to trace the dust. Defaults: lunar-physics.md §5.1 (forward HG g = 0.7,
 /// grain single-scattering albedo ω ≈ 0.55, reddened like regolith, R:G:B ≈ 1 : 0.92 : 0.82).
@@ -41,54 +45,55 @@ struct Medium {
     std::vector<Puff> puffs;
     glm::dvec3 albedo{0.55, 0.51, 0.45};  ///< single-scattering albedo per channel, [0, 1]
     double asymmetry = 0.7;               ///< Henyey–Greenstein g, (−1, 1)
-    /// Points per camera sample at which sunlight scattered toward the camera is gathered,
-    /// stratified along the stretch of the ray that passes through dust; 1..kMaxScatterSamples.
-    int scatter_samples = 8;
+    /// Spacing of the grid the dust is baked on per render, and the step camera rays march it
+    /// with, metres (> 0): the medium's one quality knob (bench_dust measures it).
+    double voxel_m = 0.05;
+    /// Dust below this height is never seen or lit (it is under the ground): the grid stops here.
+    double floor_z = -INFINITY;
 
     /// Throws std::invalid_argument naming the field.
     void validate() const;
 };
 
-/// One puff as one ray sees it: the ray x(s) = origin + s·dir (unit dir) passes at squared
-/// distance q² from its centre, closest at s = −b; within its reach over [enter, exit].
-struct RayPuff {
-    double b, sigma, weight;  // weight = peak·exp(−q²/2σ²): the extinction at the closest point
-    double enter, exit;
-};
+/// The reach of a puff (reach(p) ≤ 0: it is too faint to count anywhere).
+double puff_reach(const Puff& puff);
 
-/// The puffs indexed for the queries of one render: which might meet a bundle of camera rays, and
-/// the optical depth toward the Sun from any point (a grid over the plane across the Sun's
-/// direction, each cell listing the puffs whose reach crosses it).
-class MediumIndex {
+/// The dust of one render baked on a regular grid over the puffs' reach: the extinction, the
+/// optical depth toward the Sun (swept slice by slice from the Sun's side) and whether the
+/// geometry shades each node from the Sun (one shadow ray a node). Camera rays then march it.
+class DustGrid {
 public:
-    MediumIndex(const Medium& medium, const glm::dvec3& sun_dir);
+    /// Bakes `medium` (validated, with puffs) for Sun direction `sun_dir` (unit), shading by
+    /// `scene` (committed); in the caller's task arena.
+    DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& sun_dir);
 
     const Medium& medium() const { return m_medium; }
+    /// Shadow rays traced while baking.
+    uint64_t shadow_rays() const { return m_shadow_rays; }
 
-    /// Indices of the puffs whose reach may meet the pyramid from `apex` spanned by the four
-    /// directions `corners` (in order round it): the rays of one image tile. Conservative.
-    void cull(const glm::dvec3& apex, const glm::dvec3 corners[4], std::vector<uint32_t>& out) const;
+    /// The stretch [enter, exit] of the ray origin + s·dir (unit dir), s ∈ [0, s_max], inside the
+    /// grid; false if it misses it.
+    bool clip(const glm::dvec3& origin, const glm::dvec3& dir, double s_max, double& enter, double& exit) const;
 
-    /// The puffs among `candidates` that the ray origin + s·dir (unit dir), s ∈ [0, s_max], passes
-    /// within reach of, into `out`; returns the stretch [enter, exit] that they span (enter ≥
-    /// exit: none).
-    void along(const std::vector<uint32_t>& candidates, const glm::dvec3& origin, const glm::dvec3& dir,
-               double s_max, std::vector<RayPuff>& out, double& enter, double& exit) const;
+    /// Trilinear lookups at a point inside the grid (clamped at its faces): the extinction (1/m),
+    /// and the Sun's light left there, exp(−τ_sun) × geometric visibility.
+    void sample(const glm::dvec3& point, double& extinction, double& sunlight) const;
 
-    /// Σ optical depth of `puffs` from the ray's origin to s, and Σ extinction at s.
-    static double depth_to(const std::vector<RayPuff>& puffs, double s);
-    static double extinction_at(const std::vector<RayPuff>& puffs, double s);
-
-    /// The optical depth from `point` toward the Sun, out of the cloud.
-    double sun_depth(const glm::dvec3& point) const;
+    /// The dust's transmittance toward the Sun from `point` anywhere: from the grid inside it, in
+    /// closed form (every puff) outside it, and 1 where the Sun ray misses the grid.
+    double sun_transmittance(const glm::dvec3& point) const;
 
 private:
+    size_t node(int i, int j, int k) const { return (static_cast<size_t>(k) * m_n[1] + j) * m_n[0] + i; }
+    double trilinear(const std::vector<float>& field, const glm::dvec3& point) const;
+
     const Medium& m_medium;
-    glm::dvec3 m_sun, m_a, m_b;          // the Sun's direction and a basis across it
-    double m_cell = 1.0, m_a0 = 0.0, m_b0 = 0.0;
-    int m_na = 0, m_nb = 0;
-    std::vector<uint32_t> m_cell_start;  // CSR: cell c holds m_cell_puffs[start[c] .. start[c + 1])
-    std::vector<uint32_t> m_cell_puffs;
+    glm::dvec3 m_sun;
+    glm::dvec3 m_lo, m_hi;  // the grid's box, world metres
+    double m_h = 0.05;      // node spacing
+    int m_n[3] = {1, 1, 1};
+    std::vector<float> m_extinction, m_sun_depth, m_visible;
+    uint64_t m_shadow_rays = 0;
 };
 
 }  // namespace moonbot

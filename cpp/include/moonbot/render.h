@@ -49,7 +49,7 @@ struct RenderStats {
     uint64_t camera_rays = 0;
     uint64_t shadow_rays = 0;
     uint64_t bounce_rays = 0;
-    uint64_t medium_rays = 0;  ///< shadow rays toward the Sun from points in the dust
+    uint64_t medium_rays = 0;  ///< shadow rays toward the Sun from the dust's grid nodes
     double seconds = 0.0;
 };
 
@@ -64,13 +64,14 @@ struct RenderStats {
 /// horizon, the part below it counts as hidden.) With `bounces` > 0 each path continues in a
 /// cosine-distributed direction, weighted by π·f, and is lit again at every vertex.
 ///
-/// Dust (`medium`, optional; null or puff-free costs nothing): each camera sample's radiance is
-/// attenuated by the dust's transmittance T(s_hit) along its ray (closed form), the Sun's light
-/// at its first hit by the transmittance toward the Sun, and it gains the sunlight the dust
-/// scatters toward the camera, ∫ k(s)·ω·p_HG(θ)·E_sun·T(s)·T_sun(s)·V(s) ds, estimated at
-/// `scatter_samples` stratified points of the ray's stretch through the dust, each with one
-/// shadow ray toward the Sun's disk (V). Bounce paths do not see the dust, nor does the Earth's
-/// light; depth and labels stay those of the geometry.
+/// Dust (`medium`, optional; null or puff-free costs nothing): baked per render on a grid of
+/// spacing voxel_m (DustGrid: extinction k, optical depth toward the Sun, the geometry's shade
+/// V at each node). Each pixel's radiance is attenuated by the transmittance T(s_hit) along its
+/// centre ray, the Sun's light at each first hit by the dust's transmittance toward the Sun, and
+/// the pixel gains the sunlight the dust scatters toward the camera,
+/// ∫ k(s)·ω·p_HG(θ)·E_sun·T(s)·T_sun(s)·V(s) ds, both marched along the centre ray in steps of
+/// voxel_m from a random offset. Bounce paths do not see the dust, nor does the Earth's light;
+/// depth and labels stay those of the geometry.
 RenderStats render(const Scene& scene, const Camera& camera, const Lights& lights,
                    const RenderSettings& settings, const FrameView& out, const Medium* medium = nullptr);
 /// The same, lit by the Sun alone.
