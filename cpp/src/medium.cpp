@@ -67,16 +67,29 @@ double puff_reach(const Puff& puff) {
 
 DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& sun_dir)
     : m_medium(medium), m_sun(sun_dir) {
+    // The grid's frame: two axes across the Sun's direction (Duff et al.'s basis, as the
+    // renderer's) and the Sun's direction itself, so that every Sun ray runs along a grid line.
+    const double sign = std::copysign(1.0, m_sun.z);
+    const double q = -1.0 / (sign + m_sun.z);
+    const double xy = m_sun.x * m_sun.y * q;
+    m_axis[0] = {1.0 + sign * m_sun.x * m_sun.x * q, sign * xy, -sign * m_sun.x};
+    m_axis[1] = {xy, sign + m_sun.y * m_sun.y * q, -m_sun.y};
+    m_axis[2] = m_sun;
     const std::vector<Puff>& puffs = medium.puffs;
     std::vector<double> reach(puffs.size());
+    std::vector<glm::dvec3> centre(puffs.size());
     m_lo = glm::dvec3(INFINITY), m_hi = glm::dvec3(-INFINITY);
     for (size_t p = 0; p < puffs.size(); ++p) {
         reach[p] = puff_reach(puffs[p]);
-        if (reach[p] <= 0.0) continue;
-        m_lo = glm::min(m_lo, puffs[p].centre - reach[p]);
-        m_hi = glm::max(m_hi, puffs[p].centre + reach[p]);
+        centre[p] = frame(puffs[p].centre);
+        // A puff wholly under the floor is never seen or lit.
+        if (reach[p] <= 0.0 || puffs[p].centre.z + reach[p] <= medium.floor_z) {
+            reach[p] = 0.0;
+            continue;
+        }
+        m_lo = glm::min(m_lo, centre[p] - reach[p]);
+        m_hi = glm::max(m_hi, centre[p] + reach[p]);
     }
-    m_lo.z = std::max(m_lo.z, medium.floor_z);
     if (!(m_lo.x < m_hi.x && m_lo.y < m_hi.y && m_lo.z < m_hi.z)) {  // nothing that counts
         m_n[0] = m_n[1] = m_n[2] = 0;
         return;
@@ -92,88 +105,59 @@ DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& s
     m_sun_depth.assign(count, 0.0f);
     m_visible.assign(count, 1.0f);
 
-    // Extinction: a Gaussian is separable, so each puff adds peak·gx[i]·gy[j]·gz[k] over the
-    // nodes of its reach: no transcendental per node. Slices in parallel, each summing the puffs
-    // in their fixed order: the same bits whatever the threads.
-    tbb::parallel_for(0, m_n[2], [&](int k) {
-        const double z = m_lo.z + k * m_h;
-        std::vector<double> gx, gy;
+    // Extinction: an isotropic Gaussian is separable in any orthonormal frame, so each puff adds
+    // peak·g0[i]·g1[j]·g2[k] over the nodes of its reach: no transcendental per node. Lines along
+    // the Sun (i, j) in parallel, each summing the puffs in their fixed order: the same bits
+    // whatever the threads.
+    tbb::parallel_for(0, m_n[1], [&](int j) {
+        std::vector<double> g0, g2;
+        const double v = m_lo.y + j * m_h;
         for (size_t p = 0; p < puffs.size(); ++p) {
-            const Puff& puff = puffs[p];
             const double r = reach[p];
-            if (r <= 0.0 || std::abs(z - puff.centre.z) > r) continue;
-            const double inv = 1.0 / (2.0 * puff.sigma_m * puff.sigma_m);
-            const double dz = z - puff.centre.z;
-            const double wz = puff.peak_extinction * std::exp(-dz * dz * inv);
+            const glm::dvec3& c = centre[p];
+            if (r <= 0.0 || std::abs(v - c.y) > r) continue;
+            const double inv = 1.0 / (2.0 * puffs[p].sigma_m * puffs[p].sigma_m);
+            const double w1 = puffs[p].peak_extinction * std::exp(-(v - c.y) * (v - c.y) * inv);
             auto range = [&](int a, int& first, int& last) {
-                first = std::max(0, static_cast<int>(std::ceil((puff.centre[a] - r - m_lo[a]) / m_h)));
-                last = std::min(m_n[a] - 1, static_cast<int>(std::floor((puff.centre[a] + r - m_lo[a]) / m_h)));
+                first = std::max(0, static_cast<int>(std::ceil((c[a] - r - m_lo[a]) / m_h)));
+                last = std::min(m_n[a] - 1, static_cast<int>(std::floor((c[a] + r - m_lo[a]) / m_h)));
             };
-            int i0, i1, j0, j1;
+            int i0, i1, k0, k1;
             range(0, i0, i1);
-            range(1, j0, j1);
-            if (i0 > i1 || j0 > j1) continue;
-            gx.resize(static_cast<size_t>(i1 - i0 + 1));
-            gy.resize(static_cast<size_t>(j1 - j0 + 1));
+            range(2, k0, k1);
+            if (i0 > i1 || k0 > k1) continue;
+            g0.resize(static_cast<size_t>(i1 - i0 + 1));
+            g2.resize(static_cast<size_t>(k1 - k0 + 1));
             for (int i = i0; i <= i1; ++i) {
-                const double d = m_lo.x + i * m_h - puff.centre.x;
-                gx[static_cast<size_t>(i - i0)] = std::exp(-d * d * inv);
+                const double d = m_lo.x + i * m_h - c.x;
+                g0[static_cast<size_t>(i - i0)] = w1 * std::exp(-d * d * inv);
             }
-            for (int j = j0; j <= j1; ++j) {
-                const double d = m_lo.y + j * m_h - puff.centre.y;
-                gy[static_cast<size_t>(j - j0)] = wz * std::exp(-d * d * inv);
+            for (int k = k0; k <= k1; ++k) {
+                const double d = m_lo.z + k * m_h - c.z;
+                g2[static_cast<size_t>(k - k0)] = std::exp(-d * d * inv);
             }
-            for (int j = j0; j <= j1; ++j) {
+            for (int k = k0; k <= k1; ++k) {
                 float* row = &m_extinction[node(0, j, k)];
-                const double wy = gy[static_cast<size_t>(j - j0)];
-                for (int i = i0; i <= i1; ++i) row[i] += static_cast<float>(wy * gx[static_cast<size_t>(i - i0)]);
+                const double w = g2[static_cast<size_t>(k - k0)];
+                for (int i = i0; i <= i1; ++i) row[i] += static_cast<float>(w * g0[static_cast<size_t>(i - i0)]);
             }
         }
     });
 
-    // Optical depth toward the Sun, slice by slice from the Sun's side along the axis the Sun's
-    // direction is steepest in: a node's depth is that of the point one slice sunward on its
-    // Sun ray (bilinear in the slice already done) plus the trapezoid of the extinction between.
-    int a = 0;
-    for (int c = 1; c < 3; ++c)
-        if (std::abs(m_sun[c]) > std::abs(m_sun[a])) a = c;
-    const int b = (a + 1) % 3, c = (a + 2) % 3;
-    const double along = m_h / std::abs(m_sun[a]);  // path length between slices
-    const double db = m_sun[b] / std::abs(m_sun[a]), dc = m_sun[c] / std::abs(m_sun[a]);  // in nodes
-    const int towards = m_sun[a] > 0.0 ? 1 : -1;
-    auto at = [&](int ia, int ib, int ic) {
-        int idx[3];
-        idx[a] = ia, idx[b] = ib, idx[c] = ic;
-        return node(idx[0], idx[1], idx[2]);
-    };
-    const int first = towards > 0 ? m_n[a] - 1 : 0;
-    for (int ia = first - towards; ia >= 0 && ia < m_n[a]; ia -= towards) {
-        const int up = ia + towards;
-        tbb::parallel_for(0, m_n[c], [&](int ic) {
-            for (int ib = 0; ib < m_n[b]; ++ib) {
-                const double fb = ib + db, fc = ic + dc;
-                double depth_up = 0.0, ext_up = 0.0;
-                // Outside the slice's sides the Sun ray has left the grid's box, which holds all
-                // the dust: nothing more lies sunward.
-                if (fb >= 0.0 && fb <= m_n[b] - 1 && fc >= 0.0 && fc <= m_n[c] - 1) {
-                    const int jb = std::min(static_cast<int>(fb), m_n[b] - 2), jc = std::min(static_cast<int>(fc), m_n[c] - 2);
-                    const double tb = fb - jb, tc = fc - jc;
-                    const size_t n00 = at(up, jb, jc), n10 = at(up, jb + 1, jc), n01 = at(up, jb, jc + 1),
-                                 n11 = at(up, jb + 1, jc + 1);
-                    auto lerp2 = [&](const std::vector<float>& f) {
-                        return (1 - tc) * ((1 - tb) * f[n00] + tb * f[n10]) + tc * ((1 - tb) * f[n01] + tb * f[n11]);
-                    };
-                    depth_up = lerp2(m_sun_depth);
-                    ext_up = lerp2(m_extinction);
-                }
-                const size_t here = at(ia, ib, ic);
-                m_sun_depth[here] = static_cast<float>(depth_up + 0.5 * along * (ext_up + m_extinction[here]));
+    // Optical depth toward the Sun: along each grid line, from the Sun's end (k = n − 1, where
+    // nothing lies beyond) back, by the trapezoid rule.
+    tbb::parallel_for(0, m_n[1], [&](int j) {
+        for (int i = 0; i < m_n[0]; ++i) {
+            double depth = 0.0;
+            for (int k = m_n[2] - 2; k >= 0; --k) {
+                depth += 0.5 * m_h * (double(m_extinction[node(i, j, k)]) + m_extinction[node(i, j, k + 1)]);
+                m_sun_depth[node(i, j, k)] = static_cast<float>(depth);
             }
-        });
-    }
+        }
+    });
 
-    // Geometric shade: one shadow ray toward the Sun's centre from each node with dust near it
-    // (nodes whose whole neighbourhood is clear keep 1: they only blend into empty space).
+    // Geometric shade: one shadow ray toward the Sun's centre from each node with dust (nodes
+    // without any only blend into empty space); nodes under the floor are dark.
     std::atomic<uint64_t> rays{0};
     tbb::parallel_for(0, m_n[2], [&](int k) {
         std::vector<RayHit> batch(static_cast<size_t>(m_n[0]));
@@ -182,7 +166,12 @@ DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& s
             int n = 0;
             for (int i = 0; i < m_n[0]; ++i) {
                 if (!(m_extinction[node(i, j, k)] > 1e-6f)) continue;
-                detail::set_ray(batch[static_cast<size_t>(n)], m_lo + glm::dvec3(i, j, k) * m_h, m_sun);
+                const glm::dvec3 point = world(glm::dvec3(m_lo.x + i * m_h, m_lo.y + j * m_h, m_lo.z + k * m_h));
+                if (point.z < medium.floor_z) {
+                    m_visible[node(i, j, k)] = 0.0f;
+                    continue;
+                }
+                detail::set_ray(batch[static_cast<size_t>(n)], point, m_sun);
                 which[static_cast<size_t>(n++)] = i;
             }
             if (n == 0) continue;
@@ -197,26 +186,33 @@ DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& s
     for (size_t n = 0; n < count; ++n) m_visible[n] *= static_cast<float>(std::exp(-double(m_sun_depth[n])));
 }
 
+glm::dvec3 DustGrid::frame(const glm::dvec3& p) const {
+    return {glm::dot(p, m_axis[0]), glm::dot(p, m_axis[1]), glm::dot(p, m_axis[2])};
+}
+
+glm::dvec3 DustGrid::world(const glm::dvec3& f) const { return f.x * m_axis[0] + f.y * m_axis[1] + f.z * m_axis[2]; }
+
 bool DustGrid::clip(const glm::dvec3& origin, const glm::dvec3& dir, double s_max, double& enter, double& exit) const {
     if (m_n[0] == 0) return false;
+    const glm::dvec3 o = frame(origin), d = frame(dir);
     enter = 0.0, exit = s_max;
     for (int a = 0; a < 3; ++a) {
-        if (dir[a] == 0.0) {
-            if (origin[a] < m_lo[a] || origin[a] > m_hi[a]) return false;
+        if (d[a] == 0.0) {
+            if (o[a] < m_lo[a] || o[a] > m_hi[a]) return false;
             continue;
         }
-        double t0 = (m_lo[a] - origin[a]) / dir[a], t1 = (m_hi[a] - origin[a]) / dir[a];
+        double t0 = (m_lo[a] - o[a]) / d[a], t1 = (m_hi[a] - o[a]) / d[a];
         if (t0 > t1) std::swap(t0, t1);
         enter = std::max(enter, t0), exit = std::min(exit, t1);
     }
     return enter < exit;
 }
 
-double DustGrid::trilinear(const std::vector<float>& field, const glm::dvec3& point) const {
+double DustGrid::trilinear(const std::vector<float>& field, const glm::dvec3& f_point) const {
     int i[3];
     double t[3];
     for (int a = 0; a < 3; ++a) {
-        const double f = std::clamp((point[a] - m_lo[a]) / m_h, 0.0, double(m_n[a] - 1));
+        const double f = std::clamp((f_point[a] - m_lo[a]) / m_h, 0.0, double(m_n[a] - 1));
         i[a] = std::min(static_cast<int>(f), m_n[a] - 2);
         t[a] = f - i[a];
     }
@@ -229,14 +225,15 @@ double DustGrid::trilinear(const std::vector<float>& field, const glm::dvec3& po
 }
 
 void DustGrid::sample(const glm::dvec3& point, double& extinction, double& sunlight) const {
-    extinction = trilinear(m_extinction, point);
-    sunlight = trilinear(m_visible, point);
+    const glm::dvec3 f = frame(point);
+    extinction = trilinear(m_extinction, f);
+    sunlight = trilinear(m_visible, f);
 }
 
 double DustGrid::sun_transmittance(const glm::dvec3& point) const {
     double enter, exit;
     if (!clip(point, m_sun, INFINITY, enter, exit)) return 1.0;  // its Sun ray misses all the dust
-    if (enter == 0.0) return std::exp(-trilinear(m_sun_depth, point));  // inside the grid
+    if (enter == 0.0) return std::exp(-trilinear(m_sun_depth, frame(point)));  // inside the grid
     double tau = 0.0;
     for (const Puff& puff : m_medium.puffs) {
         const double r = puff_reach(puff);

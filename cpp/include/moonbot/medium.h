@@ -58,9 +58,10 @@ struct Medium {
 /// The reach of a puff (reach(p) ≤ 0: it is too faint to count anywhere).
 double puff_reach(const Puff& puff);
 
-/// The dust of one render baked on a regular grid over the puffs' reach: the extinction, the
-/// optical depth toward the Sun (swept slice by slice from the Sun's side) and whether the
-/// geometry shades each node from the Sun (one shadow ray a node). Camera rays then march it.
+/// The dust of one render baked on a regular grid over the puffs' reach, in a frame whose third
+/// axis is the Sun's direction: the extinction, the optical depth toward the Sun (summed along
+/// each grid line from the Sun's end, so no interpolation smears it) and whether the geometry
+/// shades each node from the Sun (one shadow ray a dusty node). Camera rays then march it.
 class DustGrid {
 public:
     /// Bakes `medium` (validated, with puffs) for Sun direction `sun_dir` (unit), shading by
@@ -85,11 +86,14 @@ public:
 
 private:
     size_t node(int i, int j, int k) const { return (static_cast<size_t>(k) * m_n[1] + j) * m_n[0] + i; }
-    double trilinear(const std::vector<float>& field, const glm::dvec3& point) const;
+    glm::dvec3 frame(const glm::dvec3& world_point) const;  // world → grid frame (a rotation)
+    glm::dvec3 world(const glm::dvec3& frame_point) const;
+    double trilinear(const std::vector<float>& field, const glm::dvec3& frame_point) const;
 
     const Medium& m_medium;
     glm::dvec3 m_sun;
-    glm::dvec3 m_lo, m_hi;  // the grid's box, world metres
+    glm::dvec3 m_axis[3];   // the grid frame's axes in the world; m_axis[2] is the Sun's direction
+    glm::dvec3 m_lo, m_hi;  // the grid's box in that frame, metres
     double m_h = 0.05;      // node spacing
     int m_n[3] = {1, 1, 1};
     std::vector<float> m_extinction, m_sun_depth, m_visible;

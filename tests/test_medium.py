@@ -1,0 +1,183 @@
+"""The dust as a medium and as moving geometry (moonbot/medium.h, moonbot/dust.h, issue 6): the
+baked grid's transmittance matches the puffs' closed-form integrals, scattering follows the
+phase function, a puff-free medium is no medium (bit-identical, nothing traced), renders are the
+same on 1 and 2 threads, hard cases (grazing Sun, camera inside the dust, kilometre
+coordinates) stay finite; the cloud's puffs are a pure function of time; the ejecta's mesh is
+closed, outward and inside each fragment's diameter, and moving it rebuilds that mesh alone."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from moonbot import _core
+
+W, H = 48, 36
+
+
+def wall_scene(offset=(0.0, 0.0, 0.0)) -> _core.Scene:
+    """A white Lambertian ground square 20 m wide at z = 0 (shifted by `offset`)."""
+    scene = _core.Scene()
+    o = np.asarray(offset, float)
+    v = np.array([[-10, -10, 0], [10, -10, 0], [10, 10, 0], [-10, 10, 0]], float) + o
+    scene.add_background(scene.add_mesh(v, np.array([[0, 1, 2], [0, 2, 3]])), np.eye(4), (1.0, 1.0, 1.0))
+    scene.commit()
+    return scene
+
+
+def down_camera(offset=(0.0, 0.0, 0.0), height=2.0) -> _core.Camera:
+    """Looking straight down from `height` m above the origin (OpenCV axes: x east, y south)."""
+    R = np.diag([1.0, -1.0, -1.0])  # camera-from-world
+    centre = np.asarray(offset, float) + [0.0, 0.0, height]
+    return _core.Camera(40.0, 40.0, W / 2, H / 2, W, H, R, -R @ centre)
+
+
+def test_transmittance_matches_the_closed_form_through_one_puff():
+    # No scattering (albedo 0): the ground's radiance is attenuated by the dust toward the camera
+    # and toward the Sun, each exp(-optical depth) of the puff along that ray.
+    scene, camera = wall_scene(), down_camera()
+    centre, sigma, peak = np.array([0.05, -0.03, 0.9]), 0.2, 3.0
+    sun = _core.Sun(30.0, 60.0, 1000.0, 0.0)
+    clear = _core.render(scene, camera, sun)
+    medium = _core.Medium([[*centre, sigma, peak]], albedo=(0, 0, 0), voxel_m=0.005)
+    dusty = _core.render(scene, camera, sun, medium=medium)
+    np.testing.assert_array_equal(dusty["depth"], clear["depth"])  # the medium leaves depth alone
+    ratio = dusty["rgb"][..., 0] / clear["rgb"][..., 0]
+    K_inv = np.linalg.inv(np.array([[40.0, 0, W / 2], [0, 40.0, H / 2], [0, 0, 1]]))
+    az, el = np.radians(30.0), np.radians(60.0)
+    to_sun = np.array([np.sin(az) * np.cos(el), np.cos(az) * np.cos(el), np.sin(el)])
+    worst = 0.0
+    for y in range(0, H, 5):
+        for x in range(0, W, 5):
+            d_cam = K_inv @ [x + 0.5, y + 0.5, 1.0]
+            d = np.diag([1.0, -1.0, -1.0]) @ d_cam  # world-from-camera
+            hit = np.array([0, 0, 2.0]) + d * 2.0 / -d[2]
+            tau_cam = _core.puff_optical_depth(centre, sigma, peak, [0, 0, 2.0], d, np.linalg.norm(hit - [0, 0, 2.0]))
+            tau_sun = _core.puff_optical_depth(centre, sigma, peak, hit, to_sun)
+            worst = max(worst, abs(ratio[y, x] - np.exp(-tau_cam - tau_sun)))
+    assert worst < 2e-3, worst
+
+
+def test_single_scattering_against_the_sky_matches_the_integral():
+    # A thin puff seen against the black sky, lit by a Sun behind the camera's side: its radiance
+    # is ω·E·p_HG(θ)·∫k ds (optically thin: T ≈ 1 everywhere), ∫k ds the closed-form depth.
+    scene = wall_scene(offset=(0, 0, -100.0))  # far below: the rays above the horizon see sky
+    R = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])  # looking east, level
+    camera = _core.Camera(40.0, 40.0, W / 2, H / 2, W, H, R, -R @ np.zeros(3))
+    centre, sigma, peak = np.array([3.0, 0.0, 0.0]), 0.3, 1e-3
+    sun = _core.Sun(135.0, 20.0, 1000.0, 0.0)  # behind and to the right: scattering at ~118°
+    medium = _core.Medium([[*centre, sigma, peak]], albedo=(0.5, 0.5, 0.5), asymmetry=0.6, voxel_m=0.01)
+    out = _core.render(scene, camera, sun, medium=medium)
+    d = R.T @ (np.linalg.inv(np.array([[40.0, 0, W / 2], [0, 40.0, H / 2], [0, 0, 1]])) @ [W / 2 + 0.5, H / 2 + 0.5, 1])
+    d /= np.linalg.norm(d)
+    az, el = np.radians(135.0), np.radians(20.0)
+    to_sun = np.array([np.sin(az) * np.cos(el), np.cos(az) * np.cos(el), np.sin(el)])
+    tau = _core.puff_optical_depth(centre, sigma, peak, [0, 0, 0], d)
+    expected = 0.5 * 1000.0 * _core.henyey_greenstein(float(to_sun @ d), 0.6) * tau
+    # 5e-3: the thin-medium formula leaves out T ≈ 1 − 1e-3 toward camera and Sun, and the grid
+    # interpolates the puff's profile at 1 cm.
+    assert out["rgb"][H // 2, W // 2, 0] == pytest.approx(expected, rel=5e-3)
+    assert out["depth"][H // 2, W // 2] == 0.0  # still sky in depth
+
+
+def test_a_medium_without_puffs_is_no_medium():
+    scene, camera = wall_scene(), down_camera()
+    sun = _core.Sun(30.0, 40.0, 1000.0, 0.533)
+    kwargs = dict(spp=2, seed=3, light_samples=2, bounces=1)
+    plain = _core.render(scene, camera, sun, **kwargs)
+    empty = _core.render(scene, camera, sun, medium=_core.Medium(np.zeros((0, 5))), **kwargs)
+    for key in ("rgb", "depth", "instance"):
+        assert plain[key].tobytes() == empty[key].tobytes()
+    assert plain["medium_rays"] == empty["medium_rays"] == 0
+    assert empty["camera_rays"] == plain["camera_rays"]
+
+
+def test_dust_renders_the_same_on_one_and_two_threads_and_stays_finite_in_hard_cases():
+    puffs = _core.cloud_puffs(5, 6.0, origin=(0.3, 0.2, 0.0), vertical_offset_m=0.0)
+    for offset, elevation in (((0, 0, 0), 30.0), ((0, 0, 0), 0.5), ((3000.0, -2000.0, 500.0), 8.0)):
+        shifted = puffs.copy()
+        shifted[:, :3] += offset
+        scene, camera = wall_scene(offset), down_camera(offset, height=0.4)  # camera inside the cloud
+        sun = _core.Sun(120.0, elevation, 1361.0, 0.533)
+        medium = _core.Medium(shifted, voxel_m=0.1, floor_z=offset[2] - 0.5)
+        one = _core.render(scene, camera, sun, spp=2, seed=9, threads=1, medium=medium)
+        two = _core.render(scene, camera, sun, spp=2, seed=9, threads=2, medium=medium)
+        assert one["rgb"].tobytes() == two["rgb"].tobytes()
+        assert np.isfinite(one["rgb"]).all() and (one["rgb"] >= 0).all()
+        assert one["medium_rays"] > 0
+
+
+def test_medium_arguments_name_the_field():
+    with pytest.raises(ValueError, match="puffs"):
+        _core.Medium(np.zeros((2, 4)))
+    with pytest.raises(ValueError, match="sigma_m"):
+        _core.Medium([[0, 0, 0, -1.0, 1.0]])
+    with pytest.raises(ValueError, match="voxel_m"):
+        _core.Medium([[0, 0, 0, 1.0, 1.0]], voxel_m=0.0)
+    with pytest.raises(ValueError, match="asymmetry"):
+        _core.Medium([[0, 0, 0, 1.0, 1.0]], asymmetry=1.0)
+    with pytest.raises(ValueError, match="albedo"):
+        _core.Medium([[0, 0, 0, 1.0, 1.0]], albedo=(0.5, 2.0, 0.5))
+
+
+def test_cloud_puffs_are_a_pure_function_of_time():
+    a = _core.cloud_puffs(11, 7.0)
+    assert a.shape[0] == pytest.approx(40 * 5, abs=2)  # rate × lifetime alive
+    np.testing.assert_array_equal(a, _core.cloud_puffs(11, 7.0))
+    assert not np.array_equal(a, _core.cloud_puffs(12, 7.0))
+    # Without gravity each puff drifts in a straight line: 0.1 s later, the puffs still alive
+    # moved by at most 0.1 s × 0.7 m/s, and grew by 0.1 s × 0.08 m/s.
+    b = _core.cloud_puffs(11, 7.1)
+    common = min(len(a), len(b)) - 8
+    moved = np.linalg.norm(b[:common, :3] - a[4:4 + common, :3], axis=1)
+    assert moved.max() <= 0.07 + 1e-12
+    np.testing.assert_allclose(b[:common, 3] - a[4:4 + common, 3], 0.008, atol=1e-12)
+    # Opacity rises then falls: the peak optical depth through a centre stays ≤ the configured one.
+    through = a[:, 4] * a[:, 3] * np.sqrt(2 * np.pi)
+    assert through.max() <= 0.5 + 1e-12
+    assert len(_core.cloud_puffs(11, 0.0)) == 0  # the first puff, at birth, is transparent: left out
+    with pytest.raises(ValueError, match="lifetime_s"):
+        _core.cloud_puffs(1, 1.0, lifetime_s=0.0)
+    with pytest.raises(ValueError, match="time_s"):
+        _core.cloud_puffs(1, -1.0)
+
+
+def test_fragment_mesh_is_closed_outward_and_inside_each_fragment():
+    scene = wall_scene()
+    state = _core.simulate_ejecta(scene, seed=2, time_s=0.3, count=30)
+    v, t = state["vertices"].astype(float), state["triangles"]
+    assert v.shape == (30 * 12, 3) and t.shape == (30 * 20, 3)
+    for f in range(30):
+        tri = t[20 * f:20 * f + 20]
+        assert tri.min() == 12 * f and tri.max() == 12 * f + 11
+        p = v[tri]
+        volume = np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6
+        assert volume > 0  # outward winding
+        edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+        _, counts = np.unique(edges, axis=0, return_counts=True)
+        assert np.all(counts == 2)  # closed: every edge shared by two faces
+        r = np.linalg.norm(v[12 * f:12 * f + 12] - state["position"][f], axis=1)
+        assert r.max() <= state["diameter"][f] / 2 * (1 + 1e-6)
+        assert r.min() >= 0.6 * state["diameter"][f] / 2 * (1 - 1e-6)
+
+
+def test_moving_a_mesh_rebuilds_it_alone():
+    scene = wall_scene()
+    state = _core.simulate_ejecta(scene, seed=2, time_s=0.2, count=10)
+    mesh = scene.add_mesh(state["vertices"], state["triangles"])
+    scene.add_background(mesh, np.eye(4), (0.1, 0.1, 0.1))
+    scene.commit()
+    before = scene.bvh_builds
+    later = _core.simulate_ejecta(scene, seed=2, time_s=0.4, count=10)  # (collides with the old mesh too)
+    scene.update_mesh(mesh, later["vertices"])
+    assert not scene.committed
+    scene.commit()
+    assert scene.bvh_builds == before + 2  # this mesh's BVH and the top level, nothing else
+    with pytest.raises(ValueError, match="vertices"):
+        scene.update_mesh(mesh, later["vertices"][:-1])
+    with pytest.raises(ValueError, match="mesh"):
+        scene.update_mesh(99, later["vertices"])
+    bad = later["vertices"].copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(ValueError, match="non-finite"):
+        scene.update_mesh(mesh, bad)
