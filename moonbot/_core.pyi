@@ -23,6 +23,7 @@ class Scene:
                      woven: WovenSurface | None = None) -> int: ...
     def add_background(self, mesh: int, world_from_object: ArrayLike, albedo: ArrayLike,
                        photometry: Photometry = ...) -> int: ...
+    def update_mesh(self, mesh: int, vertices: ArrayLike) -> None: ...
     def commit(self) -> None: ...
     @property
     def committed(self) -> bool: ...
@@ -75,12 +76,13 @@ class RenderOutput(TypedDict, total=False):
     camera_rays: int
     shadow_rays: int
     bounce_rays: int
+    medium_rays: int
     seconds: float
 
 def render(scene: Scene, camera: Camera, sun: Sun, spp: int = 1, seed: int = 0, threads: int = 0,
            passes: Sequence[str] = ("rgb", "depth", "instance"),
            exact_depth: bool = True, light_samples: int = 1, bounces: int = 0,
-           earth: Sun | None = None) -> RenderOutput: ...
+           earth: Sun | None = None, medium: Medium | None = None) -> RenderOutput: ...
 def tonemap_reinhard(rgb: ArrayLike, exposure: float) -> tuple[NDArray[np.uint8], int]: ...
 def write_image(path: str, pixels: ArrayLike, png_compression: int = 1,
                 attributes: dict[str, str | float] = ...) -> None: ...
@@ -156,6 +158,8 @@ class EjectaState(TypedDict):
     age: NDArray[np.float64]       # (N,) seconds since launch
     bounces: NDArray[np.int32]
     resting: NDArray[np.bool_]
+    vertices: NDArray[np.float32]  # (12 N, 3) the fragments as one mesh, world metres
+    triangles: NDArray[np.uint32]  # (20 N, 3)
 
 def simulate_ejecta(scene: Scene, seed: int, time_s: float, dt_s: float = 0.01, origin: ArrayLike = (0.0, 0.0, 0.0),
                     count: int = 200, spawn_radius_m: float = 0.1, cone_half_angle_deg: float = 45.0,
@@ -164,3 +168,15 @@ def simulate_ejecta(scene: Scene, seed: int, time_s: float, dt_s: float = 0.01, 
                     rest_speed_m_s: float = 0.02, burst_period_s: float = 2.0, threads: int = 0) -> EjectaState: ...
 def puff_optical_depth(centre: ArrayLike, sigma_m: float, peak_extinction: float, origin: ArrayLike,
                        direction: ArrayLike, t_max: float = ...) -> float: ...
+def cloud_puffs(seed: int, time_s: float, origin: ArrayLike = (0.0, 0.0, 0.0), box_m: ArrayLike = (0.7, 2.0, 0.5),
+                vertical_offset_m: float = -1.7, axis: ArrayLike = (1.0, 0.0, 500.0), cone_half_angle_deg: float = 45.0,
+                speed_m_s: float = 0.7, gravity_m_s2: float = 0.0, lifetime_s: float = 5.0, rate_per_s: float = 40.0,
+                sigma_m: float = 0.15, growth_m_s: float = 0.08, optical_depth: float = 0.5,
+                rise_fraction: float = 0.1) -> NDArray[np.float64]: ...  # (N, 5): x, y, z, sigma, peak
+def henyey_greenstein(cos_theta: float, g: float) -> float: ...
+
+class Medium:
+    def __init__(self, puffs: ArrayLike, albedo: ArrayLike = (0.55, 0.51, 0.45), asymmetry: float = 0.7,
+                 voxel_m: float = 0.05, floor_z: float = ...) -> None: ...
+    @property
+    def puff_count(self) -> int: ...
