@@ -156,8 +156,10 @@ DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& s
         }
     });
 
-    // Geometric shade: one shadow ray toward the Sun's centre from each node with dust (nodes
-    // without any only blend into empty space); nodes under the floor are dark.
+    // Geometric shade: one ray toward the Sun's centre from each node with dust (nodes without
+    // any only blend into empty space). A node whose ray meets the back of a surface first is
+    // inside the ground or a bag, where no dust is ever seen: it counts as lit, so that the dust
+    // just above the ground is not dimmed by interpolating toward it.
     std::atomic<uint64_t> rays{0};
     tbb::parallel_for(0, m_n[2], [&](int k) {
         std::vector<RayHit> batch(static_cast<size_t>(m_n[0]));
@@ -167,18 +169,20 @@ DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& s
             for (int i = 0; i < m_n[0]; ++i) {
                 if (!(m_extinction[node(i, j, k)] > 1e-6f)) continue;
                 const glm::dvec3 point = world(glm::dvec3(m_lo.x + i * m_h, m_lo.y + j * m_h, m_lo.z + k * m_h));
-                if (point.z < medium.floor_z) {
-                    m_visible[node(i, j, k)] = 0.0f;
-                    continue;
-                }
+                if (point.z < medium.floor_z) continue;
                 detail::set_ray(batch[static_cast<size_t>(n)], point, m_sun);
                 which[static_cast<size_t>(n++)] = i;
             }
             if (n == 0) continue;
-            scene.accel().occluded(batch.data(), static_cast<size_t>(n), /*coherent=*/true);
+            scene.accel().intersect(batch.data(), static_cast<size_t>(n), /*coherent=*/true);
             rays += static_cast<uint64_t>(n);
-            for (int r = 0; r < n; ++r)
-                if (batch[static_cast<size_t>(r)].tfar < 0.0f) m_visible[node(which[static_cast<size_t>(r)], j, k)] = 0.0f;
+            for (int r = 0; r < n; ++r) {
+                const RayHit& hit = batch[static_cast<size_t>(r)];
+                if (hit.geom_id == kInvalidId) continue;
+                const Instance& inst = scene.instance(hit.inst_id);
+                const glm::dvec3 normal = inst.normal_to_world * glm::dvec3(hit.ng_x, hit.ng_y, hit.ng_z);
+                if (glm::dot(normal, m_sun) < 0.0) m_visible[node(which[static_cast<size_t>(r)], j, k)] = 0.0f;
+            }
         }
     });
     m_shadow_rays = rays;

@@ -1,0 +1,117 @@
+"""What the dust medium's knobs cost (issue 6; principle 1): the grid spacing `voxel_m` (the
+dust is baked on it per view and camera rays march it in steps of it) against the error it
+leaves in the image, and the cloud's puff rate against time.
+
+Scene: the default flat location with its bag, the paper's dust cloud beside the target at the
+default capture time (warm-up 6 s, the plume in steady state), seen from orbit view 0 at the
+default 640×480, Sun 12° from azimuth 120°. Each spacing renders rgb (1 spp, direct light, so
+the image differs only by the dust) and is compared with the finest grid the core allows
+(kMaxGridNodes nodes along the box's longest side): the RMS and the 99th percentile of the
+per-pixel difference, relative to the mean radiance of the dust-free image, split into noise
+(each pixel's march starts at a random offset) and bias; seconds are the median of `--repeats`
+renders, next to the dust-free render's.
+
+Writes bench/results/medium-<machine>.json and .svg. Run:
+  .venv/bin/python bench/bench_medium.py [--repeats 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from moonbot import _core
+from moonbot.config import load_config
+from moonbot.render import build_scene
+from moonbot.scene import compose_scene, intrinsics, orbit_pose
+
+from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
+from svgplot import time_error_plot
+
+RESULTS = Path(__file__).resolve().parent / "results"
+SCHEMA_VERSION = 1
+VOXELS = [0.4, 0.2, 0.1, 0.05, 0.025]
+REFERENCE_VOXEL = 0.001  # clamped by the core to the box's longest side / (kMaxGridNodes - 1)
+RATES = [10.0, 20.0, 40.0, 80.0, 160.0]
+CAPTURE_S = 6.0
+
+
+def timed(fn, repeats: int):
+    seconds, out = [], None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        out = fn()
+        seconds.append(time.perf_counter() - start)
+    return out, statistics.median(seconds)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    config = load_config(None, {"terrain.location": "flat"})
+    spec = compose_scene(config)
+    scene = build_scene(spec)
+    origin = spec.target + np.array([0.5, 0.3, 0.0])  # beside the target, as a rover would stir it
+    origin[2] = float(spec.ground.height(origin[0], origin[1]))
+    K = intrinsics(config.camera)
+    pose = orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, config.orbit.start_azimuth_deg)
+    camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], config.camera.width, config.camera.height,
+                          pose.R, pose.t)
+    sun = _core.Sun(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2,
+                    config.sun.angular_diameter_deg)
+
+    def render(medium, seed=1):
+        return _core.render(scene, camera, sun, spp=1, seed=seed, passes=["rgb"], medium=medium)
+
+    def medium(voxel, rate=40.0):
+        puffs = _core.cloud_puffs(1, CAPTURE_S, origin=origin, rate_per_s=rate)
+        return _core.Medium(puffs, voxel_m=voxel, floor_z=origin[2] - 1.0)
+
+    clear, clear_s = timed(lambda: render(None), args.repeats)
+    scale = float(clear["rgb"].mean())
+    reference = render(medium(REFERENCE_VOXEL))
+    result = {"schema_version": SCHEMA_VERSION, "machine": machine(), "capture_s": CAPTURE_S,
+              "clear_seconds": clear_s, "reference_voxel_m": REFERENCE_VOXEL,
+              "reference_medium_rays": reference["medium_rays"], "voxels": [], "rates": []}
+    print(f"dust-free render {1e3 * clear_s:.0f} ms; reference grid: {reference['medium_rays']} shadow rays")
+    print(f"{'voxel m':>8} {'ms/view':>8} {'rms rel':>9} {'p99 rel':>9} {'noise':>9} {'bias':>9} {'shadow rays':>12}")
+    for voxel in VOXELS:
+        out, s = timed(lambda: render(medium(voxel)), args.repeats)
+        diff = np.abs(out["rgb"] - reference["rgb"]) / scale
+        # The march starts each pixel at a random offset: another seed's render tells the noise
+        # (the RMS of two renders' difference / √2) from the bias (the mean difference).
+        other = render(medium(voxel), seed=2)["rgb"]
+        row = {"voxel_m": voxel, "seconds_per_view": s, "rms_relative_error": float(np.sqrt((diff ** 2).mean())),
+               "p99_relative_error": float(np.percentile(diff, 99)),
+               "noise_relative_rms": float(np.sqrt(((out["rgb"] - other) ** 2).mean() / 2) / scale),
+               "bias_relative": float((out["rgb"] - reference["rgb"]).mean() / scale),
+               "medium_rays": out["medium_rays"]}
+        result["voxels"].append(row)
+        print(f"{voxel:>8} {1e3 * s:>8.0f} {row['rms_relative_error']:>9.2e} {row['p99_relative_error']:>9.2e} "
+              f"{row['noise_relative_rms']:>9.2e} {row['bias_relative']:>9.2e} {row['medium_rays']:>12}")
+    print(f"\n{'rate/s':>7} {'puffs':>6} {'ms/view':>8}")
+    for rate in RATES:
+        m = medium(0.05, rate)
+        _, s = timed(lambda: render(m), args.repeats)
+        result["rates"].append({"rate_per_s": rate, "puffs": m.puff_count, "voxel_m": 0.05, "seconds_per_view": s})
+        print(f"{rate:>7} {m.puff_count:>6} {1e3 * s:>8.0f}")
+    RESULTS.mkdir(exist_ok=True)
+    out_path = RESULTS / f"medium-{machine_slug(result['machine'])}.json"
+    out_path.write_text(json.dumps(result, indent=2) + "\n")
+    curve = [(r["seconds_per_view"], r["rms_relative_error"], f"{r['voxel_m']:g}") for r in result["voxels"]]
+    time_error_plot(out_path.with_suffix(".svg"), f"Dust medium: grid spacing against image error "
+                    f"({result['machine']['git_commit'][:7]}, 640x480, 1 spp)", {"voxel_m": curve},
+                    "render seconds per view", "RMS error / mean radiance")
+    print(f"\nwritten {out_path} and {out_path.with_suffix('.svg').name}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
