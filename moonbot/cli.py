@@ -35,10 +35,14 @@ def main() -> None:
 @click.option("--dem", "dem_file", type=click.Path(dir_okay=False, path_type=Path),
               help="A LocalDem .npz from `moonbot terrain import`: render at that site "
                    "(shorthand for --set terrain.location=dem --set terrain.dem_file=...).")
+@click.option("--dust", is_flag=True,
+              help="Stir up dust beside the target: ejecta fragments and a fine-dust cloud "
+                   "(shorthand for --set dust.enabled=true; settings in the config's dust section).")
 @click.option("--sheet/--no-sheet", default=True, show_default=True,
               help="Also write sheet.png: per view rgb | depth | mask, read back from the files.")
 def render_one(config_path: Path | None, views: tuple[int, ...], all_views: bool, out_dir: Path,
-               overrides: tuple[str, ...], location: str | None, dem_file: Path | None, sheet: bool) -> None:
+               overrides: tuple[str, ...], location: str | None, dem_file: Path | None, dust: bool,
+               sheet: bool) -> None:
     """Render one sample (or one task) of CONFIG on this machine, for debugging a scene.
 
     CONFIG defaults to the embedded default config. Writes rgb.png (Reinhard, 8-bit sRGB),
@@ -57,6 +61,8 @@ def render_one(config_path: Path | None, views: tuple[int, ...], all_views: bool
             settings["terrain.location"] = location
         if dem_file is not None:  # a path, not a YAML value
             settings.update({"terrain.location": "dem", "terrain.dem_file": str(dem_file)})
+        if dust:
+            settings["dust.enabled"] = True
         config = load_config(config_path, settings)
     except ConfigError as e:
         raise click.ClickException(str(e)) from None

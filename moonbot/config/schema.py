@@ -430,6 +430,129 @@ class OutputConfig:
         "at png_compression's level"))
 
 
+# The largest ejecta time step the core accepts, seconds (_core.MAX_DUST_STEP; a test checks
+# they agree). The schema stays importable without the compiled core.
+MAX_DUST_STEP_S = 0.1
+
+
+@dataclass(frozen=True)
+class EjectaConfig:
+    """Emitter 1, granular ejecta (paper 3.2; cpp/include/moonbot/dust.h): rock fragments thrown
+    up from a disc around the emitter in bursts, flying in vacuum and bouncing on everything in
+    the scene until they rest. Opaque regolith geometry: background (label 0) in the masks, and
+    in depth. Numbers: lunar-physics.md §5."""
+
+    count: int = field(default=200, metadata=spec(
+        "fragments per burst (0 = no ejecta: none simulated, no mesh)", lo=0, hi=1000000))
+    spawn_radius_m: float = field(default=0.1, metadata=spec(
+        "fragments leave from a horizontal disc of this radius around the emitter, metres", lo=0.0, hi=100.0))
+    cone_half_angle_deg: float = field(default=45.0, metadata=spec(
+        "launch directions are uniform over this cone about the vertical, degrees (paper: 45)", lo=0.0, hi=90.0))
+    mean_speed_m_s: float = field(default=0.5, metadata=spec(
+        "launch speeds are uniform in [0.5, 1.5] × this, m/s (paper: 0.5)", lo=0.0, hi=100.0))
+    min_diameter_m: float = field(default=0.01, metadata=spec(
+        "smallest fragment, metres (diameters uniform in [min, max]; paper: 1-2 cm)", lo=0.0, hi=1.0, lo_open=True))
+    max_diameter_m: float = field(default=0.02, metadata=spec(
+        "largest fragment, metres", lo=0.0, hi=1.0, lo_open=True))
+    gravity_m_s2: float = field(default=1.62, metadata=spec(
+        "gravity the fragments fall under, m/s^2 (the Moon: 1.62)", lo=0.0, hi=100.0))
+    restitution: float = field(default=0.4, metadata=spec(
+        "share of the normal speed a bounce keeps [unverified in the literature; DEM practice 0.3-0.5]",
+        lo=0.0, hi=0.95))
+    friction: float = field(default=0.6, metadata=spec(
+        "Coulomb friction of a bounce: tangential speed lost <= this × the normal impulse", lo=0.0, hi=10.0))
+    rest_speed_m_s: float = field(default=0.02, metadata=spec(
+        "a bounce leaving a fragment slower than this puts it at rest, m/s", lo=0.0, hi=10.0, lo_open=True))
+    burst_period_s: float = field(default=2.0, metadata=spec(
+        "every fragment is thrown again every this many seconds (the paper's loop), seconds",
+        lo=0.0, hi=3600.0, lo_open=True))
+
+    def __post_init__(self) -> None:
+        if self.min_diameter_m > self.max_diameter_m:
+            raise ValueError(f"min_diameter_m: must be <= max_diameter_m = {self.max_diameter_m}, "
+                             f"got {self.min_diameter_m}")
+
+
+@dataclass(frozen=True)
+class CloudConfig:
+    """Emitter 2, the fine-dust cloud (paper 3.2; cpp/include/moonbot/dust.h): Gaussian puffs born
+    at a steady rate in a box below the emitter, drifting out along a cone, growing, their opacity
+    rising fast then fading over their life; rendered as a medium (moonbot/medium.h) that
+    attenuates and scatters sunlight in RGB only."""
+
+    box_m: tuple[float, float, float] = field(default=(0.7, 2.0, 0.5), metadata=spec(
+        "spawn box east × north × up, metres (paper: 0.7 × 2.0 × 0.5)", lo=0.0, hi=1000.0, length=3))
+    vertical_offset_m: float = field(default=-1.7, metadata=spec(
+        "the spawn box's centre this far above the emitter, metres (paper: -1.7)", lo=-1000.0, hi=1000.0))
+    axis: tuple[float, float, float] = field(default=(1.0, 0.0, 500.0), metadata=spec(
+        "cone axis east, north, up (any length but 0; paper: (1, 0, 500))", lo=-1e6, hi=1e6, length=3))
+    cone_half_angle_deg: float = field(default=45.0, metadata=spec(
+        "launch directions are uniform over this cone about the axis, degrees (paper: 45)", lo=0.0, hi=180.0))
+    speed_m_s: float = field(default=0.7, metadata=spec(
+        "launch speed of a puff, m/s (paper: 0.7)", lo=0.0, hi=100.0))
+    gravity_m_s2: float = field(default=0.0, metadata=spec(
+        "gravity the puffs fall under, m/s^2: 0, as the paper's sprites drift. In vacuum fine dust is "
+        "ballistic too (1.62), but a 0.7 m/s launch then rises 15 cm and lands within 0.9 s: no "
+        "haze lasting 5 s", lo=0.0, hi=100.0))
+    lifetime_s: float = field(default=5.0, metadata=spec(
+        "a puff's life, seconds (paper: 5)", lo=0.0, hi=3600.0, lo_open=True))
+    rate_per_s: float = field(default=40.0, metadata=spec(
+        "puffs born a second (rate × lifetime are alive at once, at most 100000)", lo=0.0, hi=1e5))
+    sigma_m: float = field(default=0.15, metadata=spec(
+        "a puff's standard deviation at birth, metres", lo=0.0, hi=100.0, lo_open=True))
+    growth_m_s: float = field(default=0.08, metadata=spec(
+        "a puff's standard deviation grows by this much a second, m/s", lo=0.0, hi=100.0))
+    optical_depth: float = field(default=0.5, metadata=spec(
+        "optical depth through a puff's centre at its most opaque (0 = no cloud: no medium traced)",
+        lo=0.0, hi=100.0))
+    rise_fraction: float = field(default=0.1, metadata=spec(
+        "opacity rises linearly over this fraction of a puff's life, then falls as "
+        "((1 - u)/(1 - rise))^2; in (0, 1)", lo=0.0, hi=1.0, lo_open=True))
+    albedo: tuple[float, float, float] = field(default=(0.55, 0.51, 0.45), metadata=spec(
+        "single-scattering albedo of the dust grains, linear RGB", lo=0.0, hi=1.0, length=3))
+    asymmetry: float = field(default=0.7, metadata=spec(
+        "Henyey-Greenstein asymmetry g of the grains' phase function (> 0 scatters forward); in (-1, 1)",
+        lo=-1.0, hi=1.0, lo_open=True))
+    voxel_m: float = field(default=0.05, metadata=spec(
+        "side of the grid cells the cloud is baked on for rendering, metres (smaller: finer and slower)",
+        lo=0.001, hi=10.0))
+
+    def __post_init__(self) -> None:
+        if not any(self.axis):
+            raise ValueError(f"axis: must not be zero, got {self.axis}")
+        if self.rate_per_s * self.lifetime_s > 1e5:
+            raise ValueError(f"rate_per_s: at most 100000 puffs may be alive (rate_per_s × lifetime_s), got "
+                             f"{self.rate_per_s} × {self.lifetime_s} = {self.rate_per_s * self.lifetime_s:g}")
+        if self.rise_fraction >= 1.0:
+            raise ValueError(f"rise_fraction: must be < 1, got {self.rise_fraction}")
+        if self.asymmetry >= 1.0:
+            raise ValueError(f"asymmetry: must be < 1, got {self.asymmetry}")
+
+
+@dataclass(frozen=True)
+class DustConfig:
+    """Dust stirred up beside the work site, as a rover would (paper 3.2; issue 6): granular
+    ejecta (`ejecta`, opaque fragments) and a fine-dust cloud (`cloud`, a medium in RGB only).
+    Off, a scene runs no dust code, builds no dust geometry and traces no medium. Both emitters
+    stand on the ground `emitter_offset_m` from the target bag's centre; each view has its own
+    capture time, warmup_s + view × view_interval_s. The seed is the dataset seed, hashed."""
+
+    enabled: bool = field(default=False, metadata=spec("simulate and render dust in this scene"))
+    emitter_offset_m: tuple[float, float] = field(default=(0.5, 0.3), metadata=spec(
+        "the emitters stand this far east and north of the target bag's centre, on the ground, metres",
+        lo=-1000.0, hi=1000.0, length=2))
+    warmup_s: float = field(default=6.0, metadata=spec(
+        "capture time of view 0 after the emitters start, seconds (at least cloud.lifetime_s for a "
+        "plume in steady state)", lo=0.0, hi=1e5))
+    view_interval_s: float = field(default=0.25, metadata=spec(
+        "time between the captures of consecutive orbit views, seconds", lo=0.0, hi=3600.0))
+    time_step_s: float = field(default=0.01, metadata=spec(
+        "largest ejecta integration step, seconds (flight is exact; the step sets how finely contacts "
+        "are found: bench/results/dust-*.json)", lo=0.0, hi=MAX_DUST_STEP_S, lo_open=True))
+    ejecta: EjectaConfig = field(default_factory=EjectaConfig)
+    cloud: CloudConfig = field(default_factory=CloudConfig)
+
+
 @dataclass(frozen=True)
 class Config:
     """A whole moonbot configuration. Load with `moonbot.config.load_config`."""
@@ -444,3 +567,4 @@ class Config:
     render: RenderConfig = field(default_factory=RenderConfig)
     tonemap: ToneMapConfig = field(default_factory=ToneMapConfig)
     output: OutputConfig = field(default_factory=OutputConfig)
+    dust: DustConfig = field(default_factory=DustConfig)

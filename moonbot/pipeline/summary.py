@@ -25,6 +25,13 @@ def format_summary(config: Config, results: list[ViewResult], sheet: Path | None
         "bags    " + (f"{c.bags.layout}, settled under {c.bags.settle.gravity_m_s2:g} m/s² in "
                       f"{1e3 * results[0].timings['settle']:.1f} ms" if results and "settle" in results[0].timings
                       else f"{c.bags.layout}, at geometric rest (not settled)"),
+    ]
+    if results and results[0].dust is not None:  # only a dust scene has a dust stage
+        d, times = results[0].dust, [r.dust["capture_time_s"] for r in results]
+        lines.append(f"dust    {d['fragments']} ejecta fragments, {d['puffs']} cloud puffs (view {results[0].view}), "
+                     f"captured at {min(times):g}–{max(times):g} s, "
+                     f"{1e3 * float(np.median([r.timings['dust'] for r in results])):.1f} ms a view (median)")
+    lines += [
         "",
         f"{'view':>4} {'az°':>6} {'compose':>8} {'bvh':>7} {'render':>7} {'tonemap':>8} "
         f"{'encode':>7} {'Mrays/s':>8}  visible px (id: px)",

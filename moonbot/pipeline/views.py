@@ -1,5 +1,6 @@
 """Renders chosen orbit views of the configured scene into one directory per view. The scene is
-composed and its BVH built once, then every view reuses it."""
+composed and its BVH built once, then every view reuses it; in a dust scene each view moves only
+the ejecta's mesh (moonbot.render.dust)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from pathlib import Path
 
 from moonbot import __version__
 from moonbot.config import Config, config_hash
-from moonbot.render import build_scene, render_view, resolve_exposure
+from moonbot.render import SceneDust, build_scene, render_view, resolve_exposure
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
 from moonbot.scene.orbit import orbit_height
 from moonbot.writer import staged_directory, write_sample
@@ -17,13 +18,15 @@ from moonbot.writer import staged_directory, write_sample
 
 @dataclass(frozen=True)
 class ViewResult:
-    """Where a view was written and what it cost: `timings` in seconds per stage, `rays` counts."""
+    """Where a view was written and what it cost: `timings` in seconds per stage, `rays` counts;
+    `dust` is the view's dust record in gt.json (None in a scene without dust)."""
 
     view: int
     out_dir: Path
     timings: dict
     rays: dict
     instance_pixels: dict
+    dust: dict | None = None
 
 
 def view_seed(dataset_seed: int, view: int) -> int:
@@ -50,6 +53,8 @@ def run_views(config: Config, views: list[int], out_root: Path) -> list[ViewResu
     start = time.perf_counter()
     scene = build_scene(spec)
     build_s = time.perf_counter() - start
+    # Dust only when the scene calls for it: otherwise no simulation, no mesh, no medium, no stage.
+    dust = SceneDust(scene, spec, config, views) if config.dust.enabled else None
 
     K = intrinsics(config.camera)
     exposure = resolve_exposure(config)
@@ -60,10 +65,13 @@ def run_views(config: Config, views: list[int], out_root: Path) -> list[ViewResu
         height = orbit_height(spec.target, config.orbit.radius_m, config.orbit.height_m, azimuth, spec.ground)
         pose = orbit_pose(spec.target, config.orbit.radius_m, height, azimuth)
         seed = view_seed(config.seed, v)
-        rendered = render_view(scene, config, K, pose, seed)
+        view_dust = dust.for_view(v) if dust is not None else None
+        rendered = render_view(scene, config, K, pose, seed, view_dust.medium if view_dust else None)
         out_dir = out_root / f"view_{v:03d}"
-        timings = {"terrain": terrain_s, "compose": compose_s, "build_bvh": build_s,
-                   "render": rendered.stats["seconds"]}
+        timings = {"terrain": terrain_s, "compose": compose_s, "build_bvh": build_s}
+        if view_dust is not None:  # its ejecta simulation, fragment mesh update and cloud
+            timings["dust"] = view_dust.seconds
+        timings["render"] = rendered.stats["seconds"]
         if settle_s is not None:
             timings["settle"] = settle_s
         meta = {
@@ -76,12 +84,14 @@ def run_views(config: Config, views: list[int], out_root: Path) -> list[ViewResu
             "config_hash": digest,
             "moonbot_version": __version__,
         }
+        if view_dust is not None:
+            meta["dust"] = view_dust.meta
         with staged_directory(out_dir) as staging:
             gt = write_sample(staging, rendered, exposure, K, pose, spec.bags,
                               config.output.png_compression, meta, timings, exr=config.output.exr)
         rays = {k: rendered.stats[k] for k in ("camera_rays", "shadow_rays")}
         pixels = {i["instance_id"]: i["px_count_visib"] for i in gt["instances"]}
-        results.append(ViewResult(v, out_dir, gt["timings_s"], rays, pixels))
+        results.append(ViewResult(v, out_dir, gt["timings_s"], rays, pixels, meta.get("dust")))
         terrain_s = compose_s = build_s = 0.0  # paid once, by the first view
         settle_s = None if settle_s is None else 0.0
     return results

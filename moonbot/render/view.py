@@ -21,7 +21,8 @@ EARTH_DIAMETER_DEG = 1.9
 class RenderedView:
     """One rendered view. rgb (H, W, 3) float32 linear radiance W/(m²·sr); depth (H, W) float32
     z-depth in metres, 0 where nothing is hit; instance (H, W) uint8 labels, 0 = background.
-    `stats` holds camera_rays, shadow_rays, bounce_rays and the core's render seconds."""
+    `stats` holds camera_rays, shadow_rays, bounce_rays, medium_rays (the dust medium's shadow rays
+    toward the Sun, 0 without dust) and the core's render seconds."""
 
     rgb: np.ndarray
     depth: np.ndarray
@@ -70,8 +71,10 @@ def regolith(config: PhotometryConfig, normal_albedo: float) -> tuple[_core.Phot
 
 
 def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraPose,
-                seed: int) -> RenderedView:
-    """Renders rgb, depth and instance passes of one view with the config's Sun and quality."""
+                seed: int, medium: _core.Medium | None = None) -> RenderedView:
+    """Renders rgb, depth and instance passes of one view with the config's Sun and quality, and
+    with `medium` (a dust scene's cloud; moonbot.render.dust) attenuating and scattering the
+    sunlight in rgb only."""
     camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], config.camera.width,
                           config.camera.height, pose.R, pose.t)
     s = config.sun
@@ -82,8 +85,9 @@ def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraP
     start = time.perf_counter()
     out = _core.render(scene, camera, sun, spp=config.render.spp, seed=seed,
                        threads=config.render.threads, exact_depth=config.render.exact_depth,
-                       light_samples=config.render.light_samples, bounces=config.render.bounces, earth=earth)
+                       light_samples=config.render.light_samples, bounces=config.render.bounces, earth=earth,
+                       medium=medium)
     stats = {"camera_rays": out["camera_rays"], "shadow_rays": out["shadow_rays"],
-             "bounce_rays": out["bounce_rays"], "core_seconds": out["seconds"],
+             "bounce_rays": out["bounce_rays"], "medium_rays": out["medium_rays"], "core_seconds": out["seconds"],
              "seconds": time.perf_counter() - start}
     return RenderedView(rgb=out["rgb"], depth=out["depth"], instance=out["instance"], stats=stats)

@@ -1,0 +1,127 @@
+"""The dust of one scene (paper 3.2, issue 6) through `moonbot._core`: granular ejecta as one
+moving mesh of opaque regolith fragments, and the fine-dust cloud as a medium for the renderer.
+
+Only a scene whose config turns dust on builds a `SceneDust`; without it nothing here runs (no
+simulation, no fragment mesh, no medium: principle 3). Every view has its own capture time,
+`warmup_s + view × view_interval_s` (the orbit index, so a view renders the same alone or in its
+orbit). The ejecta collide with the scene, so every capture is simulated before the fragments'
+own mesh joins it; the mesh is then added once, from the first view's state, and each later view
+moves its vertices (`Scene.update_mesh`), which rebuilds the ejecta's BVH and the top level only,
+never the terrain's or the bags'. The cloud's puffs are a closed-form function of time, computed
+per view. Both emitters stand on the ground `dust.emitter_offset_m` from the target's centre.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from moonbot import _core
+from moonbot.config.schema import Config, DustConfig
+from moonbot.render.view import regolith
+from moonbot.scene.compose import SceneSpec
+
+# What a dataset user must know about a dust sample's annotations (gt.json "dust").
+DUST_NOTE = ("dust changes RGB only: the fine-dust cloud is a medium that attenuates and scatters "
+             "sunlight in rgb, and depth and masks stay geometric; the ejecta fragments are opaque "
+             "background geometry (label 0), so they do appear in depth and masks, occluding bags")
+
+
+def dust_seed(dataset_seed: int) -> int:
+    """The seed of a scene's dust (ejecta and cloud; the core gives each its own stream): a 64-bit
+    hash of the dataset seed, so dust is reproducible and unrelated to every other seeded stage."""
+    digest = hashlib.blake2b(f"moonbot.dust:{dataset_seed}".encode(), digest_size=8).digest()
+    return int.from_bytes(digest, "little")
+
+
+def capture_time(dust: DustConfig, view: int) -> float:
+    """Seconds after the emitters start at which orbit view `view` is captured."""
+    return dust.warmup_s + view * dust.view_interval_s
+
+
+def emitter_origin(spec: SceneSpec, dust: DustConfig) -> np.ndarray:
+    """Where both emitters stand: `emitter_offset_m` east and north of the target's centre, on the
+    ground there. (3,) float64 world metres."""
+    x = float(spec.target[0]) + dust.emitter_offset_m[0]
+    y = float(spec.target[1]) + dust.emitter_offset_m[1]
+    z = float(spec.ground.height(np.array([x]), np.array([y]))[0])
+    return np.array([x, y, z])
+
+
+@dataclass(frozen=True)
+class ViewDust:
+    """One view's dust, ready to render: `medium` for `_core.render` (None when the cloud has no
+    puff alive), `seconds` this view's dust stage cost (its ejecta simulation, moving the
+    fragment mesh and rebuilding its BVH, the puffs and the medium), `meta` its record for gt.json."""
+
+    medium: _core.Medium | None
+    seconds: float
+    meta: dict
+
+
+class SceneDust:
+    """The dust of one built, committed scene for the views about to be rendered. Construct it
+    after `build_scene` and before rendering; then `for_view(v)` before rendering view v."""
+
+    def __init__(self, scene: _core.Scene, spec: SceneSpec, config: Config, views: list[int]) -> None:
+        self._scene = scene
+        self._dust = config.dust
+        self._seed = dust_seed(config.seed)
+        self._origin = emitter_origin(spec, config.dust)
+        self._mesh: int | None = None
+        self._current: int | None = None  # the view whose fragments the mesh holds
+        self._fragments: dict[int, tuple[int, np.ndarray]] = {}  # view → (count, vertices (12 N, 3))
+        self._triangles: np.ndarray | None = None
+        self._seconds: dict[int, float] = {}
+        # Regolith like the terrain's rocks, background (label 0).
+        self._photometry, self._albedo = regolith(spec.terrain_photometry, spec.terrain_albedo)
+        e = config.dust.ejecta
+        if e.count == 0:
+            return  # no ejecta: nothing simulated, no mesh
+        # Every capture first: the fragments must not collide with their own mesh.
+        for v in dict.fromkeys(views):
+            start = time.perf_counter()
+            state = _core.simulate_ejecta(
+                scene, self._seed, capture_time(config.dust, v), dt_s=config.dust.time_step_s,
+                origin=tuple(self._origin), count=e.count, spawn_radius_m=e.spawn_radius_m,
+                cone_half_angle_deg=e.cone_half_angle_deg, mean_speed_m_s=e.mean_speed_m_s,
+                min_diameter_m=e.min_diameter_m, max_diameter_m=e.max_diameter_m, gravity_m_s2=e.gravity_m_s2,
+                restitution=e.restitution, friction=e.friction, rest_speed_m_s=e.rest_speed_m_s,
+                burst_period_s=e.burst_period_s, threads=config.render.threads)
+            self._fragments[v] = (len(state["position"]), state["vertices"])
+            self._triangles = state["triangles"]
+            self._seconds[v] = time.perf_counter() - start
+
+    def for_view(self, view: int) -> ViewDust:
+        """Puts view `view`'s fragments into the scene (and commits it) and returns its medium.
+        `view` must be one of the views this was built for."""
+        d, c = self._dust, self._dust.cloud
+        t = capture_time(d, view)
+        seconds = self._seconds.pop(view, 0.0)  # its simulation, paid once
+        start = time.perf_counter()
+        fragments = 0
+        if self._triangles is not None:
+            fragments, vertices = self._fragments[view]
+            if self._mesh is None:
+                self._mesh = self._scene.add_mesh(vertices, self._triangles)
+                self._scene.add_background(self._mesh, np.eye(4), self._albedo, self._photometry)
+                self._scene.commit()
+            elif self._current != view:
+                self._scene.update_mesh(self._mesh, vertices)
+                self._scene.commit()
+            self._current = view
+        puffs = _core.cloud_puffs(
+            self._seed, t, origin=tuple(self._origin), box_m=c.box_m, vertical_offset_m=c.vertical_offset_m,
+            axis=c.axis, cone_half_angle_deg=c.cone_half_angle_deg, speed_m_s=c.speed_m_s,
+            gravity_m_s2=c.gravity_m_s2, lifetime_s=c.lifetime_s, rate_per_s=c.rate_per_s, sigma_m=c.sigma_m,
+            growth_m_s=c.growth_m_s, optical_depth=c.optical_depth, rise_fraction=c.rise_fraction)
+        # No puff alive (no rate, no opacity, or not yet born): no medium to trace.
+        medium = (_core.Medium(puffs, albedo=c.albedo, asymmetry=c.asymmetry, voxel_m=c.voxel_m)
+                  if len(puffs) else None)
+        seconds += time.perf_counter() - start
+        meta = {"capture_time_s": t, "fragments": fragments, "puffs": int(len(puffs)),
+                "emitter_m": self._origin.tolist(), "note": DUST_NOTE}
+        return ViewDust(medium=medium, seconds=seconds, meta=meta)
