@@ -30,6 +30,10 @@ DUST_NOTE = ("dust changes RGB only: the fine-dust cloud is a medium that attenu
              "background geometry (label 0), so they do appear in depth and masks, occluding bags")
 
 
+# How far below the emitter's ground the dust grid reaches, metres: under it, dust is never seen.
+FLOOR_DEPTH_M = 1.0
+
+
 def dust_seed(dataset_seed: int) -> int:
     """The seed of a scene's dust (ejecta and cloud; the core gives each its own stream): a 64-bit
     hash of the dataset seed, so dust is reproducible and unrelated to every other seeded stage."""
@@ -119,7 +123,10 @@ class SceneDust:
             gravity_m_s2=c.gravity_m_s2, lifetime_s=c.lifetime_s, rate_per_s=c.rate_per_s, sigma_m=c.sigma_m,
             growth_m_s=c.growth_m_s, optical_depth=c.optical_depth, rise_fraction=c.rise_fraction)
         # No puff alive (no rate, no opacity, or not yet born): no medium to trace.
-        medium = (_core.Medium(puffs, albedo=c.albedo, asymmetry=c.asymmetry, voxel_m=c.voxel_m)
+        # Dust more than a metre under the emitter's ground is never seen or lit: the core's grid
+        # stops there (the default plume rises from 1.7 m below).
+        medium = (_core.Medium(puffs, albedo=c.albedo, asymmetry=c.asymmetry, voxel_m=c.voxel_m,
+                               floor_z=float(self._origin[2]) - FLOOR_DEPTH_M)
                   if len(puffs) else None)
         seconds += time.perf_counter() - start
         meta = {"capture_time_s": t, "fragments": fragments, "puffs": int(len(puffs)),
