@@ -93,7 +93,7 @@ case "${1:-}" in
         setup
         for name in "${@:2}"; do [ -f "bench/bench_$name.py" ] || { log "no bench/bench_$name.py"; exit 2; }; done
         for name in "${@:2}"; do "$PY" "bench/bench_$name.py"; done
-        [ $# -gt 1 ] || for name in render_one settle terrain tonemap_exr accuracy dust; do "$PY" "bench/bench_$name.py"; done
+        [ $# -gt 1 ] || for name in render_one settle terrain tonemap_exr accuracy dust medium; do "$PY" "bench/bench_$name.py"; done
         ;;
     *)
         sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'
