@@ -31,8 +31,6 @@ constexpr double kTwoPi = 6.28318530717958647693;
 // samples, then each bounce's direction and its lights' disk samples.
 // (At most 2 lights × kMaxLightSamples × 2 dimensions fit below kDimBounce.)
 constexpr uint32_t kDimLight = 16, kDimBounce = 8192, kDimsPerBounce = 64;
-// Then the offset of the dust's march (sample 0 only).
-constexpr uint32_t kDimMedium = 16384;
 // A march stops once the dust's optical depth passes this: nothing behind shows (e^-20 ≈ 2e-9).
 constexpr double kOpaqueDepth = 20.0;
 
@@ -120,7 +118,7 @@ public:
         : m_scene(scene), m_camera(camera), m_settings(settings), m_out(out),
           m_instances(instance_table(scene)), m_lights(light_table(lights)), m_medium(medium) {
         for (const LightData& l : m_lights) m_random = m_random || !l.point;
-        m_random = m_random || settings.bounces > 0 || medium != nullptr;
+        m_random = m_random || settings.bounces > 0;
         // Light 0 is the Sun unless the Sun is dark (light_table leaves dark lights out).
         if (lights.sun.irradiance() > 0.0) m_sun = &m_lights[0];
     }
@@ -243,8 +241,11 @@ private:
     }
 
     /// The dust between the camera and each pixel's first hit (or the sky), along the resolved
-    /// pixel-centre rays: marched in steps of the grid's spacing from a random offset, it gives
-    /// the transmittance to the hit and the sunlight scattered toward the camera (render.h).
+    /// pixel-centre rays: marched in steps of the grid's spacing, sampled at each step's middle
+    /// (the midpoint rule: no noise, an error of second order in the step on the smooth puffs;
+    /// a random offset per pixel was measured to leave grain 4–10× worse than the midpoint's
+    /// error, bench_medium), it gives the transmittance to the hit and the sunlight scattered
+    /// toward the camera (render.h).
     void march_dust(int n, TileScratch& s) const {
         const glm::dvec3& origin = m_camera.center();
         const Medium& medium = m_medium->medium();
@@ -257,14 +258,13 @@ private:
             const glm::dvec3 dir = s.dirs[i] / length;
             double enter, exit;
             if (!m_medium->clip(origin, dir, h.hit ? h.t * length : INFINITY, enter, exit)) continue;
-            const double offset = stream_uniform01(s.streams[i], 0, kDimMedium);
             double depth = 0.0, lit = 0.0;
             for (double a = enter; a < exit && depth < kOpaqueDepth; a += step) {
                 const double length_here = std::min(step, exit - a);
-                const double at = a + offset * length_here;
+                const double at = a + 0.5 * length_here;
                 double extinction, sunlight;
                 m_medium->sample(origin + at * dir, extinction, sunlight);
-                lit += std::exp(-(depth + extinction * (at - a))) * extinction * sunlight * length_here;
+                lit += std::exp(-(depth + 0.5 * extinction * length_here)) * extinction * sunlight * length_here;
                 depth += extinction * length_here;
             }
             s.dust_through[i] = std::exp(-depth);

@@ -70,7 +70,7 @@ struct RenderStats {
 /// centre ray, the Sun's light at each first hit by the dust's transmittance toward the Sun, and
 /// the pixel gains the sunlight the dust scatters toward the camera,
 /// ∫ k(s)·ω·p_HG(θ)·E_sun·T(s)·T_sun(s)·V(s) ds, both marched along the centre ray in steps of
-/// voxel_m from a random offset. Bounce paths do not see the dust, nor does the Earth's light;
+/// voxel_m, sampled at each step's middle. Bounce paths do not see the dust, nor does the Earth's light;
 /// depth and labels stay those of the geometry.
 RenderStats render(const Scene& scene, const Camera& camera, const Lights& lights,
                    const RenderSettings& settings, const FrameView& out, const Medium* medium = nullptr);
