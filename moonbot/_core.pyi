@@ -171,7 +171,7 @@ def puff_optical_depth(centre: ArrayLike, sigma_m: float, peak_extinction: float
 def cloud_puffs(seed: int, time_s: float, origin: ArrayLike = (0.0, 0.0, 0.0), box_m: ArrayLike = (0.7, 2.0, 0.5),
                 vertical_offset_m: float = -1.7, axis: ArrayLike = (1.0, 0.0, 500.0), cone_half_angle_deg: float = 45.0,
                 speed_m_s: float = 0.7, gravity_m_s2: float = 0.0, lifetime_s: float = 5.0, rate_per_s: float = 40.0,
-                sigma_m: float = 0.15, growth_m_s: float = 0.08, optical_depth: float = 0.5,
+                sigma_m: float = 0.15, growth_m_s: float = 0.08, optical_depth: float = 0.25,
                 rise_fraction: float = 0.1) -> NDArray[np.float64]: ...  # (N, 5): x, y, z, sigma, peak
 def henyey_greenstein(cos_theta: float, g: float) -> float: ...
 

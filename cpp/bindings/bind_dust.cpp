@@ -116,7 +116,7 @@ void bind_dust(py::module_& m) {
         py::arg("axis") = py::make_tuple(1.0, 0.0, 500.0), py::arg("cone_half_angle_deg") = 45.0,
         py::arg("speed_m_s") = 0.7, py::arg("gravity_m_s2") = 0.0, py::arg("lifetime_s") = 5.0,
         py::arg("rate_per_s") = 40.0, py::arg("sigma_m") = 0.15, py::arg("growth_m_s") = 0.08,
-        py::arg("optical_depth") = 0.5, py::arg("rise_fraction") = 0.1,
+        py::arg("optical_depth") = 0.25, py::arg("rise_fraction") = 0.1,
         "The fine-dust cloud (moonbot/dust.h, emitter 2) at time_s: the puffs alive then, (N, 5) "
         "float64 rows of centre x, y, z (world metres), sigma (metres) and peak extinction (1/m).");
     py::class_<Medium>(m, "Medium", "Dust as a participating medium (moonbot/medium.h): Gaussian puffs, "

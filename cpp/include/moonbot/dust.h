@@ -99,7 +99,7 @@ struct CloudParams {
     double rate_per_s = 40.0;          ///< puffs born a second: rate × lifetime alive at once
     double sigma_m = 0.15;             ///< a puff's standard deviation at birth
     double growth_m_s = 0.08;          ///< ... growing linearly with age
-    double optical_depth = 0.5;        ///< through a puff's centre at its most opaque
+    double optical_depth = 0.25;       ///< through a puff's centre at its most opaque
     double rise_fraction = 0.1;        ///< opacity rises linearly over this fraction of life, then falls as ((1−u)/(1−rise))²
 
     /// Throws std::invalid_argument naming the field.
