@@ -165,6 +165,43 @@ def terrain_import(dem_path: Path, lat_deg: float, lon_deg: float, size_m: float
     click.echo(summary(dem, out_path))
 
 
+@main.command("stats")
+@click.argument("out_dir", metavar="OUT", type=click.Path(file_okay=False, path_type=Path))
+@click.option("--reference", "reference_dir", type=click.Path(file_okay=False, path_type=Path),
+              help="A previous run's OUT: scaling efficiency against its samples/s per worker.")
+@click.option("--reference-rate", type=click.FloatRange(min=0, min_open=True), metavar="SAMPLES_PER_S",
+              help="Or the samples/s of one worker (e.g. from a benchmark) to compare with.")
+def stats(out_dir: Path, reference_dir: Path | None, reference_rate: float | None) -> None:
+    """Collect the throughput of a `moonbot generate --out OUT` run: every finished task's
+    stats.json into OUT/stats/tasks.jsonl and tasks.parquet; print samples/s overall, per host,
+    per worker, per core, the stage breakdown and efficiencies; plot OUT/stats/throughput.svg.
+    Formulas: moonbot/pipeline/stats.py."""
+    from moonbot.pipeline import stats as st
+
+    if reference_dir is not None and reference_rate is not None:
+        raise click.UsageError("give --reference or --reference-rate, not both")
+    try:
+        if (out_dir / "tasks").is_dir():
+            collected = st.collect(out_dir)
+            records = collected.records
+            for d in collected.incomplete:
+                click.echo(f"skipped {d}: not a complete task (no sound DONE.json)", err=True)
+        else:  # task directories gone: what collect wrote before
+            records = st.load(out_dir)
+        if not records:
+            raise click.ClickException(f"{out_dir / 'tasks'}: no finished tasks")
+        reference = (st.reference_from_run(reference_dir) if reference_dir is not None
+                     else st.Reference(reference_rate, "--reference-rate") if reference_rate is not None
+                     else None)
+        summary = st.summarize(records, reference)
+        (out_dir / "stats").mkdir(parents=True, exist_ok=True)
+        st.write_plot(summary, out_dir / "stats" / "throughput.svg", f"moonbot throughput: {out_dir.name}")
+    except (ValueError, OSError) as e:  # StatsError is a ValueError
+        raise click.ClickException(str(e)) from None
+    click.echo(st.format_summary(summary))
+    click.echo(f"\nwritten {out_dir / 'stats'}/tasks.jsonl, tasks.parquet, throughput.svg")
+
+
 if __name__ == "__main__":
     main()
 
