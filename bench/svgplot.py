@@ -1,5 +1,6 @@
 """Time-against-error plots as standalone SVG (no plotting library needed): one polyline per
-curve, logarithmic axes, points labelled with their knob value. Shared by the scripts in bench/."""
+curve, logarithmic axes, points labelled with their knob value. Shared by the scripts in bench/;
+the document frame and the palette are moonbot.pipeline.svgchart's (also `moonbot stats`'s plot)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,8 @@ import math
 from html import escape
 from pathlib import Path
 
-COLOURS = ("#1b6ca8", "#d1495b", "#2e8b57", "#edae49", "#6a4c93", "#00798c")
+from moonbot.pipeline.svgchart import COLOURS, svg_close, svg_open
+
 WIDTH, PLOT_HEIGHT, MARGIN = 640, 420, 64
 
 
@@ -39,12 +41,9 @@ def time_error_plot(path: Path, title: str, curves: dict[str, list[tuple[float, 
         y = max(y, y_lo)
         return PLOT_HEIGHT - MARGIN - (PLOT_HEIGHT - 2 * MARGIN) * math.log(y / y_lo) / math.log(y_hi / y_lo)
 
-    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{height}" '
-           f'font-family="sans-serif" font-size="11">',
-           f'<rect width="{WIDTH}" height="{height}" fill="white"/>',
-           f'<text x="{WIDTH / 2}" y="20" text-anchor="middle" font-size="14">{escape(title)}</text>',
-           f'<rect x="{MARGIN}" y="{MARGIN}" width="{WIDTH - 2 * MARGIN}" height="{PLOT_HEIGHT - 2 * MARGIN}" '
-           f'fill="none" stroke="black"/>']
+    out = svg_open(WIDTH, height, title)
+    out.append(f'<rect x="{MARGIN}" y="{MARGIN}" width="{WIDTH - 2 * MARGIN}" height="{PLOT_HEIGHT - 2 * MARGIN}" '
+               f'fill="none" stroke="black"/>')
     for t in _log_ticks(x_lo, x_hi):
         out.append(f'<line x1="{px(t):.1f}" y1="{MARGIN}" x2="{px(t):.1f}" y2="{PLOT_HEIGHT - MARGIN}" stroke="#ddd"/>')
         out.append(f'<text x="{px(t):.1f}" y="{PLOT_HEIGHT - MARGIN + 14}" text-anchor="middle">{t:g}</text>')
@@ -61,5 +60,4 @@ def time_error_plot(path: Path, title: str, curves: dict[str, list[tuple[float, 
             out.append(f'<circle cx="{px(x):.1f}" cy="{py(y):.1f}" r="3" fill="{colour}"/>')
             out.append(f'<text x="{px(x) + 5:.1f}" y="{py(y) - 5:.1f}" fill="{colour}">{escape(label)}</text>')
         out.append(f'<text x="{MARGIN}" y="{PLOT_HEIGHT - 8 + 14 * k}" fill="{colour}">— {escape(name)}</text>')
-    out.append("</svg>")
-    path.write_text("\n".join(out) + "\n")
+    path.write_text(svg_close(out))
