@@ -371,9 +371,15 @@ def test_the_shared_dask_config_loads_with_dask():
         assert memory["target"] is False and memory["spill"] is False  # results are tiny: nothing to spill
         assert 0 < memory["pause"] < memory["terminate"] < 1
         assert get("distributed.comm.timeouts.connect") and get("distributed.comm.timeouts.tcp")
-        # Task durations the scheduler assumes before it has measured any: the key prefix of
-        # generate's tasks (render-<task_id>).
-        assert "render" in get("distributed.scheduler.default-task-durations")
+        # Task durations the scheduler assumes before it has timed any, for the prefixes of the
+        # keys generate gives the sweep's tasks (render-<task_id>).
+        from dask.utils import key_split
+
+        from moonbot.config import load_config
+        from moonbot.sweep import tasks
+
+        prefixes = {key_split(f"render-{t.task_id}") for t in tasks(load_config(ROOT / "configs" / "synbag-1.0.yaml"))}
+        assert prefixes <= set(get("distributed.scheduler.default-task-durations"))
 
 
 def test_every_shell_recipe_parses():
@@ -382,7 +388,8 @@ def test_every_shell_recipe_parses():
     for script in scripts:
         result = subprocess.run(["bash", "-n", str(script)], capture_output=True, text=True)
         assert result.returncode == 0, f"{script}: {result.stderr}"
-        assert os.access(script, os.X_OK) or script.suffix == ".sbatch", f"{script}: not executable"
+        if script.read_text().startswith("#!") and script.suffix != ".sbatch":  # not env.sh, which is sourced
+            assert os.access(script, os.X_OK), f"{script}: not executable"
 
 
 def test_kubernetes_manifests_parse():
@@ -401,3 +408,63 @@ def test_the_slurm_launcher_compiles():
 
     py_compile.compile(str(ROOT / "cluster" / "slurm" / "launch.py"), doraise=True,
                        cfile=os.devnull if sys.platform != "win32" else None)
+
+
+TINY = """
+seed: 7
+camera: {width: 64, height: 48}
+orbit: {views: 2, step_deg: 180.0}
+render: {spp: 1, bounces: 0, light_samples: 1}
+terrain: {location: plane}
+sweep:
+  splits:
+    - {name: train, meshes: [sandbag-01], bag_counts: [1], stain_seeds: [0], dust: [false],
+       sun_elevations_deg: [12.0, 20.0], sun_azimuths_deg: [120.0], camera_heights_m: [0.5]}
+    - {name: test, meshes: [sandbag-02], bag_counts: [1], stain_seeds: [0], dust: [false],
+       sun_elevations_deg: [30.0], sun_azimuths_deg: [90.0], camera_heights_m: [1.0]}
+"""
+
+
+def test_the_plain_recipe_renders_a_sweep_and_its_stats(tmp_path):
+    """cluster/plain/ for real on loopback: a scheduler, two worker processes (--nworkers 2), and
+    run-generate.sh (moonbot generate --scheduler-file, then moonbot stats) on a 3-task sweep."""
+    import signal
+    import time
+
+    config = tmp_path / "tiny.yaml"
+    config.write_text(TINY)
+    sched = tmp_path / "scheduler.json"
+    env = dict(os.environ, MOONBOT_VENV=sys.prefix, SCHEDULER_HOST="127.0.0.1", SCHEDULER_PORT="0",
+               DASHBOARD_ADDRESS=":0", WORKER_HOST="127.0.0.1", LOCAL_DIR=str(tmp_path))
+    env.pop("DASK_CONFIG", None)  # the scripts point it at cluster/dask.yaml
+    plain = ROOT / "cluster" / "plain"
+    procs, logs = [], []
+    try:
+        for script, args, log in (("start-scheduler.sh", [sched], "scheduler.log"),
+                                  ("start-workers.sh", [sched, "2"], "workers.log")):
+            logs.append(open(tmp_path / log, "w"))
+            procs.append(subprocess.Popen([str(plain / script), *map(str, args)], env=env, start_new_session=True,
+                                          stdout=logs[-1], stderr=subprocess.STDOUT))
+            deadline = time.monotonic() + 60
+            while script == "start-scheduler.sh" and not sched.exists():
+                assert procs[-1].poll() is None and time.monotonic() < deadline, (tmp_path / log).read_text()
+                time.sleep(0.2)
+        out = tmp_path / "out"
+        run = subprocess.run([str(plain / "run-generate.sh"), str(config), str(out), str(sched)], env=env,
+                             capture_output=True, text=True, timeout=300)
+        assert run.returncode == 0, run.stdout + run.stderr
+        assert "3 tasks rendered (6 samples)" in run.stdout and "tasks       3, 6 samples" in run.stdout
+        records = stats.load(out)
+        assert [r["samples"] for r in records] == [2, 2, 2]
+        assert all(r["worker"].startswith("tcp://127.0.0.1:") for r in records)
+        assert {p.name for p in (out / "stats").iterdir()} == {"tasks.jsonl", "tasks.parquet", "throughput.svg"}
+    finally:
+        for proc in reversed(procs):  # the process groups this test started, by id
+            os.killpg(proc.pid, signal.SIGTERM)
+            try:
+                proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()
+        for log in logs:
+            log.close()
