@@ -403,12 +403,24 @@ def test_kubernetes_manifests_parse():
     assert "dask-worker" not in text and "dask-scheduler" not in text  # removed in distributed 2026.6
 
 
-def test_the_slurm_launcher_compiles():
-    import py_compile
-
-    py_compile.compile(str(ROOT / "cluster" / "slurm" / "launch.py"), doraise=True,
-                       cfile=os.devnull if sys.platform != "win32" else None)
-
+def test_the_slurm_launcher_writes_a_job_script(tmp_path):
+    """dask-jobqueue (not a moonbot dependency: skipped without it) renders the worker job: the job
+    books the CPUs, each worker process has one Dask thread, retires before the walltime and reads
+    the shared dask.yaml; a job of several processes needs render.threads to split its CPUs."""
+    pytest.importorskip("dask_jobqueue")
+    launcher = ROOT / "cluster" / "slurm" / "launch.py"
+    common = [sys.executable, str(launcher), str(ROOT / "configs" / "synbag-1.0.yaml"), "--out", str(tmp_path / "out"),
+              "--cpus", "32", "--memory", "8GB", "--walltime", "04:00:00", "--queue", "cpu",
+              "--log-directory", str(tmp_path / "logs"), "--print-job-script"]
+    run = subprocess.run(common, capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    script = run.stdout
+    for expected in ("#SBATCH --cpus-per-task=32", "#SBATCH -p cpu", "#SBATCH -t 04:00:00",
+                     f"export DASK_CONFIG={ROOT / 'cluster' / 'dask.yaml'}", "--nthreads 1",
+                     "--lifetime 13800s", sys.executable):
+        assert expected in script, expected
+    run = subprocess.run(common + ["--processes", "4"], capture_output=True, text=True, timeout=120)
+    assert run.returncode != 0 and "render.threads: 4 processes a job on 32 CPUs need render.threads = 8" in run.stderr
 
 TINY = """
 seed: 7
