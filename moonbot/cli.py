@@ -165,10 +165,6 @@ def terrain_import(dem_path: Path, lat_deg: float, lon_deg: float, size_m: float
     click.echo(summary(dem, out_path))
 
 
-if __name__ == "__main__":
-    main()
-
-
 @main.command("plan")
 @click.argument("config_path", metavar="CONFIG", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--bench-record", type=click.Path(dir_okay=False, path_type=Path),
@@ -217,10 +213,17 @@ def generate(config_path: Path, out_dir: Path, workers: int | None, scheduler: s
         config = load_config(config_path)
     except ConfigError as e:
         raise click.ClickException(str(e)) from None
-    result = run(config, out_dir, workers=workers, scheduler=scheduler, scheduler_file=scheduler_file)
+    try:
+        result = run(config, out_dir, workers=workers, scheduler=scheduler, scheduler_file=scheduler_file)
+    except OSError as e:
+        raise click.ClickException(str(e)) from None
     click.echo(f"{result.rendered} tasks rendered ({result.samples} samples) in {result.seconds:.1f} s; "
                f"{result.complete_before} were complete already")
     if result.failed:
         for task_id, error in sorted(result.failed.items()):
             click.echo(f"failed: {task_id}: {error}", err=True)
         raise click.ClickException(f"{len(result.failed)} of {result.tasks} tasks failed; rerun to retry them")
+
+
+if __name__ == "__main__":
+    main()

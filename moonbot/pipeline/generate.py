@@ -85,7 +85,10 @@ def generate(config: Config | str | Path | None, out_dir: Path, *, client: Clien
     if not isinstance(config, Config):
         config = load_config(config)
     out_dir = Path(out_dir)
-    (out_dir / "tasks").mkdir(parents=True, exist_ok=True)
+    try:
+        (out_dir / "tasks").mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise OSError(f"{out_dir}: cannot hold the dataset ({e.strerror or e})") from e
     start = time.perf_counter()
     sweep_temporaries(out_dir)
     pending, complete = pending_tasks(config, out_dir)

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from moonbot.config import Config
-from moonbot.sweep.tasks import task_config, tasks
+from moonbot.sweep.tasks import tasks
 
 
 @dataclass(frozen=True)
@@ -23,10 +23,11 @@ class SplitPlan:
 
 
 def split_plans(config: Config) -> list[SplitPlan]:
-    """Counts per split, in sweep order."""
+    """Counts per split, in sweep order. (The sweep varies neither the camera, the orbit nor the
+    render settings, so every task has the base config's views, pixels and samples per pixel.)"""
     out: dict[str, list] = {}
+    c = config
     for t in tasks(config):
-        c = task_config(config, t)
         views = c.orbit.views
         pixels = c.camera.width * c.camera.height * views / 1e6
         entry = out.setdefault(t.split, [set(), 0, 0, 0.0, 0.0])
