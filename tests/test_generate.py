@@ -180,3 +180,27 @@ def test_the_smoke_sweep_has_both_splits_meshes_and_dust():
     ts = tasks(load_config(CONFIGS / "smoke.yaml"))
     assert {t.split for t in ts} == {"train", "test"}
     assert {t.mesh for t in ts} == {"sandbag-01", "sandbag-02", "sandbag-03"} and {t.dust for t in ts} == {False, True}
+
+
+def test_a_failed_write_leaves_no_task_and_loses_nothing(config_file, tmp_path):
+    """A write that fails mid-task (here: a file-size limit, as a full disk would) fails that task
+    with an error, leaves neither it nor a temporary behind, and leaves complete tasks alone."""
+    import resource
+
+    from moonbot.pipeline.tasks import run_task, sweep_temporaries, task_dir
+
+    config = load_config(config_file)
+    first, second = tasks(config)[:2]
+    run_task(config, first, tmp_path, threads=1)
+    before = {p.name: p.read_bytes() for p in task_dir(tmp_path, first).rglob("*") if p.is_file()}
+    soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (4096, hard))  # an rgb.png is bigger than 4 KiB
+    try:
+        with pytest.raises(OSError):
+            run_task(config, second, tmp_path, threads=1)
+    finally:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+    assert not task_dir(tmp_path, second).exists()
+    assert sweep_temporaries(tmp_path) == []  # the failed task cleaned up after itself
+    assert {p.name: p.read_bytes() for p in task_dir(tmp_path, first).rglob("*") if p.is_file()} == before
+    assert verify_task(task_dir(tmp_path, first)) == []

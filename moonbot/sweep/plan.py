@@ -69,10 +69,10 @@ def default_record() -> Path:
 
 def estimate(plans: list[SplitPlan], record_path: Path) -> Estimate | None:
     """The estimate from a generate benchmark record (None if there is none for this machine).
-    The record's best throughput (its largest worker count) is used."""
+    The record's best throughput (the fastest of its runs) is used."""
     try:
         record = json.loads(Path(record_path).read_text())
-        best = max(record["runs"], key=lambda r: r["workers"])
+        best = max(record["runs"], key=lambda r: r["samples_per_s"])
         s_per_mps = best["seconds"] / best["megapixel_samples"]
         b_per_mp = best["bytes"] / best["megapixels"]
     except (OSError, ValueError, KeyError, ZeroDivisionError):
