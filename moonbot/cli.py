@@ -167,18 +167,19 @@ def terrain_import(dem_path: Path, lat_deg: float, lon_deg: float, size_m: float
 
 @main.command("stats")
 @click.argument("out_dir", metavar="OUT", type=click.Path(file_okay=False, path_type=Path))
-@click.option("--reference", "reference_dir", type=click.Path(file_okay=False, path_type=Path),
-              help="A previous run's OUT: scaling efficiency against its samples/s per worker.")
+@click.option("--reference", "reference_path", type=click.Path(exists=True, path_type=Path),
+              help="Scaling efficiency against a previous run's OUT (its samples/s per worker) or a "
+                   "bench/results/generate-*.json record (its 1-worker run with the same render threads).")
 @click.option("--reference-rate", type=click.FloatRange(min=0, min_open=True), metavar="SAMPLES_PER_S",
               help="Or the samples/s of one worker (e.g. from a benchmark) to compare with.")
-def stats(out_dir: Path, reference_dir: Path | None, reference_rate: float | None) -> None:
+def stats(out_dir: Path, reference_path: Path | None, reference_rate: float | None) -> None:
     """Collect the throughput of a `moonbot generate --out OUT` run: every finished task's
     stats.json into OUT/stats/tasks.jsonl and tasks.parquet; print samples/s overall, per host,
     per worker, per core, the stage breakdown and efficiencies; plot OUT/stats/throughput.svg.
     Formulas: moonbot/pipeline/stats.py."""
     from moonbot.pipeline import stats as st
 
-    if reference_dir is not None and reference_rate is not None:
+    if reference_path is not None and reference_rate is not None:
         raise click.UsageError("give --reference or --reference-rate, not both")
     try:
         if (out_dir / "tasks").is_dir():
@@ -190,9 +191,13 @@ def stats(out_dir: Path, reference_dir: Path | None, reference_rate: float | Non
             records = st.load(out_dir)
         if not records:
             raise click.ClickException(f"{out_dir / 'tasks'}: no finished tasks")
-        reference = (st.reference_from_run(reference_dir) if reference_dir is not None
-                     else st.Reference(reference_rate, "--reference-rate") if reference_rate is not None
-                     else None)
+        reference = None
+        if reference_rate is not None:
+            reference = st.Reference(reference_rate, "--reference-rate")
+        elif reference_path is not None and reference_path.is_dir():
+            reference = st.reference_from_run(reference_path)
+        elif reference_path is not None:
+            reference = st.reference_from_bench(reference_path, max(r["threads"] for r in records))
         summary = st.summarize(records, reference)
         (out_dir / "stats").mkdir(parents=True, exist_ok=True)
         st.write_plot(summary, out_dir / "stats" / "throughput.svg", f"moonbot throughput: {out_dir.name}")

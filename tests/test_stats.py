@@ -287,6 +287,25 @@ def test_scaling_efficiency_against_a_reference(run, tmp_path):
     assert s.scaling_efficiency == pytest.approx(252 / 92 / 3)
 
 
+def test_scaling_efficiency_against_a_benchmark_record(tmp_path):
+    """bench/bench_generate.py's record: the 1-worker run with the run's render threads is X1."""
+    bench = tmp_path / "generate-amd-epyc-2c.json"
+    bench.write_text(json.dumps({"schema_version": 1, "benchmark": "generate", "runs": [
+        {"workers": 1, "threads_per_worker": 1, "samples_per_s": 0.5},
+        {"workers": 1, "threads_per_worker": 2, "samples_per_s": 0.9},
+        {"workers": 2, "threads_per_worker": 1, "samples_per_s": 0.95}]}))
+    run = write_run(tmp_path / "run", tasks=TASKS[:4])  # node-a: 2 workers × 1 thread
+    result = CliRunner().invoke(main, ["stats", str(run), "--reference", str(bench)])
+    assert result.exit_code == 0, result.output
+    s = stats.summarize(stats.load(run))
+    assert f"scaling {s.samples_per_s / (2 * 0.5):.3f}" in result.output
+    with pytest.raises(StatsError, match=f"^{bench}: runs: no run of 1 worker × 4 render threads"):
+        stats.reference_from_bench(bench, 4)
+    bench.write_text(json.dumps({"benchmark": "render-one"}))
+    result = CliRunner().invoke(main, ["stats", str(run), "--reference", str(bench)])
+    assert result.exit_code != 0 and f"{bench}: not a bench_generate record" in result.output
+
+
 def test_a_resumed_run_counts_its_gap_as_idle_and_restarted_workers_once(run):
     # A second driver, 200 s after T0, on node-b's worker restarted by its nanny (new address, pid).
     write_task(run, stats_record("test-s000003", B, "tcp://10.0.0.2:40777", 299, 200.0, 29.0, 100.0, 36,
@@ -351,7 +370,7 @@ def test_cli_errors_name_the_file_and_field(run):
     result = CliRunner().invoke(main, ["stats", str(run)])
     assert result.exit_code != 0
     assert f"{path}: bytes_written: expected an integer" in result.output
-    result = CliRunner().invoke(main, ["stats", str(run), "--reference", "x", "--reference-rate", "2"])
+    result = CliRunner().invoke(main, ["stats", str(run), "--reference", str(run), "--reference-rate", "2"])
     assert result.exit_code != 0 and "not both" in result.output
 
 

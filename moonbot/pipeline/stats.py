@@ -20,7 +20,8 @@ CPU c_i, t_i render threads; all times in seconds, rates in samples per second):
 - parallel efficiency E_busy = Σ w_i / (n·T): the fraction of the workers' time inside a task.
   The rest is scheduling, the DONE.json checksums after wall_s was taken, and waiting for work.
 - scaling efficiency against a reference (a previous run's stats, or a single-worker rate from a
-  benchmark): X1 = X_ref / n_ref, the reference's samples/s per worker, and E = X / (n·X1). With a
+  benchmark: bench/bench_generate.py's 1-worker run with the same render threads, or a number):
+  X1 = X_ref / n_ref, the reference's samples/s per worker, and E = X / (n·X1). With a
   one-worker reference this is the usual E(n) = X(n) / (n·X(1)); it compares like with like only
   when both runs have the same worker shape (threads per worker) on the same hardware.
 - stage share_k = Σ_i stage_ik / Σ_i Σ_j stage_ij: the time-weighted mean share of stage k in the
@@ -395,6 +396,25 @@ def summarize(records: list[dict], reference: Reference | None = None) -> Summar
         stage_coverage=_ratio(timed, wall), hosts=tuple(hosts), reference=reference,
         scaling_efficiency=None if reference is None else _ratio(per_worker, reference.samples_per_s_per_worker),
     )
+
+
+def reference_from_bench(path: Path, threads: int) -> Reference:
+    """The samples/s of one worker with `threads` render threads from a bench/bench_generate.py
+    record (its `runs`: workers, threads_per_worker, samples_per_s). Raises StatsError naming the
+    file when it is not such a record or has no one-worker run of that shape."""
+    try:
+        record = json.loads(Path(path).read_text(encoding="utf-8"))
+        runs = record["runs"] if record.get("benchmark") == "generate" else None
+        rates = {r["threads_per_worker"]: r["samples_per_s"] for r in runs if r["workers"] == 1}
+    except OSError as e:
+        raise StatsError(f"{path}: cannot read ({e.strerror or e})") from None
+    except (ValueError, KeyError, TypeError, AttributeError):
+        raise StatsError(f"{path}: not a bench_generate record (benchmark: generate, runs: "
+                         f"[{{workers, threads_per_worker, samples_per_s}}])") from None
+    if threads not in rates:
+        raise StatsError(f"{path}: runs: no run of 1 worker × {threads} render threads to compare with "
+                         f"(it has {', '.join(f'1 × {t}' for t in sorted(rates)) or 'none'})")
+    return Reference(rates[threads], f"{path}: 1 worker × {threads} threads, {rates[threads]:.4g} samples/s")
 
 
 def reference_from_run(out_dir: Path) -> Reference:
