@@ -109,7 +109,7 @@ def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = No
         wall_s = time.perf_counter() - wall
         stats = {
             "task_id": task.task_id, "host": socket.gethostname(), "pid": os.getpid(), "cpu_model": cpu_model(),
-            "cores": os.cpu_count() or 1, "threads": threads or tconfig.render.threads or os.cpu_count() or 1, "worker": worker,
+            "cores": os.cpu_count() or 1, "threads": threads or tconfig.render.threads or render_threads_default(), "worker": worker,
             "started_utc": started.isoformat(), "wall_s": wall_s, "cpu_s": time.process_time() - cpu,
             "stages_s": stages, "samples": len(results),
             # Everything but stats.json and DONE.json themselves (a few hundred bytes).
@@ -123,6 +123,15 @@ def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = No
         done = {"task_id": task.task_id, "samples": len(results), "files": listing}
         atomic_write(staging / DONE, "w", lambda f: f.write(json.dumps(done, indent=2, sort_keys=True) + "\n"))
     return TaskOutcome(task.task_id, False, len(results), stats)
+
+
+def render_threads_default() -> int:
+    """The threads render.threads = 0 gives: TBB's default, the CPUs this process may run on
+    (its affinity: a SLURM cpuset or a pinned worker has fewer than the host's cores)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
 
 
 def cpu_model() -> str:
