@@ -167,3 +167,60 @@ def terrain_import(dem_path: Path, lat_deg: float, lon_deg: float, size_m: float
 
 if __name__ == "__main__":
     main()
+
+
+@main.command("plan")
+@click.argument("config_path", metavar="CONFIG", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--bench-record", type=click.Path(dir_okay=False, path_type=Path),
+              help="A generate benchmark record to estimate from (default: this machine's, in bench/results/).")
+def plan(config_path: Path, bench_record: Path | None) -> None:
+    """Print CONFIG's sweep — scenes, tasks and samples per split — and the disk and time it will
+    take on this machine, without rendering anything."""
+    from moonbot.config import ConfigError, load_config
+    from moonbot.sweep.plan import default_record, estimate, split_plans
+
+    try:
+        config = load_config(config_path)
+    except ConfigError as e:
+        raise click.ClickException(str(e)) from None
+    plans = split_plans(config)
+    click.echo(f"{'split':<10} {'scenes':>7} {'tasks':>7} {'samples':>9}")
+    for p in plans:
+        click.echo(f"{p.name:<10} {p.scenes:>7} {p.tasks:>7} {p.samples:>9}")
+    click.echo(f"{'total':<10} {sum(p.scenes for p in plans):>7} {sum(p.tasks for p in plans):>7} "
+               f"{sum(p.samples for p in plans):>9}")
+    found = estimate(plans, bench_record or default_record())
+    if found is None:
+        click.echo("no generate benchmark recorded for this machine: run bench/bench_generate.py for estimates")
+        return
+    click.echo(f"disk    ~{found.bytes / 1e9:.1f} GB")
+    click.echo(f"time    ~{found.seconds / 3600:.1f} h on this machine ({found.workers} workers; from {found.source})")
+
+
+@main.command("generate")
+@click.argument("config_path", metavar="CONFIG", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), required=True,
+              help="Dataset directory: tasks/ (one directory per finished task) and what merge builds.")
+@click.option("--workers", type=int, help="Worker processes of the local cluster (default: one per core).")
+@click.option("--scheduler", help="Address of a running Dask scheduler to use instead of a local cluster.")
+@click.option("--scheduler-file", type=click.Path(dir_okay=False), help="A Dask scheduler file to connect through.")
+@click.option("--resume", is_flag=True,
+              help="Render only the tasks missing from --out (the default anyway: finished tasks are never redone).")
+def generate(config_path: Path, out_dir: Path, workers: int | None, scheduler: str | None,
+             scheduler_file: str | None, resume: bool) -> None:
+    """Render CONFIG's sweep into --out on a Dask cluster (a local one unless told otherwise)."""
+    from moonbot.config import ConfigError, load_config
+    from moonbot.pipeline.generate import generate as run
+
+    del resume  # every run resumes: the task directories are the record of what is done
+    try:
+        config = load_config(config_path)
+    except ConfigError as e:
+        raise click.ClickException(str(e)) from None
+    result = run(config, out_dir, workers=workers, scheduler=scheduler, scheduler_file=scheduler_file)
+    click.echo(f"{result.rendered} tasks rendered ({result.samples} samples) in {result.seconds:.1f} s; "
+               f"{result.complete_before} were complete already")
+    if result.failed:
+        for task_id, error in sorted(result.failed.items()):
+            click.echo(f"failed: {task_id}: {error}", err=True)
+        raise click.ClickException(f"{len(result.failed)} of {result.tasks} tasks failed; rerun to retry them")

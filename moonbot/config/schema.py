@@ -554,6 +554,57 @@ class DustConfig:
     cloud: CloudConfig = field(default_factory=CloudConfig)
 
 
+MeshName = Literal["sandbag-01", "sandbag-02", "sandbag-03"]
+LocationName = Literal["flat", "hilly", "crater", "dem", "plane", "slope"]
+
+
+@dataclass(frozen=True)
+class SplitConfig:
+    """One split of the sweep (paper 4.2, DESIGN.md "The SynBag-1.0 sweep"): its scenes are every
+    combination of meshes × locations × bag counts × stain seeds × dust, in that nesting order,
+    and each scene is rendered in one task per Sun elevation × Sun azimuth × camera height (each
+    task the orbit's views). An empty list takes the base config's single value."""
+
+    name: str = field(default="train", metadata=spec("the split's directory name (train, test, ...)"))
+    meshes: tuple[MeshName, ...] = field(default=(), metadata=spec("bag mesh variants (bags.mesh)"))
+    locations: tuple[LocationName, ...] = field(default=(), metadata=spec("terrain locations (terrain.location)"))
+    bag_counts: tuple[int, ...] = field(default=(), metadata=spec(
+        "bags per scene (bags.count; more than one are laid out as the sweep's many_bags_layout)", lo=1, hi=255))
+    stain_seeds: tuple[int, ...] = field(default=(), metadata=spec(
+        "stain stamps per bag (bags.stain.seeds)", lo=0, hi=100000))
+    dust: tuple[bool, ...] = field(default=(), metadata=spec("dust off and/or on (dust.enabled)"))
+    sun_elevations_deg: tuple[float, ...] = field(default=(), metadata=spec(
+        "Sun elevations, degrees (sun.elevation_deg)", lo=-90.0, hi=90.0))
+    sun_azimuths_deg: tuple[float, ...] = field(default=(), metadata=spec(
+        "Sun azimuths, degrees clockwise from North (sun.azimuth_deg)", lo=0.0, hi=360.0))
+    camera_heights_m: tuple[float, ...] = field(default=(), metadata=spec(
+        "camera heights above the target's centre, metres (orbit.height_m)", lo=0.0, hi=100.0))
+
+    def __post_init__(self) -> None:
+        if not self.name or not all(c.isalnum() or c in "-_" for c in self.name):
+            raise ValueError(f"name: must be letters, digits, '-' or '_', got {self.name!r}")
+        for axis in ("meshes", "locations", "bag_counts", "stain_seeds", "dust", "sun_elevations_deg",
+                     "sun_azimuths_deg", "camera_heights_m"):
+            values = getattr(self, axis)
+            if len(set(values)) != len(values):
+                raise ValueError(f"{axis}: repeats a value: {list(values)}")
+
+
+@dataclass(frozen=True)
+class SweepConfig:
+    """What `moonbot generate` renders: the splits (none: the base config's one scene and one
+    task, as split "default"). The base config sets everything the splits do not vary."""
+
+    splits: tuple[SplitConfig, ...] = field(default=(), metadata=spec("the splits, in dataset order"))
+    many_bags_layout: Literal["scattered", "stacked"] = field(default="scattered", metadata=spec(
+        "layout of a scene with more than one bag (one bag lies alone: layout single)"))
+
+    def __post_init__(self) -> None:
+        names = [s.name for s in self.splits]
+        if len(set(names)) != len(names):
+            raise ValueError(f"splits: two splits are named alike: {names}")
+
+
 @dataclass(frozen=True)
 class Config:
     """A whole moonbot configuration. Load with `moonbot.config.load_config`."""
@@ -569,3 +620,4 @@ class Config:
     tonemap: ToneMapConfig = field(default_factory=ToneMapConfig)
     output: OutputConfig = field(default_factory=OutputConfig)
     dust: DustConfig = field(default_factory=DustConfig)
+    sweep: SweepConfig = field(default_factory=SweepConfig)

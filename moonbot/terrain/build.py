@@ -49,6 +49,7 @@ class Terrain:
 
 
 _cache: OrderedDict[str, Terrain] = OrderedDict()
+_capacity = 0  # raised by warm() above CACHE_SIZE for a sweep's locations
 
 
 def terrain_key(config: TerrainConfig) -> str:
@@ -99,9 +100,18 @@ def get_terrain(config: TerrainConfig) -> tuple[Terrain, bool]:
     terrain = Terrain(ground=ground, mesh=mesh, albedo_scale=albedo_scale, normals=normals, rocks=rocks,
                       rock_meshes=rock_meshes, key=key, build_seconds=time.perf_counter() - start)
     _cache[key] = terrain
-    while len(_cache) > CACHE_SIZE:
+    while len(_cache) > max(CACHE_SIZE, _capacity):
         _cache.popitem(last=False)
     return terrain, False
+
+
+def warm(configs: list[TerrainConfig]) -> float:
+    """Builds the terrains of `configs` into this process's cache and keeps room for all of them
+    (a worker of a sweep over three locations then builds each once, however its tasks alternate).
+    Returns the seconds spent building."""
+    global _capacity
+    _capacity = max(_capacity, len({terrain_key(c) for c in configs}))
+    return sum(terrain.build_seconds for terrain, cached in map(get_terrain, configs) if not cached)
 
 
 def clear_cache() -> None:

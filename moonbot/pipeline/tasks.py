@@ -1,0 +1,146 @@
+"""One task of a sweep, run to completion or not at all. A task renders its scene's orbit views
+into a temporary directory beside its final place, writes its identity (task.json) and its
+throughput (stats.json), then DONE.json — the checksum of every file, written last — and only
+then renames the directory into place. A task directory with a sound DONE.json is complete and
+is never rendered again; anything else (a killed worker's temporary, a directory without its
+marker) is not a task and is swept or replaced."""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime
+import hashlib
+import json
+import os
+import platform
+import shutil
+import socket
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from moonbot import __version__
+from moonbot.config import Config, config_hash
+from moonbot.pipeline.views import run_views
+from moonbot.sweep import Task, task_config
+from moonbot.writer.staging import atomic_write, staged_directory
+
+DONE = "DONE.json"
+
+
+@dataclass(frozen=True)
+class TaskOutcome:
+    """What running a task did: `skipped` if it was complete already; `samples` written (0 if
+    skipped) and its stats.json content (None if skipped)."""
+
+    task_id: str
+    skipped: bool
+    samples: int
+    stats: dict | None
+
+
+def task_dir(out_dir: Path, task: Task) -> Path:
+    """Where a task's complete output lives."""
+    return Path(out_dir) / "tasks" / task.task_id
+
+
+def is_complete(directory: Path) -> bool:
+    """Whether `directory` holds a complete task: DONE.json parses and every file it lists is
+    there with its size (checksums are checked by `verify_task`, which reads every byte)."""
+    try:
+        done = json.loads((directory / DONE).read_text())
+        return all((directory / name).stat().st_size == entry["bytes"] for name, entry in done["files"].items())
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
+
+
+def verify_task(directory: Path) -> list[str]:
+    """The files of a complete task whose bytes no longer match DONE.json (empty: sound)."""
+    done = json.loads((directory / DONE).read_text())
+    return [name for name, entry in sorted(done["files"].items())
+            if _sha256(directory / name) != entry["sha256"]]
+
+
+def sweep_temporaries(out_dir: Path) -> list[Path]:
+    """Removes what interrupted tasks left in OUT/tasks (hidden `.name.*.tmp` / `.name.*.old`
+    directories) and returns them. Only while no other driver writes into `out_dir`."""
+    root = Path(out_dir) / "tasks"
+    stray = sorted(p for p in root.glob(".*") if p.is_dir() and (p.name.endswith(".tmp") or p.name.endswith(".old")))
+    for p in stray:
+        shutil.rmtree(p, ignore_errors=True)
+    return stray
+
+
+def task_record(config: Config, task: Task, views: list[int]) -> dict:
+    """task.json: the task's identity, where its images go in the dataset, and the config it renders."""
+    tconfig = task_config(config, task)
+    return {
+        **{f.name: getattr(task, f.name) for f in dataclasses.fields(task)},
+        "task_id": task.task_id,
+        "obj_id": task.obj_id,
+        "views": views,
+        "views_per_task": len(views),
+        "seed": tconfig.seed,
+        "config": dataclasses.asdict(tconfig),
+        "config_hash": config_hash(tconfig),
+        "moonbot_version": __version__,
+    }
+
+
+def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = None, worker: str = "local") -> TaskOutcome:
+    """Renders `task` of `config`'s sweep into OUT/tasks/<task_id>/ unless it is complete there
+    already. `threads` overrides render.threads (the images do not depend on it). Raises on
+    failure (a full disk, an unwritable directory), leaving no partial task behind."""
+    final = task_dir(out_dir, task)
+    if is_complete(final):
+        return TaskOutcome(task.task_id, True, 0, None)
+    started = datetime.datetime.now(datetime.timezone.utc)
+    wall, cpu = time.perf_counter(), time.process_time()
+    tconfig = task_config(config, task)
+    if threads is not None:
+        tconfig = dataclasses.replace(tconfig, render=dataclasses.replace(tconfig.render, threads=threads))
+    views = list(range(tconfig.orbit.views))
+    with staged_directory(final) as staging:
+        results = run_views(tconfig, views, staging)
+        record = task_record(config, task, views)
+        atomic_write(staging / "task.json", "w", lambda f: f.write(json.dumps(record, indent=2, sort_keys=True) + "\n"))
+        stages: dict[str, float] = {}
+        for r in results:
+            for stage, seconds in r.timings.items():
+                stages[stage] = stages.get(stage, 0.0) + seconds
+        wall_s = time.perf_counter() - wall
+        stats = {
+            "task_id": task.task_id, "host": socket.gethostname(), "pid": os.getpid(), "cpu_model": cpu_model(),
+            "cores": os.cpu_count() or 1, "threads": tconfig.render.threads or os.cpu_count() or 1, "worker": worker,
+            "started_utc": started.isoformat(), "wall_s": wall_s, "cpu_s": time.process_time() - cpu,
+            "stages_s": stages, "samples": len(results),
+            # Everything but stats.json and DONE.json themselves (a few hundred bytes).
+            "bytes_written": sum(p.stat().st_size for p in staging.rglob("*") if p.is_file()),
+            "samples_per_s": len(results) / wall_s if wall_s > 0 else 0.0,
+        }
+        atomic_write(staging / "stats.json", "w", lambda f: f.write(json.dumps(stats, indent=2, sort_keys=True) + "\n"))
+        # The marker last: its checksums cover every other file, so a task is whole or absent.
+        listing = {str(p.relative_to(staging)): {"bytes": p.stat().st_size, "sha256": _sha256(p)}
+                   for p in sorted(staging.rglob("*")) if p.is_file()}
+        done = {"task_id": task.task_id, "samples": len(results), "files": listing}
+        atomic_write(staging / DONE, "w", lambda f: f.write(json.dumps(done, indent=2, sort_keys=True) + "\n"))
+    return TaskOutcome(task.task_id, False, len(results), stats)
+
+
+def cpu_model() -> str:
+    """The CPU's model name (Linux: /proc/cpuinfo), or the platform's processor string."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            digest.update(chunk)
+    return digest.hexdigest()

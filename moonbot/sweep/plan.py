@@ -1,0 +1,81 @@
+"""What a sweep will cost before anything is rendered: its scenes, tasks and samples per split,
+and the disk and time they take on this machine, scaled from the recorded generate benchmark
+(bench/bench_generate.py → bench/results/generate-<machine>.json)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+from moonbot.config import Config
+from moonbot.sweep.tasks import task_config, tasks
+
+
+@dataclass(frozen=True)
+class SplitPlan:
+    name: str
+    scenes: int
+    tasks: int
+    samples: int
+    megapixel_samples: float  # Σ samples × width × height × spp / 1e6: what render time scales with
+    megapixels: float         # Σ samples × width × height / 1e6: what disk scales with
+
+
+def split_plans(config: Config) -> list[SplitPlan]:
+    """Counts per split, in sweep order."""
+    out: dict[str, list] = {}
+    for t in tasks(config):
+        c = task_config(config, t)
+        views = c.orbit.views
+        pixels = c.camera.width * c.camera.height * views / 1e6
+        entry = out.setdefault(t.split, [set(), 0, 0, 0.0, 0.0])
+        entry[0].add(t.scene_id)
+        entry[1] += 1
+        entry[2] += views
+        entry[3] += pixels * c.render.spp
+        entry[4] += pixels
+    return [SplitPlan(name, len(s), n, k, mps, mp) for name, (s, n, k, mps, mp) in out.items()]
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """Disk (bytes) and time (seconds on `workers` workers of this machine) for a sweep, from the
+    benchmark record at `source`: seconds per sample-megapixel-spp and bytes per megapixel as
+    measured there, times the sweep's totals."""
+
+    bytes: float
+    seconds: float
+    workers: int
+    source: str
+
+
+def default_record() -> Path:
+    """This machine's generate benchmark record in the checkout's bench/results/ (named by the
+    same machine slug the benchmarks use: CPU vendor and family, cores)."""
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    sys.path.insert(0, str(root / "bench"))
+    try:
+        from fingerprint import machine, machine_slug
+    except ImportError:
+        return root / "bench" / "results" / "generate-unknown.json"
+    finally:
+        sys.path.pop(0)
+    return root / "bench" / "results" / f"generate-{machine_slug(machine())}.json"
+
+
+def estimate(plans: list[SplitPlan], record_path: Path) -> Estimate | None:
+    """The estimate from a generate benchmark record (None if there is none for this machine).
+    The record's best throughput (its largest worker count) is used."""
+    try:
+        record = json.loads(Path(record_path).read_text())
+        best = max(record["runs"], key=lambda r: r["workers"])
+        s_per_mps = best["seconds"] / best["megapixel_samples"]
+        b_per_mp = best["bytes"] / best["megapixels"]
+    except (OSError, ValueError, KeyError, ZeroDivisionError):
+        return None
+    mps = sum(p.megapixel_samples for p in plans)
+    mp = sum(p.megapixels for p in plans)
+    return Estimate(bytes=b_per_mp * mp, seconds=s_per_mps * mps, workers=best["workers"], source=str(record_path))
