@@ -39,6 +39,8 @@ camera: {width: 64, height: 48}
 orbit: {views: 2, step_deg: 180.0, radius_m: 0.8}
 render: {spp: 1, bounces: 0, light_samples: 1}
 terrain: {location: plane}
+output: {exr: true}
+dust: {cloud: {voxel_m: 0.1}}
 meshes:   # coarse meshes: fast to render and to settle
   sandbag_01: {edge_length_m: 0.03, edge_steps: 2}
   sandbag_02: {edge_length_m: 0.03, edge_steps: 2, seam_height_m: 0.003}
@@ -53,9 +55,10 @@ sweep:
     - name: test
       meshes: [sandbag-02]
       bag_counts: [1]
+      dust: [true]
 """
 TRAIN = "train/sandbag-01/plane/scene_000000"
-TEST = "test/sandbag-02/plane/scene_000000"
+TEST = "test/sandbag-02/plane/scene_000000"  # with dust
 W, H = 64, 48
 
 
@@ -129,7 +132,8 @@ def test_tree_is_complete_and_nothing_else(dataset):
     for scene, images, bags in ((TRAIN, 4, 2), (TEST, 2, 1)):
         expected |= {f"{scene}/{name}.json" for name in ("scene_gt", "scene_camera", "scene_gt_info", "scene_meta")}
         for im in range(images):
-            expected |= {f"{scene}/rgb/{im:06d}.png", f"{scene}/depth/{im:06d}.png", f"{scene}/depth_npy/{im:06d}.npy",
+            expected |= {f"{scene}/rgb/{im:06d}.png", f"{scene}/rgb_exr/{im:06d}.exr",
+                         f"{scene}/depth/{im:06d}.png", f"{scene}/depth_npy/{im:06d}.npy",
                          f"{scene}/depth_preview/{im:06d}.png", f"{scene}/mask_color/{im:06d}.png"}
             expected |= {f"{scene}/{kind}/{im:06d}_{k:06d}.png" for kind in ("mask", "mask_visib") for k in range(bags)}
             split, mesh, location, _ = scene.split("/")
@@ -164,6 +168,7 @@ def test_images_are_the_task_files_in_sweep_order(sweep, dataset):
         assert (dst / "depth" / f"{im:06d}.png").read_bytes() == (src / "depth.png").read_bytes()
         assert (dst / "depth_npy" / f"{im:06d}.npy").read_bytes() == (src / "depth.npy").read_bytes()
         assert (dst / "depth_preview" / f"{im:06d}.png").read_bytes() == (src / "depth_preview.png").read_bytes()
+        assert (dst / "rgb_exr" / f"{im:06d}.exr").read_bytes() == (src / "rgb.exr").read_bytes()
         for k in range(2):
             assert (dst / "mask" / f"{im:06d}_{k:06d}.png").read_bytes() == (src / f"amodal_{k + 1:03d}.png").read_bytes()
         gt = load(src / "gt.json")
@@ -242,6 +247,11 @@ def test_gt_info_fields_and_scene_meta(dataset):
     for image in meta["images"].values():
         assert is_number(image["camera_height_m"]) and is_number(image["ev100"])
         assert set(image["sun"]) == {"azimuth_deg", "elevation_deg", "irradiance_w_m2"}
+        assert "dust" not in image
+    dusty = load(dataset / TEST / "scene_meta.json")
+    assert dusty["dust"] is True
+    for image in dusty["images"].values():  # each view's dust record: capture time in seconds, ...
+        assert is_number(image["dust"]["capture_time_s"]) and isinstance(image["dust"]["note"], str)
 
 
 def test_dataset_level_files(sweep, dataset):
