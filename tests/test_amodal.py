@@ -77,6 +77,7 @@ def test_run_views_writes_the_masks_and_records_them(tmp_path):
         assert inst["mask_amodal"] == f"amodal_{inst['instance_id']:03d}.png"
         mask = np.array(Image.open(result.out_dir / inst["mask_amodal"]))
         assert mask.dtype == np.uint8 and mask.shape == (H, W) and set(np.unique(mask)) <= {0, 255}
-        assert inst["px_count_all"] >= (mask > 0).sum() >= inst["px_count_visib"] == (labels == inst["instance_id"]).sum()
+        visible = labels == inst["instance_id"]
+        assert inst["px_count_all"] >= (mask > 0).sum() >= inst["px_count_visib"] == visible.sum()
         assert not ((labels == inst["instance_id"]) & (mask == 0)).any()
         assert isinstance(inst["bbox_all"], list) and len(inst["bbox_all"]) == 4

@@ -170,7 +170,8 @@ def test_images_are_the_task_files_in_sweep_order(sweep, dataset):
         assert (dst / "depth_preview" / f"{im:06d}.png").read_bytes() == (src / "depth_preview.png").read_bytes()
         assert (dst / "rgb_exr" / f"{im:06d}.exr").read_bytes() == (src / "rgb.exr").read_bytes()
         for k in range(2):
-            assert (dst / "mask" / f"{im:06d}_{k:06d}.png").read_bytes() == (src / f"amodal_{k + 1:03d}.png").read_bytes()
+            amodal = (src / f"amodal_{k + 1:03d}.png").read_bytes()
+            assert (dst / "mask" / f"{im:06d}_{k:06d}.png").read_bytes() == amodal
         gt = load(src / "gt.json")
         meta = load(dst / "scene_meta.json")["images"][str(im)]
         assert meta["task_in_scene"] == im // 2 and meta["view"] == view
@@ -230,7 +231,8 @@ def test_gt_info_fields_and_scene_meta(dataset):
             for e in entries:
                 assert set(e) == {"bbox_obj", "bbox_visib", "px_count_all", "px_count_valid", "px_count_visib",
                                   "visib_fract"}
-                assert all(isinstance(e[k], int) and e[k] >= 0 for k in ("px_count_all", "px_count_valid", "px_count_visib"))
+                counts = [e[k] for k in ("px_count_all", "px_count_valid", "px_count_visib")]
+                assert all(isinstance(c, int) and c >= 0 for c in counts)
                 assert isinstance(e["visib_fract"], float) and 0.0 <= e["visib_fract"] <= 1.0
                 assert all(isinstance(v, int) for v in e["bbox_obj"] + e["bbox_visib"])
                 assert len(e["bbox_obj"]) == len(e["bbox_visib"]) == 4
@@ -398,8 +400,8 @@ def test_yolo_labels_parse_and_match_the_visible_masks(dataset):
                 assert (cy - bh / 2) * H == pytest.approx(y, abs=1e-4) and bh * H == pytest.approx(h + 1, abs=1e-4)
                 ring = np.array([float(v) for v in s[1:]]).reshape(-1, 2) * (W, H)
                 assert len(np.unique(ring.round(3), axis=0)) >= 3
-                assert ring[:, 0].min() == pytest.approx(x, abs=1e-4) and ring[:, 0].max() == pytest.approx(x + w + 1, abs=1e-4)
-                assert ring[:, 1].min() == pytest.approx(y, abs=1e-4) and ring[:, 1].max() == pytest.approx(y + h + 1, abs=1e-4)
+                lo, hi = ring.min(axis=0), ring.max(axis=0)
+                np.testing.assert_allclose([lo[0], lo[1], hi[0], hi[1]], [x, y, x + w + 1, y + h + 1], atol=1e-4)
                 visib = png(dataset / scene / "mask_visib" / f"{int(im):06d}_{k:06d}.png") > 0
                 filled = raster(ring, H, W)
                 assert (filled & visib).sum() / (filled | visib).sum() > 0.8  # tiny masks, 1 px tolerance

@@ -138,10 +138,12 @@ def read_task_record(directory: Path, sha256: str | None = None) -> dict:
         raise MergeError(f"{path}: field 'task_in_scene' must be in 0..tasks_per_scene-1 "
                          f"({record['tasks_per_scene'] - 1}), got {record['task_in_scene']}")
     views = record["views"]
-    if not all(isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in views) or len(set(views)) != len(views):
+    indices = all(isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in views)
+    if not indices or len(set(views)) != len(views):
         raise MergeError(f"{path}: field 'views' must be distinct orbit indices (ints >= 0), got {views!r}")
     if len(views) != record["views_per_task"] or not views:
-        raise MergeError(f"{path}: field 'views' has {len(views)} entries, views_per_task says {record['views_per_task']}")
+        raise MergeError(f"{path}: field 'views' has {len(views)} entries, "
+                         f"views_per_task says {record['views_per_task']}")
     if not record["split"] or not all(c.isalnum() or c in "-_" for c in record["split"]):
         raise MergeError(f"{path}: field 'split' must be letters, digits, '-' or '_', got {record['split']!r}")
     for name in ("mesh", "location"):
@@ -171,7 +173,8 @@ def scan_tasks(tasks_dir: Path, config: Config | None = None) -> Inventory:
             continue
         files = read_done(directory)
         if files is None:
-            inventory.invalid[directory.name] = f"{directory / DONE}: missing, unreadable, or a listed file is missing or truncated"
+            inventory.invalid[directory.name] = (f"{directory / DONE}: missing, unreadable, or a listed file "
+                                                 "is missing or truncated")
             continue
         try:
             record = read_task_record(directory, files.get(TASK, {}).get("sha256"))

@@ -209,10 +209,14 @@ class _TaskFiles:
         """The task's `rel` at root/dst_rel: copied with its sha256 checked, or hard-linked."""
         entry = self._entry(rel)
         src, dst = self.task.path / rel, root / dst_rel
-        if self.link and _link_or_copy(src, dst):
-            size = entry["bytes"] if entry["bytes"] is not None else src.stat().st_size
-            entries[dst_rel] = (size, entry["sha256"])
-            return
+        if self.link:
+            try:
+                os.link(src, dst)
+                size = entry["bytes"] if entry["bytes"] is not None else src.stat().st_size
+                entries[dst_rel] = (size, entry["sha256"])
+                return
+            except OSError:
+                pass  # another file system, or no hard links there: copied (and checked) below
         digest, size = hashlib.sha256(), 0
         with open(src, "rb") as fin, open(dst, "wb") as fout:
             for chunk in iter(lambda: fin.read(1 << 20), b""):
