@@ -5,7 +5,8 @@
 #
 #   ./dev.sh setup     install what is missing, build the core into .venv
 #   ./dev.sh demo      setup, then `moonbot render-one` on the embedded default config
-#   ./dev.sh test      setup, then C++ tests (ctest: release, then ASan+UBSan) and pytest
+#   ./dev.sh test      setup, then C++ tests (ctest: release, then ASan+UBSan), pytest, and
+#                      `moonbot generate configs/smoke.yaml` into build/smoke
 #   ./dev.sh bench     setup, then the benchmarks in bench/ (results in bench/results/);
 #                      ./dev.sh bench terrain runs bench/bench_terrain.py alone
 set -euo pipefail
@@ -88,15 +89,18 @@ case "${1:-}" in
         cpp_tests
         log "Python tests"
         "$PY" -m pytest "${@:2}"
+        log "moonbot generate configs/smoke.yaml (the whole pipeline, on a local Dask cluster)"
+        rm -rf build/smoke
+        "$VENV/bin/moonbot" generate configs/smoke.yaml --out build/smoke
         ;;
     bench)  # ./dev.sh bench [render_one|settle|terrain|tonemap_exr ...]: those benchmarks, or all of them
         setup
         for name in "${@:2}"; do [ -f "bench/bench_$name.py" ] || { log "no bench/bench_$name.py"; exit 2; }; done
         for name in "${@:2}"; do "$PY" "bench/bench_$name.py"; done
-        [ $# -gt 1 ] || for name in render_one settle terrain tonemap_exr accuracy dust medium; do "$PY" "bench/bench_$name.py"; done
+        [ $# -gt 1 ] || for name in render_one settle terrain tonemap_exr accuracy dust medium generate; do "$PY" "bench/bench_$name.py"; done
         ;;
     *)
-        sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'
+        sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'
         exit 2
         ;;
 esac

@@ -165,10 +165,6 @@ def terrain_import(dem_path: Path, lat_deg: float, lon_deg: float, size_m: float
     click.echo(summary(dem, out_path))
 
 
-if __name__ == "__main__":
-    main()
-
-
 @main.command("plan")
 @click.argument("config_path", metavar="CONFIG", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--bench-record", type=click.Path(dir_okay=False, path_type=Path),
@@ -202,11 +198,13 @@ def plan(config_path: Path, bench_record: Path | None) -> None:
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Dataset directory: tasks/ (one directory per finished task) and what merge builds.")
 @click.option("--workers", type=int, help="Worker processes of the local cluster (default: one per core).")
+@click.option("--threads", type=int,
+              help="Render threads per task (default: cores / workers locally, render.threads on a given cluster).")
 @click.option("--scheduler", help="Address of a running Dask scheduler to use instead of a local cluster.")
 @click.option("--scheduler-file", type=click.Path(dir_okay=False), help="A Dask scheduler file to connect through.")
 @click.option("--resume", is_flag=True,
               help="Render only the tasks missing from --out (the default anyway: finished tasks are never redone).")
-def generate(config_path: Path, out_dir: Path, workers: int | None, scheduler: str | None,
+def generate(config_path: Path, out_dir: Path, workers: int | None, threads: int | None, scheduler: str | None,
              scheduler_file: str | None, resume: bool) -> None:
     """Render CONFIG's sweep into --out on a Dask cluster (a local one unless told otherwise)."""
     from moonbot.config import ConfigError, load_config
@@ -217,7 +215,11 @@ def generate(config_path: Path, out_dir: Path, workers: int | None, scheduler: s
         config = load_config(config_path)
     except ConfigError as e:
         raise click.ClickException(str(e)) from None
-    result = run(config, out_dir, workers=workers, scheduler=scheduler, scheduler_file=scheduler_file)
+    try:
+        result = run(config, out_dir, workers=workers, threads=threads, scheduler=scheduler,
+                     scheduler_file=scheduler_file)
+    except OSError as e:
+        raise click.ClickException(str(e)) from None
     click.echo(f"{result.rendered} tasks rendered ({result.samples} samples) in {result.seconds:.1f} s; "
                f"{result.complete_before} were complete already")
     if result.failed:
@@ -268,3 +270,7 @@ def merge(out_dir: Path, dataset_dir: Path | None, config_path: Path | None, lin
         click.echo(f"incomplete: {len(report.missing)} tasks missing, {len(report.invalid)} unusable; "
                    "generate again and re-run merge", err=True)
         click.get_current_context().exit(EXIT_INCOMPLETE)
+
+
+if __name__ == "__main__":
+    main()

@@ -324,7 +324,7 @@ class SettleConfig:
         "all bags must stay at rest this long, seconds", lo=0.0, hi=10.0))
     max_time_s: float = field(default=15.0, metadata=spec(
         "simulated time after which bags still moving are an error, seconds", lo=0.0, hi=600.0, lo_open=True))
-    ground_step_m: float = field(default=0.02, metadata=spec(
+    ground_step_m: float = field(default=0.01, metadata=spec(
         "grid spacing of the ground height field the bags collide with, metres", lo=0.001, hi=1.0))
 
     def __post_init__(self) -> None:

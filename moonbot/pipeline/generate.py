@@ -75,17 +75,22 @@ def pending_tasks(config: Config, out_dir: Path) -> tuple[list[Task], int]:
 
 
 def generate(config: Config | str | Path | None, out_dir: Path, *, client: Client | None = None,
-             workers: int | None = None, scheduler: str | None = None, scheduler_file: str | None = None,
-             progress=sys.stderr) -> GenerateResult:
+             workers: int | None = None, threads: int | None = None, scheduler: str | None = None,
+             scheduler_file: str | None = None, progress=sys.stderr) -> GenerateResult:
     """Renders every task of the config's sweep missing from `out_dir` (OUT/tasks/<task_id>/).
     The cluster: `client` if given; else the scheduler at `scheduler` (an address) or in
     `scheduler_file`; else a LocalCluster of `workers` processes (default: one per core, at most
-    the tasks) with one Dask thread each and render.threads = cores / workers. Prints progress to
+    the tasks) with one Dask thread each. `threads` sets each task's render threads (default: the
+    config's render.threads on a given cluster, cores / workers on the local one; the images do
+    not depend on it). Prints progress to
     `progress` (None: silent). A task that fails is reported in the result and the others go on."""
     if not isinstance(config, Config):
         config = load_config(config)
     out_dir = Path(out_dir)
-    (out_dir / "tasks").mkdir(parents=True, exist_ok=True)
+    try:
+        (out_dir / "tasks").mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise OSError(f"{out_dir}: cannot hold the dataset ({e.strerror or e})") from e
     start = time.perf_counter()
     sweep_temporaries(out_dir)
     pending, complete = pending_tasks(config, out_dir)
@@ -97,7 +102,6 @@ def generate(config: Config | str | Path | None, out_dir: Path, *, client: Clien
         return result
 
     own_cluster = None
-    threads = None
     with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
                           "distributed.scheduler.worker-saturation": 1.0}):
         if client is None:
@@ -106,7 +110,7 @@ def generate(config: Config | str | Path | None, out_dir: Path, *, client: Clien
             else:
                 cores = os.cpu_count() or 1
                 n = max(1, min(workers or cores, len(pending)))
-                threads = max(1, cores // n)
+                threads = threads or max(1, cores // n)
                 own_cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                            dashboard_address=":0", silence_logs=40)
                 client = Client(own_cluster)

@@ -97,11 +97,9 @@ def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = No
     started = datetime.datetime.now(datetime.timezone.utc)
     wall, cpu = time.perf_counter(), time.process_time()
     tconfig = task_config(config, task)
-    if threads is not None:
-        tconfig = dataclasses.replace(tconfig, render=dataclasses.replace(tconfig.render, threads=threads))
     views = list(range(tconfig.orbit.views))
     with staged_directory(final) as staging:
-        results = run_views(tconfig, views, staging)
+        results = run_views(tconfig, views, staging, threads=threads)
         record = task_record(config, task, views)
         atomic_write(staging / "task.json", "w", lambda f: f.write(json.dumps(record, indent=2, sort_keys=True) + "\n"))
         stages: dict[str, float] = {}
@@ -111,7 +109,7 @@ def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = No
         wall_s = time.perf_counter() - wall
         stats = {
             "task_id": task.task_id, "host": socket.gethostname(), "pid": os.getpid(), "cpu_model": cpu_model(),
-            "cores": os.cpu_count() or 1, "threads": tconfig.render.threads or os.cpu_count() or 1, "worker": worker,
+            "cores": os.cpu_count() or 1, "threads": threads or tconfig.render.threads or os.cpu_count() or 1, "worker": worker,
             "started_utc": started.isoformat(), "wall_s": wall_s, "cpu_s": time.process_time() - cpu,
             "stages_s": stages, "samples": len(results),
             # Everything but stats.json and DONE.json themselves (a few hundred bytes).

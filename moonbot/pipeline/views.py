@@ -6,6 +6,7 @@ pass per bag and view; its cost is the `amodal` stage of the view's timings."""
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,12 +42,16 @@ def view_seed(dataset_seed: int, view: int) -> int:
     return z ^ (z >> 31)
 
 
-def run_views(config: Config, views: list[int], out_root: Path) -> list[ViewResult]:
+def run_views(config: Config, views: list[int], out_root: Path, threads: int | None = None) -> list[ViewResult]:
     """Renders `views` (orbit indices) of the config's scene into `out_root/view_NNN/` and returns
-    per-view timings. Raises ValueError for a view outside the orbit."""
+    per-view timings. `threads` overrides render.threads (the images do not depend on it, nor
+    does the config hash the samples record). Raises ValueError for a view outside the orbit."""
     for v in views:
         if not 0 <= v < config.orbit.views:
             raise ValueError(f"view: must be in 0..{config.orbit.views - 1}, got {v}")
+    digest = config_hash(config)
+    if threads is not None:
+        config = dataclasses.replace(config, render=dataclasses.replace(config.render, threads=threads))
     start = time.perf_counter()
     spec = compose_scene(config)
     # Settling is its own stage, present only in scenes that settle (principle 3).
@@ -64,7 +69,6 @@ def run_views(config: Config, views: list[int], out_root: Path) -> list[ViewResu
 
     K = intrinsics(config.camera)
     exposure = resolve_exposure(config)
-    digest = config_hash(config)
     results = []
     for v in views:
         azimuth = config.orbit.start_azimuth_deg + v * config.orbit.step_deg

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from moonbot.config import Config
-from moonbot.sweep.tasks import task_config, tasks
+from moonbot.sweep.tasks import tasks
 
 
 @dataclass(frozen=True)
@@ -23,10 +23,11 @@ class SplitPlan:
 
 
 def split_plans(config: Config) -> list[SplitPlan]:
-    """Counts per split, in sweep order."""
+    """Counts per split, in sweep order. (The sweep varies neither the camera, the orbit nor the
+    render settings, so every task has the base config's views, pixels and samples per pixel.)"""
     out: dict[str, list] = {}
+    c = config
     for t in tasks(config):
-        c = task_config(config, t)
         views = c.orbit.views
         pixels = c.camera.width * c.camera.height * views / 1e6
         entry = out.setdefault(t.split, [set(), 0, 0, 0.0, 0.0])
@@ -68,10 +69,10 @@ def default_record() -> Path:
 
 def estimate(plans: list[SplitPlan], record_path: Path) -> Estimate | None:
     """The estimate from a generate benchmark record (None if there is none for this machine).
-    The record's best throughput (its largest worker count) is used."""
+    The record's best throughput (the fastest of its runs) is used."""
     try:
         record = json.loads(Path(record_path).read_text())
-        best = max(record["runs"], key=lambda r: r["workers"])
+        best = max(record["runs"], key=lambda r: r["samples_per_s"])
         s_per_mps = best["seconds"] / best["megapixel_samples"]
         b_per_mp = best["bytes"] / best["megapixels"]
     except (OSError, ValueError, KeyError, ZeroDivisionError):
