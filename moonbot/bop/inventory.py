@@ -76,13 +76,15 @@ class Inventory:
     """Scenes to merge (split order, then scene_id), and what will not be merged: `missing`
     (tasks the sweep has but OUT/tasks does not; without a config, only the missing tasks of
     scenes that have at least one), `invalid` (directory name → why it cannot be used),
-    `extra` (complete tasks that are not in the config's sweep), `splits` in dataset order."""
+    `extra` (complete tasks that are not in the config's sweep), `splits` in dataset order,
+    `position` (task_id → index in the config's sweep; empty without a config)."""
 
     scenes: list[SceneTasks] = field(default_factory=list)
     splits: list[str] = field(default_factory=list)
     missing: list[str] = field(default_factory=list)
     invalid: dict[str, str] = field(default_factory=dict)
     extra: list[str] = field(default_factory=list)
+    position: dict[str, int] = field(default_factory=dict)
 
 
 def read_done(directory: Path) -> dict | None:
@@ -203,8 +205,8 @@ def scan_tasks(tasks_dir: Path, config: Config | None = None) -> Inventory:
             kept.append(task)
         complete = kept
         order = [s.name for s in config.sweep.splits] or ["default"]
-        position = {task_id: k for k, task_id in enumerate(expected)}
-        inventory.missing.sort(key=position.__getitem__)
+        inventory.position = {task_id: k for k, task_id in enumerate(expected)}
+        inventory.missing.sort(key=inventory.position.__getitem__)
     else:
         order = sorted({t.record["split"] for t in complete})
 

@@ -43,7 +43,7 @@ import os
 import shutil
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -426,42 +426,42 @@ def _run_scenes(stage: Path, inventory: Inventory, link: bool, workers: int, say
     pool = None
     if workers > 1 and len(jobs) > 1:
         # spawn: the core's thread pool does not survive a fork.
-        pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=multiprocessing.get_context("spawn"))
+        pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)),
+                                   mp_context=multiprocessing.get_context("spawn"))
+
+    def finished(k: int, result) -> None:
+        if isinstance(result, _BadTask):
+            shutil.rmtree(stage / jobs[k].rel, ignore_errors=True)
+            inventory.invalid[result.task_id] = result.message
+            inventory.missing.append(result.task_id)
+            say(f"left out {result.task_id}: {result.message}")
+            scene = _without(jobs[k].scene, result.task_id)
+            if scene is not None:
+                retry[k] = dataclasses.replace(jobs[k], scene=scene)
+        else:
+            outputs[k] = result
+            say(f"[{len(outputs)}/{len(inventory.scenes)}] {result.rel}: {result.images} images")
+
     try:
         while jobs:
+            retry: dict[int, _SceneJob] = {}
             if pool is None:
-                done = {}
                 for k, job in jobs.items():
                     try:
-                        done[k] = _build_scene(job)
+                        finished(k, _build_scene(job))
                     except _BadTask as e:
-                        done[k] = e
+                        finished(k, e)
             else:
-                futures = {k: pool.submit(_build_scene, job) for k, job in jobs.items()}
-                done = {}
-                for k, future in futures.items():
+                futures = {pool.submit(_build_scene, job): k for k, job in jobs.items()}
+                for future in as_completed(futures):
                     try:
-                        done[k] = future.result()
+                        finished(futures[future], future.result())
                     except _BadTask as e:
-                        done[k] = e
-            retry = {}
-            for k in sorted(done):
-                result = done[k]
-                if isinstance(result, _BadTask):
-                    shutil.rmtree(stage / jobs[k].rel, ignore_errors=True)
-                    inventory.invalid[result.task_id] = result.message
-                    inventory.missing.append(result.task_id)
-                    say(f"left out {result.task_id}: {result.message}")
-                    scene = _without(jobs[k].scene, result.task_id)
-                    if scene is not None:
-                        retry[k] = dataclasses.replace(jobs[k], scene=scene)
-                else:
-                    outputs[k] = result
-                    say(f"[{len(outputs)}/{len(inventory.scenes)}] {result.rel}: {result.images} images")
+                        finished(futures[future], e)
             jobs = retry
     finally:
         if pool is not None:
-            pool.shutdown()
+            pool.shutdown(wait=True, cancel_futures=True)  # before the staging directory is removed
     return [outputs[k] for k in sorted(outputs)]
 
 
@@ -546,6 +546,9 @@ def merge_dataset(out_dir: Path, dataset_dir: Path | None = None, config: Config
 
     with staged_directory(dataset_dir) as stage:
         outputs = _run_scenes(stage, inventory, link, workers, say)
+        # Tasks found bad while building were appended in completion order: back to sweep order.
+        last = len(inventory.position)
+        inventory.missing = sorted(set(inventory.missing), key=lambda t: (inventory.position.get(t, last), t))
         if not outputs:
             raise MergeError(f"{out_dir / 'tasks'}: no task could be merged: "
                              + "; ".join(f"{k}: {v}" for k, v in sorted(inventory.invalid.items())))
