@@ -270,5 +270,49 @@ def generate(config_path: Path, out_dir: Path, workers: int | None, threads: int
         raise click.ClickException(f"{len(result.failed)} of {result.tasks} tasks failed; rerun to retry them")
 
 
+@main.command("merge")
+@click.argument("out_dir", metavar="OUT", type=click.Path(file_okay=False, path_type=Path))
+@click.option("--dataset", "dataset_dir", type=click.Path(file_okay=False, path_type=Path),
+              help="The BOP dataset to build (replaced whole). Default: OUT/dataset.")
+@click.option("--config", "config_path", type=click.Path(dir_okay=False, path_type=Path),
+              help="The sweep's config: names missing tasks, goes into dataset_info.json "
+                   "(default: OUT/config.json when present).")
+@click.option("--link", is_flag=True,
+              help="Hard-link the task files instead of copying them (no extra disk; copies across file systems).")
+@click.option("--workers", type=int, help="Processes building scenes (default: one per core).")
+def merge(out_dir: Path, dataset_dir: Path | None, config_path: Path | None, link: bool, workers: int | None) -> None:
+    """Merge the complete tasks of OUT/tasks into one BOP dataset (scenes, models, camera.json,
+    dataset_info.json, YOLO labels, manifest.json), rebuilt whole and renamed into place.
+
+    Exit status: 0 when every task is merged, 3 when some are missing or unusable (the rest is
+    merged and they are listed), 1 when nothing could be merged (the previous dataset is kept)."""
+    from moonbot.bop.merge import EXIT_INCOMPLETE, MergeError, merge_dataset
+    from moonbot.config import ConfigError, load_config
+
+    try:
+        config = load_config(config_path) if config_path is not None else None
+        report = merge_dataset(out_dir, dataset_dir, config, link=link, workers=workers)
+    except (ConfigError, MergeError, OSError) as e:
+        raise click.ClickException(str(e)) from None
+    click.echo(f"merged {report.tasks} tasks: {report.scenes} scenes, {report.images} images, "
+               f"{report.instances} instances in {', '.join(report.splits)} -> {report.dataset} "
+               f"({report.files} files, {report.bytes / 1e6:.1f} MB, {report.seconds:.1f} s"
+               f"{', models reused' if report.models_reused else ''})")
+    if report.amodal_outside_px:
+        click.echo(f"warning: {report.amodal_outside_px} visible pixels lie outside their amodal masks", err=True)
+    for task_id in report.extra:
+        click.echo(f"not in the sweep (ignored): {task_id}", err=True)
+    for name, reason in report.invalid.items():
+        click.echo(f"unusable: {name}: {reason}", err=True)
+    invalid = set(report.invalid)
+    for task_id in report.missing:
+        if task_id not in invalid:
+            click.echo(f"missing: {task_id}", err=True)
+    if not report.complete:
+        click.echo(f"incomplete: {len(report.missing)} tasks missing, {len(report.invalid)} unusable; "
+                   "generate again and re-run merge", err=True)
+        click.get_current_context().exit(EXIT_INCOMPLETE)
+
+
 if __name__ == "__main__":
     main()

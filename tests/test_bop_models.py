@@ -42,7 +42,7 @@ def test_ply_round_trips_through_trimesh_in_millimetres(models, obj_id):
 
 @pytest.mark.parametrize("obj_id", VARIANTS)
 def test_models_info_fields_are_exact(models, obj_id):
-    info = json.loads((models / "models_info.json").read_text())[str(obj_id)]
+    info = json.loads((models / "models" / "models_info.json").read_text())[str(obj_id)]
     mm = VARIANTS[obj_id][1]()[0].astype(np.float64) * 1000.0
     brute = max(np.linalg.norm(mm[i:i + 512, None] - mm[None], axis=2).max() for i in range(0, len(mm), 512))
     assert info["diameter"] == pytest.approx(brute, rel=1e-9)
@@ -57,7 +57,7 @@ def test_symmetries_hold_and_no_half_turn_is_missed(models, obj_id):
     """Each declared symmetry maps the surface onto itself within 1 % of the diameter; each of
     the box's half-turns that is not declared misses by more. -01 and -02 keep all three
     half-turns (their bodies are boxes), -03 (ends folded differently) keeps none."""
-    info = json.loads((models / "models_info.json").read_text())[str(obj_id)]
+    info = json.loads((models / "models" / "models_info.json").read_text())[str(obj_id)]
     declared = [np.array(s).reshape(4, 4) for s in info.get("symmetries_discrete", [])]
     v, t = VARIANTS[obj_id][1]()
     mm = v.astype(np.float64) * 1000.0
@@ -98,4 +98,7 @@ def test_eval_model_covers_the_surface_evenly(models, obj_id):
 def test_meshes_leaves_no_temporaries(models):
     names = sorted(p.name for p in models.rglob("*"))
     assert not [n for n in names if n.startswith(".") or n.endswith(".tmp")]
-    assert len(list((models / "models").iterdir())) == 3
+    assert len(list((models / "models").glob("*.ply"))) == 3
+    info = (models / "models" / "models_info.json").read_bytes()
+    assert (models / "models_eval" / "models_info.json").read_bytes() == info
+    assert not (models / "models_info.json").exists()

@@ -22,7 +22,8 @@ from moonbot.scene.bag_mesh import filled_cuboid
 from moonbot.writer import depth_to_png16
 
 SMALL = ["--set", "camera.width=160", "--set", "camera.height=120", "--set", "render.spp=2"]
-FILES = ("rgb.png", "depth.npy", "depth.png", "depth_preview.png", "mask.png", "gt.json")
+FILES = ("rgb.png", "depth.npy", "depth.png", "depth_preview.png", "mask.png", "amodal_001.png",
+         "gt.json")
 
 
 def render_one(out: Path, *args: str) -> Path:

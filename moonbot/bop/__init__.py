@@ -1,7 +1,13 @@
-"""The BOP layout: object models now; paths, merge and gt_info as the generation issue lands."""
+"""The BOP layout: object models (models.py), scene_gt_info entries as bop_toolkit defines them
+(gt_info.py), what OUT/tasks holds (inventory.py) and the merge of complete tasks into one BOP
+dataset with YOLO labels and a manifest (merge.py)."""
 
+from moonbot.bop.gt_info import bbox_of, gt_info_entry
+from moonbot.bop.inventory import Inventory, MergeError, SceneTasks, TaskDir, scan_tasks
+from moonbot.bop.merge import EXIT_INCOMPLETE, MergeReport, merge_dataset
 from moonbot.bop.models import (ModelInfo, diameter, find_symmetries, model_info, sample_surface,
                                 vertex_normals, write_models, write_ply)
 
-__all__ = ["ModelInfo", "diameter", "find_symmetries", "model_info", "sample_surface",
-           "vertex_normals", "write_models", "write_ply"]
+__all__ = ["EXIT_INCOMPLETE", "Inventory", "MergeError", "MergeReport", "ModelInfo", "SceneTasks", "TaskDir",
+           "bbox_of", "diameter", "find_symmetries", "gt_info_entry", "merge_dataset", "model_info",
+           "sample_surface", "scan_tasks", "vertex_normals", "write_models", "write_ply"]

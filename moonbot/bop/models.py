@@ -1,7 +1,8 @@
 """BOP object models (bop_toolkit's conventions, `../shared/reference/bop-format.md`): meshes in
 millimetres as binary PLY with vertex normals in `models/obj_NNNNNN.ply`, the surface resampled
-evenly in `models_eval/`, and `models_info.json` with each model's diameter, extents and
-discrete symmetries (4×4, row-major, millimetres)."""
+evenly in `models_eval/`, and in both folders `models_info.json` with each model's diameter,
+extents and discrete symmetries (4×4, row-major, millimetres) — bop_toolkit reads it from the
+folder of the model type it loads (models/ or models_eval/)."""
 
 from __future__ import annotations
 
@@ -156,8 +157,8 @@ def write_ply(path: Path, vertices: np.ndarray, triangles: np.ndarray,
 
 
 def write_models(out_dir: Path, meshes: dict[int, tuple[np.ndarray, np.ndarray]]) -> dict[int, ModelInfo]:
-    """Writes models/, models_eval/ and models_info.json under `out_dir` for {obj_id: (vertices
-    in metres, triangles)}; returns the infos."""
+    """Writes models/ and models_eval/ under `out_dir`, each with its models_info.json, for
+    {obj_id: (vertices in metres, triangles)}; returns the infos."""
     (out_dir / "models").mkdir(parents=True, exist_ok=True)
     (out_dir / "models_eval").mkdir(parents=True, exist_ok=True)
     infos = {}
@@ -170,5 +171,6 @@ def write_models(out_dir: Path, meshes: dict[int, tuple[np.ndarray, np.ndarray]]
                   np.empty((0, 3), np.int32))
         infos[obj_id] = model_info(mm, triangles)
     text = json.dumps({str(k): v.to_json() for k, v in infos.items()}, indent=2) + "\n"
-    atomic_write(out_dir / "models_info.json", "w", lambda f: f.write(text))
+    for folder in ("models", "models_eval"):
+        atomic_write(out_dir / folder / "models_info.json", "w", lambda f: f.write(text))
     return infos

@@ -1,6 +1,8 @@
 """Renders chosen orbit views of the configured scene into one directory per view. The scene is
 composed and its BVH built once, then every view reuses it; in a dust scene each view moves only
-the ejecta's mesh (moonbot.render.dust)."""
+the ejecta's mesh (moonbot.render.dust). Every view also gets each bag's amodal mask (the bag
+rendered alone, moonbot.render.amodal): one single-bag scene per bag, built once, an instance
+pass per bag and view; its cost is the `amodal` stage of the view's timings."""
 
 from __future__ import annotations
 
@@ -12,6 +14,7 @@ from pathlib import Path
 from moonbot import __version__
 from moonbot.config import Config, config_hash
 from moonbot.render import SceneDust, build_scene, render_view, resolve_exposure
+from moonbot.render.amodal import build_amodal_scenes, render_amodal_masks
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
 from moonbot.scene.orbit import orbit_height
 from moonbot.writer import staged_directory, write_sample
@@ -60,6 +63,9 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
     build_s = time.perf_counter() - start
     # Dust only when the scene calls for it: otherwise no simulation, no mesh, no medium, no stage.
     dust = SceneDust(scene, spec, config, views) if config.dust.enabled else None
+    # Each bag alone, for its amodal mask (BOP mask/); built once, paid by the first view.
+    amodal_scenes = build_amodal_scenes(spec)
+    amodal_build_s = amodal_scenes.seconds
 
     K = intrinsics(config.camera)
     exposure = resolve_exposure(config)
@@ -76,6 +82,9 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
         if view_dust is not None:  # its ejecta simulation, fragment mesh update and cloud
             timings["dust"] = view_dust.seconds
         timings["render"] = rendered.stats["seconds"]
+        amodal = render_amodal_masks(amodal_scenes, K, pose, config.camera.width, config.camera.height,
+                                     config.render.threads)
+        timings["amodal"] = amodal_build_s + amodal.seconds
         if settle_s is not None:
             timings["settle"] = settle_s
         meta = {
@@ -92,10 +101,11 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
             meta["dust"] = view_dust.meta
         with staged_directory(out_dir) as staging:
             gt = write_sample(staging, rendered, exposure, K, pose, spec.bags,
-                              config.output.png_compression, meta, timings, exr=config.output.exr)
+                              config.output.png_compression, meta, timings, exr=config.output.exr,
+                              amodal=amodal)
         rays = {k: rendered.stats[k] for k in ("camera_rays", "shadow_rays")}
         pixels = {i["instance_id"]: i["px_count_visib"] for i in gt["instances"]}
         results.append(ViewResult(v, out_dir, gt["timings_s"], rays, pixels, meta.get("dust")))
-        terrain_s = compose_s = build_s = 0.0  # paid once, by the first view
+        terrain_s = compose_s = build_s = amodal_build_s = 0.0  # paid once, by the first view
         settle_s = None if settle_s is None else 0.0
     return results

@@ -1,6 +1,6 @@
 """Writes one rendered view as files: rgb.png, depth.npy, depth.png, depth_preview.png, mask.png,
-optionally rgb.exr (the linear radiance), and gt.json (intrinsics, per-instance model-to-camera
-poses in the BOP convention, the exposure)."""
+optionally rgb.exr (the linear radiance) and each bag's amodal mask (amodal_NNN.png), and gt.json
+(intrinsics, per-instance model-to-camera poses in the BOP convention, the exposure)."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from moonbot import _core
+from moonbot.render.amodal import AmodalMasks
 from moonbot.render.exposure import LUMINOUS_EFFICACY_LM_W, Exposure
 from moonbot.render.view import RenderedView
 from moonbot.scene.compose import BagInstance
@@ -25,6 +26,9 @@ DEPTH_SCALE_MM = 1.0
 # overflow at 65504, below the Sun's disk at 2e7 W/(m²·sr)).
 RADIANCE_UNIT = "W/(m^2*sr)"
 FLOAT32_MAX = float(np.finfo(np.float32).max)
+# Amodal masks: one uint8 PNG per instance, 255 where the bag alone covers the pixel centre, else
+# 0 (the BOP mask/ convention, so merge copies the bytes as they are).
+AMODAL_FILE = "amodal_{instance_id:03d}.png"
 
 
 def finite_radiance(rgb: np.ndarray) -> np.ndarray:
@@ -67,7 +71,7 @@ def pose_m2c(camera: CameraPose, world_from_model: np.ndarray) -> tuple[np.ndarr
 
 def write_sample(out_dir: Path, view: RenderedView, exposure: Exposure, K: np.ndarray,
                  camera: CameraPose, bags: tuple[BagInstance, ...], png_compression: int,
-                 meta: dict, timings: dict, exr: bool = False) -> dict:
+                 meta: dict, timings: dict, exr: bool = False, amodal: AmodalMasks | None = None) -> dict:
     """Encodes and writes one view into `out_dir` (which must exist): rgb.png tone-mapped at
     `exposure`, and with `exr` also rgb.exr (linear float32 radiance, W/(m²·sr), zip at
     `png_compression`'s level; its header has `whiteLuminance` = cd/m² of RGB 1.0,
@@ -75,7 +79,11 @@ def write_sample(out_dir: Path, view: RenderedView, exposure: Exposure, K: np.nd
     a complete sample. `timings` (seconds per stage so far) is extended with this stage's and
     recorded in gt.json as `timings_s`. gt.json also records the exposure and
     `rgb_invalid_pixels`, the pixels with a NaN, ±Inf or negative channel (0 for a sound render;
-    both outputs replace such samples, see finite_radiance). Returns the gt.json content."""
+    both outputs replace such samples, see finite_radiance). With `amodal` (the bags' masks rendered
+    alone, moonbot.render.amodal) each instance also gets AMODAL_FILE (uint8 0/255, image size)
+    and, in gt.json, `mask_amodal` (that file's name), `px_count_all` (its silhouette's pixels on
+    bop_toolkit's 3W × 3H canvas) and `bbox_all` ([x, y, w, h] of that silhouette, image pixels,
+    w = max − min; [-1, -1, -1, -1] when empty). Returns the gt.json content."""
     timings = dict(timings)
     start = time.perf_counter()
     rgb8, invalid_pixels = _core.tonemap_reinhard(view.rgb, exposure.scale)
@@ -91,6 +99,11 @@ def write_sample(out_dir: Path, view: RenderedView, exposure: Exposure, K: np.nd
         lambda: _core.write_image(str(out_dir / "mask.png"), view.instance, png_compression),
         lambda: _save_npy_atomic(out_dir / "depth.npy", view.depth),
     ]
+    amodal_by_id = {m.instance_id: m for m in amodal.masks} if amodal is not None else {}
+    for m in amodal_by_id.values():
+        png = m.mask.astype(np.uint8) * np.uint8(255)
+        path = out_dir / AMODAL_FILE.format(instance_id=m.instance_id)
+        jobs.append(lambda path=path, png=png: _core.write_image(str(path), png, png_compression))
     if exr:
         # The tone map has counted the invalid pixels already: a sound render is written as is.
         hdr = view.rgb if invalid_pixels == 0 else finite_radiance(view.rgb)
@@ -112,6 +125,10 @@ def write_sample(out_dir: Path, view: RenderedView, exposure: Exposure, K: np.nd
             "cam_t_m2c": t.tolist(),
             "px_count_visib": int(np.count_nonzero(view.instance == bag.instance_id)),
         })
+        if bag.instance_id in amodal_by_id:
+            m = amodal_by_id[bag.instance_id]
+            instances[-1].update({"mask_amodal": AMODAL_FILE.format(instance_id=m.instance_id),
+                                  "px_count_all": m.px_count_all, "bbox_all": list(m.bbox_all)})
     gt = {
         "cam_K": K.reshape(-1).tolist(),
         "width": int(view.depth.shape[1]),

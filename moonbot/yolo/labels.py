@@ -1,0 +1,79 @@
+"""YOLO label rows and dataset YAMLs in the Ultralytics layout (`../shared/reference/bop-format.md`
+§5; docs.ultralytics.com/datasets/detect and /segment):
+
+    <root>/data.yaml
+    <root>/images/<split>/<name>.png
+    <root>/labels/<split>/<name>.txt      one row per visible instance; empty: no instance visible
+
+A detection row is `class cx cy w h`, a segmentation row `class x1 y1 x2 y2 ... xn yn`, all
+normalised by the image width and height to [0, 1], six decimals. Class = BOP obj_id − 1
+(sandbag-01 → 0). Both are taken from the instance's visible mask: the box spans its pixels' edges
+(x from the leftmost pixel's left edge to the rightmost pixel's right edge, so its width in pixels
+is bop_toolkit's bbox_visib w + 1), the polygon is moonbot.yolo.polygon.mask_polygon (one ring
+per instance, at least four distinct points, its extent exactly that box). A file holds rows of
+one kind only: Ultralytics reads a whole file as segments when any row has more than 6 columns.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from moonbot.scene.bag_mesh import VARIANTS
+from moonbot.yolo.polygon import DEFAULT_TOLERANCE_PX, mask_polygon
+
+# Class index → name: obj_id − 1 → the mesh variant.
+CLASS_NAMES = {obj_id - 1: name for obj_id, (name, _) in sorted(VARIANTS.items())}
+
+
+def yolo_class(obj_id: int) -> int:
+    """The YOLO class of a BOP obj_id (1-based → 0-based). ValueError for an unknown obj_id."""
+    if obj_id - 1 not in CLASS_NAMES:
+        raise ValueError(f"obj_id: {obj_id} is not a moonbot object (1..{len(CLASS_NAMES)})")
+    return obj_id - 1
+
+
+def _fmt(values) -> str:
+    return " ".join(f"{float(v):.6f}" for v in values)
+
+
+def detect_row(obj_id: int, visible: np.ndarray) -> str | None:
+    """`class cx cy w h` of the box around the True pixels of `visible` (H, W) bool, normalised
+    by W and H; None when nothing is visible."""
+    rows = np.flatnonzero(visible.any(axis=1))
+    if rows.size == 0:
+        return None
+    cols = np.flatnonzero(visible.any(axis=0))
+    h, w = visible.shape
+    x0, x1 = float(cols[0]), float(cols[-1] + 1)  # pixel edges
+    y0, y1 = float(rows[0]), float(rows[-1] + 1)
+    return f"{yolo_class(obj_id)} " + _fmt(((x0 + x1) / (2 * w), (y0 + y1) / (2 * h), (x1 - x0) / w, (y1 - y0) / h))
+
+
+def segment_row(obj_id: int, visible: np.ndarray, tolerance: float = DEFAULT_TOLERANCE_PX) -> str | None:
+    """`class x1 y1 ... xn yn`: the ring of `visible` (H, W) bool normalised by W and H; None when
+    nothing is visible."""
+    ring = mask_polygon(visible, tolerance)
+    if ring is None:
+        return None
+    h, w = visible.shape
+    xy = np.clip(ring / (w, h), 0.0, 1.0)
+    return f"{yolo_class(obj_id)} " + _fmt(xy.reshape(-1))
+
+
+def data_yaml(splits: list[str], task: str) -> str:
+    """The dataset YAML of one YOLO tree whose images/ holds `splits` (dataset order). `train` is
+    the split named train (else the first); `val` the split named val, else test, else the train
+    split (Ultralytics requires one); `test` the split named test when there is one. No `path`:
+    Ultralytics then takes the YAML's own directory as the root, so the tree can be moved."""
+    if not splits:
+        raise ValueError("splits: a YOLO dataset needs at least one split")
+    train = "train" if "train" in splits else splits[0]
+    val = "val" if "val" in splits else "test" if "test" in splits else train
+    lines = [f"# moonbot {task} labels of the visible instance masks (Ultralytics layout); class = BOP obj_id - 1",
+             f"train: images/{train}", f"val: images/{val}"]
+    if "test" in splits:
+        lines.append("test: images/test")
+    lines.append(f"nc: {len(CLASS_NAMES)}")
+    lines.append("names:")
+    lines += [f"  {k}: {name}" for k, name in sorted(CLASS_NAMES.items())]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,91 @@
+"""YOLO polygons of instance masks (moonbot.yolo): traced boundaries fill exactly the mask,
+thinning keeps the extent, pieces and holes are joined into one ring, rows and YAML follow the
+Ultralytics rules (`../shared/reference/bop-format.md` §5)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from moonbot.yolo import boundary_loops, data_yaml, detect_row, mask_polygon, segment_row, yolo_class
+
+
+def raster(ring: np.ndarray, height: int, width: int) -> np.ndarray:
+    """Even-odd fill of a closed ring (N, 2) of pixel coordinates, sampled at pixel centres."""
+    yc, xc = np.mgrid[0:height, 0:width] + 0.5
+    inside = np.zeros((height, width), dtype=bool)
+    for (x1, y1), (x2, y2) in zip(ring, np.roll(ring, -1, axis=0)):
+        if y1 != y2:
+            crosses = (yc >= min(y1, y2)) & (yc < max(y1, y2))
+            inside ^= crosses & (xc < x1 + (yc - y1) * (x2 - x1) / (y2 - y1))
+    return inside
+
+
+def area(loop: np.ndarray) -> float:
+    x, y = loop[:, 0].astype(float), loop[:, 1].astype(float)
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+@settings(max_examples=150, deadline=None)
+@given(arrays(np.bool_, st.tuples(st.integers(1, 12), st.integers(1, 12))))
+def test_unthinned_ring_fills_exactly_the_mask(mask):
+    """Any mask — several pieces, holes, pixels touching at a corner — is reproduced pixel for
+    pixel by its one bridged ring at tolerance 0."""
+    ring = mask_polygon(mask, tolerance=0.0)
+    if not mask.any():
+        assert ring is None
+        return
+    np.testing.assert_array_equal(raster(ring, *mask.shape), mask)
+
+
+@settings(max_examples=150, deadline=None)
+@given(arrays(np.bool_, st.tuples(st.integers(1, 12), st.integers(1, 12))))
+def test_thinned_ring_keeps_the_extent(mask):
+    ring = mask_polygon(mask)
+    if ring is None:
+        return
+    ys, xs = np.nonzero(mask)
+    assert ring[:, 0].min() == xs.min() and ring[:, 0].max() == xs.max() + 1
+    assert ring[:, 1].min() == ys.min() and ring[:, 1].max() == ys.max() + 1
+    assert len(np.unique(ring, axis=0)) >= 4  # never misread as a box
+
+
+def test_loops_orientation_and_corner_touching_pixels():
+    """Outer boundaries are clockwise on screen (positive shoelace area with y down), holes
+    anticlockwise; pixels touching only at a corner get a loop each."""
+    ring = np.zeros((5, 5), bool)
+    ring[1:4, 1:4] = True
+    ring[2, 2] = False
+    loops = boundary_loops(ring)
+    assert sorted(area(l) for l in loops) == [-1.0, 9.0]
+    diagonal = np.array([[1, 0], [0, 1]], bool)
+    loops = boundary_loops(diagonal)
+    assert len(loops) == 2 and all(area(l) == 1.0 and len(l) == 4 for l in loops)
+
+
+def test_thinning_shrinks_a_disc_and_stays_close():
+    yy, xx = np.mgrid[0:200, 0:300]
+    disc = (xx - 150) ** 2 / 80**2 + (yy - 100) ** 2 / 50**2 < 1
+    exact, thin = mask_polygon(disc, 0.0), mask_polygon(disc)
+    assert len(thin) < len(exact) / 4
+    filled = raster(thin, 200, 300)
+    assert (filled & disc).sum() / (filled | disc).sum() > 0.98
+
+
+def test_rows_and_yaml():
+    mask = np.zeros((10, 20), bool)
+    mask[2:5, 4:10] = True  # columns 4..9, rows 2..4
+    assert detect_row(2, mask) == "1 0.350000 0.350000 0.300000 0.300000"
+    row = segment_row(1, mask).split()
+    assert row[0] == "0" and len(row) == 9  # a rectangle: four corners
+    assert detect_row(1, np.zeros((4, 4), bool)) is None and segment_row(1, np.zeros((4, 4), bool)) is None
+    with pytest.raises(ValueError, match="obj_id: 4"):
+        yolo_class(4)
+    data = yaml.safe_load(data_yaml(["default"], "detect"))
+    assert data["train"] == data["val"] == "images/default" and "test" not in data and data["nc"] == 3
+    data = yaml.safe_load(data_yaml(["train", "val", "test"], "segment"))
+    assert (data["train"], data["val"], data["test"]) == ("images/train", "images/val", "images/test")
