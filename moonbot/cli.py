@@ -246,9 +246,12 @@ def plan(config_path: Path, bench_record: Path | None) -> None:
 @click.option("--scheduler-file", type=click.Path(dir_okay=False), help="A Dask scheduler file to connect through.")
 @click.option("--resume", is_flag=True,
               help="Render only the tasks missing from --out (the default anyway: finished tasks are never redone).")
+@click.option("--merge/--no-merge", default=True, show_default=True,
+              help="Merge the complete tasks into the BOP dataset --out/dataset at the end.")
 def generate(config_path: Path, out_dir: Path, workers: int | None, threads: int | None, scheduler: str | None,
-             scheduler_file: str | None, resume: bool) -> None:
+             scheduler_file: str | None, resume: bool, merge: bool) -> None:
     """Render CONFIG's sweep into --out on a Dask cluster (a local one unless told otherwise)."""
+    from moonbot.bop.merge import MergeError
     from moonbot.config import ConfigError, load_config
     from moonbot.pipeline.generate import generate as run
 
@@ -259,11 +262,15 @@ def generate(config_path: Path, out_dir: Path, workers: int | None, threads: int
         raise click.ClickException(str(e)) from None
     try:
         result = run(config, out_dir, workers=workers, threads=threads, scheduler=scheduler,
-                     scheduler_file=scheduler_file)
-    except OSError as e:
+                     scheduler_file=scheduler_file, merge=merge)
+    except (OSError, MergeError) as e:
         raise click.ClickException(str(e)) from None
     click.echo(f"{result.rendered} tasks rendered ({result.samples} samples) in {result.seconds:.1f} s; "
                f"{result.complete_before} were complete already")
+    if result.merge is not None:
+        m = result.merge
+        click.echo(f"dataset {m.dataset}: {m.scenes} scenes, {m.images} images"
+                   + (f"; {len(m.missing)} tasks missing" if m.missing else ""))
     if result.failed:
         for task_id, error in sorted(result.failed.items()):
             click.echo(f"failed: {task_id}: {error}", err=True)

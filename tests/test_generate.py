@@ -62,22 +62,28 @@ def dataset_data(out: Path) -> dict[str, bytes]:
 
 
 @pytest.fixture(scope="module")
-def reference(config_file, tmp_path_factory) -> dict[str, bytes]:
-    """An uninterrupted run on a LocalCluster of 2 worker processes."""
+def reference_run(config_file, tmp_path_factory) -> Path:
+    """An uninterrupted run on a LocalCluster of 2 worker processes, merged."""
     out = tmp_path_factory.mktemp("reference")
     result = generate(load_config(config_file), out, workers=2, progress=None)
     assert result.failed == {} and result.rendered == result.tasks == 8
-    return dataset_data(out)
+    assert result.merge.images == 16 and result.merge.missing == ()
+    return out
+
+
+@pytest.fixture(scope="module")
+def reference(reference_run) -> dict[str, bytes]:
+    return dataset_data(reference_run)
 
 
 def test_two_workers_render_every_task_once_and_a_rerun_renders_none(reference, config_file, tmp_path):
     config = load_config(config_file)
     assert len(reference) == 8 * (1 + 2 * (len(DATA_FILES) + 1))
     out = tmp_path / "run"
-    first = generate(config, out, workers=2, progress=None)
+    first = generate(config, out, workers=2, merge=False, progress=None)
     assert first.rendered == 8 and first.samples == 16
     done_times = {p: p.stat().st_mtime_ns for p in (out / "tasks").glob(f"*/{DONE}")}
-    again = generate(config, out, workers=2, progress=None)
+    again = generate(config, out, workers=2, merge=False, progress=None)
     assert again.rendered == 0 and again.complete_before == 8 and again.samples == 0
     assert {p: p.stat().st_mtime_ns for p in (out / "tasks").glob(f"*/{DONE}")} == done_times
     task = json.loads(next((out / "tasks").glob("*/task.json")).read_text())
@@ -87,9 +93,20 @@ def test_two_workers_render_every_task_once_and_a_rerun_renders_none(reference, 
     assert stats["worker"].startswith("tcp://") and set(stats["stages_s"]) >= {"render", "encode_write"}
 
 
-def test_one_worker_gives_the_same_bytes(reference, config_file, tmp_path):
+def test_one_worker_gives_the_same_bytes(reference, reference_run, config_file, tmp_path):
     generate(load_config(config_file), tmp_path, workers=1, progress=None)
     assert dataset_data(tmp_path) == reference
+    # The merged BOP datasets too, file for file (the manifest lists every file's sha256).
+    manifest = (tmp_path / "dataset" / "manifest.json").read_bytes()
+    assert manifest == (reference_run / "dataset" / "manifest.json").read_bytes()
+    assert (tmp_path / "stats" / "tasks.jsonl").is_file() and (tmp_path / "stats" / "tasks.parquet").is_file()
+
+
+def test_another_config_cannot_join_a_dataset(config_file, tmp_path):
+    generate(load_config(config_file), tmp_path, workers=1, merge=False, progress=None)
+    other = load_config(config_file, {"camera.width": 80})
+    with pytest.raises(OSError, match="config.json"):
+        generate(other, tmp_path, workers=1, merge=False, progress=None)
 
 
 def test_a_worker_killed_mid_run_loses_nothing(reference, config_file, tmp_path):
@@ -109,7 +126,7 @@ def test_a_worker_killed_mid_run_loses_nothing(reference, config_file, tmp_path)
 
         killer = threading.Thread(target=kill_when_busy)
         killer.start()
-        result = generate(config, tmp_path, client=client, progress=None)
+        result = generate(config, tmp_path, client=client, merge=False, progress=None)
         killer.join()
     assert killed and result.failed == {}
     assert dataset_data(tmp_path) == reference

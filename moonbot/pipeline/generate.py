@@ -6,6 +6,8 @@ which worker ran what, in which order, or how often a task was retried."""
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import os
 import sys
 import time
@@ -15,8 +17,11 @@ from pathlib import Path
 import dask
 from distributed import Client, LocalCluster, WorkerPlugin, as_completed, get_worker
 
-from moonbot.config import Config, load_config
+from moonbot.bop.merge import merge_dataset
+from moonbot.config import Config, ConfigError, config_hash, load_config
+from moonbot.pipeline.stats import collect
 from moonbot.pipeline.tasks import is_complete, run_task, sweep_temporaries, task_dir
+from moonbot.writer.staging import atomic_write
 from moonbot.sweep import Task, task_config, tasks
 
 # A worker's death counts against the tasks it held; a few deaths of one task are the cluster's
@@ -64,6 +69,7 @@ class GenerateResult:
     samples: int = 0
     failed: dict = field(default_factory=dict)
     seconds: float = 0.0
+    merge: object = None  # the MergeReport of the merge that ended the run (None: not merged)
 
 
 def pending_tasks(config: Config, out_dir: Path) -> tuple[list[Task], int]:
@@ -76,14 +82,17 @@ def pending_tasks(config: Config, out_dir: Path) -> tuple[list[Task], int]:
 
 def generate(config: Config | str | Path | None, out_dir: Path, *, client: Client | None = None,
              workers: int | None = None, threads: int | None = None, scheduler: str | None = None,
-             scheduler_file: str | None = None, progress=sys.stderr) -> GenerateResult:
+             scheduler_file: str | None = None, merge: bool = True, progress=sys.stderr) -> GenerateResult:
     """Renders every task of the config's sweep missing from `out_dir` (OUT/tasks/<task_id>/).
     The cluster: `client` if given; else the scheduler at `scheduler` (an address) or in
     `scheduler_file`; else a LocalCluster of `workers` processes (default: one per core, at most
     the tasks) with one Dask thread each. `threads` sets each task's render threads (default: the
     config's render.threads on a given cluster, cores / workers on the local one; the images do
     not depend on it). Prints progress to
-    `progress` (None: silent). A task that fails is reported in the result and the others go on."""
+    `progress` (None: silent). A task that fails is reported in the result and the others go on.
+    The resolved config is kept as OUT/config.json (a later run into the same OUT must have the
+    same config); at the end the tasks' stats are collected (OUT/stats/) and, with `merge`, the
+    complete tasks are merged into the BOP dataset OUT/dataset (missing ones reported)."""
     if not isinstance(config, Config):
         config = load_config(config)
     out_dir = Path(out_dir)
@@ -92,15 +101,44 @@ def generate(config: Config | str | Path | None, out_dir: Path, *, client: Clien
     except OSError as e:
         raise OSError(f"{out_dir}: cannot hold the dataset ({e.strerror or e})") from e
     start = time.perf_counter()
+    keep_config(config, out_dir)
     sweep_temporaries(out_dir)
     pending, complete = pending_tasks(config, out_dir)
     result = GenerateResult(tasks=complete + len(pending), complete_before=complete)
     say = (lambda text: print(text, file=progress, flush=True)) if progress else (lambda text: None)
     say(f"{result.tasks} tasks, {complete} complete, {len(pending)} to render into {out_dir}")
-    if not pending:
-        result.seconds = time.perf_counter() - start
-        return result
+    if pending:
+        render_pending(config, out_dir, pending, result, client, workers, threads, scheduler, scheduler_file,
+                       start, say)
+    sweep_temporaries(out_dir)
+    if result.rendered or result.complete_before:
+        collect(out_dir)
+        if merge:
+            result.merge = merge_dataset(out_dir, config=config, progress=progress)
+    result.seconds = time.perf_counter() - start
+    return result
 
+
+def keep_config(config: Config, out_dir: Path) -> None:
+    """Writes the resolved config to OUT/config.json, or checks that the one there is the same:
+    tasks of two configs never share a dataset directory."""
+    path = out_dir / "config.json"
+    text = json.dumps(dataclasses.asdict(config), indent=2, sort_keys=True) + "\n"
+    if path.exists():
+        try:
+            kept = load_config(path)
+        except ConfigError as e:
+            raise OSError(f"{path}: not a moonbot config ({e})") from None
+        if config_hash(kept) != config_hash(config):
+            raise OSError(f"{path}: {out_dir} holds a sweep of another config (hash {config_hash(kept)[:12]}, "
+                          f"this one {config_hash(config)[:12]}); render it into another --out")
+        return
+    atomic_write(path, "w", lambda f: f.write(text))
+
+
+def render_pending(config: Config, out_dir: Path, pending: list[Task], result: GenerateResult, client, workers,
+                   threads, scheduler, scheduler_file, start: float, say) -> None:
+    """Runs `pending` on the cluster (see generate) and records outcomes in `result`."""
     own_cluster = None
     with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
                           "distributed.scheduler.worker-saturation": 1.0}):
@@ -145,6 +183,3 @@ def generate(config: Config | str | Path | None, out_dir: Path, *, client: Clien
             if own_cluster is not None:
                 client.close()
                 own_cluster.close()
-    sweep_temporaries(out_dir)
-    result.seconds = time.perf_counter() - start
-    return result
