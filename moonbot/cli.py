@@ -231,8 +231,14 @@ def plan(config_path: Path, bench_record: Path | None) -> None:
     if found is None:
         click.echo("no generate benchmark recorded for this machine: run bench/bench_generate.py for estimates")
         return
-    click.echo(f"disk    ~{found.bytes / 1e9:.1f} GB")
-    click.echo(f"time    ~{found.seconds / 3600:.1f} h on this machine ({found.workers} workers; from {found.source})")
+    size = found.bytes
+    click.echo("disk    ~" + (f"{size / 1e9:.1f} GB" if size >= 1e9 else f"{size / 1e6:.1f} MB")
+               + " of task directories (the merged dataset copies them unless merged with --link)")
+    hours = found.seconds / 3600
+    click.echo("time    ~" + (f"{hours:.1f} h" if hours >= 1 else f"{found.seconds / 60:.1f} min"
+                                if found.seconds >= 60 else f"{found.seconds:.1f} s")
+               + f" on this machine, rendering only ({found.workers} worker × {found.threads} render threads, "
+                 f"the fastest layout measured; from {found.source})")
 
 
 @main.command("generate")

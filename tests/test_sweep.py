@@ -92,6 +92,14 @@ def test_plan_prints_the_sweep_without_rendering(tmp_path):
     assert lines[1].split() == ["train", "162", "4860", "174960"]
     assert lines[2].split() == ["test", "36", "36", "1296"]
     assert lines[3].split() == ["total", "198", "4896", "176256"]
+    # The estimate scales a benchmark record: seconds per megapixel-sample, bytes per megapixel.
+    record = tmp_path / "generate-test.json"
+    record.write_text('{"runs": [{"workers": 2, "threads_per_worker": 1, "samples_per_s": 0.5, "seconds": 100.0, '
+                      '"megapixel_samples": 10.0, "bytes": 2e9, "megapixels": 1000.0}]}')
+    result = CliRunner().invoke(main, ["plan", str(CONFIGS / "synbag-1.0.yaml"), "--bench-record", str(record)])
+    mps = 176_256 * 640 * 480 * 4 / 1e6
+    assert f"~{mps * 10.0 / 3600:.1f} h" in result.output  # 10 s a megapixel-sample
+    assert f"~{176_256 * 640 * 480 / 1e6 * 2e6 / 1e9:.1f} GB" in result.output  # 2 MB a megapixel
     bad = tmp_path / "bad.yaml"
     bad.write_text("sweep:\n  splits:\n    - name: train\n      sun_elevations_deg: [95]\n")
     result = CliRunner().invoke(main, ["plan", str(bad)])

@@ -48,6 +48,7 @@ class Estimate:
     bytes: float
     seconds: float
     workers: int
+    threads: int  # render threads per worker in the benchmark run used
     source: str
 
 
@@ -79,4 +80,5 @@ def estimate(plans: list[SplitPlan], record_path: Path) -> Estimate | None:
         return None
     mps = sum(p.megapixel_samples for p in plans)
     mp = sum(p.megapixels for p in plans)
-    return Estimate(bytes=b_per_mp * mp, seconds=s_per_mps * mps, workers=best["workers"], source=str(record_path))
+    return Estimate(bytes=b_per_mp * mp, seconds=s_per_mps * mps, workers=best["workers"],
+                    threads=best.get("threads_per_worker", 1), source=str(record_path))
