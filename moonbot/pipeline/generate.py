@@ -139,22 +139,24 @@ def keep_config(config: Config, out_dir: Path) -> None:
 def render_pending(config: Config, out_dir: Path, pending: list[Task], result: GenerateResult, client, workers,
                    threads, scheduler, scheduler_file, start: float, say) -> None:
     """Runs `pending` on the cluster (see generate) and records outcomes in `result`."""
-    own_cluster = None
+    own_cluster = own_client = None
     with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
                           "distributed.scheduler.worker-saturation": 1.0}):
         if client is None:
             if scheduler or scheduler_file:
-                client = Client(scheduler, scheduler_file=scheduler_file) if scheduler else Client(scheduler_file=scheduler_file)
+                own_client = client = (Client(scheduler) if scheduler else Client(scheduler_file=scheduler_file))
             else:
                 cores = os.cpu_count() or 1
                 n = max(1, min(workers or cores, len(pending)))
                 threads = threads or max(1, cores // n)
                 own_cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                            dashboard_address=":0", silence_logs=40)
-                client = Client(own_cluster)
+                own_client = client = Client(own_cluster)
         try:
             say(f"dashboard: {client.dashboard_link}")
-            terrains = list({task_config(config, t).terrain: None for t in pending})
+            # One task per location stands for its terrain (task_config costs ~10 ms; a sweep has thousands).
+            by_location = {t.location: t for t in reversed(pending)}
+            terrains = list({task_config(config, t).terrain: None for t in by_location.values()})
             client.register_plugin(TerrainWarmup(terrains))
             futures = client.map(_run_on_worker, [config] * len(pending), pending, [str(out_dir)] * len(pending),
                                  [threads] * len(pending), key=[f"render-{t.task_id}" for t in pending],
@@ -180,6 +182,7 @@ def render_pending(config: Config, out_dir: Path, pending: list[Task], result: G
                     f"{result.samples} samples, {rate:.2f} samples/s, ETA {eta:.0f} s")
             del futures
         finally:
+            if own_client is not None:
+                own_client.close()
             if own_cluster is not None:
-                client.close()
                 own_cluster.close()
