@@ -327,5 +327,22 @@ def merge(out_dir: Path, dataset_dir: Path | None, config_path: Path | None, lin
         click.get_current_context().exit(EXIT_INCOMPLETE)
 
 
+@main.command("validate")
+@click.argument("dataset", type=click.Path(file_okay=False, exists=True, path_type=Path))
+def validate(dataset: Path) -> None:
+    """Check a merged BOP DATASET against itself: manifest checksums, JSON fields, depth PNG against
+    the metric .npy, masks against scene_gt_info.json. Exits 1 naming each failing file."""
+    from moonbot.eval.validate import validate_dataset
+
+    report = validate_dataset(dataset)
+    for check, n in sorted(report.checked.items()):
+        failed = sum(1 for _, c, _ in report.failures if c == check)
+        click.echo(f"{check:<10} {n:>8} checked  {failed:>6} failed")
+    for path, check, message in report.failures:
+        click.echo(f"FAIL {check}: {path}: {message}", err=True)
+    if not report.ok:
+        raise SystemExit(1)
+
+
 if __name__ == "__main__":
     main()

@@ -1,0 +1,180 @@
+"""`moonbot validate`: a merged BOP dataset checked against itself (issue 8). Every file against
+the manifest (size and SHA-256, nothing unlisted); the JSON files' BOP fields, types and units;
+per image, the 16-bit depth PNG × depth_scale against the metric .npy (to the PNG's 1 mm
+rounding), and per instance its masks against scene_gt_info.json (the visible mask inside the
+amodal one, visible masks of one image disjoint, counts, boxes and fractions as bop_toolkit defines
+them, moonbot/bop/gt_info.py). Each failure names the file and the check.
+
+Not yet: the model rendered at the ground-truth pose against the depth (residuals per instance)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from moonbot import _core
+from moonbot.bop.gt_info import bbox_of
+
+DEPTH_TOLERANCE_MM = 0.5 + 1e-3  # the PNG rounds to 1 mm
+
+
+@dataclass
+class ValidationReport:
+    """`checked`: how many items each check looked at; `failures`: (file, check, message)."""
+
+    checked: dict = field(default_factory=dict)
+    failures: list = field(default_factory=list)
+
+    def count(self, check: str, n: int = 1) -> None:
+        self.checked[check] = self.checked.get(check, 0) + n
+
+    def fail(self, path: Path | str, check: str, message: str) -> None:
+        self.failures.append((str(path), check, message))
+
+    @property
+    def ok(self) -> bool:
+        return not self.failures
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def check_manifest(dataset: Path, report: ValidationReport) -> None:
+    path = dataset / "manifest.json"
+    try:
+        files = json.loads(path.read_text())["files"]
+    except (OSError, ValueError, KeyError) as e:
+        report.fail(path, "manifest", f"unreadable ({e})")
+        return
+    on_disk = {str(p.relative_to(dataset)) for p in dataset.rglob("*") if p.is_file()} - {"manifest.json"}
+    for name in sorted(on_disk - set(files)):
+        report.fail(dataset / name, "manifest", "not listed in manifest.json")
+    for name, entry in sorted(files.items()):
+        report.count("manifest")
+        p = dataset / name
+        if not p.is_file():
+            report.fail(p, "manifest", "listed but missing")
+        elif p.stat().st_size != entry["bytes"]:
+            report.fail(p, "manifest", f"{p.stat().st_size} bytes, manifest says {entry['bytes']}")
+        elif _sha256(p) != entry["sha256"]:
+            report.fail(p, "manifest", "sha256 differs from manifest.json")
+
+
+def _numbers(value, n: int) -> bool:
+    return (isinstance(value, list) and len(value) == n
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value))
+
+
+def _check_json(scene: Path, report: ValidationReport) -> tuple[dict, dict, dict] | None:
+    loaded = []
+    for name in ("scene_gt.json", "scene_camera.json", "scene_gt_info.json"):
+        try:
+            loaded.append(json.loads((scene / name).read_text()))
+        except (OSError, ValueError) as e:
+            report.fail(scene / name, "json", f"unreadable ({e})")
+            return None
+    gt, camera, info = loaded
+    for im, cam in camera.items():
+        report.count("json")
+        where = scene / "scene_camera.json"
+        if not (_numbers(cam.get("cam_K"), 9) and _numbers(cam.get("cam_R_w2c"), 9) and _numbers(cam.get("cam_t_w2c"), 3)):
+            report.fail(where, "json", f"image {im}: cam_K (9), cam_R_w2c (9) and cam_t_w2c (3, mm) must be numbers")
+        if not (isinstance(cam.get("depth_scale"), (int, float)) and cam["depth_scale"] > 0):
+            report.fail(where, "json", f"image {im}: depth_scale must be a positive number (mm per PNG unit)")
+    for im, instances in gt.items():
+        for k, inst in enumerate(instances):
+            report.count("json")
+            if not (_numbers(inst.get("cam_R_m2c"), 9) and _numbers(inst.get("cam_t_m2c"), 3)
+                    and isinstance(inst.get("obj_id"), int) and inst["obj_id"] > 0):
+                report.fail(scene / "scene_gt.json", "json", f"image {im} instance {k}: cam_R_m2c (9), cam_t_m2c (3, mm) "
+                            "and obj_id (int > 0) required")
+            elif abs(np.linalg.det(np.array(inst["cam_R_m2c"]).reshape(3, 3)) - 1) > 1e-6:
+                report.fail(scene / "scene_gt.json", "json", f"image {im} instance {k}: cam_R_m2c is not a rotation")
+        entries = info.get(im)
+        if not isinstance(entries, list) or len(entries) != len(instances):
+            report.fail(scene / "scene_gt_info.json", "json", f"image {im}: one entry per scene_gt instance required")
+    return gt, camera, info
+
+
+def check_scene(scene: Path, report: ValidationReport) -> None:
+    loaded = _check_json(scene, report)
+    if loaded is None:
+        return
+    gt, camera, info = loaded
+    for im in sorted(gt, key=int):
+        name = f"{int(im):06d}"
+        png_path, npy_path = scene / "depth" / f"{name}.png", scene / "depth_npy" / f"{name}.npy"
+        try:
+            png = _core.read_image(str(png_path)).astype(np.float64) * camera[im]["depth_scale"]
+            metres = np.load(npy_path)
+        except (OSError, ValueError) as e:
+            report.fail(png_path, "depth", f"unreadable ({e})")
+            continue
+        report.count("depth")
+        if png.shape[:2] != metres.shape:
+            report.fail(png_path, "depth", f"shape {png.shape} differs from {npy_path.name}'s {metres.shape}")
+            continue
+        png = png.reshape(metres.shape)
+        mm = metres.astype(np.float64) * 1000.0
+        representable = (mm > 0) & (mm <= 65535.0)
+        bad = (representable & (np.abs(png - mm) > DEPTH_TOLERANCE_MM)) | (~representable & (png != 0))
+        if bad.any():
+            y, x = np.argwhere(bad)[0]
+            report.fail(png_path, "depth", f"{int(bad.sum())} pixels disagree with {npy_path.name} (first at x={x}, "
+                        f"y={y}: {png[y, x]:.1f} mm vs {mm[y, x]:.3f} mm)")
+        valid = png > 0
+        seen = np.zeros(metres.shape, bool)
+        for k, entry in enumerate(info.get(im, [])):
+            report.count("masks")
+            masks = []
+            for kind in ("mask", "mask_visib"):
+                path = scene / kind / f"{name}_{k:06d}.png"
+                try:
+                    masks.append(_core.read_image(str(path)).reshape(metres.shape) > 0)
+                except (OSError, ValueError) as e:
+                    report.fail(path, "masks", f"unreadable ({e})")
+            if len(masks) != 2:
+                continue
+            amodal, visible = masks
+            where = scene / "mask_visib" / f"{name}_{k:06d}.png"
+            if (visible & ~amodal).any():
+                report.fail(where, "masks", "visible pixels outside the amodal mask")
+            if (visible & seen).any():
+                report.fail(where, "masks", "visible pixels shared with another instance")
+            seen |= visible
+            expected = {"px_count_visib": int(visible.sum()), "bbox_visib": list(bbox_of(visible)),
+                        "px_count_valid": int((amodal & valid).sum())}
+            for key, value in expected.items():
+                if entry.get(key) != value:
+                    report.fail(where, "gt_info", f"{key} is {entry.get(key)} in scene_gt_info.json, the masks give {value}")
+            all_px = entry.get("px_count_all", -1)
+            if not isinstance(all_px, int) or all_px < int(amodal.sum()):
+                report.fail(scene / "mask" / f"{name}_{k:06d}.png", "gt_info",
+                            f"px_count_all {all_px} is below the amodal mask's {int(amodal.sum())} pixels")
+            elif not math.isclose(entry.get("visib_fract", -1.0), expected["px_count_visib"] / all_px if all_px else 0.0,
+                                  abs_tol=1e-9):
+                report.fail(where, "gt_info", "visib_fract is not px_count_visib / px_count_all")
+
+
+def validate_dataset(dataset: Path) -> ValidationReport:
+    """Checks a merged dataset (moonbot merge's tree) and returns what failed."""
+    dataset = Path(dataset)
+    report = ValidationReport()
+    check_manifest(dataset, report)
+    for scene in sorted(dataset.glob("*/*/*/scene_*")):
+        if scene.is_dir():
+            report.count("scenes")
+            check_scene(scene, report)
+    if not report.checked.get("scenes"):
+        report.fail(dataset, "scenes", "no split/mesh/location/scene_NNNNNN directory")
+    return report

@@ -1,0 +1,89 @@
+"""`moonbot validate` (issue 8, first slice) passes on a freshly generated smoke dataset and fails,
+naming the file and the check, on each corruption: a flipped mask, a depth PNG in the wrong unit,
+a truncated file, an edited count, an unlisted file."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from moonbot import _core
+from moonbot.cli import main
+from moonbot.config import load_config
+from moonbot.eval.validate import validate_dataset
+from moonbot.pipeline.generate import generate
+
+CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("smoke")
+    config = load_config(CONFIGS / "smoke.yaml", {"sweep.splits": [
+        {"name": "test", "meshes": ["sandbag-02"], "bag_counts": [3], "stain_seeds": [0], "dust": [False, True],
+         "sun_elevations_deg": [30.0], "sun_azimuths_deg": [90.0], "camera_heights_m": [1.0]}]})
+    result = generate(config, out, workers=2, progress=None)
+    assert not result.failed and result.merge.images == 4
+    return out / "dataset"
+
+
+def copy_of(dataset: Path, tmp_path: Path) -> Path:
+    copy = tmp_path / "dataset"
+    shutil.copytree(dataset, copy)
+    return copy
+
+
+def failures(dataset: Path) -> list[tuple[str, str, str]]:
+    return validate_dataset(dataset).failures
+
+
+def test_a_fresh_dataset_passes(dataset):
+    report = validate_dataset(dataset)
+    assert report.ok, report.failures
+    assert report.checked["depth"] == 4 and report.checked["masks"] == 12
+    result = CliRunner().invoke(main, ["validate", str(dataset)])
+    assert result.exit_code == 0 and "manifest" in result.output
+
+
+def test_a_flipped_mask_fails(dataset, tmp_path):
+    d = copy_of(dataset, tmp_path)
+    path = next(p for p in sorted(d.glob("test/*/*/scene_*/mask_visib/*.png"))
+                if _core.read_image(str(p)).any())
+    mask = _core.read_image(str(path))
+    _core.write_image(str(path), np.ascontiguousarray(mask[::-1]))
+    found = failures(d)
+    assert any(f[0] == str(path) and f[1] == "gt_info" for f in found), found
+    result = CliRunner().invoke(main, ["validate", str(d)])
+    assert result.exit_code == 1 and str(path) in result.output
+
+
+def test_a_depth_png_in_the_wrong_unit_fails(dataset, tmp_path):
+    d = copy_of(dataset, tmp_path)
+    path = sorted(d.glob("test/*/*/scene_*/depth/*.png"))[0]
+    depth = _core.read_image(str(path)).astype(np.uint32)
+    _core.write_image(str(path), np.ascontiguousarray((depth // 10).astype(np.uint16)))  # centimetres
+    assert any(f[0] == str(path) and f[1] == "depth" for f in failures(d))
+
+
+def test_a_truncated_file_and_an_unlisted_one_fail(dataset, tmp_path):
+    d = copy_of(dataset, tmp_path)
+    path = sorted(d.glob("test/*/*/scene_*/rgb/*.png"))[0]
+    path.write_bytes(path.read_bytes()[:100])
+    (d / "stray.txt").write_text("x")
+    found = failures(d)
+    assert any(f[0] == str(path) and f[1] == "manifest" for f in found)
+    assert any(f[0] == str(d / "stray.txt") and "not listed" in f[2] for f in found)
+
+
+def test_an_edited_count_fails(dataset, tmp_path):
+    d = copy_of(dataset, tmp_path)
+    path = sorted(d.glob("test/*/*/scene_*/scene_gt_info.json"))[0]
+    info = json.loads(path.read_text())
+    info["0"][0]["px_count_visib"] += 1
+    path.write_text(json.dumps(info))
+    assert any(f[1] == "gt_info" and "px_count_visib" in f[2] for f in failures(d))
