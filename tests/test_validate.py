@@ -1,6 +1,6 @@
 """`moonbot validate` (issue 8, first slice) passes on a freshly generated smoke dataset and fails,
 naming the file and the check, on each corruption: a flipped mask, a depth PNG in the wrong unit,
-a truncated file, an edited count, an unlisted file."""
+a truncated file, an edited count, an unlisted file, a shifted pose."""
 
 from __future__ import annotations
 
@@ -87,3 +87,17 @@ def test_an_edited_count_fails(dataset, tmp_path):
     info["0"][0]["px_count_visib"] += 1
     path.write_text(json.dumps(info))
     assert any(f[1] == "gt_info" and "px_count_visib" in f[2] for f in failures(d))
+
+
+def test_a_shifted_pose_fails(dataset, tmp_path):
+    # The model rendered at the recorded pose must give the image's depth (exact to float32 here).
+    assert validate_dataset(dataset).checked["pose"] >= 4
+    d = copy_of(dataset, tmp_path)
+    path = sorted(d.glob("test/*/*/scene_*/scene_gt.json"))[0]
+    gt = json.loads(path.read_text())
+    info = json.loads((path.parent / "scene_gt_info.json").read_text())
+    k = next(i for i, e in enumerate(info["0"]) if e["px_count_visib"] > 0)
+    gt["0"][k]["cam_t_m2c"][2] += 5.0  # 5 mm farther along the optical axis
+    path.write_text(json.dumps(gt))
+    found = [f for f in failures(d) if f[1] == "pose"]
+    assert any(f[0] == str(path) and f"image 0 instance {k}" in f[2] for f in found), found

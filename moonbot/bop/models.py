@@ -156,6 +156,33 @@ def write_ply(path: Path, vertices: np.ndarray, triangles: np.ndarray,
     atomic_write(path, "wb", write)
 
 
+def read_ply(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """Reads a PLY that write_ply wrote (binary little-endian float x y z [nx ny nz], triangles as
+    uchar-counted int lists): (vertices (N, 3) float64, triangles (M, 3) int64). Raises ValueError
+    naming the file for any other layout."""
+    data = Path(path).read_bytes()
+    end = data.find(b"end_header\n")
+    if not data.startswith(b"ply\n") or end < 0:
+        raise ValueError(f"{path}: not a PLY file")
+    header = data[:end].decode("ascii", "replace").splitlines()
+    try:
+        n_vertex = int(next(line.split()[2] for line in header if line.startswith("element vertex")))
+        n_face = int(next(line.split()[2] for line in header if line.startswith("element face")))
+    except (StopIteration, ValueError, IndexError):
+        raise ValueError(f"{path}: PLY header lacks vertex or face counts") from None
+    props = [line.split()[2] for line in header if line.startswith("property float")]
+    if "format binary_little_endian 1.0" not in header or props[:3] != ["x", "y", "z"] or \
+            "property list uchar int vertex_indices" not in header:
+        raise ValueError(f"{path}: not the layout moonbot writes (binary little-endian, float xyz, uchar/int faces)")
+    vertex = np.frombuffer(data, dtype=[(p, "<f4") for p in props], count=n_vertex, offset=end + len("end_header\n"))
+    face = np.frombuffer(data, dtype=[("n", "u1"), ("i", "<i4", (3,))], count=n_face,
+                         offset=end + len("end_header\n") + vertex.nbytes)
+    if np.any(face["n"] != 3):
+        raise ValueError(f"{path}: faces must be triangles")
+    vertices = np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=1).astype(np.float64)
+    return vertices, face["i"].astype(np.int64)
+
+
 def write_models(out_dir: Path, meshes: dict[int, tuple[np.ndarray, np.ndarray]]) -> dict[int, ModelInfo]:
     """Writes models/ and models_eval/ under `out_dir`, each with its models_info.json, for
     {obj_id: (vertices in metres, triangles)}; returns the infos."""

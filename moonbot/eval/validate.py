@@ -5,7 +5,10 @@ rounding), and per instance its masks against scene_gt_info.json (the visible ma
 amodal one, visible masks of one image disjoint, counts, boxes and fractions as bop_toolkit defines
 them, moonbot/bop/gt_info.py). Each failure names the file and the check.
 
-Not yet: the model rendered at the ground-truth pose against the depth (residuals per instance)."""
+And the pose: each image's models (models/, mm) rendered at their ground-truth poses with cam_K
+must reproduce depth.npy inside each instance's visible mask — the median absolute residual under
+POSE_MEDIAN_MM and the 95th percentile under POSE_P95_MM (a sound sample is exact to float32
+rounding; a pose off by a few mm is caught)."""
 
 from __future__ import annotations
 
@@ -19,8 +22,11 @@ import numpy as np
 
 from moonbot import _core
 from moonbot.bop.gt_info import bbox_of
+from moonbot.bop.models import read_ply
 
 DEPTH_TOLERANCE_MM = 0.5 + 1e-3  # the PNG rounds to 1 mm
+POSE_MEDIAN_MM = 0.5
+POSE_P95_MM = 2.0
 
 
 @dataclass
@@ -106,7 +112,27 @@ def _check_json(scene: Path, report: ValidationReport) -> tuple[dict, dict, dict
     return gt, camera, info
 
 
-def check_scene(scene: Path, report: ValidationReport) -> None:
+def render_at_gt(models: dict, instances: list[dict], cam: dict, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """The image's models at their ground-truth poses, seen through cam_K from the camera's own
+    frame (millimetres): (z-depth (H, W) mm, 0 = none; labels (H, W) uint8, instance index + 1)."""
+    scene = _core.Scene()
+    prototypes = {}
+    for k, inst in enumerate(instances):
+        obj = inst["obj_id"]
+        if obj not in prototypes:
+            prototypes[obj] = scene.add_mesh(*models[obj])
+        pose = np.eye(4)
+        pose[:3, :3] = np.array(inst["cam_R_m2c"], np.float64).reshape(3, 3)
+        pose[:3, 3] = inst["cam_t_m2c"]
+        scene.add_instance(prototypes[obj], pose, k + 1, (0.5, 0.5, 0.5))
+    scene.commit()
+    K = np.array(cam["cam_K"], np.float64).reshape(3, 3)
+    camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], shape[1], shape[0], np.eye(3), np.zeros(3))
+    out = _core.render(scene, camera, _core.Sun(0.0, 90.0, 0.0, 0.0), passes=["depth", "instance"])
+    return out["depth"].astype(np.float64), out["instance"]
+
+
+def check_scene(scene: Path, report: ValidationReport, models: dict | None = None) -> None:
     loaded = _check_json(scene, report)
     if loaded is None:
         return
@@ -134,6 +160,9 @@ def check_scene(scene: Path, report: ValidationReport) -> None:
                         f"y={y}: {png[y, x]:.1f} mm vs {mm[y, x]:.3f} mm)")
         valid = png > 0
         seen = np.zeros(metres.shape, bool)
+        rendered = None
+        if models is not None and all(inst.get("obj_id") in models for inst in gt[im]):
+            rendered = render_at_gt(models, gt[im], camera[im], metres.shape)
         for k, entry in enumerate(info.get(im, [])):
             report.count("masks")
             masks = []
@@ -164,6 +193,19 @@ def check_scene(scene: Path, report: ValidationReport) -> None:
             elif not math.isclose(entry.get("visib_fract", -1.0), expected["px_count_visib"] / all_px if all_px else 0.0,
                                   abs_tol=1e-9):
                 report.fail(where, "gt_info", "visib_fract is not px_count_visib / px_count_all")
+            if rendered is not None and visible.any():
+                report.count("pose")
+                depth_mm, labels = rendered
+                here = visible & (labels == k + 1)
+                if here.sum() < 0.9 * visible.sum():
+                    report.fail(scene / "scene_gt.json", "pose", f"image {im} instance {k}: the model at its pose "
+                                f"covers {int(here.sum())} of its {int(visible.sum())} visible pixels")
+                    continue
+                residual = np.abs(depth_mm[here] - mm[here])
+                median, p95 = float(np.median(residual)), float(np.percentile(residual, 95))
+                if median > POSE_MEDIAN_MM or p95 > POSE_P95_MM:
+                    report.fail(scene / "scene_gt.json", "pose", f"image {im} instance {k}: depth residual median "
+                                f"{median:.3f} mm, 95th percentile {p95:.3f} mm against the model at its pose")
 
 
 def validate_dataset(dataset: Path) -> ValidationReport:
@@ -171,10 +213,16 @@ def validate_dataset(dataset: Path) -> ValidationReport:
     dataset = Path(dataset)
     report = ValidationReport()
     check_manifest(dataset, report)
+    models = {}
+    for path in sorted((dataset / "models").glob("obj_*.ply")):
+        try:
+            models[int(path.stem.split("_")[1])] = read_ply(path)
+        except ValueError as e:
+            report.fail(path, "models", str(e))
     for scene in sorted(dataset.glob("*/*/*/scene_*")):
         if scene.is_dir():
             report.count("scenes")
-            check_scene(scene, report)
+            check_scene(scene, report, models)
     if not report.checked.get("scenes"):
         report.fail(dataset, "scenes", "no split/mesh/location/scene_NNNNNN directory")
     return report
