@@ -57,6 +57,7 @@ from moonbot.config import Config, config_hash
 from moonbot.config.load import from_mapping
 from moonbot.config.schema import MeshesConfig
 from moonbot.scene.bag_mesh import VARIANTS, variant_meshes
+from moonbot.writer.checksum import file_sha256
 from moonbot.writer.sheet import colour_mask
 from moonbot.writer.staging import staged_directory
 from moonbot.yolo.labels import data_yaml, detect_row, segment_row
@@ -134,15 +135,6 @@ class _SceneOutput:
 # Files
 
 
-def _sha256_file(path: Path) -> tuple[int, str]:
-    digest, size = hashlib.sha256(), 0
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            digest.update(chunk)
-            size += len(chunk)
-    return size, digest.hexdigest()
-
-
 def _put_bytes(root: Path, rel: str, data: bytes, entries: dict) -> None:
     """Writes `data` to root/rel (inside the staging tree: no per-file atomicity needed) and
     records its size and sha256."""
@@ -155,7 +147,7 @@ def _put_bytes(root: Path, rel: str, data: bytes, entries: dict) -> None:
 def _put_png(root: Path, rel: str, pixels: np.ndarray, level: int, entries: dict) -> None:
     path = root / rel
     _core.write_image(str(path), pixels, level)
-    entries[rel] = _sha256_file(path)
+    entries[rel] = file_sha256(path)
 
 
 def _link_or_copy(src: Path, dst: Path) -> bool:
@@ -481,7 +473,7 @@ def _models(stage: Path, previous: Path, meshes: MeshesConfig, entries: dict) ->
                 dst = stage / rel
                 dst.parent.mkdir(parents=True, exist_ok=True)
                 shutil.copyfile(previous / rel, dst)
-                copied[rel] = _sha256_file(dst)
+                copied[rel] = file_sha256(dst)
                 if copied[rel] != (manifest[rel]["bytes"], manifest[rel]["sha256"]):
                     raise ValueError(rel)
             if names:
@@ -629,7 +621,7 @@ def merge_dataset(out_dir: Path, dataset_dir: Path | None = None, config: Config
         for path in sorted(p for p in stage.rglob("*") if p.is_file()):
             rel = path.relative_to(stage).as_posix()
             if rel not in entries:
-                entries[rel] = _sha256_file(path)
+                entries[rel] = file_sha256(path)
         manifest = {"algorithm": "sha256", "file_count": len(entries),
                     "total_bytes": sum(size for size, _ in entries.values()),
                     "files": {rel: {"bytes": size, "sha256": sha} for rel, (size, sha) in sorted(entries.items())}}

@@ -12,7 +12,6 @@ rounding; a pose off by a few mm is caught)."""
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 from dataclasses import dataclass, field
@@ -23,6 +22,7 @@ import numpy as np
 from moonbot import _core
 from moonbot.bop.gt_info import bbox_of
 from moonbot.bop.models import read_ply
+from moonbot.writer.checksum import file_sha256
 
 DEPTH_TOLERANCE_MM = 0.5 + 1e-3  # the PNG rounds to 1 mm
 POSE_MEDIAN_MM = 0.5
@@ -47,14 +47,6 @@ class ValidationReport:
         return not self.failures
 
 
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            digest.update(chunk)
-    return digest.hexdigest()
-
-
 def check_manifest(dataset: Path, report: ValidationReport) -> None:
     path = dataset / "manifest.json"
     try:
@@ -72,7 +64,7 @@ def check_manifest(dataset: Path, report: ValidationReport) -> None:
             report.fail(p, "manifest", "listed but missing")
         elif p.stat().st_size != entry["bytes"]:
             report.fail(p, "manifest", f"{p.stat().st_size} bytes, manifest says {entry['bytes']}")
-        elif _sha256(p) != entry["sha256"]:
+        elif file_sha256(p)[1] != entry["sha256"]:
             report.fail(p, "manifest", "sha256 differs from manifest.json")
 
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
-import hashlib
 import json
 import os
 import platform
@@ -23,6 +22,7 @@ from moonbot import __version__
 from moonbot.config import Config, config_hash
 from moonbot.pipeline.views import run_views
 from moonbot.sweep import Task, task_config
+from moonbot.writer.checksum import file_sha256
 from moonbot.writer.staging import atomic_write, staged_directory
 
 DONE = "DONE.json"
@@ -58,7 +58,7 @@ def verify_task(directory: Path) -> list[str]:
     """The files of a complete task whose bytes no longer match DONE.json (empty: sound)."""
     done = json.loads((directory / DONE).read_text())
     return [name for name, entry in sorted(done["files"].items())
-            if _sha256(directory / name) != entry["sha256"]]
+            if file_sha256(directory / name)[1] != entry["sha256"]]
 
 
 def sweep_temporaries(out_dir: Path) -> list[Path]:
@@ -118,8 +118,11 @@ def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = No
         }
         atomic_write(staging / "stats.json", "w", lambda f: f.write(json.dumps(stats, indent=2, sort_keys=True) + "\n"))
         # The marker last: its checksums cover every other file, so a task is whole or absent.
-        listing = {str(p.relative_to(staging)): {"bytes": p.stat().st_size, "sha256": _sha256(p)}
-                   for p in sorted(staging.rglob("*")) if p.is_file()}
+        listing = {}
+        for p in sorted(staging.rglob("*")):
+            if p.is_file():
+                size, sha256 = file_sha256(p)
+                listing[str(p.relative_to(staging))] = {"bytes": size, "sha256": sha256}
         done = {"task_id": task.task_id, "samples": len(results), "files": listing}
         atomic_write(staging / DONE, "w", lambda f: f.write(json.dumps(done, indent=2, sort_keys=True) + "\n"))
     return TaskOutcome(task.task_id, False, len(results), stats)
@@ -143,11 +146,3 @@ def cpu_model() -> str:
     except OSError:
         pass
     return platform.processor() or "unknown"
-
-
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            digest.update(chunk)
-    return digest.hexdigest()
