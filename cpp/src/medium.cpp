@@ -76,11 +76,12 @@ DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& s
     m_axis[1] = {xy, sign + m_sun.y * m_sun.y * q, -m_sun.y};
     m_axis[2] = m_sun;
     const std::vector<Puff>& puffs = medium.puffs;
-    std::vector<double> reach(puffs.size());
+    m_reach.resize(puffs.size());
+    std::vector<double> reach(puffs.size());  // m_reach, but 0 for the puffs the grid leaves out
     std::vector<glm::dvec3> centre(puffs.size());
     m_lo = glm::dvec3(INFINITY), m_hi = glm::dvec3(-INFINITY);
     for (size_t p = 0; p < puffs.size(); ++p) {
-        reach[p] = puff_reach(puffs[p]);
+        reach[p] = m_reach[p] = puff_reach(puffs[p]);
         centre[p] = frame(puffs[p].centre);
         // A puff wholly under the floor is never seen or lit.
         if (reach[p] <= 0.0 || puffs[p].centre.z + reach[p] <= medium.floor_z) {
@@ -239,8 +240,9 @@ double DustGrid::sun_transmittance(const glm::dvec3& point) const {
     if (!clip(point, m_sun, INFINITY, enter, exit)) return 1.0;  // its Sun ray misses all the dust
     if (enter == 0.0) return std::exp(-trilinear(m_sun_depth, frame(point)));  // inside the grid
     double tau = 0.0;
-    for (const Puff& puff : m_medium.puffs) {
-        const double r = puff_reach(puff);
+    for (size_t k = 0; k < m_medium.puffs.size(); ++k) {
+        const Puff& puff = m_medium.puffs[k];
+        const double r = m_reach[k];
         if (r <= 0.0) continue;
         const glm::dvec3 p = point - puff.centre;
         const double b = glm::dot(p, m_sun);

@@ -97,6 +97,7 @@ private:
     double m_h = 0.05;      // node spacing
     int m_n[3] = {1, 1, 1};
     std::vector<float> m_extinction, m_sun_depth, m_visible;
+    std::vector<double> m_reach;  // puff_reach of each puff, once (sun_transmittance runs per hit)
     uint64_t m_shadow_rays = 0;
 };
 
