@@ -19,7 +19,6 @@ import argparse
 import json
 import statistics
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +30,7 @@ from moonbot.scene import compose_scene
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
 from svgplot import time_error_plot
+from timing import timed
 
 RESULTS = Path(__file__).resolve().parent / "results"
 SCHEMA_VERSION = 1
@@ -38,15 +38,6 @@ STEPS = [0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001]
 REFERENCE_STEP = 0.00025
 COUNTS = [50, 200, 1000, 5000]
 CAPTURES = np.linspace(0.1, 1.9, 10)  # capture times within one burst, seconds
-
-
-def timed(fn, repeats: int):
-    seconds, out = [], None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        out = fn()
-        seconds.append(time.perf_counter() - start)
-    return out, statistics.median(seconds)
 
 
 def main() -> int:

@@ -19,9 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
-import statistics
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +31,7 @@ from moonbot.scene import compose_scene, intrinsics, orbit_pose
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
 from svgplot import time_error_plot
+from timing import timed
 
 RESULTS = Path(__file__).resolve().parent / "results"
 SCHEMA_VERSION = 2  # 2: a point Sun and the midpoint march (no noise columns)
@@ -40,15 +39,6 @@ VOXELS = [0.4, 0.2, 0.1, 0.05, 0.025]
 REFERENCE_VOXEL = 0.001  # clamped by the core to the box's longest side / (kMaxGridNodes - 1)
 RATES = [10.0, 20.0, 40.0, 80.0, 160.0]
 CAPTURE_S = 6.0
-
-
-def timed(fn, repeats: int):
-    seconds, out = [], None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        out = fn()
-        seconds.append(time.perf_counter() - start)
-    return out, statistics.median(seconds)
 
 
 def main() -> int:

@@ -33,6 +33,8 @@ from moonbot.pipeline.tasks import run_task
 from moonbot.scene import compose_scene
 from moonbot.sweep import tasks
 
+from masks import raster
+
 SWEEP = """
 seed: 3
 camera: {width: 64, height: 48}
@@ -352,17 +354,6 @@ def test_px_count_all_matches_the_whole_canvas(sweep, dataset):
 
 
 # --- YOLO ---------------------------------------------------------------------------------------------
-
-
-def raster(ring: np.ndarray, height: int, width: int) -> np.ndarray:
-    """Even-odd fill of a closed ring (N, 2) of pixel coordinates, sampled at pixel centres."""
-    yc, xc = np.mgrid[0:height, 0:width] + 0.5
-    inside = np.zeros((height, width), dtype=bool)
-    for (x1, y1), (x2, y2) in zip(ring, np.roll(ring, -1, axis=0)):
-        if y1 != y2:
-            crosses = (yc >= min(y1, y2)) & (yc < max(y1, y2))
-            inside ^= crosses & (xc < x1 + (yc - y1) * (x2 - x1) / (y2 - y1))
-    return inside
 
 
 def test_yolo_labels_parse_and_match_the_visible_masks(dataset):

@@ -13,16 +13,7 @@ from hypothesis.extra.numpy import arrays
 
 from moonbot.yolo import boundary_loops, data_yaml, detect_row, mask_polygon, segment_row, yolo_class
 
-
-def raster(ring: np.ndarray, height: int, width: int) -> np.ndarray:
-    """Even-odd fill of a closed ring (N, 2) of pixel coordinates, sampled at pixel centres."""
-    yc, xc = np.mgrid[0:height, 0:width] + 0.5
-    inside = np.zeros((height, width), dtype=bool)
-    for (x1, y1), (x2, y2) in zip(ring, np.roll(ring, -1, axis=0)):
-        if y1 != y2:
-            crosses = (yc >= min(y1, y2)) & (yc < max(y1, y2))
-            inside ^= crosses & (xc < x1 + (yc - y1) * (x2 - x1) / (y2 - y1))
-    return inside
+from masks import raster
 
 
 def area(loop: np.ndarray) -> float:
