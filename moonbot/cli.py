@@ -327,6 +327,31 @@ def merge(out_dir: Path, dataset_dir: Path | None, config_path: Path | None, lin
         click.get_current_context().exit(EXIT_INCOMPLETE)
 
 
+@main.command("baseline")
+@click.argument("dataset", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@click.option("--split", default="test", show_default=True, help="The split whose instances to estimate.")
+@click.option("--out", type=click.Path(dir_okay=False, path_type=Path),
+              help="Results CSV to write (default: DATASET/eval/baseline_<split>.csv).")
+@click.option("--workers", type=click.IntRange(min=1), help="Processes (default: one per core).")
+def baseline(dataset: Path, split: str, out: Path | None, workers: int | None) -> None:
+    """Zero-shot poses for every instance of DATASET's split from its mesh, depth, visible mask
+    and cam_K (principal-axes hypotheses refined by point-to-plane ICP), as a BOP results CSV
+    for `moonbot eval`."""
+    from moonbot.baseline import default_workers, run_baseline
+    from moonbot.bop.reader import DatasetError
+
+    def progress(done: int, total: int) -> None:
+        if done == total or done % 50 == 0:
+            click.echo(f"[{done}/{total}] images", err=True)
+
+    try:
+        report = run_baseline(dataset, split, out, workers or default_workers(), progress=progress)
+    except DatasetError as e:
+        raise click.ClickException(str(e)) from None
+    click.echo(f"{report.estimated} of {report.instances} instances estimated ({report.skipped} with too few "
+               f"visible pixels), {report.seconds:.1f} s of estimation; wrote {report.out}")
+
+
 @main.command("validate")
 @click.argument("dataset", type=click.Path(file_okay=False, exists=True, path_type=Path))
 def validate(dataset: Path) -> None:

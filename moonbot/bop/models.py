@@ -63,8 +63,16 @@ def diameter(vertices: np.ndarray) -> float:
 
 def sample_surface(vertices: np.ndarray, triangles: np.ndarray, spacing: float,
                    seed: int = 0) -> np.ndarray:
-    """Points spread evenly over the surface, about one per spacing² of area: each triangle gets
-    its share of the count by area, placed uniformly inside it. Deterministic for `seed`."""
+    """Points (K, 3) float64 spread evenly over the surface, about one per spacing² of area: each
+    triangle gets its share of the count by area, placed uniformly inside it. Deterministic for
+    `seed`."""
+    return sample_surface_faces(vertices, triangles, spacing, seed)[0]
+
+
+def sample_surface_faces(vertices: np.ndarray, triangles: np.ndarray, spacing: float,
+                         seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """sample_surface's points (K, 3) float64 and the triangle each lies on (K,) int64, so a
+    caller can give each point its face's normal."""
     v = vertices.astype(np.float64)
     a, b, c = v[triangles[:, 0]], v[triangles[:, 1]], v[triangles[:, 2]]
     area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
@@ -75,13 +83,13 @@ def sample_surface(vertices: np.ndarray, triangles: np.ndarray, spacing: float,
     r1, r2 = rng.random(len(which)), rng.random(len(which))
     flip = r1 + r2 > 1.0  # fold the unit square onto the triangle
     r1, r2 = np.where(flip, 1.0 - r1, r1), np.where(flip, 1.0 - r2, r2)
-    return a[which] + r1[:, None] * (b - a)[which] + r2[:, None] * (c - a)[which]
+    return a[which] + r1[:, None] * (b - a)[which] + r2[:, None] * (c - a)[which], which
 
 
-def _proper_axis_rotations() -> list[np.ndarray]:
-    """The 23 rotations of the cube's symmetry group other than the identity: the candidate
-    symmetries of a body built along its model axes."""
-    out = []
+def axis_rotations() -> list[np.ndarray]:
+    """The 24 rotations (3, 3) of the cube's symmetry group, the identity first: every way to lay
+    a body's model axes along three given orthogonal axes."""
+    out = [np.eye(3)]
     for perm in itertools.permutations(range(3)):
         for signs in itertools.product((1.0, -1.0), repeat=3):
             R = np.zeros((3, 3))
@@ -104,7 +112,7 @@ def find_symmetries(vertices: np.ndarray, triangles: np.ndarray, tolerance: floa
     # only the survivors are checked at every sample.
     probe = points[:: max(1, len(points) // 4096)]
     found, distances = [], {}
-    for R in _proper_axis_rotations():
+    for R in axis_rotations()[1:]:  # the candidates: all but the identity
         worst = float(tree.query(probe @ R.T, k=1, workers=-1)[0].max())
         if worst <= tolerance:
             worst = float(tree.query(points @ R.T, k=1, workers=-1)[0].max())

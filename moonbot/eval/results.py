@@ -11,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from moonbot.writer.staging import atomic_write
+
 HEADER = "scene_id,im_id,obj_id,score,R,t,time"
 TIME_TOLERANCE_S = 0.001
 
@@ -81,3 +83,19 @@ def read_results(path: Path) -> list[Estimate]:
         times.setdefault(key, time_s)
         estimates.append(Estimate(ids[0], ids[1], ids[2], float(score), R, t, float(time_s)))
     return estimates
+
+
+def format_estimate(e: Estimate) -> str:
+    """One CSV line (no newline) for `e`: floats in repr precision, so reading it back gives the
+    same numbers."""
+    R = " ".join(repr(float(v)) for v in np.asarray(e.R, np.float64).reshape(9))
+    t = " ".join(repr(float(v)) for v in np.asarray(e.t, np.float64).reshape(3))
+    return f"{e.scene_id},{e.im_id},{e.obj_id},{float(e.score)!r},{R},{t},{float(e.time_s)!r}"
+
+
+def write_results(path: Path, estimates: list[Estimate]) -> None:
+    """Writes `estimates` as a BOP results CSV, atomically (a failed write leaves `path` as it
+    was; OSError names it)."""
+    path = Path(path)
+    lines = [HEADER] + [format_estimate(e) for e in estimates]
+    atomic_write(path, "w", lambda f: f.write("\n".join(lines) + "\n"))
