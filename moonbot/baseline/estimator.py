@@ -30,9 +30,8 @@ from scipy.spatial import cKDTree
 from moonbot.bop.models import axis_rotations, sample_surface_faces
 from moonbot.bop.reader import Model
 
-SURFACE_SPACING_MM = 3.0  # the model's surface samples for ICP and the free-space check
+FINE_SPACING_MM, COARSE_SPACING_MM = 3.0, 8.0  # the model's surface samples (ModelCloud)
 MIN_POINTS = 20  # fewer visible pixels with depth than this: no estimate
-FREE_SPACE_POINTS = 3000
 INLIER_MM = 5.0
 FREE_SPACE_MM = 10.0
 # Correspondences farther than this multiple of the median distance are dropped (after the
@@ -61,29 +60,43 @@ class Settings:
 
 
 @dataclass(frozen=True)
-class ModelCloud:
-    """A model's surface samples (N, 3) and outward unit normals (N, 3), float64, model frame mm;
-    their KD-tree; its centre (the box's middle), size (3,) along the model axes, and its
-    symmetries as (3, 3) rotations (model frame), identity excluded."""
+class Surface:
+    """Samples of a model's surface: points (N, 3) and outward unit normals (N, 3), float64,
+    model frame mm, and the points' KD-tree."""
 
-    obj_id: int
     points: np.ndarray
     normals: np.ndarray
     tree: cKDTree
+
+    @classmethod
+    def sample(cls, model: Model, spacing_mm: float) -> "Surface":
+        v, tri = model.vertices.astype(np.float64), model.triangles
+        points, faces = sample_surface_faces(v, tri, spacing_mm, seed=model.obj_id)
+        normals = np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
+        normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
+        return cls(points, normals[faces], cKDTree(points))
+
+
+@dataclass(frozen=True)
+class ModelCloud:
+    """What the estimator knows of one object: its surface sampled finely (the fine ICP pass and
+    the final score) and coarsely (hypotheses, the coarse pass, the free-space check — a far-off
+    point costs a KD-tree query in proportion to the samples near its sphere, so the passes that
+    start far use few); its centre (the box's middle) and size (3,) along the model axes, mm; its
+    symmetries as (3, 3) rotations (model frame), identity excluded."""
+
+    obj_id: int
+    fine: Surface
+    coarse: Surface
     centre: np.ndarray
     size: np.ndarray
     symmetries: tuple[np.ndarray, ...]
 
     @classmethod
-    def from_model(cls, model: Model, spacing_mm: float = SURFACE_SPACING_MM) -> "ModelCloud":
-        v = model.vertices.astype(np.float64)
-        tri = model.triangles
-        points, faces = sample_surface_faces(v, tri, spacing_mm, seed=model.obj_id)
-        face_normals = np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
-        face_normals /= np.maximum(np.linalg.norm(face_normals, axis=1, keepdims=True), 1e-300)
-        lo, hi = v.min(axis=0), v.max(axis=0)
-        return cls(model.obj_id, points, face_normals[faces], cKDTree(points), (lo + hi) / 2, hi - lo,
-                   tuple(S[:3, :3] for S in model.symmetries))
+    def from_model(cls, model: Model) -> "ModelCloud":
+        lo, hi = model.vertices.min(axis=0), model.vertices.max(axis=0)
+        return cls(model.obj_id, Surface.sample(model, FINE_SPACING_MM), Surface.sample(model, COARSE_SPACING_MM),
+                   (lo + hi) / 2, hi - lo, tuple(S[:3, :3] for S in model.symmetries))
 
 
 @dataclass(frozen=True)
@@ -135,7 +148,6 @@ def hypotheses(points: np.ndarray, cloud: ModelCloud) -> list[tuple[np.ndarray, 
     if np.linalg.det(principal) < 0:
         principal[:, 2] *= -1
     sight = centroid / np.linalg.norm(centroid)
-    probe = _spread(np.arange(len(cloud.points)), FREE_SPACE_POINTS)
     starts: list[tuple[np.ndarray, np.ndarray]] = []
     for A in axis_rotations():
         R = principal @ A
@@ -144,22 +156,22 @@ def hypotheses(points: np.ndarray, cloud: ModelCloud) -> list[tuple[np.ndarray, 
         # The cloud is the model's near side, one point a pixel: put the centroid of the model's
         # samples that face the camera, each weighted by its projected area as pixels weight
         # them, on the cloud's centroid.
-        weight = np.maximum(-(cloud.normals[probe] @ (R.T @ sight)), 0.0)
-        t = centroid - R @ (weight @ cloud.points[probe] / max(float(weight.sum()), 1e-300))
+        weight = np.maximum(-(cloud.coarse.normals @ (R.T @ sight)), 0.0)
+        t = centroid - R @ (weight @ cloud.coarse.points / max(float(weight.sum()), 1e-300))
         starts.append((R, t))
     return starts
 
 
-def icp(points: np.ndarray, cloud: ModelCloud, R: np.ndarray, t: np.ndarray,
+def icp(points: np.ndarray, surface: Surface, R: np.ndarray, t: np.ndarray,
         iterations: int) -> tuple[np.ndarray, np.ndarray]:
-    """Point-to-plane ICP of the observed points (n, 3) camera mm onto the model's surface from
+    """Point-to-plane ICP of the observed points (n, 3) camera mm onto the model's `surface` from
     the pose (R, t) model→camera; returns the refined (R, t). Solves in the model frame for the
     small motion of the observed points (Gauss–Newton on the linearised rotation)."""
     Rg, tg = R.T.copy(), -R.T @ t  # camera → model
     for it in range(iterations):
         y = points @ Rg.T + tg
-        distance, index = cloud.tree.query(y, k=1)
-        m, n = cloud.points[index], cloud.normals[index]
+        distance, index = surface.tree.query(y, k=1)
+        m, n = surface.points[index], surface.normals[index]
         # The observed points face the camera; so must the model's surface where they land.
         camera_in_model = tg  # the camera centre in the model frame is Rg·0 + tg
         facing = np.einsum("ij,ij->i", n, camera_in_model - m) > 0
@@ -187,15 +199,15 @@ def icp(points: np.ndarray, cloud: ModelCloud, R: np.ndarray, t: np.ndarray,
     return R_new, -R_new @ tg
 
 
-def score(points: np.ndarray, cloud: ModelCloud, R: np.ndarray, t: np.ndarray, depth_mm: np.ndarray,
-          K: np.ndarray) -> tuple[float, float, float]:
+def score(points: np.ndarray, surface: Surface, cloud: ModelCloud, R: np.ndarray, t: np.ndarray,
+          depth_mm: np.ndarray, K: np.ndarray) -> tuple[float, float, float]:
     """(score, inlier share, free-space violation share) of the pose (R, t) model→camera against
-    the observed points (n, 3) and the image's depth (H, W) mm (0 = none)."""
+    the observed points (n, 3), their distances taken to `surface`, and the image's depth (H, W)
+    mm (0 = none), which the model's coarse samples must not stand in front of."""
     y = (points - t) @ R  # into the model frame
-    inliers = float(np.mean(cloud.tree.query(y, k=1)[0] < INLIER_MM))
-    model = _spread(np.arange(len(cloud.points)), FREE_SPACE_POINTS)
-    p = cloud.points[model] @ R.T + t
-    n = cloud.normals[model] @ R.T
+    inliers = float(np.mean(surface.tree.query(y, k=1)[0] < INLIER_MM))
+    p = cloud.coarse.points @ R.T + t
+    n = cloud.coarse.normals @ R.T
     front = (np.einsum("ij,ij->i", n, p) < 0) & (p[:, 2] > 1e-3)
     p = p[front]
     u = np.floor(K[0, 0] * p[:, 0] / p[:, 2] + K[0, 2]).astype(np.int64)
@@ -221,13 +233,13 @@ def estimate_pose(depth_mm: np.ndarray, mask: np.ndarray, K: np.ndarray, cloud: 
     fine_points = _spread(observed, settings.fine_points)
     coarse = []
     for R, t in hypotheses(observed, cloud):
-        R, t = icp(coarse_points, cloud, R, t, settings.coarse_iterations)
-        coarse.append((score(coarse_points, cloud, R, t, depth_mm, K)[0], R, t))
+        R, t = icp(coarse_points, cloud.coarse, R, t, settings.coarse_iterations)
+        coarse.append((score(coarse_points, cloud.coarse, cloud, R, t, depth_mm, K)[0], R, t))
     coarse.sort(key=lambda c: -c[0])  # stable: ties keep the hypotheses' order
     best = None
     for _, R, t in coarse[:settings.fine_hypotheses]:
-        R, t = icp(fine_points, cloud, R, t, settings.fine_iterations)
-        s, inliers, violations = score(fine_points, cloud, R, t, depth_mm, K)
+        R, t = icp(fine_points, cloud.fine, R, t, settings.fine_iterations)
+        s, inliers, violations = score(fine_points, cloud.fine, cloud, R, t, depth_mm, K)
         if best is None or s > best.score:
             best = Estimate(R, t, s, inliers, violations)
     return best
