@@ -21,7 +21,8 @@ class ResultsError(ValueError):
 
 @dataclass(frozen=True)
 class Estimate:
-    """One pose estimate. R (3, 3) float64 model→camera; t (3,) float64 mm."""
+    """One pose estimate. R (3, 3) float64 model→camera; t (3,) float64 mm. `line`: its line in
+    the results file (1-based), 0 when it was not read from one."""
 
     scene_id: int
     im_id: int
@@ -30,6 +31,7 @@ class Estimate:
     R: np.ndarray
     t: np.ndarray
     time_s: float
+    line: int = 0
 
 
 def _numbers(text: str, count: int, what: str, where: str) -> np.ndarray:
@@ -79,5 +81,24 @@ def read_results(path: Path) -> list[Estimate]:
             raise ResultsError(f"{where}: time {time_s} differs from {times[key]} given earlier for scene "
                                f"{ids[0]} image {ids[1]} (one time per image)")
         times.setdefault(key, time_s)
-        estimates.append(Estimate(ids[0], ids[1], ids[2], float(score), R, t, float(time_s)))
+        estimates.append(Estimate(ids[0], ids[1], ids[2], float(score), R, t, float(time_s), number))
     return estimates
+
+
+def format_results(estimates: list[Estimate]) -> str:
+    """The results CSV's text for `estimates`, in their order; floats with 17 significant digits,
+    so read_results gives back the same numbers."""
+    def numbers(values) -> str:
+        return " ".join(f"{float(v):.17g}" for v in np.asarray(values, np.float64).reshape(-1))
+
+    lines = [HEADER] + [f"{e.scene_id},{e.im_id},{e.obj_id},{numbers([e.score])},{numbers(e.R)},{numbers(e.t)},"
+                        f"{numbers([e.time_s])}" for e in estimates]
+    return "\n".join(lines) + "\n"
+
+
+def write_results(path: Path, estimates: list[Estimate]) -> None:
+    """Writes `estimates` as a results CSV (format_results), atomically: the file is whole or
+    untouched. OSError names the file."""
+    from moonbot.writer.staging import atomic_write
+
+    atomic_write(Path(path), "w", lambda f: f.write(format_results(estimates)))
