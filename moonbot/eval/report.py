@@ -84,7 +84,9 @@ class ModelPoints:
         if self.points.ndim != 2 or self.points.shape[1] != 3 or len(self.points) == 0:
             raise DatasetError(f"models_eval obj_{model.obj_id:06d}.ply: no points")
         self.diameter = float(model.diameter)
-        self.tree = cKDTree(self.points)
+        # Leaves of 64 points: a third faster than the default 16 for estimates ~20 mm off (queries
+        # far from the surface visit many leaves), the same for near ones.
+        self.tree = cKDTree(self.points, leafsize=64)
         self.lo, self.hi = self.points.min(axis=0), self.points.max(axis=0)
         self.radius = float(np.linalg.norm(self.points, axis=1).max())
         self.workers = workers
