@@ -369,5 +369,54 @@ def validate(dataset: Path) -> None:
         raise SystemExit(1)
 
 
+@main.command("eval")
+@click.argument("dataset", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@click.option("--results", "results_path", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="Pose estimates as a BOP results CSV (scene_id,im_id,obj_id,score,R,t,time; t in mm).")
+@click.option("--split", default="test", show_default=True, help="The dataset split the estimates are for.")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
+              help="Directory for the tables, per_instance.csv and the plots. Default: DATASET/eval.")
+@click.option("--min-visib-fract", type=click.FloatRange(0.0, 1.0), default=0.0, show_default=True,
+              help="Evaluate only instances with at least this visible fraction (and always px_visib > 0); "
+                   "BOP papers used 0.1.")
+@click.option("--px-bins", default=",".join(map(str, (0, 500, 1000, 2000, 5000, 10000))), show_default=True,
+              metavar="E0,E1,...", help="Lower edges of Table 4's visible-pixel bins; the last bin is open.")
+@click.option("--allow-unknown", is_flag=True,
+              help="Warn about, instead of failing on, estimates of images or objects not in the split.")
+@click.option("--workers", type=int, default=-1, show_default=True,
+              help="Threads of each ADD-S nearest-neighbour query (-1: all cores).")
+def evaluate(dataset: Path, results_path: Path, split: str, out_dir: Path | None, min_visib_fract: float,
+             px_bins: str, allow_unknown: bool, workers: int) -> None:
+    """Score pose estimates against DATASET's ground truth as the SynBag paper's Tables 3 and 4:
+    ADD, ADD-S, translation error, recall at 10/20 % of the diameter and ADD-S AUC per condition
+    (mesh, location, stain, dust) and per visible-pixel bin. Writes table3/table4 .txt and .csv,
+    per_instance.csv and two PNG plots, and prints both tables. Definitions, matching and
+    exclusions: moonbot/eval/report.py."""
+    from moonbot.bop.reader import DatasetError
+    from moonbot.eval.report import EvalError, run_eval, unknown_message
+    from moonbot.eval.results import ResultsError
+
+    try:
+        edges = [float(e) for e in px_bins.split(",")]
+    except ValueError:
+        raise click.BadParameter(f"expected comma-separated numbers, got {px_bins!r}", param_hint="--px-bins") from None
+
+    def progress(done: int, total: int) -> None:
+        if done == total or done % max(1, total // 10) == 0:
+            click.echo(f"evaluated {done}/{total} images", err=True)
+
+    try:
+        report = run_eval(dataset, results_path, split, out_dir, min_visib_fract, edges, allow_unknown, workers,
+                          progress)
+    except (ResultsError, DatasetError, EvalError, ValueError, OSError) as e:
+        raise click.ClickException(str(e)) from None
+    if report.evaluation.unknown:
+        click.echo(f"warning: {len(report.evaluation.unknown)} estimates ignored, not in split {split!r}:\n"
+                   + unknown_message(report.evaluation, results_path), err=True)
+    click.echo(report.table3_text)
+    click.echo(report.table4_text)
+    click.echo("written " + ", ".join(str(p) for p in report.files))
+
+
 if __name__ == "__main__":
     main()

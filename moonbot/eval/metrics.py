@@ -47,7 +47,9 @@ def match_greedy(errors: np.ndarray, scores: np.ndarray, threshold: float) -> np
     instance of lowest error, if that error is strictly below `threshold`. `errors` (n_est,
     n_gt), `scores` (n_est,). Returns (n_gt,) float64: each instance's matched error, +inf where
     none matched."""
-    errors = np.asarray(errors, np.float64).reshape(len(scores), -1)
+    errors = np.asarray(errors, np.float64)
+    if errors.ndim != 2:  # a (n_est,) row for one instance; a (0, n_gt) matrix stays as it is
+        errors = errors.reshape(len(scores), -1)
     matched = np.full(errors.shape[1], np.inf)
     taken = np.zeros(errors.shape[1], bool)
     for e in sorted(range(len(scores)), key=lambda i: (-float(scores[i]), i)):

@@ -23,7 +23,8 @@ class ResultsError(ValueError):
 
 @dataclass(frozen=True)
 class Estimate:
-    """One pose estimate. R (3, 3) float64 model→camera; t (3,) float64 mm."""
+    """One pose estimate. R (3, 3) float64 model→camera; t (3,) float64 mm. `line`: its line in
+    the results file (1-based), 0 when it was not read from one."""
 
     scene_id: int
     im_id: int
@@ -32,6 +33,7 @@ class Estimate:
     R: np.ndarray
     t: np.ndarray
     time_s: float
+    line: int = 0
 
 
 def _numbers(text: str, count: int, what: str, where: str) -> np.ndarray:
@@ -81,7 +83,7 @@ def read_results(path: Path) -> list[Estimate]:
             raise ResultsError(f"{where}: time {time_s} differs from {times[key]} given earlier for scene "
                                f"{ids[0]} image {ids[1]} (one time per image)")
         times.setdefault(key, time_s)
-        estimates.append(Estimate(ids[0], ids[1], ids[2], float(score), R, t, float(time_s)))
+        estimates.append(Estimate(ids[0], ids[1], ids[2], float(score), R, t, float(time_s), number))
     return estimates
 
 

@@ -1,9 +1,10 @@
 """`moonbot validate`: a merged BOP dataset checked against itself (issue 8). Every file against
-the manifest (size and SHA-256, nothing unlisted); the JSON files' BOP fields, types and units;
-per image, the 16-bit depth PNG × depth_scale against the metric .npy (to the PNG's 1 mm
-rounding), and per instance its masks against scene_gt_info.json (the visible mask inside the
-amodal one, visible masks of one image disjoint, counts, boxes and fractions as bop_toolkit defines
-them, moonbot/bop/gt_info.py). Each failure names the file and the check.
+the manifest (size and SHA-256, nothing unlisted but `moonbot eval`'s reports in eval/); the JSON
+files' BOP fields, types and units; per image, the 16-bit depth PNG × depth_scale against the
+metric .npy (to the PNG's 1 mm rounding), and per instance its masks against scene_gt_info.json
+(the visible mask inside the amodal one, visible masks of one image disjoint, counts, boxes and
+fractions as bop_toolkit defines them, moonbot/bop/gt_info.py). Each failure names the file and
+the check.
 
 And the pose: each image's models (models/, mm) rendered at their ground-truth poses with cam_K
 must reproduce depth.npy inside each instance's visible mask — the median absolute residual under
@@ -24,6 +25,7 @@ from moonbot.bop.gt_info import bbox_of
 from moonbot.bop.models import read_ply
 from moonbot.writer.checksum import file_sha256
 
+EVAL_DIR = "eval"  # moonbot eval's default output folder inside the dataset, not in the manifest
 DEPTH_TOLERANCE_MM = 0.5 + 1e-3  # the PNG rounds to 1 mm
 POSE_MEDIAN_MM = 0.5
 POSE_P95_MM = 2.0
@@ -55,7 +57,8 @@ def check_manifest(dataset: Path, report: ValidationReport) -> None:
         report.fail(path, "manifest", f"unreadable ({e})")
         return
     on_disk = {str(p.relative_to(dataset)) for p in dataset.rglob("*") if p.is_file()} - {"manifest.json"}
-    for name in sorted(on_disk - set(files)):
+    # `moonbot eval` writes its reports into DATASET/eval/ by default: results, not dataset files.
+    for name in sorted(n for n in on_disk - set(files) if not n.startswith(f"{EVAL_DIR}/")):
         report.fail(dataset / name, "manifest", "not listed in manifest.json")
     for name, entry in sorted(files.items()):
         report.count("manifest")
