@@ -5,8 +5,9 @@
 #
 #   ./dev.sh setup     install what is missing, build the core into .venv
 #   ./dev.sh demo      setup, then `moonbot render-one` on the embedded default config
-#   ./dev.sh test      setup, then C++ tests (ctest: release, then ASan+UBSan), pytest, and
-#                      `moonbot generate configs/smoke.yaml` into build/smoke
+#   ./dev.sh test      setup, then C++ tests (ctest: release, then ASan+UBSan), pytest,
+#                      `moonbot generate configs/smoke.yaml` into build/smoke, and validate,
+#                      baseline and eval on that dataset
 #   ./dev.sh bench     setup, then the benchmarks in bench/ (results in bench/results/);
 #                      ./dev.sh bench terrain runs bench/bench_terrain.py alone
 set -euo pipefail
@@ -92,6 +93,10 @@ case "${1:-}" in
         log "moonbot generate configs/smoke.yaml (the whole pipeline, on a local Dask cluster)"
         rm -rf build/smoke
         "$VENV/bin/moonbot" generate configs/smoke.yaml --out build/smoke
+        log "moonbot validate, baseline and eval on the smoke dataset (its test split)"
+        "$VENV/bin/moonbot" validate build/smoke/dataset
+        "$VENV/bin/moonbot" baseline build/smoke/dataset
+        "$VENV/bin/moonbot" eval build/smoke/dataset --results build/smoke/dataset/eval/baseline_test.csv
         ;;
     bench)  # ./dev.sh bench [render_one|settle|terrain|tonemap_exr ...]: those benchmarks, or all of them
         setup
