@@ -6,7 +6,8 @@ Each instance with at least one visible pixel is estimated from its own visible 
 matching: the mask names the instance), single-threaded; the error is ADD-S against the ground
 truth in mm and as recall at 10 % and 20 % of the diameter (strict <, as bop_toolkit), over
 every image of the split or `--images` of them spread evenly. Seconds are the estimator's wall
-time per instance (mean), without loading.
+time per instance (mean), without loading or the error's computation; the 1-minute load average
+before and after is recorded, since other work on the machine inflates them.
 
 Writes bench/results/baseline-<machine>.json and .svg. Run, on a dataset from
 configs/synbag-test-12.yaml (`moonbot generate configs/synbag-test-12.yaml --out D`):
@@ -17,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -25,7 +27,7 @@ import numpy as np
 
 from moonbot.baseline import ModelCloud, Settings, estimate_pose
 from moonbot.bop.reader import read_models, scenes
-from moonbot.eval.metrics import adds
+from moonbot.eval.report import ModelPoints
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
 from svgplot import time_error_plot
@@ -46,7 +48,7 @@ def main() -> int:
     args = parser.parse_args()
 
     models = read_models(args.dataset, "models")
-    evaluation = read_models(args.dataset, "models_eval")
+    evaluation = {obj: ModelPoints(model, workers=-1) for obj, model in read_models(args.dataset, "models_eval").items()}
     clouds = {obj: ModelCloud.from_model(model) for obj, model in models.items()}
     images = [(scene, im) for scene in scenes(args.dataset, args.split) for im in sorted(scene.images)]
     if args.images and args.images < len(images):
@@ -61,6 +63,7 @@ def main() -> int:
 
     result = {"machine": machine(), "dataset": str(args.dataset), "split": args.split, "images": len(images),
               "instances": len(cases), "levels": []}
+    load_before = os.getloadavg()
     print(f"{'level':>8} {'ms/inst':>8} {'median':>8} {'p90':>8} {'R@10%':>6} {'R@20%':>6} {'none':>5}")
     for name, settings in LEVELS.items():
         errors, seconds, none = [], 0.0, 0
@@ -73,7 +76,7 @@ def main() -> int:
                 none += 1
                 errors.append(np.inf)
             else:
-                errors.append(adds(found.R, found.t, inst.R, inst.t, evaluation[inst.obj_id].vertices))
+                errors.append(evaluation[inst.obj_id].adds(found.R, found.t, inst.R, inst.t))
         errors = np.array(errors)
         diameters = np.array([evaluation[inst.obj_id].diameter for _, _, inst, _ in cases])
         row = {"level": name, "settings": vars(settings), "seconds_per_instance": seconds / len(cases),
@@ -83,6 +86,7 @@ def main() -> int:
         result["levels"].append(row)
         print(f"{name:>8} {1e3 * row['seconds_per_instance']:>8.0f} {row['median_adds_mm']:>8.2f} "
               f"{row['p90_adds_mm']:>8.1f} {row['recall_10']:>6.3f} {row['recall_20']:>6.3f} {none:>5}")
+    result["load_average_before_after"] = [load_before[0], os.getloadavg()[0]]
     RESULTS.mkdir(exist_ok=True)
     out_path = RESULTS / f"baseline-{machine_slug(result['machine'])}.json"
     out_path.write_text(json.dumps(result, indent=2) + "\n")
