@@ -1,5 +1,7 @@
 """What a benchmark result was measured on: the machine's fingerprint and a short name for
-result files. Shared by every script in bench/ (run as scripts, so bench/ is on sys.path)."""
+result files. Shared by `moonbot bench` and every script in bench/ (through bench/fingerprint.py).
+The git commit is the checkout's this module lives in (an editable install's); outside a checkout
+it is empty."""
 
 from __future__ import annotations
 
@@ -28,7 +30,7 @@ def machine() -> dict:
     def deb(package: str) -> str:
         return run("dpkg-query", "-W", "-f=${Version}", package)
 
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     commit = run("git", "-C", str(root), "rev-parse", "HEAD")
     # Dirty means uncommitted source changes; the result files themselves do not count.
     dirty = bool(run("git", "-C", str(root), "status", "--porcelain", "--untracked-files=no",
@@ -46,3 +48,17 @@ def machine_slug(m: dict) -> str:
     cpu = re.sub(r"[^a-z0-9]+", "-", m["cpu"].lower()).strip("-")
     cpu = re.sub(r"-(processor|cpu|with-radeon-graphics).*$", "", cpu)
     return f"{cpu}-{m['cores']}c"
+
+
+def library_versions() -> dict:
+    """Versions of the Python packages a generate run goes through (moonbot itself included);
+    the C++ libraries' are in `machine()`."""
+    from importlib import metadata
+
+    out = {}
+    for name in ("moonbot", "numpy", "scipy", "dask", "distributed", "mujoco-core", "pyarrow", "click"):
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = ""
+    return out
