@@ -128,10 +128,9 @@ def _g(x: float, digits: int = 3) -> str:
     return f"{x:.{digits}g}" if isinstance(x, (int, float)) and math.isfinite(x) else "n/a"
 
 
-def run_label(record: dict, run: dict, name: str | None = None) -> str:
-    m = record["machine"]
-    who = name or f"{m['cpu']} {m['cores']}c"
-    return f"{who}: {run['level']} {run['workers']}×{run['threads_per_worker']}"
+def _commit(m: dict) -> str:
+    c = m["git_commit"]
+    return c[:12] + ("-dirty" if c.endswith("-dirty") else "")
 
 
 TABLE_HEADER = (f"{'result':<34} {'level':<8} {'W×T':>5} {'samples/s':>9} {'s/sample':>8} {'build':>6} "
@@ -160,7 +159,7 @@ def format_record(record: dict, name: str = "this run") -> str:
     """One result as text: machine, the runs table, the limit, scaling and the projection."""
     m = record["machine"]
     lines = [f"machine   {m['cpu']}, {m['cores']} cores, {m['memory_gib']} GiB, {m['os']}, {m['compiler']}, "
-             f"Embree {m['embree']}, OIIO {m['openimageio']}, commit {m['git_commit'][:12]}",
+             f"Embree {m['embree']}, OIIO {m['openimageio']}, commit {_commit(m)}",
              f"config    {record['config']['file']} (v{record['config']['version']}) at "
              f"{record['image']['width']}×{record['image']['height']}, {len(record['tasks'])} tasks"
              + (f", overrides {record['overrides']}" if record["overrides"] else ""),
@@ -169,12 +168,10 @@ def format_record(record: dict, name: str = "this run") -> str:
              "amodal masks and tone map); ÷limit = (span / samples) over the limit's seconds a sample (Embree on the "
              "same rays + the encoders on the same files); r+e÷lim = render + tone map + encode/write over the same "
              "limit (bounce rays at the camera-ray rate: an upper bound on the ratio)", ""]
-    seen = set()
     lines.append("Embree alone on view 0 of each scene (64-ray streams, Mrays/s):")
     for row in record["embree_limit"]:
         lines.append(f"  {row['task_id'][:48]:<48} {row['threads']} thr: primary {row['primary_mrays_per_s']:.1f}, "
                      f"shadow {row['shadow_mrays_per_s']:.1f}")
-        seen.add(row["task_id"])
     lines.append("bounce rays: not measured (counted at the primary rate; × "
                  "2.5 for the incoherent estimate, see moonbot/benchmark/limit.py)")
     for level, e in record["encode_limit"].items():
@@ -194,8 +191,8 @@ def format_record(record: dict, name: str = "this run") -> str:
                  + ("" if p["image_matches_sweep"] else " — NOT at the sweep's image size") + ":")
     for lv in p["levels"]:
         hours = ", ".join(f"{h['nodes']} node{'s' if h['nodes'] > 1 else ''} {h['hours']:.1f} h" for h in lv["hours"])
-        lines.append(f"  {lv['level']:<8} {lv['seconds_per_sample']:.2f} s a sample: {hours}; "
-                     f"{lv['bytes'] / 1e9:.0f} GB")
+        lines.append(f"  {lv['level']:<8} {lv['seconds_per_sample']:.2f} s a sample "
+                     f"({_g(lv.get('ratio_pipeline', 0.0))}× the limit): {hours}; {lv['bytes'] / 1e9:.0f} GB")
     return "\n".join(lines)
 
 
@@ -210,7 +207,7 @@ def format_comparison(named: list[tuple[str, dict]]) -> str:
         versions = ", ".join(f"{k} {v}" for k, v in record.get("libraries", {}).items() if v)
         lines.append(f"{name}: {m['cpu']}, {m['cores']} cores, {m['memory_gib']} GiB, {m['os']}, "
                      f"{m['compiler']}, Embree {m['embree']}, OIIO {m['openimageio']}, TBB {m['tbb']}, "
-                     f"commit {m['git_commit'][:12]}, {m['date']}; {record['config']['file']} at "
+                     f"commit {_commit(m)}, {m['date']}; {record['config']['file']} at "
                      f"{record['image']['width']}×{record['image']['height']}"
                      + (f", overrides {record['overrides']}" if record["overrides"] else "")
                      + (f"; {versions}" if versions else ""))
@@ -218,6 +215,8 @@ def format_comparison(named: list[tuple[str, dict]]) -> str:
     if len(configs) > 1:
         lines.append("warning: the results ran different benchmark configs: "
                      + ", ".join(sorted(f"{n} ({s[:12]})" for n, s in configs)))
+    if len({json.dumps(r["overrides"], sort_keys=True) for _, r in named}) > 1:
+        lines.append("warning: the results ran with different --set overrides: compare their rows with care")
     return "\n".join(lines)
 
 

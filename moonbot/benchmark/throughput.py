@@ -256,6 +256,13 @@ def run_throughput(config_path: Path | None = None, levels: list[str] | None = N
         "tasks": [t.task_id for t in bench_tasks], "workers": workers, "threads_per_worker": threads,
         "machine": m, "libraries": library_versions(), "started_utc": m["date"], "load_before": _load(),
         "terrain_warmup_s": {}, "runs": [], "embree_limit": [], "encode_limit": {},
+        "limit_notes": ("Embree: view 0's pixel-centre camera rays and Sun shadow rays on each task's scene (bags "
+                        "unsettled), 64-ray streams, busiest thread; bounce rays are not measurable by the probe and "
+                        f"count at the camera rays' rate (the *_bounce_incoherent figures: × {INCOHERENT_BOUNCE_COST}, "
+                        "the reference's incoherent-stream cost on this CPU); medium rays at the camera rays' rate; "
+                        "amodal passes and the dust medium's marching have no counterpart. Encoders: every file "
+                        "re-encoded alone by the same encoder, best schedule on the run's threads. "
+                        "moonbot/benchmark/limit.py"),
     }
     say(f"machine  {m['cpu']}, {m['cores']} cores, {m['memory_gib']} GiB, {m['os']}, commit {m['git_commit'][:12]}")
     say(f"config   {config_path.name}: {len(bench_tasks)} tasks × {base.orbit.views} views at "
