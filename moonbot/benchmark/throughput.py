@@ -12,8 +12,9 @@ seconds; "worker-seconds" are sums over tasks, which on W workers run W at a tim
 - stages: stats.json's own (terrain, compose, settle, build_bvh, dust, render, amodal, tonemap,
   encode_write), in worker-seconds, and grouped as the issue names them: scene build = terrain +
   compose + settle + build_bvh; dust; render = render + amodal + tonemap; encode/write.
-- Mrays/s = (camera + shadow + bounce rays) / render-stage seconds: what a worker's T threads
-  sustain while rendering, shading and the dust medium included.
+- Mrays/s = (camera + shadow + bounce + dust-medium rays, all traced in the render stage) /
+  render-stage seconds: what a worker's T threads sustain while rendering, shading and the dust
+  medium's grid included (the amodal masks' rays, against one-bag scenes, are left out).
 - peak memory: ru_maxrss of each worker process after the run (the largest since the worker
   started, terrain warm-up and earlier levels of the same W included) and of this driver.
 - the limit, on P = W·T threads: Embree seconds for the run's rays at the per-ray costs measured
@@ -102,7 +103,7 @@ def summarize_run(level: str, workers: int, threads: int, stats: list[dict]) -> 
     stages = _sum_stages(stats)
     groups = _groups(stages)
     rays = {k: sum(s.get("rays", {}).get(k, 0) for s in stats) for k in RAY_KINDS}
-    traced = rays["camera_rays"] + rays["shadow_rays"] + rays["bounce_rays"]
+    traced = rays["camera_rays"] + rays["shadow_rays"] + rays["bounce_rays"] + rays["medium_rays"]
     render_s = stages.get("render", 0.0)
     return {
         "level": level, "workers": workers, "threads_per_worker": threads, "tasks": len(stats),
