@@ -9,7 +9,7 @@
 #                      `moonbot generate configs/smoke.yaml` into build/smoke
 #   ./dev.sh bench     setup, then the benchmarks in bench/ (results in bench/results/);
 #                      ./dev.sh bench terrain runs bench/bench_terrain.py alone
-#   ./dev.sh throughput  setup, then `moonbot bench throughput` (options passed on; ~5 min on 2 cores)
+#   ./dev.sh throughput  setup, then `moonbot bench throughput` (options passed on; ~6 min on 2 cores)
 set -euo pipefail
 cd "$(dirname "$0")"
 
