@@ -299,8 +299,7 @@ def run_throughput(config_path: Path | None = None, levels: list[str] | None = N
                 record["embree_limit"] = [row for f in futures for row in f.result()]
                 record["embree_limit_load"] = {"before": load_before, "after": _load()}
     for level in levels:
-        e = encode[level]
-        record["encode_limit"][level] = {**{k: v for k, v in e.items() if k != "views"}, "views": e["views"]}
+        record["encode_limit"][level] = encode[level]
     for run in record["runs"]:
         add_limits(run, record["embree_limit"], encode[run["level"]])
     record["scaling"] = scaling(record["runs"])
