@@ -10,6 +10,7 @@
 #                      baseline and eval on that dataset
 #   ./dev.sh bench     setup, then the benchmarks in bench/ (results in bench/results/);
 #                      ./dev.sh bench terrain runs bench/bench_terrain.py alone
+#   ./dev.sh throughput  setup, then `moonbot bench throughput` (options passed on; ~6 min on 2 cores)
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -103,6 +104,10 @@ case "${1:-}" in
         for name in "${@:2}"; do [ -f "bench/bench_$name.py" ] || { log "no bench/bench_$name.py"; exit 2; }; done
         for name in "${@:2}"; do "$PY" "bench/bench_$name.py"; done
         [ $# -gt 1 ] || for name in render_one settle terrain tonemap_exr accuracy dust medium generate; do "$PY" "bench/bench_$name.py"; done
+        ;;
+    throughput)  # ./dev.sh throughput [--workers 1,2] [--levels ...]: moonbot bench throughput
+        setup
+        "$VENV/bin/moonbot" bench throughput "${@:2}"
         ;;
     *)
         sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'

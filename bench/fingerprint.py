@@ -1,48 +1,7 @@
-"""What a benchmark result was measured on: the machine's fingerprint and a short name for
-result files. Shared by every script in bench/ (run as scripts, so bench/ is on sys.path)."""
+"""What a benchmark result was measured on: the scripts in bench/ (run as scripts, so bench/ is on
+sys.path) import it from here; the one copy is moonbot.benchmark.fingerprint, which
+`moonbot bench` uses too."""
 
-from __future__ import annotations
+from moonbot.benchmark.fingerprint import library_versions, machine, machine_slug
 
-import os
-import platform
-import re
-import subprocess
-import time
-from pathlib import Path
-
-
-def machine() -> dict:
-    """What the numbers were measured on."""
-    cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
-                if line.startswith("model name")), platform.processor())
-    mem_kb = int(re.search(r"MemTotal:\s+(\d+)", Path("/proc/meminfo").read_text()).group(1))
-    os_name = dict(line.split("=", 1) for line in Path("/etc/os-release").read_text().splitlines()
-                   if "=" in line).get("PRETTY_NAME", "").strip('"')
-
-    def run(*cmd: str) -> str:
-        try:
-            return subprocess.run(cmd, capture_output=True, text=True, timeout=10).stdout.strip()
-        except (OSError, subprocess.SubprocessError):
-            return ""
-
-    def deb(package: str) -> str:
-        return run("dpkg-query", "-W", "-f=${Version}", package)
-
-    root = Path(__file__).resolve().parents[1]
-    commit = run("git", "-C", str(root), "rev-parse", "HEAD")
-    # Dirty means uncommitted source changes; the result files themselves do not count.
-    dirty = bool(run("git", "-C", str(root), "status", "--porcelain", "--untracked-files=no",
-                     "--", ".", ":!bench/results"))
-    return {
-        "cpu": cpu, "cores": os.cpu_count(), "memory_gib": round(mem_kb / 2**20, 1), "os": os_name,
-        "python": platform.python_version(), "compiler": run("c++", "--version").split("\n")[0],
-        "embree": deb("libembree-dev"), "openimageio": deb("libopenimageio-dev"),
-        "tbb": deb("libtbb-dev"), "git_commit": commit + ("-dirty" if dirty else ""),
-        "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-    }
-
-
-def machine_slug(m: dict) -> str:
-    cpu = re.sub(r"[^a-z0-9]+", "-", m["cpu"].lower()).strip("-")
-    cpu = re.sub(r"-(processor|cpu|with-radeon-graphics).*$", "", cpu)
-    return f"{cpu}-{m['cores']}c"
+__all__ = ["library_versions", "machine", "machine_slug"]

@@ -352,6 +352,78 @@ def baseline(dataset: Path, split: str, out: Path | None, workers: int | None) -
                f"visible pixels), {report.seconds:.1f} s of estimation; wrote {report.out}")
 
 
+@main.group("bench")
+def bench() -> None:
+    """Benchmarks: throughput of the fixed benchmark config against its limit, and comparisons."""
+
+
+def _int_list(ctx, param, value: str) -> list[int]:
+    try:
+        out = sorted({int(v) for v in value.split(",") if v.strip()})
+    except ValueError:
+        raise click.BadParameter(f"expected comma-separated integers, got {value!r}") from None
+    if not out or out[0] < 1:
+        raise click.BadParameter(f"expected positive integers, got {value!r}")
+    return out
+
+
+@bench.command("throughput")
+@click.option("--config", "config_path", type=click.Path(dir_okay=False, exists=True, path_type=Path),
+              help="The benchmark config (default: configs/bench/throughput-v1.yaml of the checkout).")
+@click.option("--levels", default="draft,default,high", show_default=True,
+              help="Quality levels to run, comma-separated (moonbot/benchmark/levels.py).")
+@click.option("--workers", "workers", default="1", show_default=True, callback=_int_list,
+              help="Worker counts to run, comma-separated (a sweep gives the scaling efficiency), e.g. 1,2.")
+@click.option("--threads", type=click.IntRange(min=1),
+              help="Render threads a worker (default: cores // the largest worker count).")
+@click.option("--set", "overrides", multiple=True, metavar="FIELD=VALUE",
+              help="Override a config field (recorded in the result; such runs are not the benchmark's).")
+@click.option("--repeats", type=click.IntRange(min=1), default=3, show_default=True,
+              help="Timed repeats of each limit measurement (median).")
+@click.option("--out", type=click.Path(dir_okay=False, path_type=Path),
+              help="Result file (default: bench/results/<machine>-<date>.json; an SVG is written beside it).")
+def bench_throughput(config_path: Path | None, levels: str, workers: list[int], threads: int | None,
+                     overrides: tuple[str, ...], repeats: int, out: Path | None) -> None:
+    """Run the fixed benchmark through `generate` on a local cluster at each quality level and
+    worker count: samples/s, seconds per stage, rays/s, peak memory, bytes a sample, the ratio
+    to the limit (Embree and the encoders alone on the same scenes, rays and files) and the full
+    SynBag-1.0 sweep's projected time and disk; written as JSON with the machine's fingerprint.
+    Definitions: moonbot/benchmark/throughput.py."""
+    from moonbot.benchmark.compare import format_record, write_svg
+    from moonbot.benchmark.levels import parse_levels
+    from moonbot.benchmark.throughput import run_throughput
+    from moonbot.config import ConfigError, parse_overrides
+
+    try:
+        names = parse_levels(levels)
+        settings = parse_overrides(overrides)
+        record, path = run_throughput(config_path, names, workers, threads, settings, out, repeats,
+                                      say=lambda text: click.echo(text, err=True))
+        write_svg([(path.stem, record)], path.with_suffix(".svg"), f"moonbot bench throughput: {path.stem}")
+    except (ConfigError, ValueError, OSError) as e:
+        raise click.ClickException(str(e)) from None
+    click.echo(format_record(record, path.stem))
+    click.echo(f"\nwritten {path} and {path.with_suffix('.svg').name} ({record['seconds_total']:.0f} s)")
+
+
+@bench.command("compare")
+@click.argument("results", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=Path("bench-compare.svg"),
+              show_default=True, help="The SVG to write.")
+def bench_compare(results: tuple[Path, ...], plot: Path) -> None:
+    """Print the runs of throughput RESULTS files side by side (different machines or runs) and
+    plot samples/s, seconds a sample per stage and the ratio to the limit."""
+    from moonbot.benchmark.compare import ResultError, format_comparison, load_result, names_for, write_svg
+
+    try:
+        named = list(zip(names_for(list(results)), [load_result(p) for p in results]))
+        write_svg(named, plot)
+    except (ResultError, OSError) as e:
+        raise click.ClickException(str(e)) from None
+    click.echo(format_comparison(named))
+    click.echo(f"\nwritten {plot}")
+
+
 @main.command("validate")
 @click.argument("dataset", type=click.Path(file_okay=False, exists=True, path_type=Path))
 def validate(dataset: Path) -> None:

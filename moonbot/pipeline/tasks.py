@@ -103,15 +103,20 @@ def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = No
         record = task_record(config, task, views)
         atomic_write(staging / "task.json", "w", lambda f: f.write(json.dumps(record, indent=2, sort_keys=True) + "\n"))
         stages: dict[str, float] = {}
+        rays: dict[str, int] = {}
         for r in results:
             for stage, seconds in r.timings.items():
                 stages[stage] = stages.get(stage, 0.0) + seconds
+            for kind, count in r.rays.items():
+                rays[kind] = rays.get(kind, 0) + int(count)
         wall_s = time.perf_counter() - wall
         stats = {
             "task_id": task.task_id, "host": socket.gethostname(), "pid": os.getpid(), "cpu_model": cpu_model(),
             "cores": os.cpu_count() or 1, "threads": threads or tconfig.render.threads or render_threads_default(), "worker": worker,
             "started_utc": started.isoformat(), "wall_s": wall_s, "cpu_s": time.process_time() - cpu,
             "stages_s": stages, "samples": len(results),
+            # Rays traced, summed over the views (moonbot.pipeline.views.ViewResult.rays).
+            "rays": rays,
             # Everything but stats.json and DONE.json themselves (a few hundred bytes).
             "bytes_written": sum(p.stat().st_size for p in staging.rglob("*") if p.is_file()),
             "samples_per_s": len(results) / wall_s if wall_s > 0 else 0.0,

@@ -55,16 +55,9 @@ class Estimate:
 def default_record() -> Path:
     """This machine's generate benchmark record in the checkout's bench/results/ (named by the
     same machine slug the benchmarks use: CPU vendor and family, cores)."""
-    import sys
+    from moonbot.benchmark.fingerprint import machine, machine_slug
 
     root = Path(__file__).resolve().parents[2]
-    sys.path.insert(0, str(root / "bench"))
-    try:
-        from fingerprint import machine, machine_slug
-    except ImportError:
-        return root / "bench" / "results" / "generate-unknown.json"
-    finally:
-        sys.path.pop(0)
     return root / "bench" / "results" / f"generate-{machine_slug(machine())}.json"
 
 

@@ -1,0 +1,258 @@
+"""Reading `moonbot bench throughput` results back, and setting several side by side
+(`moonbot bench compare A.json B.json …`): a table and an SVG plot.
+
+The schema: SCHEMA below lists every field a reader relies on, with its type; a result may hold
+more. `schema_version` is checked: versions up to this reader's are accepted (an older version is
+brought up to date by UPGRADES, none so far), a newer one is refused. Every problem is reported as
+"<file>: <field>: <what is wrong>"."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+from moonbot.benchmark.throughput import SCHEMA_VERSION, STAGE_GROUPS
+from moonbot.pipeline.svgchart import COLOURS, bar_panel, svg_close, svg_open
+from moonbot.writer.staging import atomic_write
+
+
+class ResultError(ValueError):
+    """A result file that cannot be read or breaks the schema; the message names the file and field."""
+
+
+NUM, INT, STR, LIST, DICT = "a number", "an integer", "a string", "a list", "an object"
+_LOAD = [NUM]  # os.getloadavg(): three numbers
+
+# field → kind, or a nested schema (dict), or [item kind or schema] for a list.
+RUN = {
+    "level": STR, "workers": INT, "threads_per_worker": INT, "tasks": INT, "samples": INT,
+    "views_per_task": NUM, "span_s": NUM, "samples_per_s": NUM, "seconds_per_sample": NUM,
+    "task_wall_s": NUM, "scene_build_s": NUM, "bytes": INT, "bytes_per_sample": NUM,
+    "stages_s": DICT, "stage_groups_s": {g: NUM for g in STAGE_GROUPS},
+    "stage_groups_s_per_sample": {g: NUM for g in STAGE_GROUPS},
+    "rays": {"camera_rays": INT, "shadow_rays": INT, "bounce_rays": INT, "medium_rays": INT, "amodal_rays": INT},
+    "mrays_per_s": NUM, "generate_wall_s": NUM, "load_before": _LOAD, "load_after": _LOAD,
+    "peak_rss_mib": {"workers": [NUM], "max_worker": NUM, "driver": NUM},
+    "limit": {"threads": INT, "embree_s": NUM, "embree_s_bounce_incoherent": NUM, "encode_s": NUM,
+              "seconds_per_sample": NUM, "seconds_per_sample_bounce_incoherent": NUM, "encode_raw_mb_per_s": NUM},
+    "ratio": {"render": NUM, "encode": NUM, "render_encode": NUM, "render_encode_bounce_incoherent": NUM,
+              "pipeline": NUM, "pipeline_bounce_incoherent": NUM},
+}
+EMBREE_ROW = {"task_id": STR, "threads": INT, "camera_rays": INT, "shadow_rays": INT,
+              "intersect_stream_s": NUM, "occluded_stream_s": NUM, "primary_mrays_per_s": NUM,
+              "shadow_mrays_per_s": NUM}
+SCHEMA = {
+    "schema_version": INT, "benchmark": STR,
+    "config": {"file": STR, "name": STR, "version": INT, "sha256": STR},
+    "overrides": DICT, "image": {"width": INT, "height": INT}, "levels": DICT, "tasks": [STR],
+    "workers": [INT], "threads_per_worker": INT,
+    "machine": {"cpu": STR, "cores": INT, "memory_gib": NUM, "os": STR, "python": STR, "compiler": STR,
+                "embree": STR, "openimageio": STR, "tbb": STR, "git_commit": STR, "date": STR},
+    "libraries": DICT, "started_utc": STR, "load_before": _LOAD, "load_after": _LOAD,
+    "terrain_warmup_s": DICT, "runs": [RUN], "embree_limit": [EMBREE_ROW], "encode_limit": DICT,
+    "scaling": [{"level": STR, "workers": INT, "efficiency": NUM}],
+    "projection": {"sweep": STR, "samples": INT, "views_per_task": INT, "image_matches_sweep": bool,
+                   "levels": [{"level": STR, "seconds_per_sample": NUM, "bytes": NUM,
+                               "hours": [{"nodes": INT, "hours": NUM}]}]},
+    "seconds_total": NUM,
+}
+
+# schema_version → a function bringing a record of that version to the next one.
+UPGRADES: dict = {}
+
+
+def _check(value, kind, where: str, path: str) -> None:
+    if isinstance(kind, dict):
+        if not isinstance(value, dict):
+            raise ResultError(f"{path}: {where or 'the file'}: expected {DICT}, got {type(value).__name__}")
+        for name, sub in kind.items():
+            field = f"{where}.{name}" if where else name
+            if name not in value:
+                raise ResultError(f"{path}: {field}: missing")
+            _check(value[name], sub, field, path)
+        return
+    if isinstance(kind, list):
+        if not isinstance(value, list):
+            raise ResultError(f"{path}: {where}: expected {LIST}, got {type(value).__name__}")
+        for i, item in enumerate(value):
+            _check(item, kind[0], f"{where}[{i}]", path)
+        return
+    ok = {NUM: isinstance(value, (int, float)) and not isinstance(value, bool)
+          and (not isinstance(value, float) or math.isfinite(value)),
+          INT: isinstance(value, int) and not isinstance(value, bool),
+          STR: isinstance(value, str), DICT: isinstance(value, dict),
+          bool: isinstance(value, bool)}[kind]
+    if not ok:
+        want = "a boolean" if kind is bool else kind
+        raise ResultError(f"{path}: {where}: expected {want}{' (finite)' if kind == NUM else ''}, "
+                          f"got {value!r}"[:300])
+
+
+def validate(record: object, path: str = "<record>") -> dict:
+    """`record` upgraded to this schema version and checked against SCHEMA; raises ResultError."""
+    if not isinstance(record, dict):
+        raise ResultError(f"{path}: expected a JSON object, got {type(record).__name__}")
+    version = record.get("schema_version")
+    if not isinstance(version, int) or isinstance(version, bool):
+        raise ResultError(f"{path}: schema_version: missing or not an integer ({version!r})")
+    if version > SCHEMA_VERSION:
+        raise ResultError(f"{path}: schema_version: {version} is newer than this moonbot reads "
+                          f"({SCHEMA_VERSION}); update moonbot")
+    if version < 1:
+        raise ResultError(f"{path}: schema_version: must be at least 1, got {version}")
+    if record.get("benchmark") != "throughput":
+        raise ResultError(f"{path}: benchmark: expected 'throughput', got {record.get('benchmark')!r}")
+    while version < SCHEMA_VERSION:
+        record = UPGRADES[version](record)
+        version = record["schema_version"]
+    _check(record, SCHEMA, "", path)
+    return record
+
+
+def load_result(path: Path) -> dict:
+    """A result file, validated (see `validate`)."""
+    path = Path(path)
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+    except OSError as e:
+        raise ResultError(f"{path}: cannot read ({e.strerror or e})") from None
+    except ValueError as e:
+        raise ResultError(f"{path}: not JSON ({e})") from None
+    return validate(record, str(path))
+
+
+# --- presentation -----------------------------------------------------------------------------
+
+def _g(x: float, digits: int = 3) -> str:
+    return f"{x:.{digits}g}" if isinstance(x, (int, float)) and math.isfinite(x) else "n/a"
+
+
+def _commit(m: dict) -> str:
+    c = m["git_commit"]
+    return c[:12] + ("-dirty" if c.endswith("-dirty") else "")
+
+
+TABLE_HEADER = (f"{'result':<34} {'level':<8} {'W×T':>5} {'samples/s':>9} {'s/sample':>8} {'build':>6} "
+                f"{'dust':>6} {'render':>6} {'enc/wr':>6} {'Mrays/s':>7} {'MB/smp':>6} {'RSS MiB':>7} "
+                f"{'÷limit':>6} {'r+e÷lim':>7} {'load':>9}")
+
+
+def table_rows(name: str, record: dict) -> list[str]:
+    """One line per run of `record`: rates, seconds a sample per stage group (worker-seconds),
+    Mrays/s, MB a sample, the largest worker's peak RSS, the ratios to the limit (whole pipeline;
+    render + encode) and the 1-minute load before → after."""
+    rows = []
+    for r in record["runs"]:
+        g = r["stage_groups_s_per_sample"]
+        rows.append(
+            f"{name[:34]:<34} {r['level']:<8} {r['workers']}×{r['threads_per_worker']:<3} "
+            f"{_g(r['samples_per_s'], 4):>9} {_g(r['seconds_per_sample']):>8} {_g(g['scene_build']):>6} "
+            f"{_g(g['dust']):>6} {_g(g['render']):>6} {_g(g['encode_write']):>6} {_g(r['mrays_per_s']):>7} "
+            f"{r['bytes_per_sample'] / 1e6:>6.2f} {r['peak_rss_mib']['max_worker']:>7.0f} "
+            f"{_g(r['ratio']['pipeline']):>6} {_g(r['ratio']['render_encode']):>7} "
+            f"{r['load_before'][0]:>4.1f}→{r['load_after'][0]:<4.1f}")
+    return rows
+
+
+def format_record(record: dict, name: str = "this run") -> str:
+    """One result as text: machine, the runs table, the limit, scaling and the projection."""
+    m = record["machine"]
+    lines = [f"machine   {m['cpu']}, {m['cores']} cores, {m['memory_gib']} GiB, {m['os']}, {m['compiler']}, "
+             f"Embree {m['embree']}, OIIO {m['openimageio']}, commit {_commit(m)}",
+             f"config    {record['config']['file']} (v{record['config']['version']}) at "
+             f"{record['image']['width']}×{record['image']['height']}, {len(record['tasks'])} tasks"
+             + (f", overrides {record['overrides']}" if record["overrides"] else ""),
+             "", TABLE_HEADER, *table_rows(name, record), "",
+             "stage columns: worker-seconds a sample (build = terrain + compose + settle + BVH; render includes "
+             "amodal masks and tone map); ÷limit = (span / samples) over the limit's seconds a sample (Embree on the "
+             "same rays + the encoders on the same files); r+e÷lim = render + tone map + encode/write over the same "
+             "limit (bounce rays at the camera-ray rate: an upper bound on the ratio)", ""]
+    lines.append("Embree alone on view 0 of each scene (64-ray streams, Mrays/s):")
+    for row in record["embree_limit"]:
+        lines.append(f"  {row['task_id'][:48]:<48} {row['threads']} thr: primary {row['primary_mrays_per_s']:.1f}, "
+                     f"shadow {row['shadow_mrays_per_s']:.1f}")
+    lines.append("bounce rays: not measured (counted at the primary rate; × "
+                 "2.5 for the incoherent estimate, see moonbot/benchmark/limit.py)")
+    for level, e in record["encode_limit"].items():
+        lines.append(f"encoders alone, {level}: {e['raw_mb_per_s']:.0f} MB/s of raw pixels "
+                     f"({e['serial_s'] / max(len(e['views']), 1) * 1e3:.1f} ms a view on one thread)")
+    for r in record["runs"]:
+        lines.append(f"ratio to the limit, {r['level']} {r['workers']}×{r['threads_per_worker']}: render "
+                     f"{_g(r['ratio']['render'])}, encode {_g(r['ratio']['encode'])}, render + encode "
+                     f"{_g(r['ratio']['render_encode'])} ({_g(r['ratio']['render_encode_bounce_incoherent'])} with "
+                     f"incoherent bounces), whole pipeline {_g(r['ratio']['pipeline'])}")
+    if len({s["workers"] for s in record["scaling"]}) > 1:
+        lines.append("scaling efficiency: " + ", ".join(
+            f"{s['level']} {s['workers']} workers {s['efficiency']:.2f}" for s in record["scaling"]
+            if s["workers"] != s.get("reference_workers")))
+    p = record["projection"]
+    lines.append(f"\nfull {p['sweep']} sweep ({p['samples']} samples, {p['views_per_task']} views a task)"
+                 + ("" if p["image_matches_sweep"] else " — NOT at the sweep's image size") + ":")
+    for lv in p["levels"]:
+        hours = ", ".join(f"{h['nodes']} node{'s' if h['nodes'] > 1 else ''} {h['hours']:.1f} h" for h in lv["hours"])
+        lines.append(f"  {lv['level']:<8} {lv['seconds_per_sample']:.2f} s a sample "
+                     f"({_g(lv.get('ratio_pipeline', 0.0))}× the limit): {hours}; {lv['bytes'] / 1e9:.0f} GB")
+    return "\n".join(lines)
+
+
+def format_comparison(named: list[tuple[str, dict]]) -> str:
+    """Several results as one table (one line per run), then each one's machine."""
+    lines = [TABLE_HEADER]
+    for name, record in named:
+        lines += table_rows(name, record)
+    lines.append("")
+    for name, record in named:
+        m = record["machine"]
+        versions = ", ".join(f"{k} {v}" for k, v in record.get("libraries", {}).items() if v)
+        lines.append(f"{name}: {m['cpu']}, {m['cores']} cores, {m['memory_gib']} GiB, {m['os']}, "
+                     f"{m['compiler']}, Embree {m['embree']}, OIIO {m['openimageio']}, TBB {m['tbb']}, "
+                     f"commit {_commit(m)}, {m['date']}; {record['config']['file']} at "
+                     f"{record['image']['width']}×{record['image']['height']}"
+                     + (f", overrides {record['overrides']}" if record["overrides"] else "")
+                     + (f"; {versions}" if versions else ""))
+    configs = {(r["config"]["name"], r["config"]["sha256"]) for _, r in named}
+    if len(configs) > 1:
+        lines.append("warning: the results ran different benchmark configs: "
+                     + ", ".join(sorted(f"{n} ({s[:12]})" for n, s in configs)))
+    if len({json.dumps(r["overrides"], sort_keys=True) for _, r in named}) > 1:
+        lines.append("warning: the results ran with different --set overrides: compare their rows with care")
+    return "\n".join(lines)
+
+
+def comparison_svg(named: list[tuple[str, dict]], title: str = "moonbot bench throughput") -> str:
+    """Three panels, one bar per run of every result: samples/s; worker-seconds a sample per
+    stage group, stacked; the whole pipeline's time over the limit."""
+    width = 760
+    runs = [(f"{name}: {r['level']} {r['workers']}×{r['threads_per_worker']}", r) for name, rec in named
+            for r in rec["runs"]]
+    label_width = min(340, 60 + 6 * max(len(label) for label, _ in runs))
+    top = 36
+    rates, h = bar_panel(top, width, "throughput", "samples/s",
+                         [(label, [r["samples_per_s"]], _g(r["samples_per_s"])) for label, r in runs],
+                         colours=[COLOURS[0]], label_width=label_width)
+    top += h + 16
+    groups = list(STAGE_GROUPS)
+    stages, h = bar_panel(top, width, "where a sample's time goes (worker-seconds)", "seconds a sample",
+                          [(label, [r["stage_groups_s_per_sample"][g] for g in groups],
+                            f"{_g(sum(r['stage_groups_s_per_sample'].values()))} s") for label, r in runs],
+                          series=groups, colours=[COLOURS[k] for k in range(len(groups))], label_width=label_width)
+    top += h + 16
+    ratio, h = bar_panel(top, width, "time over the limit (Embree + encoders on the same work)", "ratio",
+                         [(label, [r["ratio"]["render_encode"], max(0.0, r["ratio"]["pipeline"] - r["ratio"]["render_encode"])],
+                           f"{_g(r['ratio']['render_encode'])} / {_g(r['ratio']['pipeline'])}") for label, r in runs],
+                         series=["render + encode", "rest of the pipeline"], colours=[COLOURS[2], COLOURS[7]],
+                         label_width=label_width)
+    top += h + 12
+    return svg_close(svg_open(width, top, title) + rates + stages + ratio)
+
+
+def write_svg(named: list[tuple[str, dict]], path: Path, title: str = "moonbot bench throughput") -> None:
+    text = comparison_svg(named, title)
+    atomic_write(Path(path), "w", lambda f: f.write(text))
+
+
+def names_for(paths: list[Path]) -> list[str]:
+    """Short names for result files: their stems, made unique with their folder when needed."""
+    stems = [Path(p).stem for p in paths]
+    return [f"{Path(p).parent.name}/{s}" if stems.count(s) > 1 else s for p, s in zip(paths, stems)]

@@ -1,0 +1,64 @@
+"""What a benchmark result was measured on: the machine's fingerprint and a short name for
+result files. Shared by `moonbot bench` and every script in bench/ (through bench/fingerprint.py).
+The git commit is the checkout's this module lives in (an editable install's); outside a checkout
+it is empty."""
+
+from __future__ import annotations
+
+import os
+import platform
+import re
+import subprocess
+import time
+from pathlib import Path
+
+
+def machine() -> dict:
+    """What the numbers were measured on."""
+    cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
+                if line.startswith("model name")), platform.processor())
+    mem_kb = int(re.search(r"MemTotal:\s+(\d+)", Path("/proc/meminfo").read_text()).group(1))
+    os_name = dict(line.split("=", 1) for line in Path("/etc/os-release").read_text().splitlines()
+                   if "=" in line).get("PRETTY_NAME", "").strip('"')
+
+    def run(*cmd: str) -> str:
+        try:
+            return subprocess.run(cmd, capture_output=True, text=True, timeout=10).stdout.strip()
+        except (OSError, subprocess.SubprocessError):
+            return ""
+
+    def deb(package: str) -> str:
+        return run("dpkg-query", "-W", "-f=${Version}", package)
+
+    root = Path(__file__).resolve().parents[2]
+    commit = run("git", "-C", str(root), "rev-parse", "HEAD")
+    # Dirty means uncommitted source changes; the result files themselves do not count.
+    dirty = bool(run("git", "-C", str(root), "status", "--porcelain", "--untracked-files=no",
+                     "--", ".", ":!bench/results"))
+    return {
+        "cpu": cpu, "cores": os.cpu_count(), "memory_gib": round(mem_kb / 2**20, 1), "os": os_name,
+        "python": platform.python_version(), "compiler": run("c++", "--version").split("\n")[0],
+        "embree": deb("libembree-dev"), "openimageio": deb("libopenimageio-dev"),
+        "tbb": deb("libtbb-dev"), "git_commit": commit + ("-dirty" if dirty else ""),
+        "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+    }
+
+
+def machine_slug(m: dict) -> str:
+    cpu = re.sub(r"[^a-z0-9]+", "-", m["cpu"].lower()).strip("-")
+    cpu = re.sub(r"-(processor|cpu|with-radeon-graphics).*$", "", cpu)
+    return f"{cpu}-{m['cores']}c"
+
+
+def library_versions() -> dict:
+    """Versions of the Python packages a generate run goes through (moonbot itself included);
+    the C++ libraries' are in `machine()`."""
+    from importlib import metadata
+
+    out = {}
+    for name in ("moonbot", "numpy", "scipy", "dask", "distributed", "mujoco-core", "pyarrow", "click"):
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = ""
+    return out

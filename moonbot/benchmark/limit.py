@@ -1,0 +1,161 @@
+"""The yardstick of `moonbot bench throughput`: what Embree alone and the encoders alone take for
+the work a benchmark task does, on the same scene and the same images.
+
+Rays (`embree_limit`): the task's scene is composed and built as the task builds it — terrain,
+rocks, bags as instances, a dust scene's ejecta fragments of view 0 — except that the bags are
+not settled (settling moves them by millimetres and costs seconds; it changes no ray's cost).
+`_core.measure_embree_limit` then times Embree alone on the pixel-centre camera rays of view 0
+and the Sun shadow rays from their hits, as the renderer's 64-ray streams
+(`rtcIntersect1M`/`rtcOccluded1M`), the busiest thread's sum, at the thread counts asked for.
+That gives seconds per camera ray and per shadow ray on that scene.
+
+Bounce rays are not measurable there: the probe only builds camera and shadow rays (cpp/ is left
+alone). The limit counts them at the camera rays' rate, which is optimistic — incoherent rays run
+2.3–2.8× slower than coherent ones in Embree on this CPU (../shared/reference/performance-limits.md
+§1, 64-ray streams: 14.3 against 5.15 Mrays/s on one thread, 23.4 against 9.95 on two) — so the
+ratio of our time to this limit is an upper bound; `INCOHERENT_BOUNCE_COST` gives a second,
+estimated limit with bounce rays at that reference's incoherent rate. The dust medium's
+Sun rays (`medium_rays`, coherent closest-hit rays of the dust stage) count at the camera rays'
+rate; the amodal masks' instance passes (against one-bag scenes) and the dust medium's ray
+marching have no Embree counterpart and are not in the limit.
+
+Encoding (`encode_limit`): every file of every view the task wrote (rgb.png, depth.png,
+depth_preview.png, mask.png, amodal_NNN.png, rgb.exr when written) is read back and written
+again by the same encoder (`_core.write_image`, OpenImageIO, at the config's PNG level) into a
+scratch directory, and depth.npy by `numpy.save`, each file alone, median of repeats: no
+staging, renames, thread pool, tone map, depth conversion or gt.json. With P threads a view's
+files take at best max(the longest file, the sum / P).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from moonbot import _core
+from moonbot.config import Config
+from moonbot.render import SceneDust, build_scene
+from moonbot.scene import compose_scene, intrinsics, orbit_pose
+from moonbot.scene.orbit import orbit_height
+from moonbot.sweep import Task, task_config
+
+# A bounce ray's Embree cost over a coherent camera ray's, for the estimated second limit: the
+# reference's 64-ray stream rates on this CPU (performance-limits.md §1) give 2.78 on one thread
+# and 2.35 on two.
+INCOHERENT_BOUNCE_COST = 2.5
+
+
+def limit_scene(config: Config, task: Task):
+    """(scene, camera, sun) of view 0 of `task` of `config`'s sweep, built as the task builds it
+    but with its bags unsettled, and with a dust scene's view-0 ejecta fragments in place."""
+    c = task_config(config, task)
+    c = dataclasses.replace(c, bags=dataclasses.replace(c.bags, settle=dataclasses.replace(c.bags.settle,
+                                                                                           enabled=False)))
+    spec = compose_scene(c)
+    scene = build_scene(spec)
+    if c.dust.enabled:
+        SceneDust(scene, spec, c, [0]).for_view(0)  # adds the fragments' mesh and commits
+    azimuth = c.orbit.start_azimuth_deg
+    height = orbit_height(spec.target, c.orbit.radius_m, c.orbit.height_m, azimuth, spec.ground)
+    pose = orbit_pose(spec.target, c.orbit.radius_m, height, azimuth)
+    K = intrinsics(c.camera)
+    camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], c.camera.width, c.camera.height, pose.R, pose.t)
+    s = c.sun
+    sun = _core.Sun(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
+    return scene, camera, sun
+
+
+def embree_limit(config: Config, task: Task, threads: list[int], repeats: int = 3) -> list[dict]:
+    """Embree's own time for view 0's camera and shadow rays on `task`'s scene, once per thread
+    count in `threads`: one dict each with the probe's raw figures and the derived seconds per
+    ray and Mrays/s (streams, and one ray at a time for scale)."""
+    scene, camera, sun = limit_scene(config, task)
+    rows = []
+    for t in threads:
+        m = _core.measure_embree_limit(scene, camera, sun, threads=t, repeats=repeats)
+        cam, sh = int(m["camera_rays"]), int(m["shadow_rays"])
+        rows.append({
+            "task_id": task.task_id, "threads": t, "camera_rays": cam, "shadow_rays": sh,
+            "intersect_stream_s": m["intersect_stream_s"], "occluded_stream_s": m["occluded_stream_s"],
+            "intersect_single_s": m["intersect_single_s"], "occluded_single_s": m["occluded_single_s"],
+            "camera_s_per_ray": m["intersect_stream_s"] / max(cam, 1),
+            "shadow_s_per_ray": m["occluded_stream_s"] / max(sh, 1),
+            "primary_mrays_per_s": cam / m["intersect_stream_s"] / 1e6 if m["intersect_stream_s"] > 0 else 0.0,
+            "shadow_mrays_per_s": sh / m["occluded_stream_s"] / 1e6 if m["occluded_stream_s"] > 0 else 0.0,
+            "primary_single_mrays_per_s": cam / m["intersect_single_s"] / 1e6 if m["intersect_single_s"] > 0 else 0.0,
+            "shadow_single_mrays_per_s": sh / m["occluded_single_s"] / 1e6 if m["occluded_single_s"] > 0 else 0.0,
+        })
+    return rows
+
+
+def ray_limit_seconds(rays: dict, row: dict, incoherent_bounce_cost: float = 1.0) -> float:
+    """Embree seconds for a task's `rays` (its stats.json counts) at `row`'s per-ray costs:
+    camera and medium rays at the camera-ray rate, shadow rays at the shadow-ray rate, bounce rays
+    at the camera-ray rate × `incoherent_bounce_cost`. Amodal rays are not counted."""
+    cam = row["camera_s_per_ray"]
+    return (cam * (rays.get("camera_rays", 0) + rays.get("medium_rays", 0))
+            + row["shadow_s_per_ray"] * rays.get("shadow_rays", 0)
+            + cam * incoherent_bounce_cost * rays.get("bounce_rays", 0))
+
+
+def _median_seconds(fn, repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def encode_view(view_dir: Path, png_compression: int, scratch: Path, repeats: int = 3) -> list[dict]:
+    """Each file of one written view re-encoded alone (see the module docstring): one dict per
+    file with its raw (decoded) bytes, its file bytes and the median seconds."""
+    rows = []
+    for path in sorted(view_dir.iterdir()):
+        if path.suffix == ".npy":
+            array = np.load(path)
+            target = scratch / path.name
+            seconds = _median_seconds(lambda: np.save(target, array), repeats)
+        elif path.suffix in (".png", ".exr"):
+            array = _core.read_image(str(path))
+            target = scratch / path.name
+            if path.suffix == ".png":
+                seconds = _median_seconds(lambda: _core.write_image(str(target), array, png_compression), repeats)
+            else:
+                seconds = _median_seconds(lambda: _core.write_image(str(target), array), repeats)
+        else:
+            continue  # gt.json: ours, not an encoder's
+        rows.append({"file": path.name, "raw_bytes": int(array.nbytes), "file_bytes": target.stat().st_size,
+                     "seconds": seconds})
+    return rows
+
+
+def encode_limit(task_dirs: list[Path], png_compression: int, repeats: int = 3) -> dict:
+    """The encoders' time for every view of `task_dirs` (a generate run's OUT/tasks/*): per view
+    the files' serial sum and longest file, and the totals and raw MB/s over all views."""
+    views = []
+    with tempfile.TemporaryDirectory(prefix=".encode-limit-", dir=task_dirs[0].parent) as tmp:
+        for task in task_dirs:
+            for view in sorted(task.glob("view_*")):
+                files = encode_view(view, png_compression, Path(tmp), repeats)
+                views.append({"task_id": task.name, "view": view.name, "files": len(files),
+                              "raw_bytes": sum(f["raw_bytes"] for f in files),
+                              "file_bytes": sum(f["file_bytes"] for f in files),
+                              "serial_s": sum(f["seconds"] for f in files),
+                              "longest_s": max((f["seconds"] for f in files), default=0.0)})
+    serial = sum(v["serial_s"] for v in views)
+    raw = sum(v["raw_bytes"] for v in views)
+    return {"views": views, "serial_s": serial, "raw_bytes": raw, "file_bytes": sum(v["file_bytes"] for v in views),
+            "raw_mb_per_s": raw / serial / 1e6 if serial > 0 else 0.0}
+
+
+def encode_limit_seconds(limit: dict, threads: int, task_id: str | None = None) -> float:
+    """The encoders' best time for the views of `limit` (all, or one task's) on `threads` threads:
+    Σ over views of max(longest file, serial sum / threads)."""
+    return sum(max(v["longest_s"], v["serial_s"] / max(threads, 1)) for v in limit["views"]
+               if task_id is None or v["task_id"] == task_id)
