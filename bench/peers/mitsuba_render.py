@@ -171,10 +171,11 @@ def main() -> int:
         u, v = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
         cos_axis = 1.0 / np.sqrt(1 + ((u - cam["cx"]) / cam["fx"]) ** 2 + ((v - cam["cy"]) / cam["fy"]) ** 2)
         depth = (t_ray * cos_axis).astype(np.float32)
+        # shape_index is 1 + the shape's index in scene.shapes(), 0 where nothing is hit.
         shapes = scene.shapes()
-        lut = np.array([ids.get(sh.id().split("_", 2)[-1], 0) for sh in shapes] + [0], np.uint8)
+        lut = np.array([0] + [ids.get(sh.id().split("_", 2)[-1], 0) for sh in shapes], np.uint8)
         idx = np.rint(shape_index).astype(np.int64)
-        idx = np.where((depth > 0) & (idx >= 0) & (idx < len(shapes)), idx, len(shapes))
+        idx = np.where((idx >= 0) & (idx < len(lut)), idx, 0)
         np.save(args.out_dir / f"{args.prefix}depth.npy", np.where(depth > 0, depth, 0).astype(np.float32))
         np.save(args.out_dir / f"{args.prefix}index.npy", lut[idx])
         out["aov_pass"] = {"spp": 1, "channels": "depth (ray distance → z), shape_index → instance id",
