@@ -124,6 +124,18 @@ def at_error(rows: list[dict], target: float) -> dict | None:
     return None
 
 
+def time_fit(rows: list[dict]) -> dict:
+    """seconds = overhead + per_sample · spp, least squares on relative residuals over the
+    ladder: on a shared, loaded machine one render can be slowed by others' work, and the fit's
+    slope is steadier than any single point."""
+    n = np.array([r["spp"] for r in rows], float)
+    t = np.array([r["render_s"] for r in rows], float)
+    A = np.column_stack([np.ones_like(n), n]) / t[:, None]
+    (a, b), *_ = np.linalg.lstsq(A, np.ones_like(t), rcond=None)
+    return {"overhead_s": float(a), "seconds_per_sample": float(b),
+            "max_rel_residual": float(np.max(np.abs((a + b * n) / t - 1)))}
+
+
 def tonemap_png(path: Path, images: list[np.ndarray], scale: float) -> None:
     from PIL import Image
     row = np.concatenate(images, axis=1).astype(np.float64) * scale
@@ -145,6 +157,8 @@ def main() -> int:
     parser.add_argument("--bpy-python", default=str(ROOT / ".venv-peers-bpy/bin/python"),
                         help="the Python of the venv with bpy")
     parser.add_argument("--skip", default="", help="comma-separated renderers to leave out: mitsuba, cycles")
+    parser.add_argument("--analyse-only", action="store_true",
+                        help="render nothing: analyse the images and timings.json files already in --work")
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
     skip = set(filter(None, args.skip.split(",")))
@@ -161,36 +175,48 @@ def main() -> int:
     result = {"schema_version": SCHEMA_VERSION, "benchmark": "peers", "machine": m,
               "load_average_1min": {"start": loadavg()}}
     config = parity_config(args.width, args.height)
-    start = time.perf_counter()
-    spec = parity_spec(config)
-    compose_s = time.perf_counter() - start
-    start = time.perf_counter()
-    scene_json = export_scene(work / "scene", config, spec)
-    export_s = time.perf_counter() - start
+    if args.analyse_only:
+        spec, compose_s, export_s = None, None, None
+        scene_json = json.loads((work / "scene" / "scene.json").read_text())
+    else:
+        start = time.perf_counter()
+        spec = parity_spec(config)
+        compose_s = time.perf_counter() - start
+        start = time.perf_counter()
+        scene_json = export_scene(work / "scene", config, spec)
+        export_s = time.perf_counter() - start
     result["scene"] = {"width": args.width, "height": args.height, "triangles": scene_json["triangles_total"],
                        "meshes": [{k: mm[k] for k in ("file", "kind", "triangles")} for mm in scene_json["meshes"]],
                        "compose_s": compose_s, "export_s": export_s,
                        "parity": scene_json["parity"], "config_overrides": scene_json["config_overrides"]}
 
     renderers = {}
-    renderers["moonbot"] = render_moonbot(config, spec, ladder, args.threads, args.repeats, args.repeat_max_spp,
-                                          work / "moonbot")
-    py = sys.executable
-    if "mitsuba" not in skip:
-        run([py, str(HERE / "mitsuba_render.py"), str(work / "scene"), str(work / "mitsuba"),
-             "--spp", ",".join(map(str, ladder)), *common], env)
-        renderers["mitsuba"] = json.loads((work / "mitsuba" / "timings.json").read_text())
-    if "cycles" not in skip:
-        run([args.bpy_python, str(HERE / "cycles_render.py"), str(work / "scene"), str(work / "cycles"),
-             "--spp", ",".join(map(str, cycles_ladder)), *common])
-        renderers["cycles"] = json.loads((work / "cycles" / "timings.json").read_text())
+    names = ["moonbot"] + [n for n in ("mitsuba", "cycles") if n not in skip]
+    if args.analyse_only:
+        renderers = {n: json.loads((work / n / "timings.json").read_text()) for n in names}
+    else:
+        py = sys.executable
+        for name in names:
+            before = loadavg()
+            if name == "moonbot":
+                r = render_moonbot(config, spec, ladder, args.threads, args.repeats, args.repeat_max_spp, work / name)
+                (work / name / "timings.json").write_text(json.dumps(r, indent=2) + "\n")
+            elif name == "mitsuba":
+                run([py, str(HERE / "mitsuba_render.py"), str(work / "scene"), str(work / name),
+                     "--spp", ",".join(map(str, ladder)), *common], env)
+            else:
+                run([args.bpy_python, str(HERE / "cycles_render.py"), str(work / "scene"), str(work / name),
+                     "--spp", ",".join(map(str, cycles_ladder)), *common])
+            renderers[name] = json.loads((work / name / "timings.json").read_text())
+            renderers[name]["load_average_1min"] = {"before": before, "after": loadavg()}
+            (work / name / "timings.json").write_text(json.dumps(renderers[name], indent=2) + "\n")
 
     # The reference last: the renderers' timings above are not taken right after an hour-long job.
     halves = []
     for k, seed in enumerate((100, 200)):
         prefix = f"half{k}_"
         if not (work / "reference" / f"{prefix}rgb_spp{args.reference_spp}.npy").exists():
-            run([py, str(HERE / "mitsuba_render.py"), str(work / "scene"), str(work / "reference"),
+            run([sys.executable, str(HERE / "mitsuba_render.py"), str(work / "scene"), str(work / "reference"),
                  "--spp", str(args.reference_spp), "--repeats", "0", "--threads", str(args.threads),
                  "--seed", str(seed), "--prefix", prefix, "--no-aov"], env)
         halves.append(np.load(work / "reference" / f"{prefix}rgb_spp{args.reference_spp}.npy").astype(np.float64))
@@ -216,12 +242,17 @@ def main() -> int:
                  "cycles": f"Blender Cycles {r.get('version')} (bpy)"}[name]
         curves[label] = [(row["render_s"], row["rel_rmse"], str(row["spp"])) for row in r["rows"]]
         r["at_error"] = {str(t): at_error(r["rows"], t) for t in targets}
+        r["time_fit"] = fit = time_fit(r["rows"])
+        for a in r["at_error"].values():
+            if a:
+                a["fit_seconds_per_frame"] = fit["overhead_s"] + fit["seconds_per_sample"] * a["spp"]
     for t in targets:
         base = renderers["moonbot"]["at_error"][str(t)]
         entry = {"target_rel_rmse": t}
         for name, r in renderers.items():
             a = r["at_error"][str(t)]
-            entry[name] = a and {**a, "ratio_to_moonbot": (a["seconds_per_frame"] / base["seconds_per_frame"]) if base else None}
+            entry[name] = a and {**a, "ratio_to_moonbot": (a["seconds_per_frame"] / base["seconds_per_frame"]) if base else None,
+                                 "fit_ratio_to_moonbot": (a["fit_seconds_per_frame"] / base["fit_seconds_per_frame"]) if base else None}
             if a and name == "mitsuba" and "aov_pass" in r:
                 extra = r["aov_pass"]["render_s"]
                 entry[name]["seconds_per_frame_with_depth_index"] = a["seconds_per_frame"] + extra
@@ -259,14 +290,18 @@ def main() -> int:
     print(f"\nreference: Mitsuba {2 * args.reference_spp} spp, own rel. RMSE ≈ {result['reference']['own_rel_rmse_estimate']:.4f}")
     for name, r in renderers.items():
         print(f"{name}: " + "  ".join(f"{row['spp']}:{row['render_s']:.2f}s/{row['rel_rmse']:.4f}" for row in r["rows"]))
-    print(f"\n{'target':>7} " + " ".join(f"{n + ' s/frame':>18} {'s/sample':>9} {'x moonbot':>9}" for n in renderers))
+    for n, r in renderers.items():
+        f = r["time_fit"]
+        print(f"{n}: time fit {f['overhead_s']:.3f} s + {f['seconds_per_sample']:.4f} s/spp (worst point off by {f['max_rel_residual']:.0%})")
+    print(f"\n{'target':>7} {'renderer':>8} {'spp':>7} {'s/frame':>8} {'s/sample':>9} {'x moonbot':>9} {'fit s/frame':>11} {'fit x':>6}")
     for e in table:
-        cells = []
         for n in renderers:
             a = e[n]
-            cells.append(f"{a['seconds_per_frame']:>18.2f} {a['seconds_per_sample']:>9.4f} {a['ratio_to_moonbot'] or 0:>9.2f}"
-                         if a else f"{'—':>18} {'—':>9} {'—':>9}")
-        print(f"{e['target_rel_rmse']:>7} " + " ".join(cells))
+            if a:
+                print(f"{e['target_rel_rmse']:>7} {n:>8} {a['spp']:>7.1f} {a['seconds_per_frame']:>8.2f} {a['seconds_per_sample']:>9.4f} "
+                      f"{a['ratio_to_moonbot'] or 0:>9.2f} {a['fit_seconds_per_frame']:>11.2f} {a['fit_ratio_to_moonbot'] or 0:>6.2f}")
+            else:
+                print(f"{e['target_rel_rmse']:>7} {n:>8} {'not bracketed by the ladder':>40}")
     print(f"\nwritten {out} and {out.with_suffix('.svg')}; previews {work / 'previews.png'}")
     return 0
 
