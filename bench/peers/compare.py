@@ -59,7 +59,7 @@ def loadavg() -> float:
 
 
 def render_moonbot(config, spec, ladder: list[int], threads: int, repeats: int, repeat_max_spp: int,
-                   out: Path) -> dict:
+                   out: Path, seed: int = 0, prefix: str = "") -> dict:
     """moonbot's core on the parity scene: build once, then the ladder (median of repeats up to
     repeat_max_spp after a warm-up; one render above)."""
     from moonbot import _core
@@ -82,16 +82,16 @@ def render_moonbot(config, spec, ladder: list[int], threads: int, repeats: int, 
     for spp in ladder:
         n = repeats if spp <= repeat_max_spp else 1
         if spp <= repeat_max_spp:
-            render(spp, 0)
+            render(spp, seed)
         times = []
         for k in range(n):
-            result = render(spp, 1 + k)
+            result = render(spp, seed + 1 + k)
             times.append(result["seconds"])
-        np.save(out / f"rgb_spp{spp}.npy", result["rgb"])
+        np.save(out / f"{prefix}rgb_spp{spp}.npy", result["rgb"])
         rows.append({"spp": spp, "render_s": statistics.median(times), "render_s_all": times})
         print(f"moonbot spp {spp:>5}: {rows[-1]['render_s']:.3f} s", flush=True)
-    np.save(out / "depth.npy", result["depth"])
-    np.save(out / "index.npy", result["instance"])
+    np.save(out / f"{prefix}depth.npy", result["depth"])
+    np.save(out / f"{prefix}index.npy", result["instance"])
     from moonbot import __version__
     return {"renderer": "moonbot", "version": __version__, "threads": threads, "build_bvh_s": build_s,
             "passes": "rgb + depth + instance in every render (depth and instance from the pixel-centre ray)",
@@ -151,6 +151,8 @@ def main() -> int:
     parser.add_argument("--cycles-ladder", default="1,2,4,8,16,32,64,128", help="spp of Cycles")
     parser.add_argument("--targets", default="0.1,0.05,0.03,0.02", help="relative RMSE targets")
     parser.add_argument("--reference-spp", type=int, default=512, help="spp of each of the reference's two halves")
+    parser.add_argument("--own-reference-spp", default="moonbot:512,cycles:256",
+                        help="each renderer's own reference too (two halves of this many spp; Mitsuba's is the shared one)")
     parser.add_argument("--repeats", type=int, default=3, help="timed renders per spp up to --repeat-max-spp")
     parser.add_argument("--repeat-max-spp", type=int, default=16)
     parser.add_argument("--work", type=Path, default=Path("/tmp/peers"), help="scratch folder (export, images)")
@@ -231,19 +233,71 @@ def main() -> int:
         "error_correction": "rel_rmse = sqrt(max(0, MSE - var_ref)) / RMS(ref), var_ref = mean((h1-h2)^2)/4",
     }
 
-    curves, table = {}, []
+    # Each renderer's own reference (two halves too): its error against it is its noise alone,
+    # whatever systematic difference separates it from Mitsuba's image.
+    own_spp = {k: int(v) for k, v in (item.split(":") for item in args.own_reference_spp.split(",") if item)}
+    own = {"mitsuba": (halves, var_ref, args.reference_spp)}
+    for name, spp in own_spp.items():
+        if name not in renderers:
+            continue
+        own_halves = []
+        for k, seed in enumerate((100, 200)):
+            prefix = f"ownref{k}_"
+            path = work / name / f"{prefix}rgb_spp{spp}.npy"
+            if not path.exists():
+                if name == "moonbot":
+                    render_moonbot(config, spec or parity_spec(config), [spp], args.threads, 0, 0, work / name,
+                                   seed=seed * 1000, prefix=prefix)
+                else:
+                    run([args.bpy_python, str(HERE / "cycles_render.py"), str(work / "scene"), str(work / name),
+                         "--spp", str(spp), "--repeats", "1", "--repeat-max-spp", "0", "--threads", str(args.threads),
+                         "--seed", str(seed), "--prefix", prefix])
+            own_halves.append(np.load(path)[..., :3].astype(np.float64))
+        own[name] = (own_halves, float(np.mean((own_halves[0] - own_halves[1]) ** 2)) / 4, spp)
+    own_refs = {n: ((h[0] + h[1]) / 2, v, spp) for n, (h, v, spp) in own.items()}
+
+    def block(x: np.ndarray, b: int = 8) -> np.ndarray:
+        hh, ww = x.shape[0] // b * b, x.shape[1] // b * b
+        return x[:hh, :ww].reshape(hh // b, b, ww // b, b, -1).mean(axis=(1, 3))
+
+    cross = {}
+    for a in own_refs:
+        for b in own_refs:
+            if a < b:
+                ra, va, _ = own_refs[a]
+                rb, vb, _ = own_refs[b]
+                cross[f"{a} vs {b}"] = {
+                    "rel_rmse": math.sqrt(max(0.0, float(np.mean((ra - rb) ** 2)) - va - vb)) / rms_ref,
+                    "rel_rmse_raw": float(np.sqrt(np.mean((ra - rb) ** 2))) / rms_ref,
+                    "rel_rmse_8x8_blocks": float(np.sqrt(np.mean((block(ra) - block(rb)) ** 2))) / rms_ref,
+                    "mean_ratio": float(ra.mean() / rb.mean())}
+    result["own_references"] = {n: {"spp": 2 * spp, "own_rel_rmse_estimate": math.sqrt(v) / rms_ref}
+                                for n, (_, v, spp) in own_refs.items()}
+    result["reference_cross_differences"] = cross
+
+    curves, own_curves, table = {}, {}, []
     previews = [ref]
     for name, r in renderers.items():
         for row in r["rows"]:
             img = np.load(work / name / f"rgb_spp{row['spp']}.npy")[..., :3]
             row.update(rel_errors(img, ref, var_ref))
+            if name in own_refs:
+                o = rel_errors(img, own_refs[name][0], own_refs[name][1])
+                row.update({"own_ref_rel_rmse": o["rel_rmse"], "own_ref_rel_rmse_raw": o["rel_rmse_raw"]})
         previews.append(np.load(work / name / f"rgb_spp{r['rows'][-1]['spp']}.npy")[..., :3])
         label = {"moonbot": "moonbot (Embree 3, own tracer)", "mitsuba": f"Mitsuba {r.get('version')} {r.get('variant')}",
                  "cycles": f"Blender Cycles {r.get('version')} (bpy)"}[name]
         curves[label] = [(row["render_s"], row["rel_rmse"], str(row["spp"])) for row in r["rows"]]
         r["at_error"] = {str(t): at_error(r["rows"], t) for t in targets}
+        if name in own_refs:
+            own_rows = [{**row, "rel_rmse": row["own_ref_rel_rmse"]} for row in r["rows"]]
+            r["at_error_own_reference"] = {str(t): at_error(own_rows, t) for t in targets}
+            own_curves[label] = [(row["render_s"], row["own_ref_rel_rmse"], str(row["spp"])) for row in r["rows"]]
         r["time_fit"] = fit = time_fit(r["rows"])
         for a in r["at_error"].values():
+            if a:
+                a["fit_seconds_per_frame"] = fit["overhead_s"] + fit["seconds_per_sample"] * a["spp"]
+        for a in r.get("at_error_own_reference", {}).values():
             if a:
                 a["fit_seconds_per_frame"] = fit["overhead_s"] + fit["seconds_per_sample"] * a["spp"]
     for t in targets:
@@ -258,8 +312,22 @@ def main() -> int:
                 entry[name]["seconds_per_frame_with_depth_index"] = a["seconds_per_frame"] + extra
                 entry[name]["ratio_to_moonbot_with_depth_index"] = ((a["seconds_per_frame"] + extra) / base["seconds_per_frame"]) if base else None
         table.append(entry)
+    own_table = []
+    for t in targets:
+        base = renderers["moonbot"].get("at_error_own_reference", {}).get(str(t))
+        entry = {"target_rel_rmse": t}
+        for name, r in renderers.items():
+            a = r.get("at_error_own_reference", {}).get(str(t))
+            entry[name] = a and {**a, "ratio_to_moonbot": (a["seconds_per_frame"] / base["seconds_per_frame"]) if base else None,
+                                 "fit_ratio_to_moonbot": (a["fit_seconds_per_frame"] / base["fit_seconds_per_frame"]) if base else None}
+            if a and name == "mitsuba" and "aov_pass" in r:
+                extra = r["aov_pass"]["render_s"]
+                entry[name]["seconds_per_frame_with_depth_index"] = a["seconds_per_frame"] + extra
+                entry[name]["ratio_to_moonbot_with_depth_index"] = ((a["seconds_per_frame"] + extra) / base["seconds_per_frame"]) if base else None
+        own_table.append(entry)
     result["renderers"] = renderers
     result["equal_error"] = table
+    result["equal_error_own_reference"] = own_table
 
     # Depth and object index against moonbot's (pixel centres there; Mitsuba's 1-spp AOV pass is
     # jittered within the pixel, so edges differ).
@@ -283,6 +351,9 @@ def main() -> int:
     out = args.out or RESULTS / f"peers-{slug}.json"
     result["previews"] = f"{work / 'previews.png'}: reference, then each renderer's highest spp ({', '.join(renderers)})"
     out.write_text(json.dumps(result, indent=2) + "\n")
+    time_error_plot(out.with_name(out.stem + "-own-reference.svg"), f"Same scene, {args.width}x{args.height}, "
+                    f"{args.threads} threads: render time vs error against each renderer's own reference", own_curves,
+                    x_label="seconds per frame (render only)", y_label="relative RMSE of linear radiance")
     time_error_plot(out.with_suffix(".svg"), f"Same scene, {args.width}x{args.height}, {args.threads} threads: "
                     "render time vs error against a shared reference", curves,
                     x_label="seconds per frame (render only)", y_label="relative RMSE of linear radiance")
@@ -295,6 +366,17 @@ def main() -> int:
         print(f"{n}: time fit {f['overhead_s']:.3f} s + {f['seconds_per_sample']:.4f} s/spp (worst point off by {f['max_rel_residual']:.0%})")
     print(f"\n{'target':>7} {'renderer':>8} {'spp':>7} {'s/frame':>8} {'s/sample':>9} {'x moonbot':>9} {'fit s/frame':>11} {'fit x':>6}")
     for e in table:
+        for n in renderers:
+            a = e[n]
+            if a:
+                print(f"{e['target_rel_rmse']:>7} {n:>8} {a['spp']:>7.1f} {a['seconds_per_frame']:>8.2f} {a['seconds_per_sample']:>9.4f} "
+                      f"{a['ratio_to_moonbot'] or 0:>9.2f} {a['fit_seconds_per_frame']:>11.2f} {a['fit_ratio_to_moonbot'] or 0:>6.2f}")
+            else:
+                print(f"{e['target_rel_rmse']:>7} {n:>8} {'not bracketed by the ladder':>40}")
+    print("\nagainst each renderer's own reference; cross differences of the references:")
+    for k, c in cross.items():
+        print(f"  {k}: rel RMSE {c['rel_rmse']:.4f} (raw {c['rel_rmse_raw']:.4f}, 8x8 blocks {c['rel_rmse_8x8_blocks']:.4f}), mean ratio {c['mean_ratio']:.4f}")
+    for e in own_table:
         for n in renderers:
             a = e[n]
             if a:

@@ -195,6 +195,7 @@ def main() -> int:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--repeat-max-spp", type=int, default=16, help="spp above this get one timed render")
+    parser.add_argument("--prefix", default="", help="prefix of the output files (e.g. a reference's)")
     args = parser.parse_args()
 
     start = time.perf_counter()
@@ -215,31 +216,31 @@ def main() -> int:
         bpy.ops.render.render(write_still=True)
         return time.perf_counter() - t0
 
-    warm = args.out_dir / "warmup.exr"
+    warm = args.out_dir / f"{args.prefix}warmup.exr"
     first_render_s = render(1, args.seed, warm)
     warm.unlink(missing_ok=True)
     rows = []
     for spp in [int(s) for s in args.spp.split(",") if s]:
         times = []
-        exr = args.out_dir / f"cycles_spp{spp}.exr"
+        exr = args.out_dir / f"{args.prefix}cycles_spp{spp}.exr"
         for r in range(max(args.repeats, 1) if spp <= args.repeat_max_spp else 1):
             s = render(spp, args.seed + 1 + r, exr)
             times.append(s)
         rgb, depth, index = read_exr(exr)
-        np.save(args.out_dir / f"rgb_spp{spp}.npy", rgb)
+        np.save(args.out_dir / f"{args.prefix}rgb_spp{spp}.npy", rgb)
         exr.unlink()
         rows.append({"spp": spp, "render_s": statistics.median(times), "render_s_all": times})
         print(f"cycles spp {spp:>5}: {rows[-1]['render_s']:.3f} s", flush=True)
     if depth is not None:
-        np.save(args.out_dir / "depth.npy", np.where((depth > 0) & (depth < 1e9), depth, 0).astype(np.float32))
+        np.save(args.out_dir / f"{args.prefix}depth.npy", np.where((depth > 0) & (depth < 1e9), depth, 0).astype(np.float32))
     if index is not None:
-        np.save(args.out_dir / "index.npy", np.rint(index).astype(np.uint8))
+        np.save(args.out_dir / f"{args.prefix}index.npy", np.rint(index).astype(np.uint8))
     out = {"renderer": "cycles", "version": bpy.app.version_string, "threads": args.threads,
            "import_bpy_s": import_s, "load_s": load_s, "first_render_s": first_render_s,
            "passes": "Combined + Depth + IndexOB enabled in every render (multilayer EXR, float32, uncompressed)",
            "passes_written": ["Combined"] + (["Depth"] if depth is not None else []) + (["IndexOB"] if index is not None else []),
            "rows": rows}
-    (args.out_dir / "timings.json").write_text(json.dumps(out, indent=2) + "\n")
+    (args.out_dir / f"{args.prefix}timings.json").write_text(json.dumps(out, indent=2) + "\n")
     return 0
 
 
