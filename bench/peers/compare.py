@@ -17,13 +17,19 @@ One command:
    (mitsuba_render.py) and Cycles (cycles_render.py, in its own venv) render the ladder of spp
    on --threads threads, one after the other on this machine; each renderer's time per frame is
    its render time alone (scene load and BVH build reported apart).
-4. For each error target, the spp each renderer needs and the seconds that costs, by log-log
+4. Each renderer's own reference too (--own-reference-spp, two halves each; Mitsuba's is the
+   shared one), the references' differences from one another (noise removed), and every
+   image's error against its own renderer's reference: its noise alone, whatever systematic
+   difference separates the renderers' images (on the default scene Mitsuba's bounce light came
+   out brighter than moonbot's and Cycles', which agree; bench/peers/README.md).
+5. For each error target, the spp each renderer needs and the seconds that costs, by log-log
    interpolation between the ladder's points (none where the ladder does not bracket it); then
    seconds per sample at that error and the ratio to moonbot's seconds (> 1: moonbot faster).
    Mitsuba's frame with depth and object index adds its 1-spp `aov` pass; Cycles' passes are
    enabled in every render (its frame time includes them).
 
-Writes bench/results/peers-<machine>.json and .svg (time against error), and tone-mapped PNG
+Writes bench/results/peers-<machine>.json, .svg (time against error, shared reference) and
+-own-reference.svg (against each renderer's own reference), and tone-mapped PNG
 previews of every renderer's highest-spp image and the reference to --work (check them by eye).
 """
 
@@ -151,7 +157,7 @@ def main() -> int:
     parser.add_argument("--cycles-ladder", default="1,2,4,8,16,32,64,128", help="spp of Cycles")
     parser.add_argument("--targets", default="0.1,0.05,0.03,0.02", help="relative RMSE targets")
     parser.add_argument("--reference-spp", type=int, default=512, help="spp of each of the reference's two halves")
-    parser.add_argument("--own-reference-spp", default="moonbot:512,cycles:256",
+    parser.add_argument("--own-reference-spp", default="moonbot:256,cycles:128",
                         help="each renderer's own reference too (two halves of this many spp; Mitsuba's is the shared one)")
     parser.add_argument("--repeats", type=int, default=3, help="timed renders per spp up to --repeat-max-spp")
     parser.add_argument("--repeat-max-spp", type=int, default=16)
