@@ -148,6 +148,19 @@ def tonemap_png(path: Path, images: list[np.ndarray], scale: float) -> None:
     Image.fromarray((np.clip(row / (1 + row), 0, 1) ** (1 / 2.2) * 255).astype(np.uint8)).save(path)
 
 
+def print_equal_error(table: list[dict], renderers: dict) -> None:
+    """One line per error target and renderer: spp, seconds per frame and per sample at that
+    error, the ratio to moonbot, and the same from the time-against-spp fit."""
+    for e in table:
+        for n in renderers:
+            a = e[n]
+            if a:
+                print(f"{e['target_rel_rmse']:>7} {n:>8} {a['spp']:>7.1f} {a['seconds_per_frame']:>8.2f} {a['seconds_per_sample']:>9.4f} "
+                      f"{a['ratio_to_moonbot'] or 0:>9.2f} {a['fit_seconds_per_frame']:>11.2f} {a['fit_ratio_to_moonbot'] or 0:>6.2f}")
+            else:
+                print(f"{e['target_rel_rmse']:>7} {n:>8} {'not bracketed by the ladder':>40}")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--width", type=int, default=640)
@@ -371,25 +384,11 @@ def main() -> int:
         f = r["time_fit"]
         print(f"{n}: time fit {f['overhead_s']:.3f} s + {f['seconds_per_sample']:.4f} s/spp (worst point off by {f['max_rel_residual']:.0%})")
     print(f"\n{'target':>7} {'renderer':>8} {'spp':>7} {'s/frame':>8} {'s/sample':>9} {'x moonbot':>9} {'fit s/frame':>11} {'fit x':>6}")
-    for e in table:
-        for n in renderers:
-            a = e[n]
-            if a:
-                print(f"{e['target_rel_rmse']:>7} {n:>8} {a['spp']:>7.1f} {a['seconds_per_frame']:>8.2f} {a['seconds_per_sample']:>9.4f} "
-                      f"{a['ratio_to_moonbot'] or 0:>9.2f} {a['fit_seconds_per_frame']:>11.2f} {a['fit_ratio_to_moonbot'] or 0:>6.2f}")
-            else:
-                print(f"{e['target_rel_rmse']:>7} {n:>8} {'not bracketed by the ladder':>40}")
+    print_equal_error(table, renderers)
     print("\nagainst each renderer's own reference; cross differences of the references:")
     for k, c in cross.items():
         print(f"  {k}: rel RMSE {c['rel_rmse']:.4f} (raw {c['rel_rmse_raw']:.4f}, 8x8 blocks {c['rel_rmse_8x8_blocks']:.4f}), mean ratio {c['mean_ratio']:.4f}")
-    for e in own_table:
-        for n in renderers:
-            a = e[n]
-            if a:
-                print(f"{e['target_rel_rmse']:>7} {n:>8} {a['spp']:>7.1f} {a['seconds_per_frame']:>8.2f} {a['seconds_per_sample']:>9.4f} "
-                      f"{a['ratio_to_moonbot'] or 0:>9.2f} {a['fit_seconds_per_frame']:>11.2f} {a['fit_ratio_to_moonbot'] or 0:>6.2f}")
-            else:
-                print(f"{e['target_rel_rmse']:>7} {n:>8} {'not bracketed by the ladder':>40}")
+    print_equal_error(own_table, renderers)
     print(f"\nwritten {out} and {out.with_suffix('.svg')}; previews {work / 'previews.png'}")
     return 0
 
