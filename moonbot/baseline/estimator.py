@@ -82,21 +82,17 @@ class ModelCloud:
     """What the estimator knows of one object: its surface sampled finely (the fine ICP pass and
     the final score) and coarsely (hypotheses, the coarse pass, the free-space check — a far-off
     point costs a KD-tree query in proportion to the samples near its sphere, so the passes that
-    start far use few); its centre (the box's middle) and size (3,) along the model axes, mm; its
-    symmetries as (3, 3) rotations (model frame), identity excluded."""
+    start far use few); and its symmetries as (3, 3) rotations (model frame), identity excluded."""
 
     obj_id: int
     fine: Surface
     coarse: Surface
-    centre: np.ndarray
-    size: np.ndarray
     symmetries: tuple[np.ndarray, ...]
 
     @classmethod
     def from_model(cls, model: Model) -> "ModelCloud":
-        lo, hi = model.vertices.min(axis=0), model.vertices.max(axis=0)
         return cls(model.obj_id, Surface.sample(model, FINE_SPACING_MM), Surface.sample(model, COARSE_SPACING_MM),
-                   (lo + hi) / 2, hi - lo, tuple(S[:3, :3] for S in model.symmetries))
+                   tuple(S[:3, :3] for S in model.symmetries))
 
 
 @dataclass(frozen=True)
