@@ -148,6 +148,26 @@ def tonemap_png(path: Path, images: list[np.ndarray], scale: float) -> None:
     Image.fromarray((np.clip(row / (1 + row), 0, 1) ** (1 / 2.2) * 255).astype(np.uint8)).save(path)
 
 
+def equal_error_table(renderers: dict, targets: list[float], key: str) -> list[dict]:
+    """Per error target, each renderer's spp and seconds at that error (its `key`: "at_error"
+    against the shared reference, "at_error_own_reference" against its own) with the ratios of
+    measured and fitted seconds to moonbot's; Mitsuba's also with its depth + index pass added."""
+    table = []
+    for t in targets:
+        base = renderers["moonbot"].get(key, {}).get(str(t))
+        entry = {"target_rel_rmse": t}
+        for name, r in renderers.items():
+            a = r.get(key, {}).get(str(t))
+            entry[name] = a and {**a, "ratio_to_moonbot": (a["seconds_per_frame"] / base["seconds_per_frame"]) if base else None,
+                                 "fit_ratio_to_moonbot": (a["fit_seconds_per_frame"] / base["fit_seconds_per_frame"]) if base else None}
+            if a and name == "mitsuba" and "aov_pass" in r:
+                extra = r["aov_pass"]["render_s"]
+                entry[name]["seconds_per_frame_with_depth_index"] = a["seconds_per_frame"] + extra
+                entry[name]["ratio_to_moonbot_with_depth_index"] = ((a["seconds_per_frame"] + extra) / base["seconds_per_frame"]) if base else None
+        table.append(entry)
+    return table
+
+
 def print_equal_error(table: list[dict], renderers: dict) -> None:
     """One line per error target and renderer: spp, seconds per frame and per sample at that
     error, the ratio to moonbot, and the same from the time-against-spp fit."""
@@ -294,7 +314,7 @@ def main() -> int:
                                 for n, (_, v, spp) in own_refs.items()}
     result["reference_cross_differences"] = cross
 
-    curves, own_curves, table = {}, {}, []
+    curves, own_curves = {}, {}
     previews = [ref]
     for name, r in renderers.items():
         for row in r["rows"]:
@@ -313,37 +333,12 @@ def main() -> int:
             r["at_error_own_reference"] = {str(t): at_error(own_rows, t) for t in targets}
             own_curves[label] = [(row["render_s"], row["own_ref_rel_rmse"], str(row["spp"])) for row in r["rows"]]
         r["time_fit"] = fit = time_fit(r["rows"])
-        for a in r["at_error"].values():
-            if a:
-                a["fit_seconds_per_frame"] = fit["overhead_s"] + fit["seconds_per_sample"] * a["spp"]
-        for a in r.get("at_error_own_reference", {}).values():
-            if a:
-                a["fit_seconds_per_frame"] = fit["overhead_s"] + fit["seconds_per_sample"] * a["spp"]
-    for t in targets:
-        base = renderers["moonbot"]["at_error"][str(t)]
-        entry = {"target_rel_rmse": t}
-        for name, r in renderers.items():
-            a = r["at_error"][str(t)]
-            entry[name] = a and {**a, "ratio_to_moonbot": (a["seconds_per_frame"] / base["seconds_per_frame"]) if base else None,
-                                 "fit_ratio_to_moonbot": (a["fit_seconds_per_frame"] / base["fit_seconds_per_frame"]) if base else None}
-            if a and name == "mitsuba" and "aov_pass" in r:
-                extra = r["aov_pass"]["render_s"]
-                entry[name]["seconds_per_frame_with_depth_index"] = a["seconds_per_frame"] + extra
-                entry[name]["ratio_to_moonbot_with_depth_index"] = ((a["seconds_per_frame"] + extra) / base["seconds_per_frame"]) if base else None
-        table.append(entry)
-    own_table = []
-    for t in targets:
-        base = renderers["moonbot"].get("at_error_own_reference", {}).get(str(t))
-        entry = {"target_rel_rmse": t}
-        for name, r in renderers.items():
-            a = r.get("at_error_own_reference", {}).get(str(t))
-            entry[name] = a and {**a, "ratio_to_moonbot": (a["seconds_per_frame"] / base["seconds_per_frame"]) if base else None,
-                                 "fit_ratio_to_moonbot": (a["fit_seconds_per_frame"] / base["fit_seconds_per_frame"]) if base else None}
-            if a and name == "mitsuba" and "aov_pass" in r:
-                extra = r["aov_pass"]["render_s"]
-                entry[name]["seconds_per_frame_with_depth_index"] = a["seconds_per_frame"] + extra
-                entry[name]["ratio_to_moonbot_with_depth_index"] = ((a["seconds_per_frame"] + extra) / base["seconds_per_frame"]) if base else None
-        own_table.append(entry)
+        for key in ("at_error", "at_error_own_reference"):
+            for a in r.get(key, {}).values():
+                if a:
+                    a["fit_seconds_per_frame"] = fit["overhead_s"] + fit["seconds_per_sample"] * a["spp"]
+    table = equal_error_table(renderers, targets, "at_error")
+    own_table = equal_error_table(renderers, targets, "at_error_own_reference")
     result["renderers"] = renderers
     result["equal_error"] = table
     result["equal_error_own_reference"] = own_table
