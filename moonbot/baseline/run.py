@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from moonbot.baseline.estimator import ModelCloud, Settings, estimate_pose
-from moonbot.bop.reader import read_models, read_scene, scenes
+from moonbot.bop.reader import Scene, read_models, scenes
 from moonbot.eval.results import Estimate, write_results
 
 
@@ -46,10 +46,9 @@ def _load_clouds(dataset: str) -> None:
     _clouds = {obj: ModelCloud.from_model(model) for obj, model in read_models(Path(dataset), "models").items()}
 
 
-def estimate_image(scene_path: str, im_id: int, settings: Settings) -> tuple[list[Estimate], int, float]:
+def estimate_image(scene: Scene, im_id: int, settings: Settings) -> tuple[list[Estimate], int, float]:
     """Every instance of one image: (its estimates in scene_gt order, instances skipped, seconds
     spent estimating). Uses the process's model clouds (_load_clouds)."""
-    scene = read_scene(Path(scene_path))
     depth_mm = scene.depth_m(im_id).astype(np.float64) * 1000.0
     K = scene.cameras[im_id]
     estimates, skipped, seconds = [], 0, 0.0
@@ -75,18 +74,19 @@ def run_baseline(dataset: Path, split: str = "test", out: Path | None = None, wo
     Raises DatasetError naming a missing or malformed file."""
     dataset = Path(dataset)
     out = Path(out) if out else dataset / "eval" / f"baseline_{split}.csv"
-    jobs = [(str(scene.path), im_id) for scene in scenes(dataset, split) for im_id in sorted(scene.images)]
+    # The scenes' JSON is read once, here; each job carries its scene (no re-read per image).
+    jobs = [(scene, im_id) for scene in scenes(dataset, split) for im_id in sorted(scene.images)]
     report = BaselineReport(out=out)
     results = []
     if workers <= 1:
         _load_clouds(str(dataset))
-        for k, (path, im_id) in enumerate(jobs):
-            results.append(estimate_image(path, im_id, settings))
+        for k, (scene, im_id) in enumerate(jobs):
+            results.append(estimate_image(scene, im_id, settings))
             if progress:
                 progress(k + 1, len(jobs))
     else:
         with ProcessPoolExecutor(workers, initializer=_load_clouds, initargs=(str(dataset),)) as pool:
-            futures = [pool.submit(estimate_image, path, im_id, settings) for path, im_id in jobs]
+            futures = [pool.submit(estimate_image, scene, im_id, settings) for scene, im_id in jobs]
             for k, future in enumerate(futures):
                 results.append(future.result())
                 if progress:
