@@ -15,7 +15,7 @@ from click.testing import CliRunner
 
 from moonbot.benchmark.compare import ResultError, load_result, validate
 from moonbot.benchmark.levels import LEVELS, level_config, parse_levels
-from moonbot.benchmark.limit import encode_limit_seconds, ray_limit_seconds
+from moonbot.benchmark.limit import bounce_s_per_ray, encode_limit_seconds, ray_limit_seconds
 from moonbot.benchmark.throughput import DEFAULT_CONFIG, SCHEMA_VERSION, scaling
 from moonbot.cli import main
 from moonbot.config.schema import RenderConfig
@@ -43,10 +43,16 @@ def test_levels_are_valid_configs():
 
 
 def test_limit_arithmetic():
-    row = {"camera_s_per_ray": 1e-7, "shadow_s_per_ray": 2e-7}
+    # Generation 1: 100 rays in 3e-5 s; generation 2: 50 rays in 3e-5 s.
+    row = {"camera_s_per_ray": 1e-7, "shadow_s_per_ray": 2e-7, "bounce_rays": [100, 50],
+           "bounce_stream_s": [3e-5, 3e-5]}
     rays = {"camera_rays": 10, "shadow_rays": 5, "bounce_rays": 4, "medium_rays": 6, "amodal_rays": 1000}
-    assert ray_limit_seconds(rays, row) == pytest.approx(1e-7 * 20 + 2e-7 * 5)
-    assert ray_limit_seconds(rays, row, 2.5) == pytest.approx(1e-7 * (16 + 10) + 2e-7 * 5)
+    assert bounce_s_per_ray(row, 1) == pytest.approx(3e-7)
+    assert bounce_s_per_ray(row, 2) == pytest.approx(4e-7)  # pooled: 6e-5 s over 150 rays
+    assert bounce_s_per_ray(row, 5) == pytest.approx(4e-7)  # no deeper generation probed: the pool
+    assert ray_limit_seconds(rays, row, 1) == pytest.approx(1e-7 * 16 + 2e-7 * 5 + 3e-7 * 4)
+    assert ray_limit_seconds(rays, row, 2) == pytest.approx(1e-7 * 16 + 2e-7 * 5 + 4e-7 * 4)
+    assert ray_limit_seconds({"camera_rays": 10}, row, 0) == pytest.approx(1e-6)
     encode = {"views": [{"task_id": "a", "serial_s": 0.04, "longest_s": 0.03},
                         {"task_id": "b", "serial_s": 0.02, "longest_s": 0.005}]}
     assert encode_limit_seconds(encode, 1) == pytest.approx(0.06)
@@ -90,6 +96,9 @@ def test_tiny_run_writes_a_complete_result(tiny_result):
     assert run["limit"]["embree_s"] > 0 and run["limit"]["encode_s"] > 0
     assert all(v > 0 for v in run["ratio"].values())
     assert {r["task_id"] for r in record["embree_limit"]} == set(record["tasks"])
+    # draft renders 1 bounce: the probe traced one generation of bounce rays on every scene.
+    assert all(len(r["bounce_rays"]) == 1 and r["bounce_rays"][0] > 0 and r["bounce_mrays_per_s"][0] > 0
+               for r in record["embree_limit"])
     assert record["encode_limit"]["draft"]["raw_mb_per_s"] > 0
     p = record["projection"]
     assert p["samples"] == 176256 and p["views_per_task"] == 36 and p["image_matches_sweep"] is False
@@ -99,7 +108,10 @@ def test_tiny_run_writes_a_complete_result(tiny_result):
 
 def test_compare_reads_an_old_and_a_new_result(tiny_result, tmp_path):
     old = load_result(OLD_RESULT)
-    assert old["schema_version"] <= SCHEMA_VERSION
+    assert json.loads(OLD_RESULT.read_text())["schema_version"] == 1 and old["schema_version"] == SCHEMA_VERSION
+    # Version 1 did not probe bounce rays: the upgraded record says how its limit counted them.
+    assert all(r["limit"]["bounce_cost"].startswith("camera-ray rate") for r in old["runs"])
+    assert all(r["limit"]["bounce_cost"] == "measured" for r in load_result(tiny_result)["runs"])
     plot = tmp_path / "cmp.svg"
     result = CliRunner().invoke(main, ["bench", "compare", str(OLD_RESULT), str(tiny_result), "--plot", str(plot)])
     assert result.exit_code == 0, result.output
@@ -116,7 +128,7 @@ def test_compare_reads_an_old_and_a_new_result(tiny_result, tmp_path):
     (lambda r: r["machine"].pop("cpu"), "machine.cpu: missing"),
     (lambda r: r.update(runs={}), "runs: expected a list"),
     (lambda r: r["projection"]["levels"][0]["hours"][0].update(nodes=1.5), "hours[0].nodes: expected an integer"),
-    (lambda r: r.update(schema_version=SCHEMA_VERSION + 1), "schema_version: 2 is newer"),
+    (lambda r: r.update(schema_version=SCHEMA_VERSION + 1), f"schema_version: {SCHEMA_VERSION + 1} is newer"),
     (lambda r: r.update(benchmark="generate"), "benchmark: expected 'throughput'"),
 ])
 def test_a_malformed_result_names_the_file_and_field(tmp_path, edit, field):
@@ -142,6 +154,9 @@ def test_unreadable_results(tmp_path):
         validate([], "x")
 
 
-def test_validate_accepts_the_old_result_as_is():
+def test_validate_upgrades_the_old_result_and_leaves_it_alone():
     record = json.loads(OLD_RESULT.read_text())
-    assert validate(record, str(OLD_RESULT)) == record
+    upgraded = validate(record, str(OLD_RESULT))
+    assert record == json.loads(OLD_RESULT.read_text())  # the caller's record is not edited
+    assert upgraded["schema_version"] == SCHEMA_VERSION and upgraded["machine"] == record["machine"]
+    assert [r["ratio"]["render_encode"] for r in upgraded["runs"]] == [r["ratio"]["render_encode"] for r in record["runs"]]

@@ -570,15 +570,17 @@ def test_geodesy_survives_anything(frame, enu, geo, drop):
 @settings(FUZZ, max_examples=30)
 @given(kwargs=calls(dict(scene=st.builds(ground_scene, st.just(LABEL)), camera=small_cameras(4),
                          sun=st.builds(_core.Sun, **SUN_FIELDS), threads=st.integers(0, 2),
-                         repeats=st.integers(1, 2)),
+                         repeats=st.integers(1, 2), bounces=st.integers(0, 2)),
                     dict(scene=BAD_SCENES, threads=st.one_of(st.integers(max_value=-1), JUNK),
-                         repeats=st.one_of(st.integers(max_value=0), JUNK))))
+                         repeats=st.one_of(st.integers(max_value=0), JUNK),
+                         bounces=st.one_of(st.integers(max_value=-1), st.integers(min_value=17), JUNK))))
 def test_embree_limit_survives_anything(kwargs):
     """measure_embree_limit (a benchmark binding) never crashes on bad settings or scene state and
     raises only the allowed types; on success it traced one camera ray per pixel."""
     out, error = attempt(_core.measure_embree_limit, **kwargs)
     if error is None:
         assert out["camera_rays"] == kwargs["camera"].width * kwargs["camera"].height
+        assert len(out["bounce_rays"]) == kwargs.get("bounces", 0)
 
 
 # --- defects: one defect in an otherwise valid call names its argument ---------------------------
@@ -978,6 +980,8 @@ BAD_RENDERS = {
         ground_scene(4), down_camera(4, 4), _core.Sun(0, 45), threads=1025), "threads"),
     "measure_embree_limit-repeats-0": (lambda: _core.measure_embree_limit(
         ground_scene(4), down_camera(4, 4), _core.Sun(0, 45), repeats=0), "repeats"),
+    "measure_embree_limit-bounces-17": (lambda: _core.measure_embree_limit(
+        ground_scene(4), down_camera(4, 4), _core.Sun(0, 45), bounces=17), "bounces"),
     "passes-unknown": (_render_call(passes=["rgb", "normals"]), "passes"),
     "passes-empty-name": (_render_call(passes=[""]), "passes"),
     "passes-empty": (_render_call(passes=[]), "passes"),

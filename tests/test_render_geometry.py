@@ -212,16 +212,25 @@ def test_exact_depth_holds_far_from_the_origin(offset):
 
 def test_embree_limit_probe_traces_the_renderers_rays():
     """The yardstick is fair: `measure_embree_limit` traces exactly as many camera and shadow
-    rays as a spp = 1 render of the same view, and reports positive times."""
+    rays as a spp = 1 render of the same view, one first-bounce ray from every camera hit as the
+    renderer does, a second generation from those that hit again, and reports positive times."""
     scene, _ = ground_and_box()
     cam = camera(K_for(W, H, 70.0), W, H, orbit_pose(np.array([0, 0, 0.2]), 1.0, 0.5, 40.0))
     sun = _core.Sun(120, 12)
     rendered = _core.render(scene, cam, sun)
-    limit = _core.measure_embree_limit(scene, cam, sun, threads=1, repeats=1)
+    limit = _core.measure_embree_limit(scene, cam, sun, threads=1, repeats=1, bounces=2)
     assert limit["camera_rays"] == rendered["camera_rays"] == W * H
     assert limit["shadow_rays"] == rendered["shadow_rays"] > 0
+    first, second = limit["bounce_rays"]
+    bounced = _core.render(scene, cam, sun, bounces=1)
+    assert first == bounced["bounce_rays"] == np.count_nonzero(bounced["depth"] > 0)
+    assert 0 < second < first  # bounces that leave for the black sky end there
     assert all(limit[f"{query}_{kind}_s"] > 0 for query in ("intersect", "occluded")
                for kind in ("single", "packet8", "packet16", "stream", "stream_from_memory"))
+    assert all(s > 0 for s in limit["bounce_stream_s"] + limit["bounce_single_s"])
+    assert _core.measure_embree_limit(scene, cam, sun, threads=1, repeats=1)["bounce_rays"] == []
+    with pytest.raises(ValueError, match="bounces"):
+        _core.measure_embree_limit(scene, cam, sun, bounces=17)
     assert limit["threads"] == 1 and limit["timer_overhead_s"] >= 0  # timings are for bench/, not tests
     with pytest.raises(ValueError, match="repeats"):
         _core.measure_embree_limit(scene, cam, sun, repeats=0)

@@ -13,6 +13,7 @@
 #include <tbb/task_arena.h>
 
 #include "moonbot/render.h"
+#include "moonbot/rng.h"
 #include "rays.h"
 
 namespace moonbot {
@@ -131,11 +132,44 @@ double wall_seconds_from_memory(tbb::task_arena& arena, const Tiled<RayHit>& pri
     return median(seconds);
 }
 
+/// Bounce rays for the `n` traced rays `from` (ray k leaving along dirs[k], of pixel pixel_of[k];
+/// every hit is a path vertex): a cosine-distributed direction about the hit's unit geometric
+/// normal on the arriving side, from the lifted hit point, its two uniforms keyed by the pixel and
+/// `generation`. Into `out` (their directions into `out_dirs`, their pixels into `out_pixel`);
+/// returns their number.
+int bounce_rays(const InstanceData* instances, const RayHit* from, const glm::dvec3* origins,
+                const glm::dvec3* dirs, const uint64_t* pixel_of, int n, uint32_t generation,
+                RayHit* out, glm::dvec3* out_origins, glm::dvec3* out_dirs, uint64_t* out_pixel) {
+    int count = 0;
+    for (int k = 0; k < n; ++k) {
+        const RayHit& ray = from[k];
+        if (ray.geom_id == kInvalidId) continue;
+        glm::dvec3 normal = instances[ray.inst_id].normal_to_world * glm::dvec3(ray.ng_x, ray.ng_y, ray.ng_z);
+        const double len = glm::length(normal);
+        if (!(len > 0.0)) continue;
+        normal /= len;
+        if (glm::dot(normal, dirs[k]) > 0.0) normal = -normal;
+        const glm::dvec3 point = origins[k] + static_cast<double>(ray.tfar) * dirs[k];
+        const uint64_t stream = pixel_stream(0, pixel_of[k]);
+        double mu;
+        const glm::dvec3 wi = cosine_direction(normal, stream_uniform01(stream, 0, 2 * generation),
+                                               stream_uniform01(stream, 0, 2 * generation + 1), mu);
+        out_origins[count] = lift_off(point, normal);
+        out_dirs[count] = wi;
+        out_pixel[count] = pixel_of[k];
+        set_ray(out[count], out_origins[count], wi);
+        ++count;
+    }
+    return count;
+}
+
 }  // namespace
 
 EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const Sun& sun,
-                                 int threads, int repeats) {
+                                 int threads, int repeats, int bounces) {
     if (repeats < 1) throw std::invalid_argument("repeats: must be >= 1");
+    if (bounces < 0 || bounces > kMaxBounces)
+        throw std::invalid_argument("bounces: must be in 0.." + std::to_string(kMaxBounces));
     if (threads < 0 || threads > kMaxThreads)
         throw std::invalid_argument("threads: must be in 0.." + std::to_string(kMaxThreads) + " (0 = all)");
     const Scene::ReadLock lock(scene);
@@ -157,6 +191,12 @@ EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const
     std::vector<int> in_order(kTilePixels);
     for (int i = 0; i < kTilePixels; ++i) in_order[static_cast<size_t>(i)] = i;
     TileHits hits;
+    // Bounce rays per generation, tile by tile, and one generation's rays, origins, directions
+    // and pixels while the next is made from them.
+    std::vector<Tiled<RayHit>> bounce(static_cast<size_t>(bounces));
+    std::array<RayHit, kTilePixels> gen, next;
+    std::array<glm::dvec3, kTilePixels> gen_origin, gen_dir, next_origin, next_dir;
+    std::array<uint64_t, kTilePixels> gen_pixel, next_pixel;
     for (int y0 = 0; y0 < h; y0 += kTile)
         for (int x0 = 0; x0 < w; x0 += kTile) {
             const int x1 = std::min(x0 + kTile, w), y1 = std::min(y0 + kTile, h);
@@ -182,6 +222,30 @@ EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const
             shadow_8.end_tile(us);
             pack<16>(shadow.data(), in_order, us, shadow_16.items);
             shadow_16.end_tile(us);
+
+            // Generation 0 "leaves" the camera: the traced camera rays, then each bounce from the
+            // previous generation's hits (traced here, untimed, to find them).
+            int n_gen = n;
+            for (int i = 0; i < n; ++i) {
+                gen[i] = traced[i];
+                gen_origin[i] = camera.center();
+                gen_dir[i] = dirs[i];
+                gen_pixel[i] = static_cast<uint64_t>(y0 + i / (x1 - x0)) * w + static_cast<uint64_t>(x0 + i % (x1 - x0));
+            }
+            for (int g = 0; g < bounces; ++g) {
+                const int made = bounce_rays(instances.data(), gen.data(), gen_origin.data(), gen_dir.data(),
+                                             gen_pixel.data(), n_gen, static_cast<uint32_t>(g), next.data(),
+                                             next_origin.data(), next_dir.data(), next_pixel.data());
+                Tiled<RayHit>& out = bounce[static_cast<size_t>(g)];
+                out.items.insert(out.items.end(), next.begin(), next.begin() + made);
+                out.end_tile(static_cast<size_t>(made));
+                if (g + 1 < bounces && made > 0) scene.accel().intersect(next.data(), static_cast<size_t>(made), false);
+                std::swap(gen, next);
+                std::swap(gen_origin, next_origin);
+                std::swap(gen_dir, next_dir);
+                std::swap(gen_pixel, next_pixel);
+                n_gen = made;
+            }
         }
 
     tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
@@ -208,6 +272,13 @@ EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const
         [&](RayHitPacket<16>* p, size_t n) { accel.occluded_packets(p, n); });
     limit.occluded_stream_s = embree_seconds(arena, shadow_rays, repeats, overhead,
         [&](RayHit* r, size_t n) { accel.occluded(r, n, true); });
+    for (const Tiled<RayHit>& rays : bounce) {
+        limit.bounce_rays.push_back(rays.items.size());
+        limit.bounce_stream_s.push_back(embree_seconds(arena, rays, repeats, overhead,
+            [&](RayHit* r, size_t n) { accel.intersect(r, n, false); }));
+        limit.bounce_single_s.push_back(embree_seconds(arena, rays, repeats, overhead,
+            [&](RayHit* r, size_t n) { accel.intersect_single(r, n); }));
+    }
     limit.intersect_stream_from_memory_s = wall_seconds_from_memory(arena, camera_rays, repeats,
         [&](RayHit* r, size_t n) { accel.intersect(r, n, true); });
     limit.occluded_stream_from_memory_s = wall_seconds_from_memory(arena, shadow_rays, repeats,

@@ -67,13 +67,9 @@ double puff_reach(const Puff& puff) {
 
 DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& sun_dir)
     : m_medium(medium), m_sun(sun_dir) {
-    // The grid's frame: two axes across the Sun's direction (Duff et al.'s basis, as the
-    // renderer's) and the Sun's direction itself, so that every Sun ray runs along a grid line.
-    const double sign = std::copysign(1.0, m_sun.z);
-    const double q = -1.0 / (sign + m_sun.z);
-    const double xy = m_sun.x * m_sun.y * q;
-    m_axis[0] = {1.0 + sign * m_sun.x * m_sun.x * q, sign * xy, -sign * m_sun.x};
-    m_axis[1] = {xy, sign + m_sun.y * m_sun.y * q, -m_sun.y};
+    // The grid's frame: two axes across the Sun's direction and the Sun's direction itself, so
+    // that every Sun ray runs along a grid line.
+    detail::orthonormal_basis(m_sun, m_axis[0], m_axis[1]);
     m_axis[2] = m_sun;
     const std::vector<Puff>& puffs = medium.puffs;
     m_reach.resize(puffs.size());

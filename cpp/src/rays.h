@@ -33,6 +33,29 @@ inline glm::dvec3 lift_off(const glm::dvec3& point, const glm::dvec3& normal) {
     return point + normal * (kShadowBias * scale);
 }
 
+/// An orthonormal basis (a, b) completing unit w (Duff et al. 2017, "Building an Orthonormal
+/// Basis, Revisited", JCGT 6(1)): branchless and continuous except at w.z = −0.
+inline void orthonormal_basis(const glm::dvec3& w, glm::dvec3& a, glm::dvec3& b) {
+    const double sign = std::copysign(1.0, w.z);
+    const double k = -1.0 / (sign + w.z);
+    const double xy = w.x * w.y * k;
+    a = {1.0 + sign * w.x * w.x * k, sign * xy, -sign * w.x};
+    b = {xy, sign + w.y * w.y * k, -w.y};
+}
+
+/// A cosine-distributed unit direction about the unit `normal` (Malley's method: a uniform point
+/// on the unit disk, radius √u1 and angle 2π·u2, lifted onto the hemisphere), u1, u2 in [0, 1);
+/// `mu` receives its cosine to the normal. How the renderer's bounces leave a surface, and so the
+/// Embree-limit probe's bounce rays.
+inline glm::dvec3 cosine_direction(const glm::dvec3& normal, double u1, double u2, double& mu) {
+    const double r = std::sqrt(u1);
+    const double phi = 6.28318530717958647693 * u2;
+    glm::dvec3 a, b;
+    orthonormal_basis(normal, a, b);
+    mu = std::sqrt(std::max(0.0, 1.0 - r * r));
+    return r * std::cos(phi) * a + r * std::sin(phi) * b + mu * normal;
+}
+
 /// What the per-pixel path needs of one instance, gathered once per render into a flat table:
 /// reaching it through Scene::instance → Scene::mesh → the mesh's vectors was a chain of five
 /// dependent loads per hit. Values are copies (albedo widened to double exactly).

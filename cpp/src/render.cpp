@@ -76,16 +76,6 @@ struct TileScratch {
     std::array<glm::dvec3, kTilePixels> dust_glow;  // sunlight the dust scatters toward the camera
 };
 
-/// An orthonormal basis (a, b) completing unit w (Duff et al. 2017, "Building an Orthonormal
-/// Basis, Revisited", JCGT 6(1)): branchless and continuous except at w.z = −0.
-void basis(const glm::dvec3& w, glm::dvec3& a, glm::dvec3& b) {
-    const double sign = std::copysign(1.0, w.z);
-    const double k = -1.0 / (sign + w.z);
-    const double xy = w.x * w.y * k;
-    a = {1.0 + sign * w.x * w.x * k, sign * xy, -sign * w.x};
-    b = {xy, sign + w.y * w.y * k, -w.y};
-}
-
 /// The photometric shape of an instance's surface (photometry.h). Lambert's is 1 outright: no
 /// call, and a Lambertian seen past its smooth shading normal's horizon still takes its light.
 double shape_at(const InstanceData& inst, double mu_i, double mu_o, double cos_g) {
@@ -100,7 +90,7 @@ std::vector<LightData> light_table(const Lights& lights) {
         LightData d;
         d.dir = l.direction();
         d.color = l.color();
-        basis(d.dir, d.a, d.b);
+        orthonormal_basis(d.dir, d.a, d.b);
         d.scale = kInvPi * l.irradiance();
         d.cos_half = l.cos_half_angle();
         d.point = l.half_angle() == 0.0;
@@ -304,10 +294,10 @@ private:
                 b = glm::cross(n, t);
                 if (glm::dot(b, (e2 * d1.x - e1 * d2.x) / det) < 0.0) b = -b;  // along +v
             } else {
-                basis(n, t, b);
+                orthonormal_basis(n, t, b);
             }
         } else {
-            basis(n, t, b);  // a degenerate UV triangle: any frame (the weave is then arbitrary)
+            orthonormal_basis(n, t, b);  // a degenerate UV triangle: any frame (the weave is then arbitrary)
         }
         // One pixel's width on the cloth: its angle 1/fx at the hit's distance, stretched by the
         // obliquity (capped so a grazing hit still gets a finite blur).
@@ -382,12 +372,9 @@ private:
         for (int i = 0; i < n; ++i) {
             PathVertex& v = s.path[i];
             if (!v.alive) continue;
-            const double r = std::sqrt(static_cast<double>(stream_uniform01(s.streams[i], sample, dim)));
-            const double phi = kTwoPi * stream_uniform01(s.streams[i], sample, dim + 1);
-            glm::dvec3 a, b;
-            basis(v.normal, a, b);
-            const double mu_i = std::sqrt(std::max(0.0, 1.0 - r * r));
-            const glm::dvec3 wi = r * std::cos(phi) * a + r * std::sin(phi) * b + mu_i * v.normal;
+            double mu_i;
+            const glm::dvec3 wi = cosine_direction(v.normal, stream_uniform01(s.streams[i], sample, dim),
+                                                   stream_uniform01(s.streams[i], sample, dim + 1), mu_i);
             const InstanceData& inst = m_instances[v.instance];
             const double shape = shape_at(inst, mu_i, glm::dot(v.normal, v.wo), glm::dot(wi, v.wo));
             v.throughput *= v.albedo * shape;

@@ -3,11 +3,12 @@
 
 The schema: SCHEMA below lists every field a reader relies on, with its type; a result may hold
 more. `schema_version` is checked: versions up to this reader's are accepted (an older version is
-brought up to date by UPGRADES, none so far), a newer one is refused. Every problem is reported as
+brought up to date by UPGRADES), a newer one is refused. Every problem is reported as
 "<file>: <field>: <what is wrong>"."""
 
 from __future__ import annotations
 
+import copy
 import json
 import math
 from pathlib import Path
@@ -34,10 +35,9 @@ RUN = {
     "rays": {"camera_rays": INT, "shadow_rays": INT, "bounce_rays": INT, "medium_rays": INT, "amodal_rays": INT},
     "mrays_per_s": NUM, "generate_wall_s": NUM, "load_before": _LOAD, "load_after": _LOAD,
     "peak_rss_mib": {"workers": [NUM], "max_worker": NUM, "driver": NUM},
-    "limit": {"threads": INT, "embree_s": NUM, "embree_s_bounce_incoherent": NUM, "encode_s": NUM,
-              "seconds_per_sample": NUM, "seconds_per_sample_bounce_incoherent": NUM, "encode_raw_mb_per_s": NUM},
-    "ratio": {"render": NUM, "encode": NUM, "render_encode": NUM, "render_encode_bounce_incoherent": NUM,
-              "pipeline": NUM, "pipeline_bounce_incoherent": NUM},
+    "limit": {"threads": INT, "embree_s": NUM, "encode_s": NUM, "bounce_cost": STR, "seconds_per_sample": NUM,
+              "encode_raw_mb_per_s": NUM},
+    "ratio": {"render": NUM, "encode": NUM, "render_encode": NUM, "pipeline": NUM},
 }
 EMBREE_ROW = {"task_id": STR, "threads": INT, "camera_rays": INT, "shadow_rays": INT,
               "intersect_stream_s": NUM, "occluded_stream_s": NUM, "primary_mrays_per_s": NUM,
@@ -58,8 +58,25 @@ SCHEMA = {
     "seconds_total": NUM,
 }
 
+
+def _upgrade_1(record: dict) -> dict:
+    """Schema 1 → 2. Version 1's probe traced no bounce rays: its limit counted them at the camera
+    rays' rate (`bounce_cost` says so now) and added a second limit with an assumed incoherent
+    cost, which version 2, measuring them, drops. Returns a new record; `record` is left as it was."""
+    record = copy.deepcopy(record)
+    for run in record.get("runs", []):
+        if isinstance(run.get("limit"), dict):
+            run["limit"]["bounce_cost"] = "camera-ray rate (schema 1: bounce rays not probed)"
+            for key in ("embree_s_bounce_incoherent", "seconds_per_sample_bounce_incoherent"):
+                run["limit"].pop(key, None)
+        if isinstance(run.get("ratio"), dict):
+            for key in ("render_encode_bounce_incoherent", "pipeline_bounce_incoherent"):
+                run["ratio"].pop(key, None)
+    return {**record, "schema_version": 2}
+
+
 # schema_version → a function bringing a record of that version to the next one.
-UPGRADES: dict = {}
+UPGRADES: dict = {1: _upgrade_1}
 
 
 def _check(value, kind, where: str, path: str) -> None:
@@ -167,21 +184,23 @@ def format_record(record: dict, name: str = "this run") -> str:
              "stage columns: worker-seconds a sample (build = terrain + compose + settle + BVH; render includes "
              "amodal masks and tone map); ÷limit = (span / samples) over the limit's seconds a sample (Embree on the "
              "same rays + the encoders on the same files); r+e÷lim = render + tone map + encode/write over the same "
-             "limit (bounce rays at the camera-ray rate: an upper bound on the ratio)", ""]
+             "limit", ""]
     lines.append("Embree alone on view 0 of each scene (64-ray streams, Mrays/s):")
     for row in record["embree_limit"]:
+        bounce = ", ".join(f"{x:.1f}" for x in row.get("bounce_mrays_per_s", []))
         lines.append(f"  {row['task_id'][:48]:<48} {row['threads']} thr: primary {row['primary_mrays_per_s']:.1f}, "
-                     f"shadow {row['shadow_mrays_per_s']:.1f}")
-    lines.append("bounce rays: not measured (counted at the primary rate; × "
-                 "2.5 for the incoherent estimate, see moonbot/benchmark/limit.py)")
+                     f"shadow {row['shadow_mrays_per_s']:.1f}, "
+                     + (f"bounce by generation {bounce}" if bounce else "bounce not probed"))
+    costs = sorted({r["limit"]["bounce_cost"] for r in record["runs"]})
+    if costs != ["measured"]:
+        lines.append(f"bounce rays in the limit: {'; '.join(costs)}")
     for level, e in record["encode_limit"].items():
         lines.append(f"encoders alone, {level}: {e['raw_mb_per_s']:.0f} MB/s of raw pixels "
                      f"({e['serial_s'] / max(len(e['views']), 1) * 1e3:.1f} ms a view on one thread)")
     for r in record["runs"]:
         lines.append(f"ratio to the limit, {r['level']} {r['workers']}×{r['threads_per_worker']}: render "
                      f"{_g(r['ratio']['render'])}, encode {_g(r['ratio']['encode'])}, render + encode "
-                     f"{_g(r['ratio']['render_encode'])} ({_g(r['ratio']['render_encode_bounce_incoherent'])} with "
-                     f"incoherent bounces), whole pipeline {_g(r['ratio']['pipeline'])}")
+                     f"{_g(r['ratio']['render_encode'])}, whole pipeline {_g(r['ratio']['pipeline'])}")
     if len({s["workers"] for s in record["scaling"]}) > 1:
         lines.append("scaling efficiency: " + ", ".join(
             f"{s['level']} {s['workers']} workers {s['efficiency']:.2f}" for s in record["scaling"]

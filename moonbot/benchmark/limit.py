@@ -4,20 +4,19 @@ the work a benchmark task does, on the same scene and the same images.
 Rays (`embree_limit`): the task's scene is composed and built as the task builds it — terrain,
 rocks, bags as instances, a dust scene's ejecta fragments of view 0 — except that the bags are
 not settled (settling moves them by millimetres and costs seconds; it changes no ray's cost).
-`_core.measure_embree_limit` then times Embree alone on the pixel-centre camera rays of view 0
-and the Sun shadow rays from their hits, as the renderer's 64-ray streams
-(`rtcIntersect1M`/`rtcOccluded1M`), the busiest thread's sum, at the thread counts asked for.
-That gives seconds per camera ray and per shadow ray on that scene.
+`_core.measure_embree_limit` then times Embree alone, on view 0, on the pixel-centre camera rays,
+the Sun shadow rays from their hits and `bounces` generations of diffuse bounce rays (cosine-
+distributed about each hit's normal, generation g + 1 from generation g's hits, as the renderer's
+paths go), each kind as the renderer traces it (64-ray streams: `rtcIntersect1M` with the
+coherent hint for camera rays, `rtcOccluded1M` for shadow rays, `rtcIntersect1M` without it for
+bounce rays), the busiest thread's sum, at the thread counts asked for. That gives seconds per
+camera ray, per shadow ray and per bounce ray of each generation on that scene.
 
-Bounce rays are not measurable there: the probe only builds camera and shadow rays (cpp/ is left
-alone). The limit counts them at the camera rays' rate, which is optimistic — incoherent rays run
-2.3–2.8× slower than coherent ones in Embree on this CPU (../shared/reference/performance-limits.md
-§1, 64-ray streams: 14.3 against 5.15 Mrays/s on one thread, 23.4 against 9.95 on two) — so the
-ratio of our time to this limit is an upper bound; `INCOHERENT_BOUNCE_COST` gives a second,
-estimated limit with bounce rays at that reference's incoherent rate. The dust medium's
-Sun rays (`medium_rays`, coherent closest-hit rays of the dust stage) count at the camera rays'
-rate; the amodal masks' instance passes (against one-bag scenes) and the dust medium's ray
-marching have no Embree counterpart and are not in the limit.
+A run's Embree limit is then its own ray counts (stats.json) at those costs: bounce rays at the
+pooled cost of the probe's generations 1..B, B the level's bounces. The dust medium's Sun rays
+(`medium_rays`, coherent closest-hit rays of the dust stage) count at the camera rays' rate; the
+amodal masks' instance passes (against one-bag scenes) and the dust medium's ray marching have no
+Embree counterpart and are not in the limit: they are overhead.
 
 Encoding (`encode_limit`): every file of every view the task wrote (rgb.png, depth.png,
 depth_preview.png, mask.png, amodal_NNN.png, rgb.exr when written) is read back and written
@@ -44,12 +43,6 @@ from moonbot.scene import compose_scene, intrinsics, orbit_pose
 from moonbot.scene.orbit import orbit_height
 from moonbot.sweep import Task, task_config
 
-# A bounce ray's Embree cost over a coherent camera ray's, for the estimated second limit: the
-# reference's 64-ray stream rates on this CPU (performance-limits.md §1) give 2.78 on one thread
-# and 2.35 on two.
-INCOHERENT_BOUNCE_COST = 2.5
-
-
 def limit_scene(config: Config, task: Task):
     """(scene, camera, sun) of view 0 of `task` of `config`'s sweep, built as the task builds it
     but with its bags unsettled, and with a dust scene's view-0 ejecta fragments in place."""
@@ -70,37 +63,57 @@ def limit_scene(config: Config, task: Task):
     return scene, camera, sun
 
 
-def embree_limit(config: Config, task: Task, threads: list[int], repeats: int = 3) -> list[dict]:
-    """Embree's own time for view 0's camera and shadow rays on `task`'s scene, once per thread
-    count in `threads`: one dict each with the probe's raw figures and the derived seconds per
-    ray and Mrays/s (streams, and one ray at a time for scale)."""
+def embree_limit(config: Config, task: Task, threads: list[int], bounces: int, repeats: int = 3) -> list[dict]:
+    """Embree's own time for view 0's camera, shadow and `bounces` generations of bounce rays on
+    `task`'s scene, once per thread count in `threads`: one dict each with the probe's raw figures
+    and the derived seconds per ray and Mrays/s (streams, and one ray at a time for scale)."""
     scene, camera, sun = limit_scene(config, task)
     rows = []
     for t in threads:
-        m = _core.measure_embree_limit(scene, camera, sun, threads=t, repeats=repeats)
+        m = _core.measure_embree_limit(scene, camera, sun, threads=t, repeats=repeats, bounces=bounces)
         cam, sh = int(m["camera_rays"]), int(m["shadow_rays"])
+        bounce_rays = [int(n) for n in m["bounce_rays"]]
         rows.append({
             "task_id": task.task_id, "threads": t, "camera_rays": cam, "shadow_rays": sh,
+            "bounce_rays": bounce_rays,
             "intersect_stream_s": m["intersect_stream_s"], "occluded_stream_s": m["occluded_stream_s"],
+            "bounce_stream_s": list(m["bounce_stream_s"]),
             "intersect_single_s": m["intersect_single_s"], "occluded_single_s": m["occluded_single_s"],
-            "camera_s_per_ray": m["intersect_stream_s"] / max(cam, 1),
-            "shadow_s_per_ray": m["occluded_stream_s"] / max(sh, 1),
-            "primary_mrays_per_s": cam / m["intersect_stream_s"] / 1e6 if m["intersect_stream_s"] > 0 else 0.0,
-            "shadow_mrays_per_s": sh / m["occluded_stream_s"] / 1e6 if m["occluded_stream_s"] > 0 else 0.0,
-            "primary_single_mrays_per_s": cam / m["intersect_single_s"] / 1e6 if m["intersect_single_s"] > 0 else 0.0,
-            "shadow_single_mrays_per_s": sh / m["occluded_single_s"] / 1e6 if m["occluded_single_s"] > 0 else 0.0,
+            "bounce_single_s": list(m["bounce_single_s"]),
+            "camera_s_per_ray": _per(m["intersect_stream_s"], cam),
+            "shadow_s_per_ray": _per(m["occluded_stream_s"], sh),
+            "primary_mrays_per_s": _mrays(cam, m["intersect_stream_s"]),
+            "shadow_mrays_per_s": _mrays(sh, m["occluded_stream_s"]),
+            "bounce_mrays_per_s": [_mrays(n, s) for n, s in zip(bounce_rays, m["bounce_stream_s"])],
+            "primary_single_mrays_per_s": _mrays(cam, m["intersect_single_s"]),
+            "shadow_single_mrays_per_s": _mrays(sh, m["occluded_single_s"]),
+            "bounce_single_mrays_per_s": [_mrays(n, s) for n, s in zip(bounce_rays, m["bounce_single_s"])],
         })
     return rows
 
 
-def ray_limit_seconds(rays: dict, row: dict, incoherent_bounce_cost: float = 1.0) -> float:
-    """Embree seconds for a task's `rays` (its stats.json counts) at `row`'s per-ray costs:
-    camera and medium rays at the camera-ray rate, shadow rays at the shadow-ray rate, bounce rays
-    at the camera-ray rate × `incoherent_bounce_cost`. Amodal rays are not counted."""
-    cam = row["camera_s_per_ray"]
-    return (cam * (rays.get("camera_rays", 0) + rays.get("medium_rays", 0))
+def _per(seconds: float, rays: int) -> float:
+    return seconds / max(rays, 1)
+
+
+def _mrays(rays: int, seconds: float) -> float:
+    return rays / seconds / 1e6 if seconds > 0 else 0.0
+
+
+def bounce_s_per_ray(row: dict, bounces: int) -> float:
+    """A bounce ray's Embree seconds on `row`'s scene for a render of `bounces` bounces: the
+    probe's generations 1..bounces pooled (their seconds over their rays)."""
+    rays = sum(row["bounce_rays"][:bounces])
+    return sum(row["bounce_stream_s"][:bounces]) / rays if rays > 0 else 0.0
+
+
+def ray_limit_seconds(rays: dict, row: dict, bounces: int) -> float:
+    """Embree seconds for a task's `rays` (its stats.json counts) rendered with `bounces` bounces,
+    at `row`'s per-ray costs: camera and medium rays at the camera-ray rate, shadow rays at the
+    shadow-ray rate, bounce rays at the pooled bounce rate. Amodal rays are not counted."""
+    return (row["camera_s_per_ray"] * (rays.get("camera_rays", 0) + rays.get("medium_rays", 0))
             + row["shadow_s_per_ray"] * rays.get("shadow_rays", 0)
-            + cam * incoherent_bounce_cost * rays.get("bounce_rays", 0))
+            + bounce_s_per_ray(row, bounces) * rays.get("bounce_rays", 0))
 
 
 def _median_seconds(fn, repeats: int) -> float:

@@ -17,8 +17,8 @@ seconds; "worker-seconds" are sums over tasks, which on W workers run W at a tim
   medium's grid included (the amodal masks' rays, against one-bag scenes, are left out).
 - peak memory: ru_maxrss of each worker process after the run (the largest since the worker
   started, terrain warm-up and earlier levels of the same W included) and of this driver.
-- the limit, on P = W·T threads: Embree seconds for the run's rays at the per-ray costs measured
-  on each task's own scene (limit.py) plus the encoders' best time for the run's own files.
+- the limit, on P = W·T threads: Embree seconds for the run's rays at the per-ray costs (camera,
+  shadow, bounce) measured on each task's own scene (limit.py) plus the encoders' best time for the run's own files.
   Ratios: render = (render stage / W) / Embree's; encode = (encode_write / W) / the encoders';
   render_encode = the two together (render + tonemap + encode_write, the issue's "encoding
   included"); pipeline = (span / samples) / (limit / samples), everything the run does per sample
@@ -45,11 +45,10 @@ from pathlib import Path
 
 from moonbot.benchmark.fingerprint import library_versions, machine, machine_slug
 from moonbot.benchmark.levels import LEVELS, level_config
-from moonbot.benchmark.limit import (INCOHERENT_BOUNCE_COST, embree_limit, encode_limit, encode_limit_seconds,
-                                     ray_limit_seconds)
+from moonbot.benchmark.limit import embree_limit, encode_limit, encode_limit_seconds, ray_limit_seconds
 from moonbot.pipeline.stats import read_stats, start_seconds
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 ROOT = Path(__file__).resolve().parents[2]  # the checkout (an editable install)
 DEFAULT_CONFIG = ROOT / "configs" / "bench" / "throughput-v1.yaml"
 SWEEP_CONFIG = ROOT / "configs" / "synbag-1.0.yaml"
@@ -124,15 +123,12 @@ def summarize_run(level: str, workers: int, threads: int, stats: list[dict]) -> 
     }
 
 
-def add_limits(run: dict, embree: list[dict], encode: dict) -> None:
-    """Adds the run's limit (on P = workers × threads threads) and its ratios to `run`."""
+def add_limits(run: dict, embree: list[dict], encode: dict, bounces: int) -> None:
+    """Adds the run's limit (on P = workers × threads threads, for renders of `bounces` bounces)
+    and its ratios to `run`."""
     p = run["workers"] * run["threads_per_worker"]
     per_task = {r["task_id"]: r for r in embree if r["threads"] == p}
-    rays_s = rays_s_incoherent = 0.0
-    for t in run["tasks_detail"]:
-        row = per_task[t["task_id"]]
-        rays_s += ray_limit_seconds(t["rays"], row)
-        rays_s_incoherent += ray_limit_seconds(t["rays"], row, INCOHERENT_BOUNCE_COST)
+    rays_s = sum(ray_limit_seconds(t["rays"], per_task[t["task_id"]], bounces) for t in run["tasks_detail"])
     enc_s = encode_limit_seconds(encode, p)
     w, samples = run["workers"], run["samples"]
     st = run["stages_s"]
@@ -144,18 +140,15 @@ def add_limits(run: dict, embree: list[dict], encode: dict) -> None:
         return a / b if b > 0 else 0.0
 
     run["limit"] = {
-        "threads": p, "embree_s": rays_s, "embree_s_bounce_incoherent": rays_s_incoherent, "encode_s": enc_s,
+        "threads": p, "embree_s": rays_s, "encode_s": enc_s, "bounce_cost": "measured",
         "seconds_per_sample": (rays_s + enc_s) / samples if samples else 0.0,
-        "seconds_per_sample_bounce_incoherent": (rays_s_incoherent + enc_s) / samples if samples else 0.0,
         "encode_raw_mb_per_s": encode["raw_mb_per_s"],
     }
     run["ratio"] = {
         "render": ratio(ours_render, rays_s),
         "encode": ratio(ours_encode, enc_s),
         "render_encode": ratio(ours_render_encode, rays_s + enc_s),
-        "render_encode_bounce_incoherent": ratio(ours_render_encode, rays_s_incoherent + enc_s),
         "pipeline": ratio(run["span_s"], rays_s + enc_s),
-        "pipeline_bounce_incoherent": ratio(run["span_s"], rays_s_incoherent + enc_s),
     }
 
 
@@ -257,18 +250,17 @@ def run_throughput(config_path: Path | None = None, levels: list[str] | None = N
         "tasks": [t.task_id for t in bench_tasks], "workers": workers, "threads_per_worker": threads,
         "machine": m, "libraries": library_versions(), "started_utc": m["date"], "load_before": _load(),
         "terrain_warmup_s": {}, "runs": [], "embree_limit": [], "encode_limit": {},
-        "limit_notes": ("Embree: view 0's pixel-centre camera rays and Sun shadow rays on each task's scene (bags "
-                        "unsettled), 64-ray streams, busiest thread; bounce rays are not measurable by the probe and "
-                        f"count at the camera rays' rate (the *_bounce_incoherent figures: × {INCOHERENT_BOUNCE_COST}, "
-                        "the reference's incoherent-stream cost on this CPU); medium rays at the camera rays' rate; "
-                        "amodal passes and the dust medium's marching have no counterpart. Encoders: every file "
-                        "re-encoded alone by the same encoder, best schedule on the run's threads. "
-                        "moonbot/benchmark/limit.py"),
+        "limit_notes": ("Embree: view 0's pixel-centre camera rays, Sun shadow rays and diffuse bounce rays (as many "
+                        "generations as the level's bounces) on each task's scene (bags unsettled), as the renderer "
+                        "traces them (64-ray streams), busiest thread; medium rays at the camera rays' rate; amodal "
+                        "passes and the dust medium's marching have no counterpart. Encoders: every file re-encoded "
+                        "alone by the same encoder, best schedule on the run's threads. moonbot/benchmark/limit.py"),
     }
     say(f"machine  {m['cpu']}, {m['cores']} cores, {m['memory_gib']} GiB, {m['os']}, commit {m['git_commit'][:12]}")
     say(f"config   {config_path.name}: {len(bench_tasks)} tasks × {base.orbit.views} views at "
         f"{base.camera.width}×{base.camera.height}; levels {', '.join(levels)}; workers {workers} × {threads} threads")
     thread_counts = sorted({w * threads for w in workers})
+    most_bounces = max(c.render.bounces for c in configs.values())  # the probe's bounce generations
     encode: dict[str, dict] = {}
     for w in workers:
         with LocalCluster(n_workers=w, threads_per_worker=1, processes=True, dashboard_address=":0",
@@ -295,13 +287,13 @@ def run_throughput(config_path: Path | None = None, levels: list[str] | None = N
             if not record["embree_limit"]:  # the same scenes for every W: measured once, on a warm worker
                 load_before = _load()
                 futures = [client.submit(embree_limit, configs["default" if "default" in configs else levels[0]], t,
-                                         thread_counts, repeats, pure=False) for t in bench_tasks]
+                                         thread_counts, most_bounces, repeats, pure=False) for t in bench_tasks]
                 record["embree_limit"] = [row for f in futures for row in f.result()]
                 record["embree_limit_load"] = {"before": load_before, "after": _load()}
     for level in levels:
         record["encode_limit"][level] = encode[level]
     for run in record["runs"]:
-        add_limits(run, record["embree_limit"], encode[run["level"]])
+        add_limits(run, record["embree_limit"], encode[run["level"]], configs[run["level"]].render.bounces)
     record["scaling"] = scaling(record["runs"])
     record["projection"] = projection(record["runs"], SWEEP_CONFIG, record["image"])
     record["load_after"] = _load()

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "moonbot/camera.h"
 #include "moonbot/scene.h"
@@ -11,8 +12,16 @@
 namespace moonbot {
 
 /// Seconds Embree takes, median over the repeats, for the rays of one spp = 1 render traced
-/// each way: the pixel-centre camera rays and the Sun shadow rays from their hits, made by the
-/// renderer's own code, in the renderer's 8×8 tiles, on `threads` threads (0 = all).
+/// each way: the pixel-centre camera rays, the Sun shadow rays from their hits and `bounces`
+/// generations of diffuse bounce rays, made by the renderer's own code, in the renderer's 8×8
+/// tiles, on `threads` threads (0 = all).
+///
+/// Bounce rays: from every camera hit a cosine-distributed direction about the geometric normal
+/// on the camera's side, leaving from the lifted hit point (rays.h: cosine_direction, lift_off);
+/// generation g + 1 leaves from generation g's hits the same way, as the renderer's paths do.
+/// They are incoherent (origins spread over the scene, directions over the hemisphere), traced
+/// as the renderer traces them: 64-ray streams without the coherent hint, one stream per tile
+/// and generation.
 ///
 /// Each tile's rays are copied into a per-thread buffer first, untimed, and only the Embree
 /// calls are timed, tile by tile: the renderer also traces rays it has just written, from the
@@ -36,12 +45,18 @@ struct EmbreeLimit {
     /// timed as one wall-clock interval (how this probe measured before).
     double intersect_stream_from_memory_s = 0;
     double occluded_stream_from_memory_s = 0;
+    /// Per bounce generation (index 0 = the first bounce): rays, and seconds as the renderer's
+    /// incoherent 64-ray streams (rtcIntersect1M) and one ray at a time (rtcIntersect1).
+    std::vector<uint64_t> bounce_rays;
+    std::vector<double> bounce_stream_s;
+    std::vector<double> bounce_single_s;
     double timer_overhead_s = 0;  ///< cost of one clock-to-clock interval, subtracted per tile
     int threads = 0;              ///< threads the arena ran
 };
 
-/// Generates the rays once (untimed), then times only the Embree calls. `repeats` ≥ 1.
+/// Generates the rays once (untimed), then times only the Embree calls. `repeats` ≥ 1,
+/// `bounces` in 0..kMaxBounces.
 EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const Sun& sun,
-                                 int threads, int repeats);
+                                 int threads, int repeats, int bounces = 0);
 
 }  // namespace moonbot
