@@ -98,9 +98,8 @@ DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& s
         m_hi[a] = m_lo[a] + (m_n[a] - 1) * m_h;
     }
     const size_t count = static_cast<size_t>(m_n[0]) * m_n[1] * m_n[2];
-    m_extinction.assign(count, 0.0f);
+    std::vector<float> extinction(count, 0.0f), visible(count, 1.0f);
     m_sun_depth.assign(count, 0.0f);
-    m_visible.assign(count, 1.0f);
 
     // Extinction: an isotropic Gaussian is separable in any orthonormal frame, so each puff adds
     // peak·g0[i]·g1[j]·g2[k] over the nodes of its reach: no transcendental per node. Lines along
@@ -134,7 +133,7 @@ DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& s
                 g2[static_cast<size_t>(k - k0)] = std::exp(-d * d * inv);
             }
             for (int k = k0; k <= k1; ++k) {
-                float* row = &m_extinction[node(0, j, k)];
+                float* row = &extinction[node(0, j, k)];
                 const double w = g2[static_cast<size_t>(k - k0)];
                 for (int i = i0; i <= i1; ++i) row[i] += static_cast<float>(w * g0[static_cast<size_t>(i - i0)]);
             }
@@ -147,7 +146,7 @@ DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& s
         for (int i = 0; i < m_n[0]; ++i) {
             double depth = 0.0;
             for (int k = m_n[2] - 2; k >= 0; --k) {
-                depth += 0.5 * m_h * (double(m_extinction[node(i, j, k)]) + m_extinction[node(i, j, k + 1)]);
+                depth += 0.5 * m_h * (double(extinction[node(i, j, k)]) + extinction[node(i, j, k + 1)]);
                 m_sun_depth[node(i, j, k)] = static_cast<float>(depth);
             }
         }
@@ -164,7 +163,7 @@ DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& s
         for (int j = 0; j < m_n[1]; ++j) {
             int n = 0;
             for (int i = 0; i < m_n[0]; ++i) {
-                if (!(m_extinction[node(i, j, k)] > 1e-6f)) continue;
+                if (!(extinction[node(i, j, k)] > 1e-6f)) continue;
                 const glm::dvec3 point = world(glm::dvec3(m_lo.x + i * m_h, m_lo.y + j * m_h, m_lo.z + k * m_h));
                 if (point.z < medium.floor_z) continue;
                 detail::set_ray(batch[static_cast<size_t>(n)], point, m_sun);
@@ -178,13 +177,35 @@ DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& s
                 if (hit.geom_id == kInvalidId) continue;
                 const Instance& inst = scene.instance(hit.inst_id);
                 const glm::dvec3 normal = inst.normal_to_world * glm::dvec3(hit.ng_x, hit.ng_y, hit.ng_z);
-                if (glm::dot(normal, m_sun) < 0.0) m_visible[node(which[static_cast<size_t>(r)], j, k)] = 0.0f;
+                if (glm::dot(normal, m_sun) < 0.0) visible[node(which[static_cast<size_t>(r)], j, k)] = 0.0f;
             }
         }
     });
     m_shadow_rays = rays;
-    // What the renderer reads per step: the Sun's light left at each node.
-    for (size_t n = 0; n < count; ++n) m_visible[n] *= static_cast<float>(std::exp(-double(m_sun_depth[n])));
+    // What the march reads per step: the extinction and the Sun's light left at each node.
+    m_lookup.resize(2 * count);
+    for (size_t n = 0; n < count; ++n) {
+        m_lookup[2 * n] = extinction[n];
+        m_lookup[2 * n + 1] = visible[n] * static_cast<float>(std::exp(-double(m_sun_depth[n])));
+    }
+    // The empty blocks: block b spans cells kBlock·b .. kBlock·b + kBlock − 1, so nodes
+    // kBlock·b .. kBlock·(b + 1), the faces shared with its neighbours included.
+    for (int a = 0; a < 3; ++a) m_blocks[a] = (m_n[a] - 2) / kBlock + 1;
+    m_empty.assign(static_cast<size_t>(m_blocks[0]) * m_blocks[1] * m_blocks[2], 1);
+    tbb::parallel_for(0, m_blocks[2], [&](int bk) {
+        for (int bj = 0; bj < m_blocks[1]; ++bj)
+            for (int bi = 0; bi < m_blocks[0]; ++bi) {
+                bool empty = true;
+                for (int k = bk * kBlock; empty && k <= std::min((bk + 1) * kBlock, m_n[2] - 1); ++k)
+                    for (int j = bj * kBlock; empty && j <= std::min((bj + 1) * kBlock, m_n[1] - 1); ++j)
+                        for (int i = bi * kBlock; i <= std::min((bi + 1) * kBlock, m_n[0] - 1); ++i)
+                            if (extinction[node(i, j, k)] != 0.0f) {
+                                empty = false;
+                                break;
+                            }
+                m_empty[block(bi, bj, bk)] = empty ? 1 : 0;
+            }
+    });
 }
 
 glm::dvec3 DustGrid::frame(const glm::dvec3& p) const {
@@ -225,10 +246,54 @@ double DustGrid::trilinear(const std::vector<float>& field, const glm::dvec3& f_
     return (1 - t[2]) * y0 + t[2] * y1;
 }
 
-void DustGrid::sample(const glm::dvec3& point, double& extinction, double& sunlight) const {
-    const glm::dvec3 f = frame(point);
-    extinction = trilinear(m_extinction, f);
-    sunlight = trilinear(m_visible, f);
+double DustGrid::march(const glm::dvec3& origin, const glm::dvec3& dir, double enter, double exit, double step,
+                       double opaque, double& lit) const {
+    // In the grid's frame, where a lookup needs no rotation: o + s·d is the ray.
+    const glm::dvec3 o = frame(origin), d = frame(dir);
+    const double inv_h = 1.0 / m_h;
+    const size_t sy = 2 * static_cast<size_t>(m_n[0]), sz = sy * static_cast<size_t>(m_n[1]);
+    double depth = 0.0;
+    lit = 0.0;
+    for (long k = 0; depth < opaque; ++k) {
+        const double a = enter + static_cast<double>(k) * step;
+        if (!(a < exit)) break;
+        const double length = std::min(step, exit - a);
+        const glm::dvec3 p = o + (a + 0.5 * length) * d;
+        int i[3];
+        double t[3];
+        for (int axis = 0; axis < 3; ++axis) {
+            const double f = std::clamp((p[axis] - m_lo[axis]) * inv_h, 0.0, double(m_n[axis] - 1));
+            i[axis] = std::min(static_cast<int>(f), m_n[axis] - 2);
+            t[axis] = f - i[axis];
+        }
+        if (m_empty[block(i[0] / kBlock, i[1] / kBlock, i[2] / kBlock)]) {
+            // Step over the rest of this block: to the first step whose middle lies past the
+            // block's exit (the next sample then finds where it is).
+            double leave = INFINITY;
+            for (int axis = 0; axis < 3; ++axis) {
+                if (d[axis] == 0.0) continue;
+                const int b = i[axis] / kBlock;
+                const int face = d[axis] > 0.0 ? std::min((b + 1) * kBlock, m_n[axis] - 1) : b * kBlock;
+                leave = std::min(leave, (m_lo[axis] + face * m_h - o[axis]) / d[axis]);
+            }
+            const double next = std::ceil((leave - enter) / step - 0.5);
+            if (next > static_cast<double>(k + 1)) k = static_cast<long>(std::min(next, 1e15)) - 1;
+            continue;
+        }
+        // Trilinear in x, then y, then z, of both fields at once.
+        const float* c = &m_lookup[2 * node(i[0], i[1], i[2])];
+        auto x = [&](size_t n, int field) { return (1 - t[0]) * c[n + field] + t[0] * c[n + 2 + field]; };
+        auto yz = [&](int field) {
+            const double y0 = (1 - t[1]) * x(0, field) + t[1] * x(sy, field);
+            const double y1 = (1 - t[1]) * x(sz, field) + t[1] * x(sz + sy, field);
+            return (1 - t[2]) * y0 + t[2] * y1;
+        };
+        const double extinction = yz(0);
+        if (!(extinction > 0.0)) continue;
+        lit += std::exp(-(depth + 0.5 * extinction * length)) * extinction * yz(1) * length;
+        depth += extinction * length;
+    }
+    return depth;
 }
 
 double DustGrid::sun_transmittance(const glm::dvec3& point) const {

@@ -248,15 +248,8 @@ private:
             const glm::dvec3 dir = s.dirs[i] / length;
             double enter, exit;
             if (!m_medium->clip(origin, dir, h.hit ? h.t * length : INFINITY, enter, exit)) continue;
-            double depth = 0.0, lit = 0.0;
-            for (double a = enter; a < exit && depth < kOpaqueDepth; a += step) {
-                const double length_here = std::min(step, exit - a);
-                const double at = a + 0.5 * length_here;
-                double extinction, sunlight;
-                m_medium->sample(origin + at * dir, extinction, sunlight);
-                lit += std::exp(-(depth + 0.5 * extinction * length_here)) * extinction * sunlight * length_here;
-                depth += extinction * length_here;
-            }
+            double lit;
+            const double depth = m_medium->march(origin, dir, enter, exit, step, kOpaqueDepth, lit);
             s.dust_through[i] = std::exp(-depth);
             if (!m_sun || lit == 0.0) continue;
             // Irradiance E = π·scale; light travels along −sun.dir, then toward the camera, −dir.

@@ -76,16 +76,29 @@ public:
     /// grid; false if it misses it.
     bool clip(const glm::dvec3& origin, const glm::dvec3& dir, double s_max, double& enter, double& exit) const;
 
-    /// Trilinear lookups at a point inside the grid (clamped at its faces): the extinction (1/m),
-    /// and the Sun's light left there, exp(−τ_sun) × geometric visibility.
-    void sample(const glm::dvec3& point, double& extinction, double& sunlight) const;
+    /// The dust along the ray origin + s·dir (unit dir) over [enter, exit] (from `clip`), marched
+    /// in steps of `step` metres from `enter`, each step sampled at its middle (the midpoint
+    /// rule; the last step ends at `exit`) by trilinear lookups of the extinction k (1/m) and the
+    /// Sun's light left there (exp(−τ_sun) × geometric visibility), until the optical depth passes
+    /// `opaque`. Returns the optical depth τ, and in `lit` Σ exp(−τ to the step's middle)·k·sunlight
+    /// ·length: the sunlight the dust scatters toward the origin, per unit of phase × radiance.
+    /// Stretches of empty blocks (kBlock³ cells of zero extinction) are stepped over unsampled:
+    /// their samples would be exactly 0.
+    double march(const glm::dvec3& origin, const glm::dvec3& dir, double enter, double exit, double step,
+                 double opaque, double& lit) const;
 
     /// The dust's transmittance toward the Sun from `point` anywhere: from the grid inside it, in
     /// closed form (every puff) outside it, and 1 where the Sun ray misses the grid.
     double sun_transmittance(const glm::dvec3& point) const;
 
+    /// Cells a side of the blocks `march` checks for emptiness.
+    static constexpr int kBlock = 8;
+
 private:
     size_t node(int i, int j, int k) const { return (static_cast<size_t>(k) * m_n[1] + j) * m_n[0] + i; }
+    size_t block(int i, int j, int k) const {
+        return (static_cast<size_t>(k) * m_blocks[1] + j) * m_blocks[0] + i;
+    }
     glm::dvec3 frame(const glm::dvec3& world_point) const;  // world → grid frame (a rotation)
     glm::dvec3 world(const glm::dvec3& frame_point) const;
     double trilinear(const std::vector<float>& field, const glm::dvec3& frame_point) const;
@@ -96,7 +109,10 @@ private:
     glm::dvec3 m_lo, m_hi;  // the grid's box in that frame, metres
     double m_h = 0.05;      // node spacing
     int m_n[3] = {1, 1, 1};
-    std::vector<float> m_extinction, m_sun_depth, m_visible;
+    std::vector<float> m_sun_depth;  // per node, optical depth toward the Sun
+    std::vector<float> m_lookup;     // per node, extinction and sunlight side by side: one fetch serves both
+    int m_blocks[3] = {0, 0, 0};
+    std::vector<uint8_t> m_empty;    // per block: every node of it (faces included) has zero extinction
     std::vector<double> m_reach;  // puff_reach of each puff, once (sun_transmittance runs per hit)
     uint64_t m_shadow_rays = 0;
 };
