@@ -43,15 +43,20 @@ def test_levels_are_valid_configs():
 
 
 def test_limit_arithmetic():
-    # Generation 1: 100 rays in 3e-5 s; generation 2: 50 rays in 3e-5 s.
+    # Generation 1: 100 rays in 3e-5 s, 40 shadow rays from their hits in 2e-5 s; generation 2: 50
+    # rays in 3e-5 s, 10 shadow rays in 1e-5 s.
     row = {"camera_s_per_ray": 1e-7, "shadow_s_per_ray": 2e-7, "bounce_rays": [100, 50],
-           "bounce_stream_s": [3e-5, 3e-5]}
-    rays = {"camera_rays": 10, "shadow_rays": 5, "bounce_rays": 4, "medium_rays": 6, "amodal_rays": 1000}
+           "bounce_stream_s": [3e-5, 3e-5], "bounce_shadow_rays": [40, 10], "bounce_shadow_stream_s": [2e-5, 1e-5]}
+    rays = {"camera_rays": 10, "shadow_rays": 5, "bounce_shadow_rays": 2, "bounce_rays": 4, "medium_rays": 6,
+            "amodal_rays": 1000}
     assert bounce_s_per_ray(row, 1) == pytest.approx(3e-7)
     assert bounce_s_per_ray(row, 2) == pytest.approx(4e-7)  # pooled: 6e-5 s over 150 rays
     assert bounce_s_per_ray(row, 5) == pytest.approx(4e-7)  # no deeper generation probed: the pool
-    assert ray_limit_seconds(rays, row, 1) == pytest.approx(1e-7 * 16 + 2e-7 * 5 + 3e-7 * 4)
-    assert ray_limit_seconds(rays, row, 2) == pytest.approx(1e-7 * 16 + 2e-7 * 5 + 4e-7 * 4)
+    assert bounce_s_per_ray(row, 1, "bounce_shadow") == pytest.approx(5e-7)
+    assert bounce_s_per_ray(row, 2, "bounce_shadow") == pytest.approx(6e-7)
+    # camera + medium rays, the camera hits' 3 shadow rays, 4 bounce rays, 2 bounce shadow rays
+    assert ray_limit_seconds(rays, row, 1) == pytest.approx(1e-7 * 16 + 2e-7 * 3 + 3e-7 * 4 + 5e-7 * 2)
+    assert ray_limit_seconds(rays, row, 2) == pytest.approx(1e-7 * 16 + 2e-7 * 3 + 4e-7 * 4 + 6e-7 * 2)
     assert ray_limit_seconds({"camera_rays": 10}, row, 0) == pytest.approx(1e-6)
     encode = {"views": [{"task_id": "a", "serial_s": 0.04, "longest_s": 0.03},
                         {"task_id": "b", "serial_s": 0.02, "longest_s": 0.005}]}

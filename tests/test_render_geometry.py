@@ -224,10 +224,14 @@ def test_embree_limit_probe_traces_the_renderers_rays():
     first, second = limit["bounce_rays"]
     bounced = _core.render(scene, cam, sun, bounces=1)
     assert first == bounced["bounce_rays"] == np.count_nonzero(bounced["depth"] > 0)
+    # The bounce vertices' shadow rays are told apart from the camera hits'.
+    assert rendered["bounce_shadow_rays"] == 0
+    assert bounced["bounce_shadow_rays"] == bounced["shadow_rays"] - rendered["shadow_rays"] > 0
+    assert 0 < limit["bounce_shadow_rays"][0] < first
     assert 0 < second < first  # bounces that leave for the black sky end there
     assert all(limit[f"{query}_{kind}_s"] > 0 for query in ("intersect", "occluded")
                for kind in ("single", "packet8", "packet16", "stream", "stream_from_memory"))
-    assert all(s > 0 for s in limit["bounce_stream_s"] + limit["bounce_single_s"])
+    assert all(s > 0 for s in limit["bounce_stream_s"] + limit["bounce_single_s"] + limit["bounce_shadow_stream_s"])
     assert _core.measure_embree_limit(scene, cam, sun, threads=1, repeats=1)["bounce_rays"] == []
     with pytest.raises(ValueError, match="bounces"):
         _core.measure_embree_limit(scene, cam, sun, bounces=17)

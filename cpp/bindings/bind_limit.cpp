@@ -33,6 +33,8 @@ void bind_limit(py::module_& m) {
             out["bounce_rays"] = list(l.bounce_rays);
             out["bounce_stream_s"] = list(l.bounce_stream_s);
             out["bounce_single_s"] = list(l.bounce_single_s);
+            out["bounce_shadow_rays"] = list(l.bounce_shadow_rays);
+            out["bounce_shadow_stream_s"] = list(l.bounce_shadow_stream_s);
             out["timer_overhead_s"] = l.timer_overhead_s;
             out["threads"] = l.threads;
             return out;
@@ -40,8 +42,8 @@ void bind_limit(py::module_& m) {
         py::arg("scene"), py::arg("camera"), py::arg("sun"), py::arg("threads") = 0,
         py::arg("repeats") = 5, py::arg("bounces") = 0,
         "Median seconds Embree alone takes for the rays of one spp=1 render (pixel-centre camera "
-        "rays, Sun shadow rays from their hits, `bounces` generations of diffuse bounce rays, as lists "
-        "per generation): one ray at a time, as 8- and 16-ray packets and "
+        "rays, Sun shadow rays from their hits, `bounces` generations of diffuse bounce rays and the Sun shadow "
+        "rays from their hits, as lists per generation): one ray at a time, as 8- and 16-ray packets and "
         "as the renderer's 64-ray streams, each tile traced from a cached copy and timed alone "
         "(the busiest thread's sum); the streams also traced in place from memory, wall-clock.");
 }

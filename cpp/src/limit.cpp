@@ -132,6 +132,19 @@ double wall_seconds_from_memory(tbb::task_arena& arena, const Tiled<RayHit>& pri
     return median(seconds);
 }
 
+/// The unit geometric normal at the hit of the traced `ray` (which left along `dir`), on the side
+/// the ray arrived from, as the renderer's bounce vertices take it; false if it missed or the
+/// normal is degenerate.
+bool hit_normal(const InstanceData* instances, const RayHit& ray, const glm::dvec3& dir, glm::dvec3& normal) {
+    if (ray.geom_id == kInvalidId) return false;
+    normal = instances[ray.inst_id].normal_to_world * glm::dvec3(ray.ng_x, ray.ng_y, ray.ng_z);
+    const double len = glm::length(normal);
+    if (!(len > 0.0)) return false;
+    normal /= len;
+    if (glm::dot(normal, dir) > 0.0) normal = -normal;
+    return true;
+}
+
 /// Bounce rays for the `n` traced rays `from` (ray k leaving along dirs[k], of pixel pixel_of[k];
 /// every hit is a path vertex): a cosine-distributed direction about the hit's unit geometric
 /// normal on the arriving side, from the lifted hit point, its two uniforms keyed by the pixel and
@@ -143,12 +156,8 @@ int bounce_rays(const InstanceData* instances, const RayHit* from, const glm::dv
     int count = 0;
     for (int k = 0; k < n; ++k) {
         const RayHit& ray = from[k];
-        if (ray.geom_id == kInvalidId) continue;
-        glm::dvec3 normal = instances[ray.inst_id].normal_to_world * glm::dvec3(ray.ng_x, ray.ng_y, ray.ng_z);
-        const double len = glm::length(normal);
-        if (!(len > 0.0)) continue;
-        normal /= len;
-        if (glm::dot(normal, dirs[k]) > 0.0) normal = -normal;
+        glm::dvec3 normal;
+        if (!hit_normal(instances, ray, dirs[k], normal)) continue;
         const glm::dvec3 point = origins[k] + static_cast<double>(ray.tfar) * dirs[k];
         const uint64_t stream = pixel_stream(0, pixel_of[k]);
         double mu;
@@ -159,6 +168,21 @@ int bounce_rays(const InstanceData* instances, const RayHit* from, const glm::dv
         out_pixel[count] = pixel_of[k];
         set_ray(out[count], out_origins[count], wi);
         ++count;
+    }
+    return count;
+}
+
+/// Shadow rays toward the Sun (unit `to_sun`) from the hits of the `n` traced rays `traced` (ray
+/// k left origins[k] along dirs[k]) whose surface, on the side the ray arrived from, faces it:
+/// as the renderer lights a bounce vertex. Into `out`; returns their number.
+int sun_rays(const InstanceData* instances, const RayHit* traced, const glm::dvec3* origins, const glm::dvec3* dirs,
+             int n, const glm::dvec3& to_sun, RayHit* out) {
+    int count = 0;
+    for (int k = 0; k < n; ++k) {
+        glm::dvec3 normal;
+        if (!hit_normal(instances, traced[k], dirs[k], normal) || glm::dot(normal, to_sun) <= 0.0) continue;
+        const glm::dvec3 point = origins[k] + static_cast<double>(traced[k].tfar) * dirs[k];
+        set_ray(out[count++], lift_off(point, normal), to_sun);
     }
     return count;
 }
@@ -193,7 +217,7 @@ EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const
     TileHits hits;
     // Bounce rays per generation, tile by tile, and one generation's rays, origins, directions
     // and pixels while the next is made from them.
-    std::vector<Tiled<RayHit>> bounce(static_cast<size_t>(bounces));
+    std::vector<Tiled<RayHit>> bounce(static_cast<size_t>(bounces)), bounce_shadow(static_cast<size_t>(bounces));
     std::array<RayHit, kTilePixels> gen, next;
     std::array<glm::dvec3, kTilePixels> gen_origin, gen_dir, next_origin, next_dir;
     std::array<uint64_t, kTilePixels> gen_pixel, next_pixel;
@@ -239,7 +263,14 @@ EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const
                 Tiled<RayHit>& out = bounce[static_cast<size_t>(g)];
                 out.items.insert(out.items.end(), next.begin(), next.begin() + made);
                 out.end_tile(static_cast<size_t>(made));
-                if (g + 1 < bounces && made > 0) scene.accel().intersect(next.data(), static_cast<size_t>(made), false);
+                if (made > 0) scene.accel().intersect(next.data(), static_cast<size_t>(made), false);
+                const int lit = sun.irradiance() > 0.0
+                                    ? sun_rays(instances.data(), next.data(), next_origin.data(), next_dir.data(),
+                                               made, sun.direction(), shadow.data())
+                                    : 0;
+                Tiled<RayHit>& to_sun = bounce_shadow[static_cast<size_t>(g)];
+                to_sun.items.insert(to_sun.items.end(), shadow.begin(), shadow.begin() + lit);
+                to_sun.end_tile(static_cast<size_t>(lit));
                 std::swap(gen, next);
                 std::swap(gen_origin, next_origin);
                 std::swap(gen_dir, next_dir);
@@ -272,12 +303,15 @@ EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const
         [&](RayHitPacket<16>* p, size_t n) { accel.occluded_packets(p, n); });
     limit.occluded_stream_s = embree_seconds(arena, shadow_rays, repeats, overhead,
         [&](RayHit* r, size_t n) { accel.occluded(r, n, true); });
-    for (const Tiled<RayHit>& rays : bounce) {
-        limit.bounce_rays.push_back(rays.items.size());
-        limit.bounce_stream_s.push_back(embree_seconds(arena, rays, repeats, overhead,
+    for (size_t g = 0; g < bounce.size(); ++g) {
+        limit.bounce_rays.push_back(bounce[g].items.size());
+        limit.bounce_stream_s.push_back(embree_seconds(arena, bounce[g], repeats, overhead,
             [&](RayHit* r, size_t n) { accel.intersect(r, n, false); }));
-        limit.bounce_single_s.push_back(embree_seconds(arena, rays, repeats, overhead,
+        limit.bounce_single_s.push_back(embree_seconds(arena, bounce[g], repeats, overhead,
             [&](RayHit* r, size_t n) { accel.intersect_single(r, n); }));
+        limit.bounce_shadow_rays.push_back(bounce_shadow[g].items.size());
+        limit.bounce_shadow_stream_s.push_back(embree_seconds(arena, bounce_shadow[g], repeats, overhead,
+            [&](RayHit* r, size_t n) { accel.occluded(r, n, false); }));
     }
     limit.intersect_stream_from_memory_s = wall_seconds_from_memory(arena, camera_rays, repeats,
         [&](RayHit* r, size_t n) { accel.intersect(r, n, true); });

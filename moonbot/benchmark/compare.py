@@ -188,9 +188,11 @@ def format_record(record: dict, name: str = "this run") -> str:
     lines.append("Embree alone on view 0 of each scene (64-ray streams, Mrays/s):")
     for row in record["embree_limit"]:
         bounce = ", ".join(f"{x:.1f}" for x in row.get("bounce_mrays_per_s", []))
+        bounce_shadow = ", ".join(f"{x:.1f}" for x in row.get("bounce_shadow_mrays_per_s", []))
         lines.append(f"  {row['task_id'][:48]:<48} {row['threads']} thr: primary {row['primary_mrays_per_s']:.1f}, "
                      f"shadow {row['shadow_mrays_per_s']:.1f}, "
-                     + (f"bounce by generation {bounce}" if bounce else "bounce not probed"))
+                     + (f"bounce by generation {bounce} (their shadow rays {bounce_shadow})" if bounce
+                        else "bounce not probed"))
     costs = sorted({r["limit"]["bounce_cost"] for r in record["runs"]})
     if costs != ["measured"]:
         lines.append(f"bounce rays in the limit: {'; '.join(costs)}")

@@ -5,15 +5,17 @@ Rays (`embree_limit`): the task's scene is composed and built as the task builds
 rocks, bags as instances, a dust scene's ejecta fragments of view 0 — except that the bags are
 not settled (settling moves them by millimetres and costs seconds; it changes no ray's cost).
 `_core.measure_embree_limit` then times Embree alone, on view 0, on the pixel-centre camera rays,
-the Sun shadow rays from their hits and `bounces` generations of diffuse bounce rays (cosine-
+the Sun shadow rays from their hits, `bounces` generations of diffuse bounce rays (cosine-
 distributed about each hit's normal, generation g + 1 from generation g's hits, as the renderer's
-paths go), each kind as the renderer traces it (64-ray streams: `rtcIntersect1M` with the
-coherent hint for camera rays, `rtcOccluded1M` for shadow rays, `rtcIntersect1M` without it for
-bounce rays), the busiest thread's sum, at the thread counts asked for. That gives seconds per
-camera ray, per shadow ray and per bounce ray of each generation on that scene.
+paths go) and the Sun shadow rays from each generation's hits, each kind as the renderer traces
+it (64-ray streams: `rtcIntersect1M` with the coherent hint for camera rays, `rtcOccluded1M` with
+it for the camera hits' shadow rays, both without it for bounce rays and their shadow rays), the
+busiest thread's sum, at the thread counts asked for. That gives seconds per ray of each kind,
+and of each bounce generation, on that scene.
 
-A run's Embree limit is then its own ray counts (stats.json) at those costs: bounce rays at the
-pooled cost of the probe's generations 1..B, B the level's bounces. The dust medium's Sun rays
+A run's Embree limit is then its own ray counts (stats.json) at those costs: bounce rays and the
+shadow rays from bounce vertices (`bounce_shadow_rays`) at the pooled costs of the probe's
+generations 1..B, B the level's bounces. The dust medium's Sun rays
 (`medium_rays`, coherent closest-hit rays of the dust stage) count at the camera rays' rate; the
 amodal masks' instance passes (against one-bag scenes) and the dust medium's ray marching have no
 Embree counterpart and are not in the limit: they are overhead.
@@ -78,6 +80,8 @@ def embree_limit(config: Config, task: Task, threads: list[int], bounces: int, r
             "bounce_rays": bounce_rays,
             "intersect_stream_s": m["intersect_stream_s"], "occluded_stream_s": m["occluded_stream_s"],
             "bounce_stream_s": list(m["bounce_stream_s"]),
+            "bounce_shadow_rays": [int(n) for n in m["bounce_shadow_rays"]],
+            "bounce_shadow_stream_s": list(m["bounce_shadow_stream_s"]),
             "intersect_single_s": m["intersect_single_s"], "occluded_single_s": m["occluded_single_s"],
             "bounce_single_s": list(m["bounce_single_s"]),
             "camera_s_per_ray": _per(m["intersect_stream_s"], cam),
@@ -85,6 +89,8 @@ def embree_limit(config: Config, task: Task, threads: list[int], bounces: int, r
             "primary_mrays_per_s": _mrays(cam, m["intersect_stream_s"]),
             "shadow_mrays_per_s": _mrays(sh, m["occluded_stream_s"]),
             "bounce_mrays_per_s": [_mrays(n, s) for n, s in zip(bounce_rays, m["bounce_stream_s"])],
+            "bounce_shadow_mrays_per_s": [_mrays(n, s) for n, s in zip(m["bounce_shadow_rays"],
+                                                                        m["bounce_shadow_stream_s"])],
             "primary_single_mrays_per_s": _mrays(cam, m["intersect_single_s"]),
             "shadow_single_mrays_per_s": _mrays(sh, m["occluded_single_s"]),
             "bounce_single_mrays_per_s": [_mrays(n, s) for n, s in zip(bounce_rays, m["bounce_single_s"])],
@@ -100,20 +106,24 @@ def _mrays(rays: int, seconds: float) -> float:
     return rays / seconds / 1e6 if seconds > 0 else 0.0
 
 
-def bounce_s_per_ray(row: dict, bounces: int) -> float:
-    """A bounce ray's Embree seconds on `row`'s scene for a render of `bounces` bounces: the
-    probe's generations 1..bounces pooled (their seconds over their rays)."""
-    rays = sum(row["bounce_rays"][:bounces])
-    return sum(row["bounce_stream_s"][:bounces]) / rays if rays > 0 else 0.0
+def bounce_s_per_ray(row: dict, bounces: int, kind: str = "bounce") -> float:
+    """A bounce ray's (kind "bounce") or a bounce vertex's shadow ray's (kind "bounce_shadow")
+    Embree seconds on `row`'s scene for a render of `bounces` bounces: the probe's generations
+    1..bounces pooled (their seconds over their rays)."""
+    rays = sum(row[f"{kind}_rays"][:bounces])
+    return sum(row[f"{kind}_stream_s"][:bounces]) / rays if rays > 0 else 0.0
 
 
 def ray_limit_seconds(rays: dict, row: dict, bounces: int) -> float:
     """Embree seconds for a task's `rays` (its stats.json counts) rendered with `bounces` bounces,
-    at `row`'s per-ray costs: camera and medium rays at the camera-ray rate, shadow rays at the
-    shadow-ray rate, bounce rays at the pooled bounce rate. Amodal rays are not counted."""
+    at `row`'s per-ray costs: camera and medium rays at the camera-ray rate, the camera hits'
+    shadow rays at the shadow-ray rate, bounce rays and the bounce vertices' shadow rays at their
+    pooled rates. Amodal rays are not counted."""
+    bounce_shadow = rays.get("bounce_shadow_rays", 0)
     return (row["camera_s_per_ray"] * (rays.get("camera_rays", 0) + rays.get("medium_rays", 0))
-            + row["shadow_s_per_ray"] * rays.get("shadow_rays", 0)
-            + bounce_s_per_ray(row, bounces) * rays.get("bounce_rays", 0))
+            + row["shadow_s_per_ray"] * (rays.get("shadow_rays", 0) - bounce_shadow)
+            + bounce_s_per_ray(row, bounces) * rays.get("bounce_rays", 0)
+            + bounce_s_per_ray(row, bounces, "bounce_shadow") * bounce_shadow)
 
 
 def _median_seconds(fn, repeats: int) -> float:

@@ -55,7 +55,7 @@ SWEEP_CONFIG = ROOT / "configs" / "synbag-1.0.yaml"
 NODES = (1, 10, 50, 100)
 STAGE_GROUPS = {"scene_build": ("terrain", "compose", "settle", "build_bvh"), "dust": ("dust",),
                 "render": ("render", "amodal", "tonemap"), "encode_write": ("encode_write",)}
-RAY_KINDS = ("camera_rays", "shadow_rays", "bounce_rays", "medium_rays", "amodal_rays")
+RAY_KINDS = ("camera_rays", "shadow_rays", "bounce_shadow_rays", "bounce_rays", "medium_rays", "amodal_rays")
 
 
 def results_dir() -> Path:

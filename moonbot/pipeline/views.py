@@ -23,8 +23,8 @@ from moonbot.writer import staged_directory, write_sample
 @dataclass(frozen=True)
 class ViewResult:
     """Where a view was written and what it cost: `timings` in seconds per stage, `rays` counts
-    (camera_rays, shadow_rays, bounce_rays and medium_rays of the render, amodal_rays of the amodal
-    masks' instance passes);
+    (camera_rays, shadow_rays with bounce_shadow_rays of them, bounce_rays and medium_rays of the
+    render, amodal_rays of the amodal masks' instance passes);
     `dust` is the view's dust record in gt.json (None in a scene without dust)."""
 
     view: int
@@ -105,7 +105,8 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
             gt = write_sample(staging, rendered, exposure, K, pose, spec.bags,
                               config.output.png_compression, meta, timings, exr=config.output.exr,
                               amodal=amodal)
-        rays = {k: rendered.stats[k] for k in ("camera_rays", "shadow_rays", "bounce_rays", "medium_rays")}
+        rays = {k: rendered.stats[k] for k in ("camera_rays", "shadow_rays", "bounce_shadow_rays", "bounce_rays",
+                                                "medium_rays")}
         rays["amodal_rays"] = amodal.rays
         pixels = {i["instance_id"]: i["px_count_visib"] for i in gt["instances"]}
         results.append(ViewResult(v, out_dir, gt["timings_s"], rays, pixels, meta.get("dust")))

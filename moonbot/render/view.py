@@ -21,8 +21,9 @@ EARTH_DIAMETER_DEG = 1.9
 class RenderedView:
     """One rendered view. rgb (H, W, 3) float32 linear radiance W/(m²·sr); depth (H, W) float32
     z-depth in metres, 0 where nothing is hit; instance (H, W) uint8 labels, 0 = background.
-    `stats` holds camera_rays, shadow_rays, bounce_rays, medium_rays (the dust medium's shadow rays
-    toward the Sun, 0 without dust) and the core's render seconds."""
+    `stats` holds camera_rays, shadow_rays (bounce_shadow_rays of them leave bounce vertices),
+    bounce_rays, medium_rays (the dust medium's shadow rays toward the Sun, 0 without dust) and the
+    core's render seconds."""
 
     rgb: np.ndarray
     depth: np.ndarray
@@ -88,6 +89,6 @@ def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraP
                        light_samples=config.render.light_samples, bounces=config.render.bounces, earth=earth,
                        medium=medium)
     stats = {"camera_rays": out["camera_rays"], "shadow_rays": out["shadow_rays"],
-             "bounce_rays": out["bounce_rays"], "medium_rays": out["medium_rays"], "core_seconds": out["seconds"],
+             "bounce_shadow_rays": out["bounce_shadow_rays"], "bounce_rays": out["bounce_rays"], "medium_rays": out["medium_rays"], "core_seconds": out["seconds"],
              "seconds": time.perf_counter() - start}
     return RenderedView(rgb=out["rgb"], depth=out["depth"], instance=out["instance"], stats=stats)

@@ -18,10 +18,10 @@ namespace moonbot {
 ///
 /// Bounce rays: from every camera hit a cosine-distributed direction about the geometric normal
 /// on the camera's side, leaving from the lifted hit point (rays.h: cosine_direction, lift_off);
-/// generation g + 1 leaves from generation g's hits the same way, as the renderer's paths do.
-/// They are incoherent (origins spread over the scene, directions over the hemisphere), traced
-/// as the renderer traces them: 64-ray streams without the coherent hint, one stream per tile
-/// and generation.
+/// generation g + 1 leaves from generation g's hits the same way, as the renderer's paths do;
+/// and from every generation's hits that face the Sun, a shadow ray toward its centre. Both are
+/// incoherent (origins spread over the scene), traced as the renderer traces them: 64-ray streams
+/// without the coherent hint, one stream per tile, generation and kind.
 ///
 /// Each tile's rays are copied into a per-thread buffer first, untimed, and only the Embree
 /// calls are timed, tile by tile: the renderer also traces rays it has just written, from the
@@ -46,10 +46,13 @@ struct EmbreeLimit {
     double intersect_stream_from_memory_s = 0;
     double occluded_stream_from_memory_s = 0;
     /// Per bounce generation (index 0 = the first bounce): rays, and seconds as the renderer's
-    /// incoherent 64-ray streams (rtcIntersect1M) and one ray at a time (rtcIntersect1).
+    /// incoherent 64-ray streams (rtcIntersect1M) and one ray at a time (rtcIntersect1); then the
+    /// Sun shadow rays from that generation's hits, as incoherent streams (rtcOccluded1M).
     std::vector<uint64_t> bounce_rays;
     std::vector<double> bounce_stream_s;
     std::vector<double> bounce_single_s;
+    std::vector<uint64_t> bounce_shadow_rays;
+    std::vector<double> bounce_shadow_stream_s;
     double timer_overhead_s = 0;  ///< cost of one clock-to-clock interval, subtracted per tile
     int threads = 0;              ///< threads the arena ran
 };
