@@ -75,6 +75,7 @@ CHANGED = {
     "dust.cloud.lifetime_s": 2.0, "dust.cloud.rate_per_s": 500.0, "dust.cloud.sigma_m": 0.4,
     "dust.cloud.growth_m_s": 0.2, "dust.cloud.optical_depth": 20.0, "dust.cloud.rise_fraction": 0.5,
     "dust.cloud.albedo": [0.9, 0.1, 0.1], "dust.cloud.asymmetry": -0.3, "dust.cloud.voxel_m": 0.01,
+    "dust.cloud.march_stride_px": 8,
 }
 
 
@@ -264,6 +265,7 @@ def test_render_one_dust(tmp_path):
     ({"dust.cloud.rate_per_s": 50000.0}, "dust.cloud.rate_per_s: at most 100000 puffs"),
     ({"dust.cloud.albedo": [0.5, 0.5, 1.5]}, "dust.cloud.albedo[2]: must be <= 1.0"),
     ({"dust.cloud.voxel_m": 0}, "dust.cloud.voxel_m: must be >= 0.001"),
+    ({"dust.cloud.march_stride_px": 3}, "dust.cloud.march_stride_px: must be 1, 2, 4 or 8"),
 ], ids=lambda x: x if isinstance(x, str) else None)
 def test_bad_dust_settings_name_the_field(overrides, message):
     with pytest.raises(ConfigError) as caught:

@@ -121,7 +121,8 @@ void bind_dust(py::module_& m) {
         "float64 rows of centre x, y, z (world metres), sigma (metres) and peak extinction (1/m).");
     py::class_<Medium>(m, "Medium", "Dust as a participating medium (moonbot/medium.h): Gaussian puffs, "
                                     "their single-scattering albedo and Henyey-Greenstein asymmetry.")
-        .def(py::init([](const py::handle& puffs, const py::handle& albedo, double asymmetry, double voxel_m, double floor_z) {
+        .def(py::init([](const py::handle& puffs, const py::handle& albedo, double asymmetry, double voxel_m, double floor_z,
+                         int march_stride_px) {
                  const auto rows = converted<double>(as_array(puffs, "puffs"), "puffs");
                  if (!(rows.ndim() == 2 && rows.shape(1) == 5) && !(rows.ndim() == 1 && rows.shape(0) == 0))
                      fail("puffs", "must be (N, 5) rows of centre x, y, z, sigma, peak extinction; got " + shape_of(rows));
@@ -135,15 +136,18 @@ void bind_dust(py::module_& m) {
                  medium.asymmetry = asymmetry;
                  medium.voxel_m = voxel_m;
                  medium.floor_z = floor_z;
+                 medium.march_stride_px = march_stride_px;
                  medium.validate();  // std::invalid_argument → ValueError
                  return medium;
              }),
              py::arg("puffs"), py::arg("albedo") = py::make_tuple(0.55, 0.51, 0.45), py::arg("asymmetry") = 0.7,
              py::arg("voxel_m") = 0.05, py::arg("floor_z") = -std::numeric_limits<double>::infinity(),
+             py::arg("march_stride_px") = 1,
              "puffs (N, 5) float: centre x, y, z (world metres), sigma (metres), peak extinction (1/m); "
              "albedo: single-scattering albedo (3,) in [0, 1]; asymmetry: Henyey-Greenstein g; voxel_m: "
              "the spacing of the grid the dust is baked on per render and its march step, metres; "
-             "floor_z: no dust is seen or lit below this height (the ground), metres.")
+             "floor_z: no dust is seen or lit below this height (the ground), metres; march_stride_px: 1, 2, 4 "
+             "or 8, the pixels between the camera rays that march the dust (the others interpolate).")
         .def_property_readonly("puff_count", [](const Medium& m) { return m.puffs.size(); });
     m.def("henyey_greenstein", &henyey_greenstein, py::arg("cos_theta"), py::arg("g"),
           "Henyey-Greenstein phase function per steradian (g > 0: forward).");

@@ -58,6 +58,8 @@ void Medium::validate() const {
     if (!(asymmetry > -1.0 && asymmetry < 1.0)) throw std::invalid_argument("asymmetry: must be in (-1, 1)");
     if (!(voxel_m >= 1e-3 && voxel_m <= 100.0)) throw std::invalid_argument("voxel_m: must be in [0.001, 100]");
     if (std::isnan(floor_z) || floor_z == INFINITY) throw std::invalid_argument("floor_z: must be a number below +inf");
+    if (!(march_stride_px == 1 || march_stride_px == 2 || march_stride_px == 4 || march_stride_px == 8))
+        throw std::invalid_argument("march_stride_px: must be 1, 2, 4 or 8, got " + std::to_string(march_stride_px));
 }
 
 double puff_reach(const Puff& puff) {
@@ -246,14 +248,14 @@ double DustGrid::trilinear(const std::vector<float>& field, const glm::dvec3& f_
     return (1 - t[2]) * y0 + t[2] * y1;
 }
 
-double DustGrid::march(const glm::dvec3& origin, const glm::dvec3& dir, double enter, double exit, double step,
-                       double opaque, double& lit) const {
+template <typename Visit>
+void DustGrid::walk(const glm::dvec3& origin, const glm::dvec3& dir, double enter, double exit, double step,
+                    double opaque, Visit&& visit) const {
     // In the grid's frame, where a lookup needs no rotation: o + s·d is the ray.
     const glm::dvec3 o = frame(origin), d = frame(dir);
     const double inv_h = 1.0 / m_h;
     const size_t sy = 2 * static_cast<size_t>(m_n[0]), sz = sy * static_cast<size_t>(m_n[1]);
     double depth = 0.0;
-    lit = 0.0;
     for (long k = 0; depth < opaque; ++k) {
         const double a = enter + static_cast<double>(k) * step;
         if (!(a < exit)) break;
@@ -290,10 +292,38 @@ double DustGrid::march(const glm::dvec3& origin, const glm::dvec3& dir, double e
         };
         const double extinction = yz(0);
         if (!(extinction > 0.0)) continue;
-        lit += std::exp(-(depth + 0.5 * extinction * length)) * extinction * yz(1) * length;
+        visit(k, length, extinction, yz(1));
         depth += extinction * length;
     }
+}
+
+double DustGrid::march(const glm::dvec3& origin, const glm::dvec3& dir, double enter, double exit, double step,
+                       double opaque, double& lit) const {
+    double depth = 0.0;
+    lit = 0.0;
+    walk(origin, dir, enter, exit, step, opaque, [&](long, double length, double extinction, double sunlight) {
+        lit += std::exp(-(depth + 0.5 * extinction * length)) * extinction * sunlight * length;
+        depth += extinction * length;
+    });
     return depth;
+}
+
+void DustGrid::march_profile(const glm::dvec3& origin, const glm::dvec3& dir, double enter, double exit,
+                             double step, double opaque, std::vector<double>& tau, std::vector<double>& lit) const {
+    const auto count = static_cast<size_t>(std::max(0.0, std::ceil((exit - enter) / step)));
+    tau.assign(count + 1, 0.0);
+    lit.assign(count + 1, 0.0);
+    size_t filled = 0;  // tau[0 .. filled] hold their final sums
+    double depth = 0.0, light = 0.0;
+    walk(origin, dir, enter, exit, step, opaque, [&](long k, double length, double extinction, double sunlight) {
+        const auto j = static_cast<size_t>(k);
+        for (; filled < j; ++filled) tau[filled + 1] = depth, lit[filled + 1] = light;  // steps without dust
+        light += std::exp(-(depth + 0.5 * extinction * length)) * extinction * sunlight * length;
+        depth += extinction * length;
+        tau[j + 1] = depth, lit[j + 1] = light;
+        filled = j + 1;
+    });
+    for (; filled < count; ++filled) tau[filled + 1] = depth, lit[filled + 1] = light;
 }
 
 double DustGrid::sun_transmittance(const glm::dvec3& point) const {

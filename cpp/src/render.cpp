@@ -59,6 +59,28 @@ struct PathVertex {
     bool shaded_apart;      // `shading` differs from `normal`
 };
 
+/// One marched ray of a strided dust march (Medium::march_stride_px): where it crosses the grid
+/// and DustGrid::march_profile's sums along it.
+struct DustProfile {
+    bool crosses = false;
+    double enter = 0.0, exit = 0.0;  // metres along the ray
+    std::vector<double> tau, lit;
+
+    /// The sums from the camera to `distance` (metres along the ray; +inf: all of it), linear
+    /// within a step.
+    void at(double distance, double step, double& tau_out, double& lit_out) const {
+        tau_out = lit_out = 0.0;
+        if (!crosses || !(distance > enter)) return;
+        const double s = std::min(distance, exit) - enter;
+        const size_t j = std::min(static_cast<size_t>(s / step), tau.size() - 2);
+        const double start = static_cast<double>(j) * step;
+        const double length = std::min(step, exit - enter - start);
+        const double f = length > 0.0 ? std::clamp((s - start) / length, 0.0, 1.0) : 1.0;
+        tau_out = tau[j] + f * (tau[j + 1] - tau[j]);
+        lit_out = lit[j] + f * (lit[j + 1] - lit[j]);
+    }
+};
+
 /// Per-thread scratch for one tile.
 struct TileScratch {
     std::array<RayHit, kTilePixels> rays;
@@ -74,6 +96,7 @@ struct TileScratch {
     std::array<double, kTilePixels> sun_dust;       // transmittance toward the Sun at each first hit
     std::array<double, kTilePixels> dust_through;   // transmittance from the camera to the hit
     std::array<glm::dvec3, kTilePixels> dust_glow;  // sunlight the dust scatters toward the camera
+    std::array<DustProfile, (kTile + 1) * (kTile + 1)> lattice;  // the marched rays of a strided march
 };
 
 /// The photometric shape of an instance's surface (photometry.h). Lambert's is 1 outright: no
@@ -143,7 +166,7 @@ public:
         }
         if (!want_rgb) return;
 
-        if (m_medium) march_dust(n, s);
+        if (m_medium) march_dust(x0, y0, tw, n, s);
         if (m_settings.spp == 1) {
             shade(n, s, stats, 0);
         } else {
@@ -235,21 +258,70 @@ private:
     /// (the midpoint rule: no noise, an error of second order in the step on the smooth puffs;
     /// a random offset per pixel was measured to leave grain 4–10× worse than the midpoint's
     /// error, bench_medium), it gives the transmittance to the hit and the sunlight scattered
-    /// toward the camera (render.h).
-    void march_dust(int n, TileScratch& s) const {
+    /// toward the camera (render.h). With Medium::march_stride_px S > 1 only every S-th pixel's
+    /// ray marches, through the whole grid, and the pixels between read the four around them at
+    /// their own hit distances (the tile [x0, x0 + tw) × rows, n pixels).
+    void march_dust(int x0, int y0, int tw, int n, TileScratch& s) const {
         const glm::dvec3& origin = m_camera.center();
         const Medium& medium = m_medium->medium();
         const double step = medium.voxel_m;
+        const int stride = medium.march_stride_px;
+        // Strided: the rays through every stride-th pixel centre, from the tile's first pixel to
+        // one stride past its last (the next tile marches the same ray as far as it needs it: the
+        // sums along a ray do not depend on how far it goes). Each goes as far as the farthest
+        // hit among the pixels that read it.
+        const int columns = stride > 1 ? (tw - 1) / stride + 2 : 0;
+        const int rows = stride > 1 ? (n / tw - 1) / stride + 2 : 0;
+        std::array<double, (kTile + 1) * (kTile + 1)> reach;
+        std::fill_n(reach.begin(), columns * rows, 0.0);
+        for (int i = 0; i < n && stride > 1; ++i) {
+            const PixelHit& h = s.hits.pixel(i);
+            const double distance = h.hit ? h.t * glm::length(s.dirs[i]) : INFINITY;
+            const int px = i % tw, py = i / tw, a = px / stride, b = py / stride;
+            for (int dy = 0; dy <= (py % stride ? 1 : 0); ++dy)
+                for (int dx = 0; dx <= (px % stride ? 1 : 0); ++dx) {
+                    double& r = reach[static_cast<size_t>((b + dy) * columns + a + dx)];
+                    r = std::max(r, distance);
+                }
+        }
+        for (int b = 0; b < rows; ++b)
+            for (int a = 0; a < columns; ++a) {
+                const size_t k = static_cast<size_t>(b * columns + a);
+                DustProfile& p = s.lattice[k];
+                glm::dvec3 dir = m_camera.direction(x0 + a * stride + 0.5, y0 + b * stride + 0.5);
+                dir /= glm::length(dir);
+                p.crosses = reach[k] > 0.0 && m_medium->clip(origin, dir, reach[k], p.enter, p.exit);
+                if (p.crosses) m_medium->march_profile(origin, dir, p.enter, p.exit, step, kOpaqueDepth, p.tau, p.lit);
+            }
         for (int i = 0; i < n; ++i) {
             s.dust_through[i] = 1.0;
             s.dust_glow[i] = glm::dvec3(0.0);
             const PixelHit& h = s.hits.pixel(i);
             const double length = glm::length(s.dirs[i]);
             const glm::dvec3 dir = s.dirs[i] / length;
-            double enter, exit;
-            if (!m_medium->clip(origin, dir, h.hit ? h.t * length : INFINITY, enter, exit)) continue;
-            double lit;
-            const double depth = m_medium->march(origin, dir, enter, exit, step, kOpaqueDepth, lit);
+            const double distance = h.hit ? h.t * length : INFINITY;
+            double depth = 0.0, lit = 0.0;
+            if (stride == 1) {
+                double enter, exit;
+                if (!m_medium->clip(origin, dir, distance, enter, exit)) continue;
+                depth = m_medium->march(origin, dir, enter, exit, step, kOpaqueDepth, lit);
+            } else {
+                // Bilinear between the four marched rays around the pixel, each read at the
+                // pixel's own hit distance.
+                const int px = i % tw, py = i / tw;
+                const int a = px / stride, b = py / stride;
+                const double fx = double(px % stride) / stride, fy = double(py % stride) / stride;
+                const double weight[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+                const int corner[4] = {b * columns + a, b * columns + a + 1, (b + 1) * columns + a,
+                                       (b + 1) * columns + a + 1};
+                for (int c = 0; c < 4; ++c) {
+                    if (weight[c] == 0.0) continue;
+                    double t, l;
+                    s.lattice[static_cast<size_t>(corner[c])].at(distance, step, t, l);
+                    depth += weight[c] * t;
+                    lit += weight[c] * l;
+                }
+            }
             s.dust_through[i] = std::exp(-depth);
             if (!m_sun || lit == 0.0) continue;
             // Irradiance E = π·scale; light travels along −sun.dir, then toward the camera, −dir.

@@ -517,6 +517,10 @@ class CloudConfig:
         "side of the grid cells the cloud is baked on for rendering and its march step, metres; "
         "bench/results/medium-*.json: at 0.05, 6 % RMS error in the scattered light for 10× a dust-free view's time",
         lo=0.001, hi=10.0))
+    march_stride_px: int = field(default=4, metadata=spec(
+        "pixels between the camera rays that march the cloud, 1, 2, 4 or 8 (the pixels between read "
+        "the four marched rays around them at their own hit distance); bench/results/medium-*.json: "
+        "4 leaves under 0.1 % RMS image error and halves the march's time", lo=1, hi=8))
 
     def __post_init__(self) -> None:
         if not any(self.axis):
@@ -528,6 +532,8 @@ class CloudConfig:
             raise ValueError(f"rise_fraction: must be < 1, got {self.rise_fraction}")
         if self.asymmetry >= 1.0:
             raise ValueError(f"asymmetry: must be < 1, got {self.asymmetry}")
+        if self.march_stride_px not in (1, 2, 4, 8):
+            raise ValueError(f"march_stride_px: must be 1, 2, 4 or 8, got {self.march_stride_px}")
 
 
 @dataclass(frozen=True)

@@ -126,7 +126,7 @@ class SceneDust:
         # Dust more than a metre under the emitter's ground is never seen or lit: the core's grid
         # stops there (the default plume rises from 1.7 m below).
         medium = (_core.Medium(puffs, albedo=c.albedo, asymmetry=c.asymmetry, voxel_m=c.voxel_m,
-                               floor_z=float(self._origin[2]) - FLOOR_DEPTH_M)
+                               floor_z=float(self._origin[2]) - FLOOR_DEPTH_M, march_stride_px=c.march_stride_px)
                   if len(puffs) else None)
         seconds += time.perf_counter() - start
         meta = {"capture_time_s": t, "fragments": fragments, "puffs": int(len(puffs)),
