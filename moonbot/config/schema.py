@@ -520,7 +520,8 @@ class CloudConfig:
     march_stride_px: int = field(default=4, metadata=spec(
         "pixels between the camera rays that march the cloud, 1, 2, 4 or 8 (the pixels between read "
         "the four marched rays around them at their own hit distance); bench/results/medium-*.json: "
-        "4 leaves under 0.1 % RMS image error and halves the march's time", lo=1, hi=8))
+        "4 differs from 1 by 0.3 % RMS of the mean radiance (the grid's own error: 6 %) and saves 40 % "
+        "of a dusty view's time", lo=1, hi=8))
 
     def __post_init__(self) -> None:
         if not any(self.axis):
