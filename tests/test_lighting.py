@@ -166,9 +166,11 @@ def test_integrating_sphere_converges_to_the_geometric_series(bounces):
         assert measured > float(fewer["rgb"][..., 1].mean())
 
 
-def test_noise_falls_as_one_over_root_spp():
+def test_noise_falls_faster_than_one_over_root_spp():
     """Inside the integrating sphere, where every pixel's value is a Monte Carlo estimate of the
-    same radiance: the RMS deviation from a high-sample reference halves per 4× samples."""
+    same radiance: the RMS deviation from a high-sample reference falls by more than the half per
+    4× samples that independent random numbers give (1/sqrt(spp)): the sampler's stratified
+    points (sampler.h) make it about 9× from 4 to 64 spp, against 4×."""
     vertices, faces, *_ = integrating_sphere()
     scene = _core.Scene()
     scene.add_background(scene.add_mesh(vertices, faces), np.eye(4), (0.5,) * 3)
@@ -178,8 +180,8 @@ def test_noise_falls_as_one_over_root_spp():
     reference = _core.render(scene, camera, sun, spp=4096, bounces=1, seed=1)["rgb"][..., 1]
     rmse = {spp: float(np.sqrt(np.mean((_core.render(scene, camera, sun, spp=spp, bounces=1, seed=2)["rgb"][..., 1]
                                         - reference) ** 2))) for spp in (4, 16, 64)}
-    assert rmse[4] / rmse[16] == pytest.approx(2.0, rel=0.25)
-    assert rmse[16] / rmse[64] == pytest.approx(2.0, rel=0.25)
+    assert rmse[4] / rmse[16] > 2.0 and rmse[16] / rmse[64] > 2.0
+    assert rmse[4] / rmse[64] > 6.0
 
 
 def test_soft_shadow_edge_has_the_penumbra_of_the_sun_disk():

@@ -15,6 +15,7 @@
 #include <tbb/task_arena.h>
 
 #include "moonbot/rng.h"
+#include "moonbot/sampler.h"
 #include "rays.h"
 
 namespace moonbot {
@@ -27,10 +28,12 @@ constexpr int kMaxSpp = 65536;
 constexpr double kInvPi = 0.31830988618379067154;
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kTwoPi = 6.28318530717958647693;
-// Random-number dimensions of one camera sample: 0–1 jitter the pixel, then each light's disk
-// samples, then each bounce's direction and its lights' disk samples.
-// (At most 2 lights × kMaxLightSamples × 2 dimensions fit below kDimBounce.)
-constexpr uint32_t kDimLight = 16, kDimBounce = 8192, kDimsPerBounce = 64;
+// Dimension pairs of one camera sample (sampler.h): pair 0 jitters the pixel; kPairLight + l
+// samples light l's disk at the camera hit (the sequence's index runs over the samples and, within
+// each, its shadow rays, so all of a pixel's rays toward the Sun are stratified together); bounce b
+// takes kPairBounce + kPairsPerBounce·(b − 1) for its direction and the pairs after it for its
+// vertex's lights.
+constexpr uint32_t kPairLight = 8, kPairBounce = 4096, kPairsPerBounce = 32;
 // A march stops once the dust's optical depth passes this: nothing behind shows (e^-20 ≈ 2e-9).
 constexpr double kOpaqueDepth = 20.0;
 
@@ -201,9 +204,8 @@ private:
             const auto k = static_cast<uint32_t>(sample);
             for (int y = y0, i = 0; y < y0 + n / tw; ++y)
                 for (int x = x0; x < x0 + tw; ++x, ++i) {
-                    const double jx = stream_uniform01(s.streams[i], k, 0);
-                    const double jy = stream_uniform01(s.streams[i], k, 1);
-                    s.dirs[i] = m_camera.direction(x + jx, y + jy);
+                    const SamplePair j = sample_pair(s.streams[i], k, 0);
+                    s.dirs[i] = m_camera.direction(x + double(j.u), y + double(j.v));
                     set_ray(s.rays[i], origin, s.dirs[i]);
                 }
         }
@@ -244,12 +246,12 @@ private:
             for (size_t l = 1; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(v.normal, m_lights[l].dir);
             if (m_medium && m_sun) s.sun_dust[i] = m_medium->sun_transmittance(v.point);
         }
-        light_vertices(n, s, stats, sample, m_settings.light_samples, kDimLight,
+        light_vertices(n, s, stats, sample, m_settings.light_samples, kPairLight,
                        m_medium && m_sun ? s.sun_dust.data() : nullptr, /*camera_hits=*/true);
         for (int bounce = 1; bounce <= m_settings.bounces; ++bounce) {
-            const uint32_t dim = kDimBounce + kDimsPerBounce * static_cast<uint32_t>(bounce - 1);
-            if (!extend_paths(n, s, stats, sample, dim)) break;
-            light_vertices(n, s, stats, sample, 1, dim + 2, nullptr, /*camera_hits=*/false);
+            const uint32_t pair = kPairBounce + kPairsPerBounce * static_cast<uint32_t>(bounce - 1);
+            if (!extend_paths(n, s, stats, sample, pair)) break;
+            light_vertices(n, s, stats, sample, 1, pair + 1, nullptr, /*camera_hits=*/false);
         }
     }
 
@@ -377,14 +379,15 @@ private:
     }
 
     /// Adds every light's contribution at the live path vertices to their pixels: `samples`
-    /// shadow rays per light toward its disk (random dimensions dim .. dim + 4·samples), each
+    /// shadow rays per light toward its disk (light l: dimension pair `pair` + l, points
+    /// sample·samples .. sample·samples + samples − 1 of its sequence), each
     /// vertex weighted by its path throughput (and the Sun's by `sun_dust`, the dust's
     /// transmittance toward it, per pixel, where given). `camera_hits`: the vertices are the
     /// camera rays' hits, whose shadow rays leave neighbouring points in nearly one direction
     /// (Embree's coherent stream mode); else a bounce's, scattered over the scene (its incoherent
     /// mode, measured 20 % faster for them on the benchmark's scenes).
     void light_vertices(int n, TileScratch& s, RenderStats& stats, uint32_t sample, int samples,
-                        uint32_t dim, const double* sun_dust, bool camera_hits) const {
+                        uint32_t pair, const double* sun_dust, bool camera_hits) const {
         for (size_t l = 0; l < m_lights.size(); ++l) {
             const LightData& light = m_lights[l];
             // The Earth's light is ~1e-4 of the Sun's: one shadow ray toward its disk leaves noise
@@ -392,7 +395,7 @@ private:
             const int rays_per_vertex = light.point || l > 0 ? 1 : samples;
             std::fill_n(s.visible.begin(), n, 0);
             for (int k = 0; k < rays_per_vertex; ++k) {
-                const uint32_t d = dim + 2 * static_cast<uint32_t>(l * samples + k);
+                const uint32_t point = sample * static_cast<uint32_t>(samples) + static_cast<uint32_t>(k);
                 int count = 0;
                 for (int i = 0; i < n; ++i) {
                     const PathVertex& v = s.path[i];
@@ -400,8 +403,9 @@ private:
                     glm::dvec3 to_light = light.dir;
                     if (!light.point) {
                         // Uniform over the disk's solid angle.
-                        const double u = stream_uniform01(s.streams[i], sample, d);
-                        const double phi = kTwoPi * stream_uniform01(s.streams[i], sample, d + 1);
+                        const SamplePair q = sample_pair(s.streams[i], point, pair + static_cast<uint32_t>(l));
+                        const double u = q.u;
+                        const double phi = kTwoPi * q.v;
                         const double c = 1.0 - u * (1.0 - light.cos_half);
                         const double r = std::sqrt(std::max(0.0, 1.0 - c * c));
                         to_light = c * light.dir + r * (std::cos(phi) * light.a + std::sin(phi) * light.b);
@@ -434,16 +438,16 @@ private:
     }
 
     /// Continues every live path by one bounce: a cosine-distributed direction about the normal
-    /// (random dimensions dim, dim + 1), the throughput weighted by π·f·cos/pdf = albedo·shape,
+    /// (dimension pair `pair`), the throughput weighted by π·f·cos/pdf = albedo·shape,
     /// and the ray traced. Paths that leave the scene end. Returns whether any path lives on.
-    bool extend_paths(int n, TileScratch& s, RenderStats& stats, uint32_t sample, uint32_t dim) const {
+    bool extend_paths(int n, TileScratch& s, RenderStats& stats, uint32_t sample, uint32_t pair) const {
         int count = 0;
         for (int i = 0; i < n; ++i) {
             PathVertex& v = s.path[i];
             if (!v.alive) continue;
             double mu_i;
-            const glm::dvec3 wi = cosine_direction(v.normal, stream_uniform01(s.streams[i], sample, dim),
-                                                   stream_uniform01(s.streams[i], sample, dim + 1), mu_i);
+            const SamplePair q = sample_pair(s.streams[i], sample, pair);
+            const glm::dvec3 wi = cosine_direction(v.normal, q.u, q.v, mu_i);
             const InstanceData& inst = m_instances[v.instance];
             const double shape = shape_at(inst, mu_i, glm::dot(v.normal, v.wo), glm::dot(wi, v.wo));
             v.throughput *= v.albedo * shape;
