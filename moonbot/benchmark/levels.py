@@ -7,7 +7,7 @@ every level, so a level is chiefly its spp.
 - draft: 1 spp (the unjittered pixel-centre ray: aliased, noiseless), 1 shadow ray toward the
   Sun's disk, 1 bounce (shadows filled to within ~2 %). For layouts, labels and smoke runs.
 - default: the config defaults — 4 spp, 2 Sun-disk rays, 2 bounces. What SynBag-1.0 renders.
-- high: 8 spp, 4 Sun-disk rays, 3 bounces: about 30 % less pixel noise than default (1/sqrt(2)),
+- high: 8 spp, 4 Sun-disk rays, 3 bounces: 40 % less pixel noise than default (the sampler's nets),
   softer shadow edges and inter-reflections to within 0.03 %.
 """
 
