@@ -16,21 +16,34 @@ sky); a perspective camera with the export's horizontal fov and pose. Cycles: CP
 no light or sample clamping (Cycles clamps indirect samples at 10 by default), no adaptive
 sampling, no denoising, box pixel filter 1 px wide, Cycles' default sampling pattern, persistent
 data on (the BVH is built once, by the warm-up render), shadow terminator offsets 0.
-Passes: Combined (float32 linear RGB), Depth (Cycles' Z: z-depth) and IndexOB (object pass
-index = the export's instance id) are enabled and the render written as one multilayer EXR
-(float32, uncompressed). With bpy 5.0.1 (pip) only Combined reaches the file: Depth and IndexOB
-were missing from it, and from a compositor File Output node fed by the Render Layers node's
-Depth and Object Index sockets, although those sockets were enabled; so depth.npy and index.npy
-are written only when a version does write them.
+Passes: Combined, Depth (Cycles' Z: z-depth, distance along the camera's view axis) and
+Object Index (IndexOB: the object's pass index = the export's instance id) are enabled on the
+view layer and copied, float32, straight out of Cycles' RenderResult in memory: the Cycles
+engine class's `render` method is wrapped so that, as soon as Cycles has finished a frame and
+before Blender frees the result, `RenderEngine.get_result()` gives the result's layer and each
+pass's `rect` is read with `foreach_get` into numpy (0.7 ms at 640×480 for all three; rows
+flipped, Blender's are bottom-up). Nothing is written to disk. With bpy 5.0.1 (pip) the file
+route loses the passes: `render(write_still=True)` to a multilayer EXR (and `save_render` of
+the Render Result) held only Combined although the engine's result had Depth and Object Index
+too, with or without `use_compositing`; with a compositor node group
+(`scene.compositing_node_group`) the EXR held only the composite. Depth and Object Index are
+not averages over the samples: on the bench scene they came out the same at every seed and
+spp, integer indices, and equal to moonbot's pixel-centre depth to ~1e-5 (median), so they
+belong to one ray through the pixel centre.
 
 Timing: `load_s` is reading the PLYs and building the Blender data; `first_render_s` is a 1-spp
 warm-up render (scene sync to Cycles and BVH build); then every spp up to --repeat-max-spp is
 rendered `--repeats` times (a larger one once), each timed around `bpy.ops.render.render`
-including its uncompressed EXR write (a few ms at 640×480; Blender's render_post handler
-fires only after the write, so it cannot be split off), median reported.
+including the copy of its passes into numpy, median reported. `--no-depth-index` copies
+Combined alone (Depth and Object Index stay enabled in Cycles): the extraction's cost is the
+difference (0.2 ms at 640×480; the whole copy 0.7 ms, where the old EXR write took ~17 ms).
+Each render sets `scene.render.filepath` first: that tags the scene, without which Blender
+hands the persistent Cycles session no change and it returns the previous frame unrendered
+(Cycles' samples and seed settings do not tag it).
 
-Writes OUT_DIR/rgb_sppN.npy (H, W, 3) float32, depth.npy, index.npy (from the last render),
-the EXRs, and timings.json. Reading the EXRs needs the `OpenEXR` pip package in this venv.
+Writes OUT_DIR/rgb_sppN.npy (H, W, 3) float32, depth.npy (float32 metres, 0 where the ray
+missed) and index.npy (uint8) from each spp's last render (the highest spp's are kept), and
+timings.json.
 """
 
 from __future__ import annotations
@@ -161,29 +174,48 @@ def build_scene(bpy, scene_dir: Path, scene_json: dict, threads: int) -> None:
     layer.use_pass_combined = True
     layer.use_pass_z = True
     layer.use_pass_object_index = True
-    s = r.image_settings
-    if hasattr(s, "media_type"):
-        s.media_type = "MULTI_LAYER_IMAGE"  # Blender 5: before file_format
-    s.file_format = "OPEN_EXR_MULTILAYER"
-    s.color_depth = "32"
-    s.exr_codec = "NONE"
 
 
-def read_exr(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
-    import OpenEXR
-    with OpenEXR.File(str(path), separate_channels=True) as f:
-        ch = f.channels()
-        def get(suffix):
-            names = [n for n in ch if n.endswith(suffix)]
-            if not names:
-                raise KeyError(f"{path}: no channel ending in {suffix}: {sorted(ch)}")
-            return np.asarray(ch[names[0]].pixels, np.float32)
-        rgb = np.stack([get("Combined.R"), get("Combined.G"), get("Combined.B")], axis=-1)
-        # bpy 5.0.1 leaves Depth and IndexOB out of the file although the view layer asks
-        # for them (module docstring); read them when a version writes them.
-        depth = get("Depth.Z") if any(n.endswith("Depth.Z") for n in ch) else None
-        index = get("IndexOB.X") if any(n.endswith("IndexOB.X") for n in ch) else None
-    return rgb, depth, index
+class PassGrabber:
+    """Copies passes out of Cycles' render result into numpy while Blender still holds it.
+
+    bpy 5.0.1 does not write Depth or Object Index to the multilayer EXR it saves (module
+    docstring), but Cycles' own RenderResult has them: the Cycles engine class's `render`
+    (called by Blender once a frame) is wrapped, and after Cycles returns, the result's first
+    layer gives each pass's `rect` (H·W·channels floats, rows bottom-up)."""
+
+    PASSES = {"rgb": ("Combined", 3), "depth": ("Depth", 1), "index": ("Object Index", 1)}
+
+    def __init__(self, bpy, names: tuple[str, ...]):
+        engines = [c for c in bpy.types.RenderEngine.__subclasses__() if getattr(c, "bl_idname", "") == "CYCLES"]
+        if len(engines) != 1:
+            raise RuntimeError(f"expected one Cycles RenderEngine class, found {engines}")
+        self.names = names
+        self.arrays: dict[str, np.ndarray] = {}
+        engine_class = engines[0]
+        cycles_render = engine_class.render
+        grabber = self
+
+        def render(engine, depsgraph):
+            grabber.arrays = {}
+            cycles_render(engine, depsgraph)
+            grabber.grab(engine.get_result())
+
+        engine_class.render = render
+
+    def grab(self, result) -> None:
+        if result is None or not len(result.layers):
+            raise RuntimeError("Cycles left no render result")
+        w, h = result.resolution_x, result.resolution_y
+        passes = {p.name: p for p in result.layers[0].passes}
+        for name in self.names:
+            pass_name, keep = self.PASSES[name]
+            if pass_name not in passes:
+                raise RuntimeError(f"render result has no {pass_name} pass: {sorted(passes)}")
+            p = passes[pass_name]
+            flat = np.empty(w * h * p.channels, np.float32)
+            p.rect.foreach_get(flat)
+            self.arrays[name] = flat.reshape(h, w, p.channels)[::-1, :, :keep]
 
 
 def main() -> int:
@@ -196,6 +228,8 @@ def main() -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--repeat-max-spp", type=int, default=16, help="spp above this get one timed render")
     parser.add_argument("--prefix", default="", help="prefix of the output files (e.g. a reference's)")
+    parser.add_argument("--no-depth-index", action="store_true",
+                        help="copy Combined alone out of each render (Depth and Object Index stay enabled): to time the extraction")
     args = parser.parse_args()
 
     start = time.perf_counter()
@@ -208,37 +242,48 @@ def main() -> int:
     load_s = time.perf_counter() - start
     scene = bpy.context.scene
 
-    def render(spp: int, seed: int, path: Path) -> float:
+    names = ("rgb",) if args.no_depth_index else ("rgb", "depth", "index")
+    grabber = PassGrabber(bpy, names)
+
+    def render(spp: int, seed: int) -> float:
         scene.cycles.samples = spp
         scene.cycles.seed = seed
-        scene.render.filepath = str(path)
+        # Cycles' own settings (samples, seed) carry no update callback: without a tag on the
+        # scene, Blender's next render hands the persistent Cycles session no change, and Cycles
+        # returns the previous frame's pixels unrendered. Setting a render setting tags it, and
+        # Cycles re-reads its settings without re-syncing the geometry (nothing is written there:
+        # write_still=False). scene.update_tag() would re-sync everything (~0.7 s at 160×120).
+        scene.render.filepath = str(args.out_dir / f"{args.prefix}unused")
         t0 = time.perf_counter()
-        bpy.ops.render.render(write_still=True)
-        return time.perf_counter() - t0
+        bpy.ops.render.render(write_still=False)
+        seconds = time.perf_counter() - t0
+        missing = [n for n in names if n not in grabber.arrays]
+        if missing:
+            raise RuntimeError(f"no {missing} from this render")
+        return seconds
 
-    warm = args.out_dir / f"{args.prefix}warmup.exr"
-    first_render_s = render(1, args.seed, warm)
-    warm.unlink(missing_ok=True)
+    first_render_s = render(1, args.seed)
     rows = []
     for spp in [int(s) for s in args.spp.split(",") if s]:
         times = []
-        exr = args.out_dir / f"{args.prefix}cycles_spp{spp}.exr"
         for r in range(max(args.repeats, 1) if spp <= args.repeat_max_spp else 1):
-            s = render(spp, args.seed + 1 + r, exr)
+            s = render(spp, args.seed + 1 + r)
             times.append(s)
-        rgb, depth, index = read_exr(exr)
-        np.save(args.out_dir / f"{args.prefix}rgb_spp{spp}.npy", rgb)
-        exr.unlink()
+        frame = grabber.arrays
+        np.save(args.out_dir / f"{args.prefix}rgb_spp{spp}.npy", np.ascontiguousarray(frame["rgb"]))
         rows.append({"spp": spp, "render_s": statistics.median(times), "render_s_all": times})
         print(f"cycles spp {spp:>5}: {rows[-1]['render_s']:.3f} s", flush=True)
-    if depth is not None:
-        np.save(args.out_dir / f"{args.prefix}depth.npy", np.where((depth > 0) & (depth < 1e9), depth, 0).astype(np.float32))
-    if index is not None:
-        np.save(args.out_dir / f"{args.prefix}index.npy", np.rint(index).astype(np.uint8))
+        if "depth" in frame:
+            # Cycles' Z of a ray that hit nothing is 1e10: 0 there, as moonbot's depth.
+            depth = frame["depth"][..., 0]
+            np.save(args.out_dir / f"{args.prefix}depth.npy", np.where((depth > 0) & (depth < 1e9), depth, 0).astype(np.float32))
+            np.save(args.out_dir / f"{args.prefix}index.npy", np.rint(frame["index"][..., 0]).astype(np.uint8))
     out = {"renderer": "cycles", "version": bpy.app.version_string, "threads": args.threads,
            "import_bpy_s": import_s, "load_s": load_s, "first_render_s": first_render_s,
-           "passes": "Combined + Depth + IndexOB enabled in every render (multilayer EXR, float32, uncompressed)",
-           "passes_written": ["Combined"] + (["Depth"] if depth is not None else []) + (["IndexOB"] if index is not None else []),
+           "passes": ("Combined + Depth + Object Index enabled in every render" +
+                      (", all three copied from the RenderResult into numpy inside the timed render (no file written)"
+                       if not args.no_depth_index else ", Combined alone copied from the RenderResult (--no-depth-index)")),
+           "passes_extracted": [grabber.PASSES[n][0] for n in names],
            "rows": rows}
     (args.out_dir / f"{args.prefix}timings.json").write_text(json.dumps(out, indent=2) + "\n")
     return 0
