@@ -261,8 +261,9 @@ private:
     /// a random offset per pixel was measured to leave grain 4–10× worse than the midpoint's
     /// error, bench_medium), it gives the transmittance to the hit and the sunlight scattered
     /// toward the camera (render.h). With Medium::march_stride_px S > 1 only every S-th pixel's
-    /// ray marches, through the whole grid, and the pixels between read the four around them at
-    /// their own hit distances (the tile [x0, x0 + tw) × rows, n pixels).
+    /// ray marches, as far as the farthest hit among the pixels that read it, and the pixels
+    /// between read the four around them at their own hit distances (the tile [x0, x0 + tw) ×
+    /// rows, n pixels).
     void march_dust(int x0, int y0, int tw, int n, TileScratch& s) const {
         const glm::dvec3& origin = m_camera.center();
         const Medium& medium = m_medium->medium();
@@ -380,7 +381,7 @@ private:
 
     /// Adds every light's contribution at the live path vertices to their pixels: `samples`
     /// shadow rays per light toward its disk (light l: dimension pair `pair` + l, points
-    /// sample·samples .. sample·samples + samples − 1 of its sequence), each
+    /// sample·R .. sample·R + R − 1 of its sequence, R its rays a vertex), each
     /// vertex weighted by its path throughput (and the Sun's by `sun_dust`, the dust's
     /// transmittance toward it, per pixel, where given). `camera_hits`: the vertices are the
     /// camera rays' hits, whose shadow rays leave neighbouring points in nearly one direction
@@ -395,7 +396,8 @@ private:
             const int rays_per_vertex = light.point || l > 0 ? 1 : samples;
             std::fill_n(s.visible.begin(), n, 0);
             for (int k = 0; k < rays_per_vertex; ++k) {
-                const uint32_t point = sample * static_cast<uint32_t>(samples) + static_cast<uint32_t>(k);
+                // Consecutive points of the light's sequence: stratified over all the pixel's rays to it.
+                const uint32_t point = sample * static_cast<uint32_t>(rays_per_vertex) + static_cast<uint32_t>(k);
                 int count = 0;
                 for (int i = 0; i < n; ++i) {
                     const PathVertex& v = s.path[i];
