@@ -27,27 +27,51 @@ inline uint32_t reverse_bits(uint32_t x) {
     return ((x & 0x55555555u) << 1) | ((x & 0xAAAAAAAAu) >> 1);
 }
 
-/// Owen's nested uniform scramble of the binary fraction 0.b31 b30 … b0 held in `x`: each bit
-/// flipped or not by a hash of `seed` and the bits above it. Laine & Karras's permutation (as
-/// constants tuned by Burley 2020), applied to the reversed bits, where a bit depends on the ones
-/// below it through additions and products by even constants.
-inline uint32_t owen_scramble(uint32_t x, uint32_t seed) {
-    x = reverse_bits(x);
+/// Laine & Karras's nested uniform permutation (constants tuned by Burley 2020) of a bit-reversed
+/// fraction: each bit flipped or not by a hash of `seed` and the bits below it (additions and
+/// products by even constants carry only upward).
+inline uint32_t laine_karras(uint32_t x, uint32_t seed) {
     x += seed;
     x ^= x * 0x6C50B47Cu;
     x ^= x * 0xB82F1E52u;
     x ^= x * 0xC7AFE638u;
     x ^= x * 0x8D22F6E6u;
-    return reverse_bits(x);
+    return x;
 }
 
+/// Owen's nested uniform scramble of the binary fraction 0.b31 b30 … b0 held in `x`: each bit
+/// flipped or not by a hash of `seed` and the bits above it.
+inline uint32_t owen_scramble(uint32_t x, uint32_t seed) { return reverse_bits(laine_karras(reverse_bits(x), seed)); }
+
+namespace detail {
+
+/// Sobol's second dimension by bytes: entry [b][v] is the XOR of the direction numbers of the
+/// bits of v placed at byte b of the index (v_0 = 2^31, v_k = v_(k-1) XOR (v_(k-1) >> 1),
+/// primitive polynomial x + 1). Four lookups instead of a loop over 32 bits.
+struct SobolSecondTable {
+    uint32_t entry[4][256];
+    constexpr SobolSecondTable() : entry{} {
+        uint32_t direction[32] = {};
+        direction[0] = 1u << 31;
+        for (int k = 1; k < 32; ++k) direction[k] = direction[k - 1] ^ (direction[k - 1] >> 1);
+        for (int b = 0; b < 4; ++b)
+            for (uint32_t v = 0; v < 256; ++v) {
+                uint32_t x = 0;
+                for (int bit = 0; bit < 8; ++bit)
+                    if (v & (1u << bit)) x ^= direction[8 * b + bit];
+                entry[b][v] = x;
+            }
+    }
+};
+inline constexpr SobolSecondTable kSobolSecond{};
+
+}  // namespace detail
+
 /// The second dimension of Sobol's sequence as a 32-bit fraction: the XOR of the direction numbers
-/// of the index's set bits, v_0 = 2^31, v_k = v_(k-1) XOR (v_(k-1) >> 1) (primitive polynomial x + 1).
+/// of the index's set bits.
 inline uint32_t sobol_second(uint32_t index) {
-    uint32_t x = 0;
-    for (uint32_t v = 1u << 31; index != 0; index >>= 1, v ^= v >> 1)
-        if (index & 1u) x ^= v;
-    return x;
+    const auto& t = detail::kSobolSecond.entry;
+    return t[0][index & 0xFFu] ^ t[1][(index >> 8) & 0xFFu] ^ t[2][(index >> 16) & 0xFFu] ^ t[3][index >> 24];
 }
 
 /// A 2D sample point, both coordinates in [0, 1) (24-bit floats, exactly representable).
@@ -62,7 +86,9 @@ inline SamplePair sample_pair(uint64_t stream, uint32_t index, uint32_t pair) {
     const uint64_t h = mix64(stream ^ (0xD1B54A32D192ED03ull * (static_cast<uint64_t>(pair) + 1)));
     const uint64_t h2 = mix64(h);
     const uint32_t shuffled = owen_scramble(index, static_cast<uint32_t>(h));
-    const uint32_t x = owen_scramble(reverse_bits(shuffled), static_cast<uint32_t>(h >> 32));
+    // The first dimension is the van der Corput fraction reverse_bits(shuffled): its scramble
+    // reverse_bits(laine_karras(reverse_bits(·))) needs no reversal going in.
+    const uint32_t x = reverse_bits(laine_karras(shuffled, static_cast<uint32_t>(h >> 32)));
     const uint32_t y = owen_scramble(sobol_second(shuffled), static_cast<uint32_t>(h2));
     return {static_cast<float>(x >> 8) * (1.0f / 16777216.0f), static_cast<float>(y >> 8) * (1.0f / 16777216.0f)};
 }
