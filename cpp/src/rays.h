@@ -14,6 +14,7 @@
 
 #include "moonbot/accel.h"
 #include "moonbot/camera.h"
+#include "moonbot/sampler.h"
 #include "moonbot/scene.h"
 
 namespace moonbot::detail {
@@ -49,11 +50,12 @@ inline void orthonormal_basis(const glm::dvec3& w, glm::dvec3& a, glm::dvec3& b)
 /// Embree-limit probe's bounce rays.
 inline glm::dvec3 cosine_direction(const glm::dvec3& normal, double u1, double u2, double& mu) {
     const double r = std::sqrt(u1);
-    const double phi = 6.28318530717958647693 * u2;
+    double c, s;
+    turn_cos_sin(u2, c, s);
     glm::dvec3 a, b;
     orthonormal_basis(normal, a, b);
     mu = std::sqrt(std::max(0.0, 1.0 - r * r));
-    return r * std::cos(phi) * a + r * std::sin(phi) * b + mu * normal;
+    return r * c * a + r * s * b + mu * normal;
 }
 
 /// What the per-pixel path needs of one instance, gathered once per render into a flat table:

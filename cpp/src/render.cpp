@@ -27,7 +27,6 @@ using namespace detail;
 constexpr int kMaxSpp = 65536;
 constexpr double kInvPi = 0.31830988618379067154;
 constexpr double kPi = 3.14159265358979323846;
-constexpr double kTwoPi = 6.28318530717958647693;
 // Dimension pairs of one camera sample (sampler.h): pair 0 jitters the pixel; kPairLight + l
 // samples light l's disk at the camera hit (the sequence's index runs over the samples and, within
 // each, its shadow rays, so all of a pixel's rays toward the Sun are stratified together); bounce b
@@ -407,10 +406,11 @@ private:
                         // Uniform over the disk's solid angle.
                         const SamplePair q = sample_pair(s.streams[i], point, pair + static_cast<uint32_t>(l));
                         const double u = q.u;
-                        const double phi = kTwoPi * q.v;
+                        double cos_phi, sin_phi;
+                        turn_cos_sin(q.v, cos_phi, sin_phi);
                         const double c = 1.0 - u * (1.0 - light.cos_half);
                         const double r = std::sqrt(std::max(0.0, 1.0 - c * c));
-                        to_light = c * light.dir + r * (std::cos(phi) * light.a + std::sin(phi) * light.b);
+                        to_light = c * light.dir + r * (cos_phi * light.a + sin_phi * light.b);
                         if (glm::dot(v.normal, to_light) <= 0.0) continue;  // below the facet's horizon
                     }
                     set_ray(s.shadow[count], v.lifted, to_light);
