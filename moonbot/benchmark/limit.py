@@ -45,16 +45,33 @@ from moonbot.scene import compose_scene, intrinsics, orbit_pose
 from moonbot.scene.orbit import orbit_height
 from moonbot.sweep import Task, task_config
 
-def limit_scene(config: Config, task: Task):
-    """(scene, camera, sun) of view 0 of `task` of `config`'s sweep, built as the task builds it
-    but with its bags unsettled, and with a dust scene's view-0 ejecta fragments in place."""
+@dataclasses.dataclass
+class ProbeView:
+    """View 0 of a benchmark task as the probe sees it: the task's config (`config`, the sweep's
+    task applied), the built scene (bags unsettled, a dust scene's view-0 fragments in place),
+    the camera (`K` 3×3 pixels, `pose` the orbit's camera pose) and `camera`/`sun` as the core
+    takes them, and `medium` the view's dust cloud (None in a clear scene)."""
+
+    config: Config
+    scene: object
+    camera: object
+    sun: object
+    K: np.ndarray
+    pose: object
+    medium: object | None
+
+
+def limit_scene(config: Config, task: Task) -> ProbeView:
+    """View 0 of `task` of `config`'s sweep, built as the task builds it but with its bags
+    unsettled, and with a dust scene's view-0 ejecta fragments in place."""
     c = task_config(config, task)
     c = dataclasses.replace(c, bags=dataclasses.replace(c.bags, settle=dataclasses.replace(c.bags.settle,
                                                                                            enabled=False)))
     spec = compose_scene(c)
     scene = build_scene(spec)
+    medium = None
     if c.dust.enabled:
-        SceneDust(scene, spec, c, [0]).for_view(0)  # adds the fragments' mesh and commits
+        medium = SceneDust(scene, spec, c, [0]).for_view(0).medium  # adds the fragments' mesh and commits
     azimuth = c.orbit.start_azimuth_deg
     height = orbit_height(spec.target, c.orbit.radius_m, c.orbit.height_m, azimuth, spec.ground)
     pose = orbit_pose(spec.target, c.orbit.radius_m, height, azimuth)
@@ -62,40 +79,44 @@ def limit_scene(config: Config, task: Task):
     camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], c.camera.width, c.camera.height, pose.R, pose.t)
     s = c.sun
     sun = _core.Sun(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
-    return scene, camera, sun
+    return ProbeView(c, scene, camera, sun, K, pose, medium)
 
 
 def embree_limit(config: Config, task: Task, threads: list[int], bounces: int, repeats: int = 3) -> list[dict]:
     """Embree's own time for view 0's camera, shadow and `bounces` generations of bounce rays on
     `task`'s scene, once per thread count in `threads`: one dict each with the probe's raw figures
     and the derived seconds per ray and Mrays/s (streams, and one ray at a time for scale)."""
-    scene, camera, sun = limit_scene(config, task)
-    rows = []
-    for t in threads:
-        m = _core.measure_embree_limit(scene, camera, sun, threads=t, repeats=repeats, bounces=bounces)
-        cam, sh = int(m["camera_rays"]), int(m["shadow_rays"])
-        bounce_rays = [int(n) for n in m["bounce_rays"]]
-        rows.append({
-            "task_id": task.task_id, "threads": t, "camera_rays": cam, "shadow_rays": sh,
-            "bounce_rays": bounce_rays,
-            "intersect_stream_s": m["intersect_stream_s"], "occluded_stream_s": m["occluded_stream_s"],
-            "bounce_stream_s": list(m["bounce_stream_s"]),
-            "bounce_shadow_rays": [int(n) for n in m["bounce_shadow_rays"]],
-            "bounce_shadow_stream_s": list(m["bounce_shadow_stream_s"]),
-            "intersect_single_s": m["intersect_single_s"], "occluded_single_s": m["occluded_single_s"],
-            "bounce_single_s": list(m["bounce_single_s"]),
-            "camera_s_per_ray": _per(m["intersect_stream_s"], cam),
-            "shadow_s_per_ray": _per(m["occluded_stream_s"], sh),
-            "primary_mrays_per_s": _mrays(cam, m["intersect_stream_s"]),
-            "shadow_mrays_per_s": _mrays(sh, m["occluded_stream_s"]),
-            "bounce_mrays_per_s": [_mrays(n, s) for n, s in zip(bounce_rays, m["bounce_stream_s"])],
-            "bounce_shadow_mrays_per_s": [_mrays(n, s) for n, s in zip(m["bounce_shadow_rays"],
-                                                                        m["bounce_shadow_stream_s"])],
-            "primary_single_mrays_per_s": _mrays(cam, m["intersect_single_s"]),
-            "shadow_single_mrays_per_s": _mrays(sh, m["occluded_single_s"]),
-            "bounce_single_mrays_per_s": [_mrays(n, s) for n, s in zip(bounce_rays, m["bounce_single_s"])],
-        })
-    return rows
+    view = limit_scene(config, task)
+    return [probe(view, task.task_id, t, bounces, repeats) for t in threads]
+
+
+def probe(view: ProbeView, task_id: str, threads: int, bounces: int, repeats: int = 3) -> dict:
+    """`_core.measure_embree_limit` on `view` with `threads` threads and `bounces` bounce
+    generations (median of `repeats`), as the dict embree_limit returns for one thread count."""
+    m = _core.measure_embree_limit(view.scene, view.camera, view.sun, threads=threads, repeats=repeats,
+                                   bounces=bounces)
+    cam, sh = int(m["camera_rays"]), int(m["shadow_rays"])
+    bounce_rays = [int(n) for n in m["bounce_rays"]]
+    return {
+        "task_id": task_id, "threads": threads, "camera_rays": cam, "shadow_rays": sh,
+        "bounce_rays": bounce_rays,
+        "intersect_stream_s": m["intersect_stream_s"], "occluded_stream_s": m["occluded_stream_s"],
+        "bounce_stream_s": list(m["bounce_stream_s"]),
+        "bounce_shadow_rays": [int(n) for n in m["bounce_shadow_rays"]],
+        "bounce_shadow_stream_s": list(m["bounce_shadow_stream_s"]),
+        "intersect_single_s": m["intersect_single_s"], "occluded_single_s": m["occluded_single_s"],
+        "bounce_single_s": list(m["bounce_single_s"]),
+        "camera_s_per_ray": _per(m["intersect_stream_s"], cam),
+        "shadow_s_per_ray": _per(m["occluded_stream_s"], sh),
+        "primary_mrays_per_s": _mrays(cam, m["intersect_stream_s"]),
+        "shadow_mrays_per_s": _mrays(sh, m["occluded_stream_s"]),
+        "bounce_mrays_per_s": [_mrays(n, s) for n, s in zip(bounce_rays, m["bounce_stream_s"])],
+        "bounce_shadow_mrays_per_s": [_mrays(n, s) for n, s in zip(m["bounce_shadow_rays"],
+                                                                    m["bounce_shadow_stream_s"])],
+        "primary_single_mrays_per_s": _mrays(cam, m["intersect_single_s"]),
+        "shadow_single_mrays_per_s": _mrays(sh, m["occluded_single_s"]),
+        "bounce_single_mrays_per_s": [_mrays(n, s) for n, s in zip(bounce_rays, m["bounce_single_s"])],
+    }
 
 
 def _per(seconds: float, rays: int) -> float:
