@@ -31,6 +31,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 from moonbot.benchmark.levels import LEVELS, level_config
@@ -63,6 +64,7 @@ class Profile:
             self._proc = subprocess.Popen(["perf", "record", "-q", "-F", "999", "-p", str(os.getpid()),
                                            "-o", str(self._data)],
                                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            time.sleep(0.5)  # perf takes a moment to attach; renders before that go unsampled
         return self
 
     def __exit__(self, *exc):

@@ -302,7 +302,7 @@ namespace {
 /// The transmittance from a march's start to the middle of a step of `length` (m) through
 /// `extinction` (1/m), `depth` the optical depth before the step. expf: a step's light is a
 /// sum's term, where single precision's 1e-7 is far below the midpoint rule's own error, and it
-/// costs half of exp (the march runs one a step of every dusty pixel's ray).
+/// costs half of exp (the march evaluates one at every step of every marched ray).
 double step_transmittance(double depth, double extinction, double length) {
     return std::exp(static_cast<float>(-(depth + 0.5 * extinction * length)));
 }
