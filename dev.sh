@@ -18,7 +18,7 @@ cd "$(dirname "$0")"
 # its programs (/usr/bin/oiiotool, iconvert, ...) exist, so find_package(OpenImageIO) fails without it.
 APT_PACKAGES=(build-essential pkg-config python3 python3-dev python3-venv
               libembree-dev libopenimageio-dev openimageio-tools libglm-dev
-              libgeographiclib-dev libtbb-dev)
+              libgeographiclib-dev libtbb-dev zlib1g-dev)
 VENV=.venv
 PY="$VENV/bin/python"
 
