@@ -362,10 +362,12 @@ def _build_scene(job: _SceneJob) -> _SceneOutput:
             scene_gt[im] = image_gt
             scene_gt_info[im] = image_info
             scene_camera[im] = {"cam_K": K, "depth_scale": depth_scale, "cam_R_w2c": R_w2c, "cam_t_w2c": t_w2c}
+            if "site" in gt:  # a dem location: the world frame (cam_R_w2c's) is the site's East-North-Up
+                scene_camera[im]["site"] = _field(gt, gt_path, task.task_id, "site", dict)
             images_meta[im] = {
                 "task_in_scene": r["task_in_scene"], "view": v,
-                **{key: gt[key] for key in ("camera_azimuth_deg", "camera_height_m", "sun", "render_seed", "dust")
-                   if key in gt},
+                **{key: gt[key] for key in ("camera_azimuth_deg", "camera_height_m", "sun", "render_seed", "dust",
+                                            "site") if key in gt},
                 **({"ev100": gt["exposure"].get("ev100")} if isinstance(gt.get("exposure"), dict) else {}),
             }
             yolo_name = f"{shared['mesh']}_{shared['location']}_{shared['scene_id']:06d}_{name}"

@@ -101,6 +101,8 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
         }
         if view_dust is not None:
             meta["dust"] = view_dust.meta
+        if spec.site is not None:  # a dem location: the world frame is this site's East-North-Up
+            meta["site"] = spec.site.as_json()
         with staged_directory(out_dir) as staging:
             gt = write_sample(staging, rendered, exposure, K, pose, spec.bags,
                               config.output.png_compression, meta, timings, exr=config.output.exr,

@@ -14,6 +14,7 @@ from moonbot.scene.bag_mesh import OBJ_IDS, atlas_metres_per_uv, uv_atlas, varia
 from moonbot.scene.placement import Placement, arrange_bags
 from moonbot.terrain import get_terrain
 from moonbot.terrain.ground import Ground
+from moonbot.terrain.location import DemSite
 from moonbot.terrain.rocks import RockField, rock_poses
 
 
@@ -43,7 +44,7 @@ class SceneSpec:
     `ground` is the terrain's height field (the camera keeps clear of it); `rocks` are
     (mesh key, world-from-model (4, 4) float64) background instances, scaled by diameter;
     `terrain_seconds` is what building the terrain cost this scene (0 when this process had it
-    cached)."""
+    cached); `site` is where a `dem` location's world frame lies on the Moon (None elsewhere)."""
 
     meshes: dict[int, tuple[np.ndarray, np.ndarray]]
     terrain_albedo: float
@@ -60,6 +61,7 @@ class SceneSpec:
     ground: Ground
     rocks: tuple[tuple[int, np.ndarray], ...]
     terrain_seconds: float
+    site: DemSite | None = None
 
 
 TERRAIN_MESH = 0  # key of the terrain in SceneSpec.meshes; bags use their obj_id (≥ 1)
@@ -125,4 +127,5 @@ def compose_scene(config: Config) -> SceneSpec:
         ground=terrain.ground,
         rocks=rocks,
         terrain_seconds=0.0 if cached else terrain.build_seconds,
+        site=terrain.site,
     )

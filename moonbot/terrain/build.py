@@ -22,7 +22,7 @@ from moonbot.config.schema import TerrainConfig
 from moonbot.terrain.albedo import albedo_factor
 from moonbot.terrain.dem import LocalDem
 from moonbot.terrain.ground import FlatGround, Ground, SlopedGround
-from moonbot.terrain.location import LOCATIONS, build_location, main_crater
+from moonbot.terrain.location import LOCATIONS, DemSite, build_location, dem_site, main_crater
 from moonbot.terrain.rocks import RockField, rock_prototypes, sample_rocks
 
 CACHE_SIZE = 2  # terrains kept per process: a location's mesh and ground take ~100 MB
@@ -36,7 +36,8 @@ class Terrain:
     both None for the analytic grounds, its `rocks`
     (positions and sizes; scenes drop those in the way of bags or camera) with the
     `rock_meshes` they instance, the config `key` it was built from and the wall-clock
-    `build_seconds` it took."""
+    `build_seconds` it took. `site` says where a `dem` location's world frame lies on the Moon
+    (None for the other locations, which are nowhere in particular)."""
 
     ground: Ground
     mesh: tuple[np.ndarray, np.ndarray]
@@ -46,6 +47,7 @@ class Terrain:
     rock_meshes: list[tuple[np.ndarray, np.ndarray]]
     key: str
     build_seconds: float
+    site: DemSite | None = None
 
 
 _cache: OrderedDict[str, Terrain] = OrderedDict()
@@ -66,14 +68,15 @@ def terrain_key(config: TerrainConfig) -> str:
     return hashlib.sha256(f"{key}:{stat.st_size}:{stat.st_mtime_ns}".encode()).hexdigest()
 
 
-def make_ground(config: TerrainConfig) -> Ground:
-    """The ground a terrain config describes (built, not cached)."""
+def make_ground(config: TerrainConfig, dem: LocalDem | None = None) -> Ground:
+    """The ground a terrain config describes (built, not cached); `dem` is the `dem` location's
+    DEM when the caller has read it already."""
     if config.location == "plane":
         return FlatGround(size_m=2.0 * config.extent_m)
     if config.location == "slope":
         return SlopedGround(config.slope_deg, config.slope_azimuth_deg, size_m=2.0 * config.extent_m)
     if config.location == "dem":
-        return build_location(config, LocalDem.load(config.dem_file))
+        return build_location(config, dem if dem is not None else LocalDem.load(config.dem_file))
     if config.location in LOCATIONS:
         return build_location(config)
     raise ValueError(f"terrain.location: unknown location {config.location!r}")
@@ -86,7 +89,8 @@ def get_terrain(config: TerrainConfig) -> tuple[Terrain, bool]:
         _cache.move_to_end(key)
         return _cache[key], True
     start = time.perf_counter()
-    ground = make_ground(config)
+    dem = LocalDem.load(config.dem_file) if config.location == "dem" else None
+    ground = make_ground(config, dem)
     mesh = ground.mesh()
     rocks, rock_meshes, albedo_scale, normals = None, [], None, None
     if config.location in LOCATIONS:
@@ -98,7 +102,8 @@ def get_terrain(config: TerrainConfig) -> tuple[Terrain, bool]:
     for array in (*mesh, *(a for m in rock_meshes for a in m), *per_vertex):
         array.setflags(write=False)  # shared by every task of this process: nobody may edit it
     terrain = Terrain(ground=ground, mesh=mesh, albedo_scale=albedo_scale, normals=normals, rocks=rocks,
-                      rock_meshes=rock_meshes, key=key, build_seconds=time.perf_counter() - start)
+                      rock_meshes=rock_meshes, key=key, build_seconds=time.perf_counter() - start,
+                      site=dem_site(config, dem) if dem is not None else None)
     _cache[key] = terrain
     while len(_cache) > max(CACHE_SIZE, _capacity):
         _cache.popitem(last=False)

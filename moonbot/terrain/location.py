@@ -32,6 +32,7 @@ R − √(R² − d²) (d its distance from the origin, R = 1737.4 km; the same 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -51,6 +52,10 @@ HILLS_BASELINE_M = 25.0  # the baseline of hills_rms_slope_deg (LOLA's shortest 
 # pixels across; the dem location adds roughness and craters below those.
 DEM_ROUGHNESS_PIXELS = 2.0
 DEM_CRATER_PIXELS = 5.0
+# The world height of a DEM surface point is found by fixed-point iteration (DemRelief.world_up):
+# it stops once no height moves by more than this many metres, and gives up after so many steps.
+DEM_CONVERGED_M = 1e-9
+DEM_MAX_STEPS = 30
 
 
 def curvature_drop(distance: np.ndarray, radius: float = LUNAR_RADIUS_M) -> np.ndarray:
@@ -74,68 +79,179 @@ def drawable(axis: np.ndarray, centres: np.ndarray, diameters: np.ndarray) -> np
     return diameters >= CRATER_CELLS * cell
 
 
+def enu_axes(lat_deg: float, lon_deg: float) -> np.ndarray:
+    """(3, 3) float64 whose rows are the unit East, North and Up vectors at (lat, lon) in the
+    Moon's body-fixed frame (x toward 0° N 0° E, z toward the north pole): on a sphere, the axes
+    of GeographicLib's LocalCartesian and so of `_core.LunarFrame`. At a pole, North points along
+    the meridian `lon_deg` (GeographicLib's convention there)."""
+    p, q = math.radians(lat_deg), math.radians(lon_deg)
+    return np.array([[-math.sin(q), math.cos(q), 0.0],
+                     [-math.sin(p) * math.cos(q), -math.sin(p) * math.sin(q), math.cos(p)],
+                     [math.cos(p) * math.cos(q), math.cos(p) * math.sin(q), math.sin(p)]])
+
+
+@dataclass(frozen=True)
+class DemSite:
+    """Where a `dem` location's world frame lies on the Moon: its origin is the DEM's surface at
+    (lat_deg, lon_deg), height_m above the 1737.4 km sphere, and its axes are that point's own
+    East, North and Up, so every azimuth (the Sun's, the Earth's, the orbit's) is measured from
+    the site's true north. north_in_dem_deg is the direction of that north in the DEM's grid,
+    degrees clockwise from the grid's north (the DEM origin's North): the turn about the
+    vertical between the DEM's axes and the world's, which the meridians' convergence makes
+    −58.8° for a site 5 km east of a DEM origin at 89.9° N and 0 on the origin's meridian."""
+
+    lat_deg: float
+    lon_deg: float
+    height_m: float
+    north_in_dem_deg: float
+
+    def as_json(self) -> dict[str, float]:
+        """The record gt.json and the BOP scene files carry (JSON numbers, degrees and metres)."""
+        return {"lat_deg": self.lat_deg, "lon_deg": self.lon_deg, "height_m": self.height_m,
+                "north_in_dem_deg": self.north_in_dem_deg}
+
+
 class DemRelief:
-    """A `LocalDem` as a smooth height function around a work site (metres, world East-North-Up
-    with its origin at the site).
+    """A `LocalDem` as a smooth height function in a work site's own frame (metres).
 
-    The site is `site_m` (east, north of the DEM's origin) snapped to the nearest DEM node, so a
-    world point's DEM index is that node's integer index plus x/spacing: the same world offset
-    from any site does exactly the same arithmetic, and the float64 coordinates near the bags
-    stay small whatever the site's distance from the DEM's origin.
+    The site is `site_m` (east, north of the DEM's origin, in the DEM's grid) snapped to the
+    nearest DEM node. The world frame is the site's East-North-Up with its origin on the DEM's
+    surface there (`site`). The DEM's grid is the ENU frame of the DEM's origin, which a site
+    kilometres away sees turned about the vertical (the meridians converge: −58.8° at 89.9° N
+    5 km out, 0.012° at 10° N 2 km east) and tilted by d/R. Both are Cartesian frames of the same
+    body, so one rigid motion maps DEM points to the world (`rotation` turns DEM-frame vectors
+    into world vectors; the site's surface point is the world origin). The world height at
+    (x, y) is the world up of the DEM surface point whose world east and north are (x, y), found
+    by fixed-point iteration: each step shrinks the error by about (terrain slope) × d/R.
 
-    Heights are the DEM's with the Moon's curvature about the DEM's origin taken back out (a
-    curved import lies d²/2R below its tangent plane); the location then applies curvature about
-    the site, so `terrain.curvature` means the same for every location. Interpolation is
-    Catmull-Rom bicubic: C1 (no creases at pixel edges for the Sun to pick out), equal to the DEM
-    at its nodes, exact for planes and quadratics.
+    A node's surface point: curved import (the default) east, north and up as stored; flat
+    import (`curvature=False`) h0 + the stored height above the sphere on the radial through the
+    tangent-plane point (east, north, 0). Between nodes the DEM is interpolated Catmull-Rom
+    bicubic in its grid (`grid_height`): C1 (no creases at pixel edges for the Sun to pick out),
+    equal to the DEM at its nodes, exact for planes and quadratics. The float64 arithmetic stays
+    relative to the site node, so it is as precise kilometres out as at the origin.
     """
 
     def __init__(self, dem: LocalDem, site_m: tuple[float, float], name: str = "DEM") -> None:
         self.name = name
         self.spacing = dem.spacing_m
-        heights = dem.heights
-        if dem.curvature:
-            east, north = np.meshgrid(dem.east_m, dem.north_m, indexing="xy")
-            distance, up = np.hypot(east, north), heights
-            # The import's up is (h − h0) − drop(d, R + h) for a surface point at height h: solve
-            # for h − h0 by fixed point; each step shrinks the error by drop/R (2 steps: < 1e-9 m
-            # at 10 km).
-            for _ in range(2):
-                heights = up + curvature_drop(distance, LUNAR_RADIUS_M + dem.h0_m + heights)
-        self.heights = heights
-        ny, nx = heights.shape
+        self.heights = dem.heights
+        self.curvature = dem.curvature
+        self.dem_radius = LUNAR_RADIUS_M + dem.h0_m  # the DEM origin's distance from the Moon's centre
+        ny, nx = self.heights.shape
         self.i0 = int(round(site_m[0] / self.spacing + (nx - 1) / 2))
         self.j0 = int(round(site_m[1] / self.spacing + (ny - 1) / 2))
+        if not (1 <= self.i0 <= nx - 3 and 1 <= self.j0 <= ny - 3):
+            raise ValueError(
+                f"terrain.dem_site_m: ({site_m[0]:g}, {site_m[1]:g}) m lies outside {name}, which reaches "
+                f"±{(nx - 1) / 2 * self.spacing:g} m east and ±{(ny - 1) / 2 * self.spacing:g} m north of its origin")
         self.site_m = ((self.i0 - (nx - 1) / 2) * self.spacing, (self.j0 - (ny - 1) / 2) * self.spacing)
+        self.site_height = float(self.heights[self.j0, self.i0])
         # A bicubic read needs one node beyond its cell on each side.
         self.reach_m = {"west": (self.i0 - 1) * self.spacing, "east": (nx - 2 - self.i0) * self.spacing,
                         "south": (self.j0 - 1) * self.spacing, "north": (ny - 2 - self.j0) * self.spacing}
+        # The site's surface point in the DEM frame (metres from the DEM origin), and where it is.
+        self.origin = self._surface_point(np.zeros(1), np.zeros(1), np.full(1, self.site_height))[:, 0]
+        lat, lon, h = _core.LunarFrame(dem.lat_deg, dem.lon_deg, dem.h0_m).to_geodetic(*self.origin)
+        self.rotation = enu_axes(lat, lon) @ enu_axes(dem.lat_deg, dem.lon_deg).T
+        north = self.rotation[1]  # the site's North in DEM-frame components
+        self.site = DemSite(lat_deg=lat, lon_deg=lon, height_m=h,
+                            north_in_dem_deg=math.degrees(math.atan2(north[0], north[1])))
+        self.site_radius = LUNAR_RADIUS_M + h
 
-    def require_covers(self, half_width_m: float) -> None:
-        """Raises ValueError naming terrain.extent_m if the square of `half_width_m` metres
-        around the site leaves the DEM."""
-        short = {side: reach for side, reach in self.reach_m.items() if reach < half_width_m}
-        if short:
-            sides = ", ".join(f"{reach:.1f} m {side}" for side, reach in short.items())
-            raise ValueError(
-                f"terrain.extent_m: the terrain reaches {half_width_m:g} m around the site "
-                f"({self.site_m[0]:g} m E, {self.site_m[1]:g} m N of the DEM's origin) but {self.name} "
-                f"reaches only {sides} of it; import a larger --size-m or lower terrain.extent_m")
+    def _surface_point(self, u: np.ndarray, v: np.ndarray, h: np.ndarray) -> np.ndarray:
+        """(3, N) DEM-frame positions (metres from the DEM origin) of the surface where the grid,
+        at offsets (u, v) metres from the site node, holds height h."""
+        e, n = self.site_m[0] + u, self.site_m[1] + v
+        if self.curvature:
+            return np.stack([e, n, h])
+        rho = self.dem_radius
+        w = np.sqrt(e * e + n * n + rho * rho)
+        # (ρ + h)·(e, n, ρ)/w − (0, 0, ρ), its up written without cancellation: ρ·(h − (w − ρ))/w.
+        return np.stack([e * (rho + h) / w, n * (rho + h) / w, rho * (h - (e * e + n * n) / (w + rho)) / w])
 
-    def height(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """DEM height (metres, float64, shaped like x) at world (x, y) metres from the site."""
-        tx, ty = np.asarray(x, dtype=np.float64) / self.spacing, np.asarray(y, dtype=np.float64) / self.spacing
-        kx, ky = np.floor(tx), np.floor(ty)
-        wx, wy = _catmull_rom(tx - kx), _catmull_rom(ty - ky)
-        i = self.i0 + kx.astype(np.int64)
-        j = self.j0 + ky.astype(np.int64)
-        z = np.zeros(np.broadcast(tx, ty).shape)
+    def _offset_from_site(self, u: np.ndarray, v: np.ndarray, h: np.ndarray) -> np.ndarray:
+        """(3, N) DEM-frame vectors from the site's surface point to the surface point of grid
+        offsets (u, v) holding height h; kept small where the import allows (curved: exactly)."""
+        if self.curvature:
+            return np.stack([u, v, h - self.site_height])
+        return self._surface_point(u, v, h) - self.origin[:, None]
+
+    def _grid_offsets(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Grid offsets (u, v) metres from the site node of the DEM node position under the
+        DEM-frame points `p` ((3, N), metres from the site's surface point): straight down the
+        DEM's up (curved import) or along the radial (flat import)."""
+        if self.curvature:
+            return p[0], p[1]
+        x, y, z = (p[k] + self.origin[k] for k in range(3))
+        scale = self.dem_radius / (z + self.dem_radius)
+        return x * scale - self.site_m[0], y * scale - self.site_m[1]
+
+    def grid_height(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """The DEM's stored height (metres, float64, shaped like u) interpolated at grid offsets
+        (u, v) metres east and north of the site node, in the DEM's own grid."""
+        tu, tv = np.asarray(u, dtype=np.float64) / self.spacing, np.asarray(v, dtype=np.float64) / self.spacing
+        ku, kv = np.floor(tu), np.floor(tv)
+        wu, wv = _catmull_rom(tu - ku), _catmull_rom(tv - kv)
+        i = self.i0 + ku.astype(np.int64)
+        j = self.j0 + kv.astype(np.int64)
+        ny, nx = self.heights.shape
+        if i.size and (i.min() < 1 or i.max() > nx - 3 or j.min() < 1 or j.max() > ny - 3):
+            raise ValueError(f"terrain.extent_m: the terrain needs {self.name} beyond its edge; import a larger "
+                             "--size-m or lower terrain.extent_m")
+        z = np.zeros(np.broadcast(tu, tv).shape)
         for b in range(4):
             row = np.zeros_like(z)
             for a in range(4):
-                row += wx[a] * self.heights[j + (b - 1), i + (a - 1)]
-            z += wy[b] * row
+                row += wu[a] * self.heights[j + (b - 1), i + (a - 1)]
+            z += wv[b] * row
         return z
+
+    def world_up(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """World up (metres, float64, shaped like x) of the DEM surface at world (x, y): the
+        site's true ENU, curvature and all."""
+        x, y = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
+        shape, x, y = x.shape, x.ravel(), y.ravel()
+        to_dem = self.rotation.T
+        # Start on the sphere through the site: then only the relief is left to converge.
+        z = -curvature_drop(np.hypot(x, y), self.site_radius)
+        for _ in range(DEM_MAX_STEPS):
+            u, v = self._grid_offsets(to_dem @ np.stack([x, y, z]))
+            q = self.rotation[2] @ self._offset_from_site(u, v, self.grid_height(u, v))
+            moved = float(np.max(np.abs(q - z))) if q.size else 0.0
+            z = q
+            if moved <= DEM_CONVERGED_M:
+                return z.reshape(shape)
+        raise ValueError(f"{self.name}: the surface under the terrain was not found in {DEM_MAX_STEPS} steps "
+                         "(a near-vertical cliff?)")
+
+    def height(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Relief (metres, float64, shaped like x) at world (x, y) before curvature, as `Location`
+        composes it: the world up plus the sphere's drop about the site, which `build_location`
+        takes off again when terrain.curvature is on."""
+        x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
+        return self.world_up(x, y) + curvature_drop(np.hypot(x, y))
+
+    def require_covers(self, half_width_m: float) -> None:
+        """Raises ValueError naming terrain.extent_m if the world square of `half_width_m` metres
+        around the site needs DEM beyond its edges."""
+        a = half_width_m
+        x = np.array([-a, 0.0, a, -a, a, -a, 0.0, a])
+        y = np.array([-a, -a, -a, 0.0, 0.0, a, a, a])
+        u, v = self._grid_offsets(self.rotation.T @ np.stack([x, y, -curvature_drop(np.hypot(x, y), self.site_radius)]))
+        # The relief moves a point along the site's up, which the DEM's grid sees tilted.
+        tilt = math.hypot(self.rotation[2, 0], self.rotation[2, 1])
+        slack = tilt * (float(np.ptp(self.heights)) + curvature_drop(np.array([a * math.sqrt(2)]))[0]) + 1e-6 * a
+        need = {"west": -u.min() + slack, "east": u.max() + slack, "south": -v.min() + slack, "north": v.max() + slack}
+        short = [side for side, reach in self.reach_m.items() if reach < need[side]]
+        if short:
+            sides = ", ".join(f"{self.reach_m[side]:.1f} m {side}" for side in short)
+            needed = ", ".join(f"{need[side]:.1f} m" for side in short)
+            raise ValueError(
+                f"terrain.extent_m: the terrain reaches {half_width_m:g} m around the site "
+                f"({self.site_m[0]:g} m E, {self.site_m[1]:g} m N of the DEM's origin) but {self.name} "
+                f"reaches only {sides} of it, where the terrain needs {needed}; import a larger --size-m or "
+                "lower terrain.extent_m")
 
 
 def _catmull_rom(f: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -213,6 +329,11 @@ def main_crater(config: TerrainConfig) -> tuple[np.ndarray, float] | None:
         return None
     az = math.radians(config.crater_azimuth_deg)
     return config.crater_distance_m * np.array([math.sin(az), math.cos(az)]), config.crater_diameter_m
+
+
+def dem_site(config: TerrainConfig, dem: LocalDem) -> DemSite:
+    """Where the `dem` location of `config` puts its world frame on the Moon."""
+    return DemRelief(dem, config.dem_site_m, name=config.dem_file).site
 
 
 def location_axis(config: TerrainConfig) -> np.ndarray:
