@@ -47,7 +47,7 @@ void check_transform(const glm::dmat4& t) {
 
 }  // namespace
 
-Scene::Scene() = default;
+Scene::Scene(Isa isa) : m_accel(isa) {}
 
 void Scene::require_not_rendering() const {
     if (m_readers.load() > 0)

@@ -11,7 +11,6 @@ import dataclasses
 import datetime
 import json
 import os
-import platform
 import shutil
 import socket
 import time
@@ -20,6 +19,7 @@ from pathlib import Path
 
 from moonbot import __version__
 from moonbot.config import Config, config_hash
+from moonbot.host import host_record
 from moonbot.pipeline.views import run_views
 from moonbot.sweep import Task, task_config
 from moonbot.writer.checksum import file_sha256
@@ -111,7 +111,9 @@ def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = No
                 rays[kind] = rays.get(kind, 0) + int(count)
         wall_s = time.perf_counter() - wall
         stats = {
-            "task_id": task.task_id, "host": socket.gethostname(), "pid": os.getpid(), "cpu_model": cpu_model(),
+            "task_id": task.task_id, "host": socket.gethostname(), "pid": os.getpid(),
+            # CPU model, id and SIMD flags, and the ISA Embree traced this task's rays in.
+            **host_record(tconfig.render.embree_isa),
             "cores": os.cpu_count() or 1, "threads": threads or tconfig.render.threads or render_threads_default(), "worker": worker,
             "started_utc": started.isoformat(), "wall_s": wall_s, "cpu_s": time.process_time() - cpu,
             "stages_s": stages, "samples": len(results),
@@ -141,13 +143,3 @@ def render_threads_default() -> int:
     except (AttributeError, OSError):
         return os.cpu_count() or 1
 
-
-def cpu_model() -> str:
-    """The CPU's model name (Linux: /proc/cpuinfo), or the platform's processor string."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"

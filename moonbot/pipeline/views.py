@@ -61,12 +61,12 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
     terrain_s = spec.terrain_seconds  # 0 when this process had the terrain cached
     compose_s = time.perf_counter() - start - (settle_s or 0.0) - terrain_s
     start = time.perf_counter()
-    scene = build_scene(spec)
+    scene = build_scene(spec, config.render.embree_isa)
     build_s = time.perf_counter() - start
     # Dust only when the scene calls for it: otherwise no simulation, no mesh, no medium, no stage.
     dust = SceneDust(scene, spec, config, views) if config.dust.enabled else None
     # Each bag alone, for its amodal mask (BOP mask/); built once, paid by the first view.
-    amodal_scenes = build_amodal_scenes(spec)
+    amodal_scenes = build_amodal_scenes(spec, config.render.embree_isa)
     amodal_build_s = amodal_scenes.seconds
 
     K = intrinsics(config.camera)

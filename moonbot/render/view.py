@@ -31,12 +31,13 @@ class RenderedView:
     stats: dict
 
 
-def build_scene(spec: SceneSpec) -> _core.Scene:
+def build_scene(spec: SceneSpec, embree_isa: str = "auto") -> _core.Scene:
     """Builds the Embree scene once: one prototype BVH per mesh (bags of one obj_id share it,
     rocks of one prototype too); the terrain (with its per-vertex albedo factors and smooth
     normals) and the rocks as regolith background; each bag as a labelled instance of woven
-    cloth on its atlas UVs, its stain painted by the core (none for zero seeds); then commits."""
-    scene = _core.Scene()
+    cloth on its atlas UVs, its stain painted by the core (none for zero seeds); then commits.
+    `embree_isa` is render.embree_isa: the SIMD kernels Embree traces it with."""
+    scene = _core.Scene(embree_isa)
     bag_ids = {bag.obj_id for bag in spec.bags}
     terrain = {"vertex_albedo": spec.terrain_albedo_scale, "vertex_normals": spec.terrain_normals}
     mesh_index = {key: scene.add_mesh(v, t, spec.bag_uvs.reshape(len(t), 6) if key in bag_ids else None,

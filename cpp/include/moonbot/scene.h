@@ -65,7 +65,9 @@ struct Instance {
 
 class Scene {
 public:
-    Scene();
+    /// An empty scene whose BVHs run Embree's kernels in `isa` (resolved as accel.h's
+    /// resolve_isa does; throws std::invalid_argument where this CPU cannot run it).
+    explicit Scene(Isa isa = Isa::automatic);
     Scene(const Scene&) = delete;
     Scene& operator=(const Scene&) = delete;
 
@@ -110,6 +112,8 @@ public:
     const Instance& instance(uint32_t i) const { return m_instances[i]; }
     size_t mesh_count() const { return m_meshes.size(); }
     size_t instance_count() const { return m_instances.size(); }
+    /// The ISA Embree traces this scene's rays in.
+    Isa isa() const { return m_accel.isa(); }
     /// BVH builds so far (one per mesh plus one per commit).
     uint64_t bvh_builds() const { return m_accel.builds(); }
 
