@@ -156,12 +156,15 @@ def scene_of(name: str, **overrides):
 
 
 def sequence(config, spec, scene, times=TIMES) -> list[dict]:
+    """The ejecta states at `times` (seconds after the emitter starts), as the pipeline makes them."""
     origin = emitter_origin(spec, config.dust)
     seed = dust_seed(config.seed)
     return [ejecta_state(scene, config.dust, seed, origin, float(t)) for t in times]
 
 
 def assert_never_under_or_inside(states, ground: VerticalLines, solids: list[Solid], count: int) -> None:
+    """Every state holds all `count` fragments, finite, none with its centre on or under the
+    terrain mesh (where there is terrain) nor inside a solid, none ever put back out of one."""
     centres = np.stack([s["position"] for s in states])  # (T, N, 3)
     assert centres.shape == (len(states), count, 3) and np.isfinite(centres).all()  # none dropped
     points = centres.reshape(-1, 3)
@@ -181,7 +184,7 @@ def test_fragments_never_under_the_ground_nor_inside_a_bag_or_rock(name):
     assert len(spec.bags) == (11 if name == "wall" else 1)
     states = sequence(config, spec, scene)
     assert_never_under_or_inside(states, ground, solids, config.dust.ejecta.count)
-    # The sequence is a real one: most fragments bounce, and by the end of a burst they rest.
+    # The sequence is a real one: fragments bounce, and by the end of a burst nearly all rest.
     assert np.mean([s["bounces"].max() for s in states]) > 1 and states[-1]["resting"].mean() > 0.9
 
 
@@ -210,7 +213,10 @@ def test_every_fragment_starts_clear_of_the_ground_and_bags(name):
         radius = state["diameter"] / 2
         lowest = state["position"][:, 2] - radius
         # Embree's float32 distances: the height under it is known to a few 1e-8 m.
-        assert np.all(lowest - ground.height(state["position"][:, :2]) >= _core.SPAWN_CLEARANCE - 1e-7)
+        above_ground = lowest - ground.height(state["position"][:, :2])
+        assert np.all(above_ground >= _core.SPAWN_CLEARANCE - 1e-7)
+        if name == "wall":  # the emitter's disc reaches under the wall: those start on a bag's top
+            assert (above_ground > 0.03).sum() > 20
 
 
 def test_same_bytes_on_one_and_two_threads_around_the_wall():
