@@ -6,9 +6,10 @@
 // in closed form (p + v·dt + ½·g·dt², v + g·dt) and the time step only sets how finely contacts
 // are looked for. A fragment collides as the vertical segment from its lowest point to its centre:
 // each step casts the step's chord from both ends against the scene (Embree), so a contact is
-// found on terrain or a bag wall however thin, however long the step, and neither end ever
-// crosses a surface. The chord cuts the parabola's corner by at most g·dt²/8 (0.5 mm at
-// dt = 0.05 s), the only error the step adds.
+// found on terrain or a bag wall however thin, however long the step, and neither end crosses a
+// surface (short of a ray slipping through a shared edge, which Embree's default, non-robust
+// traversal allows and tests/test_dust_containment.py has not seen). The chord cuts the
+// parabola's corner by at most g·dt²/8 (0.5 mm at dt = 0.05 s), the only error the step adds.
 //
 // Surfaces have a front: the side their triangles wind counter-clockwise on, out of every closed
 // mesh (bags, rocks) and up from the ground. A fragment starts in front of every surface (clear
