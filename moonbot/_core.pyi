@@ -157,6 +157,7 @@ def stain_mask_bytes() -> int: ...
 def stain_masks_allocated() -> int: ...
 
 MAX_DUST_STEP: float
+SPAWN_CLEARANCE: float  # metres between a fragment's bounding sphere and the surface under it at launch
 
 class EjectaState(TypedDict):
     position: NDArray[np.float64]  # (N, 3) metres, world
@@ -164,6 +165,7 @@ class EjectaState(TypedDict):
     diameter: NDArray[np.float64]  # (N,) metres
     age: NDArray[np.float64]       # (N,) seconds since launch
     bounces: NDArray[np.int32]
+    corrections: NDArray[np.int32]  # times found behind a surface and put back in front of it
     resting: NDArray[np.bool_]
     vertices: NDArray[np.float32]  # (12 N, 3) the fragments as one mesh, world metres
     triangles: NDArray[np.uint32]  # (20 N, 3)
