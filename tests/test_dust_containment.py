@@ -212,9 +212,10 @@ def test_every_fragment_starts_clear_of_the_ground_and_bags(name):
         assert not inside_any(solids, vertices).any()
         radius = state["diameter"] / 2
         lowest = state["position"][:, 2] - radius
-        # Embree's float32 distances: the height under it is known to a few 1e-8 m.
+        # Embree's float32 distances along the launch probes (robust traversal): the height
+        # under it is known to ~1e-7 m.
         above_ground = lowest - ground.height(state["position"][:, :2])
-        assert np.all(above_ground >= _core.SPAWN_CLEARANCE - 1e-7)
+        assert np.all(above_ground >= _core.SPAWN_CLEARANCE - 5e-7)
         if name == "wall":  # the emitter's disc reaches under the wall: those start on a bag's top
             assert (above_ground > 0.03).sum() > 20
 
