@@ -20,6 +20,9 @@ APT_PACKAGES=(build-essential pkg-config python3 python3-dev python3-venv
               libembree-dev libopenimageio-dev openimageio-tools libglm-dev
               libgeographiclib-dev libtbb-dev)
 VENV=.venv
+# The tests that trace rays, re-run under every Embree ISA the CPU offers (`./dev.sh test`).
+ISA_TESTS=(tests/test_render_geometry.py tests/test_lighting.py tests/test_watertight.py tests/test_amodal.py
+           tests/test_embree_isa.py)
 PY="$VENV/bin/python"
 
 log() { printf '\033[1m[dev]\033[0m %s\n' "$*"; }
@@ -91,6 +94,12 @@ case "${1:-}" in
         cpp_tests
         log "Python tests"
         "$PY" -m pytest "${@:2}"
+        # The tests above ran Embree's widest ISA here; the ray-tracing tests again under each
+        # narrower one this CPU offers, so an ISA-specific failure shows on any machine that has it.
+        for isa in $("$PY" -c 'from moonbot import _core; print(*_core.embree_isas()[:-1])'); do
+            log "ray-tracing tests with MOONBOT_EMBREE_ISA=$isa"
+            MOONBOT_EMBREE_ISA=$isa "$PY" -m pytest -q "${ISA_TESTS[@]}"
+        done
         log "moonbot generate configs/smoke.yaml (the whole pipeline, on a local Dask cluster)"
         rm -rf build/smoke
         "$VENV/bin/moonbot" generate configs/smoke.yaml --out build/smoke

@@ -18,7 +18,7 @@ def embree_isas() -> list[str]: ...
 def resolve_embree_isa(name: str = "auto") -> str: ...
 
 class Scene:
-    def __init__(self, embree_isa: str = "auto") -> None: ...
+    def __init__(self, embree_isa: str = "auto", watertight: bool = True) -> None: ...
     @property
     def embree_isa(self) -> str: ...
     def add_mesh(self, vertices: ArrayLike, triangles: ArrayLike, corner_uvs: ArrayLike | None = None,
@@ -81,7 +81,9 @@ class RenderOutput(TypedDict, total=False):
     depth: NDArray[np.float32]
     instance: NDArray[np.uint8]
     camera_rays: int
+    second_look_rays: int
     shadow_rays: int
+    bounce_shadow_rays: int
     bounce_rays: int
     medium_rays: int
     seconds: float

@@ -142,10 +142,13 @@ void bind_scene(py::module_& m) {
           "widest this CPU runs. ValueError for an unknown name or one this CPU cannot run.");
 
     py::class_<Scene>(m, "Scene", "Triangle-mesh prototypes and their instances; metres, world ENU.")
-        .def(py::init([](const std::string& embree_isa) { return std::make_unique<Scene>(parse_isa(embree_isa)); }),
-             py::arg("embree_isa") = "auto",
+        .def(py::init([](const std::string& embree_isa, bool watertight) {
+                 return std::make_unique<Scene>(parse_isa(embree_isa), watertight);
+             }),
+             py::arg("embree_isa") = "auto", py::arg("watertight") = true,
              "An empty scene whose rays Embree traces in `embree_isa` (auto, sse2, sse4.2, avx, avx2, avx512; "
-             "see resolve_embree_isa).")
+             "see resolve_embree_isa). watertight=False (Embree's default BVHs, no second look at shared "
+             "vertices) exists only to measure what watertightness costs and buys.")
         .def_property_readonly("embree_isa", [](const Scene& s) { return std::string(isa_name(s.isa())); },
                                "The ISA Embree traces this scene's rays in (never 'auto').")
         .def(
@@ -246,7 +249,7 @@ void bind_scene(py::module_& m) {
                 {
                     py::gil_scoped_release release;
                     Scene::ReadLock lock(s);
-                    s.accel().intersect_watertight(rays.data(), n);
+                    s.accel().intersect_watertight(rays.data(), n, s.has_background());
                 }
                 py::array_t<double> t(static_cast<py::ssize_t>(n));
                 py::array_t<int64_t> instance(static_cast<py::ssize_t>(n)), primitive(static_cast<py::ssize_t>(n));

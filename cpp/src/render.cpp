@@ -209,7 +209,8 @@ private:
                 }
         }
         // Depth and masks are ground truth: no camera ray may slip through a shared vertex.
-        stats.camera_rays += n + m_scene.accel().intersect_watertight(s.rays.data(), n);
+        stats.second_look_rays += m_scene.accel().intersect_watertight(s.rays.data(), n, m_scene.has_background());
+        stats.camera_rays += n;
         s.hits.resolve(m_instances.data(), origin, s.dirs.data(), s.rays.data(), n, tw,
                        m_settings.exact_depth);
     }
@@ -543,7 +544,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     if (medium && !medium->puffs.empty() && out.rgb)
         arena.execute([&] { dust.emplace(*medium, scene, lights.sun.direction()); });
     const TileRenderer tiles(scene, camera, lights, settings, out, dust ? &*dust : nullptr);
-    std::atomic<uint64_t> camera_rays{0}, shadow_rays{0}, bounce_shadow_rays{0}, bounce_rays{0};
+    std::atomic<uint64_t> camera_rays{0}, second_look_rays{0}, shadow_rays{0}, bounce_shadow_rays{0}, bounce_rays{0};
 
     arena.execute([&] {
         tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y), [&](const auto& range) {
@@ -555,6 +556,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
                                   local);
             }
             camera_rays += local.camera_rays;
+            second_look_rays += local.second_look_rays;
             shadow_rays += local.shadow_rays;
             bounce_shadow_rays += local.bounce_shadow_rays;
             bounce_rays += local.bounce_rays;
@@ -563,6 +565,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
 
     RenderStats stats;
     stats.camera_rays = camera_rays;
+    stats.second_look_rays = second_look_rays;
     stats.shadow_rays = shadow_rays;
     stats.bounce_shadow_rays = bounce_shadow_rays;
     stats.bounce_rays = bounce_rays;

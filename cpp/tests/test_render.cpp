@@ -193,7 +193,7 @@ TEST_CASE(tile_records_change_no_bit_against_a_per_pixel_reference) {
                         dirs.push_back(d);
                         pixels.push_back(static_cast<size_t>(y) * w + x);
                     }
-                scene.accel().intersect_watertight(rays.data(), rays.size());
+                scene.accel().intersect_watertight(rays.data(), rays.size(), scene.has_background());
                 normals.resize(rays.size());
                 for (size_t i = 0; i < rays.size(); ++i) {
                     const RayHit& r = rays[i];

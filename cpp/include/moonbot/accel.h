@@ -91,8 +91,10 @@ inline void pack_lane(const RayHit& r, RayHitPacket<W>& p, int lane) {
 class Accel {
 public:
     /// A BVH on the process's Embree device for `isa` (resolve_isa's answer; one device per ISA,
-    /// shared by every Accel that uses it and released with the last of them).
-    explicit Accel(Isa isa = Isa::automatic);
+    /// shared by every Accel that uses it and released with the last of them). `watertight`
+    /// false builds Embree's default (non-robust) BVHs and makes intersect_watertight a plain
+    /// intersect: only for measuring what watertightness costs.
+    explicit Accel(Isa isa = Isa::automatic, bool watertight = true);
     ~Accel();
     Accel(const Accel&) = delete;
     Accel& operator=(const Accel&) = delete;
@@ -122,13 +124,14 @@ public:
     /// but a ray through a vertex that several triangles share can still slip past all of them
     /// (0.2 % of rays aimed exactly at terrain-grid vertices). Every mesh here is a closed
     /// surface or a height field seen from above, wound counter-clockwise seen from outside, so a
-    /// ray from outside meets a triangle's front first: a ray that misses, or whose first hit is
-    /// a back face, is traced again along four directions tilted by kVertexNudge, and the nearest
-    /// front-face hit among them replaces its result, if it comes no later than the back face (a
-    /// ray grazing a silhouette edge touches the back triangle there); none: the result stands. The
-    /// replacement's t and barycentrics are the tilted ray's; callers that need them exact
+    /// ray from outside meets a triangle's front first. A ray whose first hit is a back face, or,
+    /// with `ground` (the scene has a height field under everything: world z is up), a downward
+    /// ray that misses, is traced again along four directions tilted by kVertexNudge; the nearest
+    /// front-face hit among them replaces its result if it comes no later than the back face (a
+    /// ray grazing a silhouette edge touches the back triangle there); none: the result stands.
+    /// The replacement's t and barycentrics are the tilted ray's; callers that need them exact
     /// re-solve against the hit triangle's plane. Returns the rays it traced beyond the n.
-    size_t intersect_watertight(RayHit* rays, size_t n) const;
+    size_t intersect_watertight(RayHit* rays, size_t n, bool ground) const;
 
     /// The tilt of intersect_watertight's second look, relative to the ray's direction: far
     /// above float32's resolution of a position (6e-8 of it), far below a pixel's footprint.
@@ -156,12 +159,14 @@ public:
 
     /// The ISA this BVH's device runs in (never `automatic`).
     Isa isa() const { return m_isa; }
+    bool watertight() const { return m_watertight; }
 
 private:
     struct Impl;
     std::unique_ptr<Impl> m_impl;
     uint64_t m_builds = 0;
     Isa m_isa;
+    bool m_watertight;
 };
 
 }  // namespace moonbot
