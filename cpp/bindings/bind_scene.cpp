@@ -138,8 +138,9 @@ void bind_scene(py::module_& m) {
     }, "The ISAs this CPU can run Embree's kernels in, narrowest first (names as embree_isa takes them).");
     m.def("resolve_embree_isa", [](const std::string& name) { return std::string(isa_name(resolve_isa(parse_isa(name)))); },
           py::arg("name") = "auto",
-          "The ISA a scene asked for `name` traces in here: 'auto' is $MOONBOT_EMBREE_ISA where set, else the "
-          "widest this CPU runs. ValueError for an unknown name or one this CPU cannot run.");
+          "The ISA a scene asked for `name` traces in here: 'auto' is $MOONBOT_EMBREE_ISA where set, else avx2 "
+          "where this CPU runs it, else the widest it runs. ValueError for an unknown name or one this CPU "
+          "cannot run.");
 
     py::class_<Scene>(m, "Scene", "Triangle-mesh prototypes and their instances; metres, world ENU.")
         .def(py::init([](const std::string& embree_isa, bool watertight) {

@@ -175,11 +175,15 @@ std::vector<Isa> cpu_isas() {
 Isa resolve_isa(Isa requested) {
     const std::vector<Isa> offered = cpu_isas();
     if (offered.empty()) throw std::invalid_argument("embree_isa: this CPU runs none of Embree's kernels (no SSE2)");
+    // AVX2 where the CPU runs it: as fast as AVX-512 on the benchmark's scenes
+    // (bench/results/embree-isa-*.json), and clear of Debian's AVX-512 kernels, whose masks GCC 12
+    // may break (the coherent hang is one such case; no other is known, none is ruled out).
+    const Isa preferred = cpu_runs(Isa::avx2) ? Isa::avx2 : offered.back();
     if (requested == Isa::automatic) {
         const char* pinned = std::getenv("MOONBOT_EMBREE_ISA");
-        if (!pinned || !*pinned) return offered.back();
+        if (!pinned || !*pinned) return preferred;
         requested = parse_isa(pinned, "MOONBOT_EMBREE_ISA");
-        if (requested == Isa::automatic) return offered.back();
+        if (requested == Isa::automatic) return preferred;
     }
     if (!cpu_runs(requested))
         throw std::invalid_argument(std::string("embree_isa: this CPU cannot run '") + isa_name(requested) +
