@@ -112,7 +112,7 @@ case "${1:-}" in
         setup
         for name in "${@:2}"; do [ -f "bench/bench_$name.py" ] || { log "no bench/bench_$name.py"; exit 2; }; done
         for name in "${@:2}"; do "$PY" "bench/bench_$name.py"; done
-        [ $# -gt 1 ] || for name in render_one settle terrain tonemap_exr accuracy dust medium generate render_scenes; do "$PY" "bench/bench_$name.py"; done
+        [ $# -gt 1 ] || for name in render_one settle terrain tonemap_exr accuracy dust medium generate render_scenes embree_isa; do "$PY" "bench/bench_$name.py"; done
         ;;
     throughput)  # ./dev.sh throughput [--workers 1,2] [--levels ...]: moonbot bench throughput
         setup
