@@ -243,7 +243,8 @@ class SweepWatch:
                 for beat in self.watchdog.poll(set(self.waiting), now):
                     self.hung(beat)
                 if now - self.last_line >= STATUS_EVERY_S:
-                    self.line(f"waiting for {len(self.waiting)} tasks{self.running(now)}")
+                    count = len(self.waiting)
+                    self.line(f"waiting for {count} task{'s' if count > 1 else ''}{self.running(now)}")
                 limit = self.watchdog.limit.seconds
                 next_poll = now + (5.0 if limit is None else min(5.0, max(0.5, limit / 20)))
             time.sleep(0.05)
