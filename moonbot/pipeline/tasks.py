@@ -14,6 +14,7 @@ import os
 import shutil
 import socket
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -87,10 +88,13 @@ def task_record(config: Config, task: Task, views: list[int]) -> dict:
     }
 
 
-def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = None, worker: str = "local") -> TaskOutcome:
+def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = None, worker: str = "local",
+             on_stage: Callable[[str], None] | None = None) -> TaskOutcome:
     """Renders `task` of `config`'s sweep into OUT/tasks/<task_id>/ unless it is complete there
-    already. `threads` overrides render.threads (the images do not depend on it). Raises on
-    failure (a full disk, an unwritable directory), leaving no partial task behind."""
+    already. `threads` overrides render.threads (the images do not depend on it); `on_stage(name)`
+    is told each stage as it starts (run_views's, then "finish task": task.json, stats.json, the
+    checksums and the rename). Raises on failure (a full disk, an unwritable directory), leaving
+    no partial task behind."""
     final = task_dir(out_dir, task)
     if is_complete(final):
         return TaskOutcome(task.task_id, True, 0, None)
@@ -99,7 +103,9 @@ def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = No
     tconfig = task_config(config, task)
     views = list(range(tconfig.orbit.views))
     with staged_directory(final) as staging:
-        results = run_views(tconfig, views, staging, threads=threads)
+        results = run_views(tconfig, views, staging, threads=threads, on_stage=on_stage)
+        if on_stage is not None:
+            on_stage("finish task")
         record = task_record(config, task, views)
         atomic_write(staging / "task.json", "w", lambda f: f.write(json.dumps(record, indent=2, sort_keys=True) + "\n"))
         stages: dict[str, float] = {}
