@@ -24,7 +24,7 @@ from moonbot.bop.merge import merge_dataset
 from moonbot.config import Config, ConfigError, config_hash, load_config
 from moonbot.pipeline.heartbeat import Beat, Heartbeat, StallLimit, Watchdog, heartbeat_dir
 from moonbot.pipeline.stats import collect
-from moonbot.pipeline.tasks import is_complete, run_task, sweep_temporaries, task_dir
+from moonbot.pipeline.tasks import DONE, is_complete, run_task, sweep_temporaries, task_dir
 from moonbot.writer.staging import atomic_write
 from moonbot.sweep import Task, task_config, tasks
 
@@ -184,7 +184,7 @@ def render_pending(config: Config, out_dir: Path, pending: list[Task], result: G
             futures = client.map(_run_on_worker, [config] * len(pending), pending, [str(out_dir)] * len(pending),
                                  [threads] * len(pending), key=[f"render-{t.task_id}" for t in pending],
                                  pure=False, retries=RETRIES)
-            SweepWatch(client, futures, pending, result, Watchdog(out_dir, limit), start, say).run()
+            SweepWatch(client, futures, pending, result, Watchdog(out_dir, limit), start, say, out_dir).run()
             del futures
         finally:
             if own_client is not None:
@@ -217,8 +217,10 @@ class SweepWatch:
     per finished task, and a status line when none finished for STATUS_EVERY_S."""
 
     def __init__(self, client: Client, futures: list, tasks: list[Task], result: GenerateResult,
-                 watchdog: Watchdog, start: float, say) -> None:
+                 watchdog: Watchdog, start: float, say, out_dir: Path) -> None:
         self.client = client
+        self.out_dir = Path(out_dir)
+        self.tasks = {t.task_id: t for t in tasks}
         self.waiting = {t.task_id: f for f, t in zip(futures, tasks)}  # task_id → its future, until reported
         self.names = {f.key: t.task_id for f, t in zip(futures, tasks)}
         self.result = result
@@ -253,11 +255,19 @@ class SweepWatch:
         task_id = self.names[future.key]
         if self.waiting.get(task_id) is not future:
             return  # cancelled after hanging, and reported then
+        directory = task_dir(self.out_dir, self.tasks[task_id])
         if future.status == "finished":
             outcome = future.result()
             self.result.samples += outcome["samples"]
             self.result.rendered += 0 if outcome["skipped"] else 1
             self.watchdog.limit.finished(outcome["longest_stage_s"])
+        elif future.status != "error" and is_complete(directory):
+            # It finished, but its small result went with a worker that died before the driver
+            # read it (the future is "lost"): the task's directory is the record of what it did.
+            self.result.samples += json.loads((directory / DONE).read_text())["samples"]
+            self.result.rendered += 1
+        elif future.status != "error":
+            self.result.failed[task_id] = f"its future ended {future.status!r} without an error or a finished task"
         else:
             earlier = self.hangs.get(task_id)
             self.result.failed[task_id] = repr(future.exception()) + (
