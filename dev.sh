@@ -28,7 +28,7 @@ PY="$VENV/bin/python"
 # ctest's limit for each test; the whole pytest run (each test has its own 300 s limit, set in
 # pyproject.toml); each moonbot command on the smoke sweep. At a bound `timeout` sends SIGABRT,
 # on which Python's faulthandler prints every thread's stack, and SIGKILL 30 s later.
-CTEST_TEST_LIMIT_S=600
+CTEST_TEST_LIMIT_S=300
 PYTEST_LIMIT_S=3600
 SMOKE_STEP_LIMIT_S=600
 
