@@ -29,7 +29,7 @@ PY="$VENV/bin/python"
 # pyproject.toml); each re-run of the ray-tracing tests under another Embree ISA; each moonbot
 # command on the smoke sweep. At a bound `timeout` sends SIGABRT,
 # on which Python's faulthandler prints every thread's stack, and SIGKILL 30 s later.
-CTEST_TEST_LIMIT_S=600
+CTEST_TEST_LIMIT_S=300
 PYTEST_LIMIT_S=3600
 ISA_TESTS_LIMIT_S=900
 SMOKE_STEP_LIMIT_S=600
