@@ -18,7 +18,7 @@ cd "$(dirname "$0")"
 # its programs (/usr/bin/oiiotool, iconvert, ...) exist, so find_package(OpenImageIO) fails without it.
 APT_PACKAGES=(build-essential pkg-config python3 python3-dev python3-venv
               libembree-dev libopenimageio-dev openimageio-tools libglm-dev
-              libgeographiclib-dev libtbb-dev)
+              libgeographiclib-dev libtbb-dev zlib1g-dev)
 VENV=.venv
 # The tests that trace rays, re-run under every Embree ISA the CPU offers (`./dev.sh test`).
 ISA_TESTS=(tests/test_render_geometry.py tests/test_lighting.py tests/test_watertight.py tests/test_amodal.py

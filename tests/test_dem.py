@@ -7,12 +7,15 @@ from __future__ import annotations
 
 import math
 import os
+import re
+import struct
+import zlib
 
 import numpy as np
 import pytest
 import tifffile
 from click.testing import CliRunner
-from PIL import Image
+from PIL import Image, TiffImagePlugin
 
 from moonbot import _core
 from moonbot.cli import main
@@ -99,10 +102,11 @@ def geographic_tiepoint(raster_type):
 # --- planes import exactly ----------------------------------------------------------------------
 
 @pytest.mark.parametrize("raster_type", [1, 2], ids=["pixel-is-area", "pixel-is-point"])
-# OpenImageIO 2.4.7 decodes float64 rows correctly only in whole strips; 7-row strips put the
-# crop's first and last rows mid-strip.
-@pytest.mark.parametrize("layout", [{}, {"byteorder": ">"}, {"compression": "zlib"}, {"rowsperstrip": 7}],
-                         ids=["one-strip", "big-endian", "deflate", "7-row-strips"])
+# 7-row strips put the crop's first and last rows mid-strip; 16 × 16 tiles put its edges mid-tile
+# (OpenImageIO 2.4.7, which decoded these before, read both as zeros for float64).
+@pytest.mark.parametrize("layout", [{}, {"byteorder": ">"}, {"compression": "zlib"}, {"rowsperstrip": 7},
+                                    {"tile": (16, 16)}, {"tile": (16, 16), "compression": "zlib", "bigtiff": True}],
+                         ids=["one-strip", "big-endian", "deflate", "7-row-strips", "tiles", "bigtiff-deflate-tiles"])
 def test_geographic_float64_plane_is_exact(tmp_path, raster_type, layout):
     """h = a·east + b·north + c with east/north the raster's local metres (linear in its
     degrees), imported flat: every node matches the plane at the ground below it to 1e-6 m."""
@@ -238,8 +242,8 @@ def test_int16_plane_with_gdal_scale_offset_is_exact(tmp_path):
 
 
 def test_wide_raster_is_read_in_bands(tmp_path):
-    """A raster too wide to read the crop's rows at once (24000 float32 columns, one row per
-    strip: ~87 rows per 8 MiB band) is decoded in several bands that join seamlessly."""
+    """A wide raster (24000 float32 columns, one row per strip): the crop reads its own columns
+    of each of its ~100 strips, and they join seamlessly."""
     w, h = 24000, 260
     i, j = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
     data = (i / 8 - j / 16).astype(np.float32)  # dyadic: exact in float32
@@ -395,10 +399,11 @@ def test_unsupported_georeferences_name_the_key(tmp_path):
                    tiepoint=(0, 0, 0, 0), ct=15, proj=((3081, -80.0), (3092, 0.99)))
     with pytest.raises(OSError, match=r"both\.tif: both a latitude of true scale \(3081 = -80\) and a scale"):
         import_dem(both, -89.0, 0.0, 10.0)
-    tiled = geotiff(tmp_path / "tiled64.tif", np.zeros((32, 32)), model=2, pixel_scale=(STEP, STEP),
-                    tiepoint=(0, 0, 0, 0), tile=(16, 16))
-    with pytest.raises(OSError, match=r"tiled64\.tif: tiled float64 TIFF"):
-        import_dem(tiled, 0.0, 0.0, 10.0)
+    lzma = geotiff(tmp_path / "lzma.tif", np.zeros((32, 32), np.float32), model=2, pixel_scale=(STEP, STEP),
+                   tiepoint=(0, 0, 0, 0), compression="lzma")
+    with pytest.raises(OSError, match=r"lzma\.tif: Compression \(259\) = 34925 \(LZMA\) is not supported; use none, "
+                                      r"LZW, Deflate or PackBits"):
+        import_dem(lzma, 0.0, 0.0, 10.0)
     rgb = tmp_path / "rgb.tif"
     tifffile.imwrite(rgb, np.zeros((8, 8, 3), np.uint8),
                      extratags=[(33550, "d", 3, (1.0, 1.0, 0.0), True), (33922, "d", 6, (0,) * 6, True)])
@@ -440,6 +445,231 @@ def test_bad_arguments_name_the_field(tmp_path):
         import_dem(path, LAT0, LON0, 100.0, scale=0.0)
     with pytest.raises(ValueError, match="^png_range/png_pixel_m: given for a GeoTIFF"):
         import_dem(path, LAT0, LON0, 100.0, png_range=(0.0, 1.0), png_pixel_m=1.0)
+
+
+# --- every codec, and damaged files -------------------------------------------------------------
+
+def block_table(path):
+    """The first image's block table as tifffile reads it: (offsets, byte counts, 'strip' or 'tile',
+    the offsets tag, the byte counts tag)."""
+    with tifffile.TiffFile(path) as tif:
+        page = tif.pages[0]
+        kind = "tile" if page.is_tiled else "strip"
+        offsets_tag = page.tags["TileOffsets" if page.is_tiled else "StripOffsets"]
+        counts_tag = page.tags["TileByteCounts" if page.is_tiled else "StripByteCounts"]
+        return list(page.dataoffsets), list(page.databytecounts), kind, offsets_tag, counts_tag
+
+
+def block_rows(path, k):
+    """The message's "strip k (rows a–b)" or "tile k (rows a–b, columns c–d)" for block k."""
+    with tifffile.TiffFile(path) as tif:
+        page = tif.pages[0]
+        height, width = page.shape
+        if page.is_tiled:
+            th, tw = page.tilelength, page.tilewidth
+            by, bx = divmod(k, -(-width // tw))
+            return (f"tile {k} (rows {by * th}–{min(height, (by + 1) * th) - 1}, "
+                    f"columns {bx * tw}–{min(width, (bx + 1) * tw) - 1})")
+        rows = page.rowsperstrip
+        return f"strip {k} (rows {k * rows}–{min(height, (k + 1) * rows) - 1})"
+
+
+def patch_value(path, tag, index, value):
+    """Overwrites value `index` of a TIFF tag in place, in the tag's own type and byte order."""
+    with tifffile.TiffFile(path) as tif:
+        byteorder = tif.byteorder
+        at, dtype = tag.valueoffset, tag.dtype
+    fmt = byteorder + {1: "B", 3: "H", 4: "I", 16: "Q"}[int(dtype)]
+    data = bytearray(path.read_bytes())
+    struct.pack_into(fmt, data, at + index * struct.calcsize(fmt), value)
+    path.write_bytes(bytes(data))
+
+
+def rewrite_block(path, k, stored: bytes):
+    """Replaces block k's stored bytes with `stored`: in place when they fit, else appended to the
+    file; its offset and byte count are patched to match. The file is not truncated."""
+    offsets, counts, _, offsets_tag, counts_tag = block_table(path)
+    data = bytearray(path.read_bytes())
+    if len(stored) <= counts[k]:
+        data[offsets[k]:offsets[k] + len(stored)] = stored
+        at = offsets[k]
+    else:
+        at = len(data)
+        data += stored
+    path.write_bytes(bytes(data))
+    patch_value(path, offsets_tag, k, at)
+    patch_value(path, counts_tag, k, len(stored))
+
+
+def rough(shape=(N_PX, N_PX), dtype=np.float32, seed=5):
+    """Heights that deflate cannot shrink to nothing, so every block holds real bytes."""
+    return (np.random.default_rng(seed).normal(0.0, 30.0, size=shape) + 500.0).astype(dtype)
+
+
+def pillow_geotiff(path, data, compression, predictor=None, rows_per_strip=16):
+    """`data` (row 0 = north) as a GeoTIFF written by Pillow through libtiff, the reference TIFF
+    codec library (LZW, PackBits, Deflate, predictors), with the geographic raster's tags."""
+    info = TiffImagePlugin.ImageFileDirectory_v2()
+    for tag, values, kind in ((33550, (STEP, STEP, 0.0), 12), (33922, (0.0, 0.0, 0.0, *geographic_tiepoint(1)[2:], 0.0), 12),
+                              (34735, (1, 1, 0, 3, 1024, 0, 1, 2, 1025, 0, 1, 1, 2054, 0, 1, 9102), 3)):
+        info[tag] = values
+        info.tagtype[tag] = kind
+    info[278] = rows_per_strip
+    if predictor is not None:
+        info[317] = predictor
+    Image.fromarray(data).save(path, compression=compression, tiffinfo=info)
+    return path
+
+
+CROP = dict(lat_deg=LAT0 + 0.003, lon_deg=LON0 - 0.002, size_m=1200.0, spacing_m=10.0, curvature=False)
+
+
+def crop(path):
+    c = CROP
+    return import_dem(path, c["lat_deg"], c["lon_deg"], c["size_m"], spacing_m=c["spacing_m"], curvature=False)
+
+
+@pytest.mark.parametrize("dtype,compression,predictor", [
+    (np.float32, "tiff_lzw", None), (np.float32, "tiff_lzw", 3), (np.float32, "tiff_adobe_deflate", 3),
+    (np.float32, "packbits", None), (np.int32, "tiff_lzw", 2), (np.int32, "tiff_adobe_deflate", 2),
+    (np.uint16, "tiff_lzw", 2), (np.uint16, "packbits", None)])
+def test_libtiff_codecs_decode_like_the_uncompressed_file(tmp_path, dtype, compression, predictor):
+    """Files libtiff wrote with LZW, PackBits or Deflate and the horizontal or floating-point
+    predictor give, node for node, the same bytes as the same samples stored uncompressed."""
+    data = rough(dtype=dtype)
+    if dtype == np.uint16:
+        data = (data.astype(np.float64) * 40).astype(np.uint16)  # the whole 16-bit range in use
+    path = pillow_geotiff(tmp_path / "codec.tif", data, compression, predictor)
+    assert np.array_equal(np.asarray(Image.open(path)), data)  # libtiff reads its own file back
+    if compression == "tiff_adobe_deflate":  # the predictor really changed the stored bytes
+        offsets, counts, *_ = block_table(path)
+        assert zlib.decompress(path.read_bytes()[offsets[0]:offsets[0] + counts[0]]) != data[:16].tobytes()
+    plain = flat_geographic(tmp_path, "plain.tif", data)
+    got, want = crop(path), crop(plain)
+    assert got.heights.tobytes() == want.heights.tobytes() and got.h0_m == want.h0_m
+
+
+LAYOUTS = {"strips": {"rowsperstrip": 16}, "deflate-strips": {"rowsperstrip": 16, "compression": "zlib"},
+           "tiles": {"tile": (64, 64)}, "deflate-tiles": {"tile": (64, 64), "compression": "zlib"}}
+
+
+@pytest.mark.parametrize("layout", LAYOUTS.values(), ids=LAYOUTS.keys())
+def test_truncated_geotiff_names_the_file_and_the_block(tmp_path, layout):
+    """A file cut short anywhere fails on opening: in the header, in the directory or its tag
+    values, or in any strip or tile (the first, one in the middle, the last by one byte), naming
+    the file, the block, the bytes it needs and the file's size; never zeros for the lost part."""
+    whole = flat_geographic(tmp_path, "whole.tif", rough(), **layout).read_bytes()
+    offsets, counts, kind, *_ = block_table(tmp_path / "whole.tif")
+    assert len(offsets) >= 19 and sorted(offsets) == offsets  # blocks in file order, data last
+    with tifffile.TiffFile(tmp_path / "whole.tif") as tif:
+        keys = tif.pages[0].tags[34735]  # GeoKeyDirectory: stored after the IFD, before the pixels
+        keys_at, keys_end = keys.valueoffset, keys.valueoffset + keys.valuebytecount
+    cut = tmp_path / "cut.tif"
+    for size, expect in ((5, r"the TIFF header is cut short: the file has 5 bytes, the header needs 8"),
+                         (20, r"TIFF first IFD lies past the end of the file"),
+                         (keys_at + 4, rf"TIFF GeoKeyDirectory \(34735\) lies past the end of the file: it needs bytes "
+                                       rf"{keys_at}–{keys_end - 1}, the file has {keys_at + 4} \(truncated\?\)")):
+        cut.write_bytes(whole[:size])
+        with pytest.raises(OSError, match=rf"cut\.tif: {expect}"):
+            crop(cut)
+    for size in (offsets[0] + counts[0] // 2, len(whole) * 6 // 10, len(whole) - 1):
+        k = next(i for i, (o, c) in enumerate(zip(offsets, counts)) if o + c > size)
+        cut.write_bytes(whole[:size])
+        message = (rf"cut\.tif: {re.escape(block_rows(tmp_path / 'whole.tif', k))} lies past the end of the file: "
+                   rf"it needs bytes {offsets[k]}–{offsets[k] + counts[k] - 1} \(.*\), the file has {size} bytes "
+                   r"\(truncated\?\)")
+        with pytest.raises(OSError, match=message):
+            crop(cut)
+    assert kind in message
+
+
+def test_damaged_blocks_name_the_file_and_the_block(tmp_path):
+    """Blocks that lie inside the file but decode wrong: a Deflate stream of half the strip, a
+    corrupt one, one that decodes past its strip; LZW and PackBits data cut short by their byte
+    count; an uncompressed strip shorter than its rows; a short Deflate tile."""
+    data = rough()
+    raw = data.tobytes()
+    strip = 16 * N_PX * 4  # bytes in a 16-row float32 strip
+    k = 5  # rows 80–95, inside the crop
+    rows = rf"strip {k} \(rows 80–95\)"
+
+    def deflate_file(name):
+        return flat_geographic(tmp_path, name, data, rowsperstrip=16, compression="zlib")
+
+    short = deflate_file("short.tif")
+    rewrite_block(short, k, zlib.compress(raw[k * strip:k * strip + strip // 2]))
+    with pytest.raises(OSError, match=rf"short\.tif: {rows}: Deflate data decode to {strip // 2} bytes; the strip "
+                                      rf"needs {strip} \(16 rows × {N_PX * 4} bytes\)"):
+        crop(short)
+    corrupt = deflate_file("corrupt.tif")
+    stored = bytearray(zlib.compress(raw[k * strip:(k + 1) * strip]))
+    stored[0] = 0  # the zlib header's method: not deflate
+    rewrite_block(corrupt, k, bytes(stored))
+    with pytest.raises(OSError, match=rf"corrupt\.tif: {rows}: the Deflate stream is corrupt after 0 bytes \(zlib: "):
+        crop(corrupt)
+    long = deflate_file("long.tif")
+    rewrite_block(long, k, zlib.compress(raw[k * strip:(k + 2) * strip]))
+    with pytest.raises(OSError, match=rf"long\.tif: {rows}: the Deflate stream decodes to more than the {strip} "
+                                      "bytes expected"):
+        crop(long)
+
+    lzw = pillow_geotiff(tmp_path / "lzw.tif", data, "tiff_lzw")
+    _, counts, _, _, counts_tag = block_table(lzw)
+    patch_value(lzw, counts_tag, k, counts[k] // 2)
+    with pytest.raises(OSError, match=rf"lzw\.tif: {rows}: LZW data decode to \d+ bytes; the strip needs {strip} "):
+        crop(lzw)
+    packbits = pillow_geotiff(tmp_path / "packbits.tif", data, "packbits")
+    _, counts, _, _, counts_tag = block_table(packbits)
+    patch_value(packbits, counts_tag, k, counts[k] // 2)
+    with pytest.raises(OSError, match=rf"packbits\.tif: {rows}: (the PackBits data are cut short in a literal run|"
+                                      rf"PackBits data decode to \d+ bytes; the strip needs {strip} )"):
+        crop(packbits)
+
+    thin = flat_geographic(tmp_path, "thin.tif", data, rowsperstrip=16)
+    _, _, _, _, counts_tag = block_table(thin)
+    patch_value(thin, counts_tag, k, strip - 4)
+    with pytest.raises(OSError, match=rf"thin\.tif: {rows} holds {strip - 4} bytes \(StripByteCounts \(279\)\); "
+                                      rf"uncompressed it needs {strip} \(16 rows × {N_PX * 4} bytes\)"):
+        crop(thin)
+
+    tiles = flat_geographic(tmp_path, "tiles.tif", data, tile=(64, 64), compression="zlib")
+    tile = 64 * 64 * 4
+    rewrite_block(tiles, 12, zlib.compress(b"\0" * (tile - 8)))  # the middle of 5 × 5 tiles
+    with pytest.raises(OSError, match=rf"tiles\.tif: tile 12 \(rows 128–191, columns 128–191\): Deflate data decode "
+                                      rf"to {tile - 8} bytes; the tile needs {tile} \(64 rows × 256 bytes\)"):
+        crop(tiles)
+
+
+def test_absurd_layouts_name_the_tag(tmp_path):
+    """Sizes and offsets that cannot be right: an image 2³² − 1 rows tall, a strip table shorter
+    than the image, an offset past the end (no 64-bit overflow in BigTIFF), zero rows per strip."""
+    def fresh(name, **kw):
+        return flat_geographic(tmp_path, name, rough(), rowsperstrip=16, **kw)
+
+    def tag(path, name):
+        with tifffile.TiffFile(path) as tif:
+            return tif.pages[0].tags[name]
+
+    tall = fresh("tall.tif")
+    patch_value(tall, tag(tall, "ImageLength"), 0, 2**32 - 1)
+    with pytest.raises(OSError, match=rf"tall\.tif: ImageWidth × ImageLength = {N_PX} × 4294967295 pixels is "
+                                      "implausibly large"):
+        crop(tall)
+    taller = fresh("taller.tif")
+    patch_value(taller, tag(taller, "ImageLength"), 0, 1000)
+    with pytest.raises(OSError, match=rf"taller\.tif: StripOffsets \(273\) lists 19 strips; {N_PX} × 1000 pixels in "
+                                      rf"{N_PX} × 16 blocks need 63"):
+        crop(taller)
+    far = fresh("far.tif", bigtiff=True)
+    _, _, _, offsets_tag, _ = block_table(far)
+    patch_value(far, offsets_tag, 3, 2**64 - 8)
+    with pytest.raises(OSError, match=r"far\.tif: strip 3 \(rows 48–63\) lies past the end of the file: it needs bytes "
+                                      r"18446744073709551608–"):
+        crop(far)
+    none = fresh("none.tif")
+    patch_value(none, tag(none, "RowsPerStrip"), 0, 0)
+    with pytest.raises(OSError, match=r"none\.tif: RowsPerStrip \(278\) = 0"):
+        crop(none)
 
 
 # --- the LocalDem file --------------------------------------------------------------------------
@@ -534,3 +764,25 @@ def test_terrain_import_command_reports_errors(tmp_path):
     assert result.exit_code == 1
     assert "missing.tif: no such file" in result.output
     assert not (tmp_path / "x.npz").exists()
+
+
+def test_terrain_import_of_a_truncated_file_fails_and_writes_nothing(tmp_path):
+    """The reported case: a GeoTIFF cut to its first part. The command exits 1 naming the file and
+    the strip, writes no output, and leaves an earlier output in place byte for byte."""
+    whole = flat_geographic(tmp_path, "whole.tif", rough(), rowsperstrip=16, compression="zlib").read_bytes()
+    cut = tmp_path / "cut.tif"
+    cut.write_bytes(whole[:len(whole) // 2])
+    args = ["terrain", "import", str(cut), "--lat", str(LAT0), "--lon", str(LON0), "--size-m", "400"]
+    runner = CliRunner()
+    result = runner.invoke(main, [*args, "--out", str(tmp_path / "new.npz")])
+    assert result.exit_code == 1
+    assert re.search(r"cut\.tif: strip \d+ \(rows \d+–\d+\) lies past the end of the file: it needs bytes \d+–\d+ "
+                     rf"\(.*\), the file has {len(whole) // 2} bytes \(truncated\?\)", result.output), result.output
+    assert not (tmp_path / "new.npz").exists()
+    earlier = tmp_path / "earlier.npz"
+    flat = runner.invoke(main, ["terrain", "import", str(tmp_path / "whole.tif"), *args[3:], "--out", str(earlier)])
+    assert flat.exit_code == 0, flat.output
+    before = earlier.read_bytes()
+    assert runner.invoke(main, [*args, "--out", str(earlier)]).exit_code == 1
+    assert earlier.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cut.tif", "earlier.npz", "whole.tif"]

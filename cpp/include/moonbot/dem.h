@@ -89,7 +89,11 @@ public:
     /// Reads the GeoTIFF's georeference (ModelPixelScale 33550, ModelTiepoint 33922,
     /// GeoKeyDirectory 34735 with its double params 34736; GDAL_METADATA 42112; GDAL_NODATA
     /// 42113) from the TIFF directory and checks the pixel layout: one band of int8/16/32,
-    /// uint8/16/32, float32 or float64 (not tiled float64, which OpenImageIO 2.4.7 misreads).
+    /// uint8/16/32, float32 or float64, in strips or tiles, uncompressed, LZW, Deflate or
+    /// PackBits (predictors none, horizontal, floating point). Every strip or tile must lie
+    /// inside the file (checked here, so a truncated file fails on opening) and decode to its
+    /// size (checked as `read` decodes it; like libtiff, a last strip padded to whole
+    /// RowsPerStrip rows is accepted).
     /// GTModelTypeGeoKey 2 is geographic (degrees); 1 is read as equirectangular metres when
     /// ProjCoordTransGeoKey is 17 or absent and ProjectedCSTypeGeoKey is user-defined or absent;
     /// its parameters are ProjCenterLong (3088, else ProjNatOriginLong 3080), ProjCenterLat (3089,
@@ -120,7 +124,8 @@ public:
     std::optional<double> nodata() const { return m_nodata; }  ///< raw void marker in use
 
     /// Heights in metres of pixels [x0, x1) × [y0, y1), row-major, NaN for voids. Throws IoError
-    /// if decoding fails, std::invalid_argument if the window is empty or leaves the raster.
+    /// naming the file and the strip or tile if decoding fails (a block that decodes short,
+    /// long or corrupt), std::invalid_argument if the window is empty or leaves the raster.
     std::vector<double> read(int x0, int y0, int x1, int y1) const;
 
     struct Source;  // how samples are decoded (dem.cpp)
