@@ -7,7 +7,7 @@
 #   ./dev.sh demo      setup, then `moonbot render-one` on the embedded default config
 #   ./dev.sh test      setup, then C++ tests (ctest: release, then ASan+UBSan), pytest,
 #                      `moonbot generate configs/smoke.yaml` into build/smoke, and validate,
-#                      baseline and eval on that dataset
+#                      baseline and eval on that dataset; every stage time-bounded (below)
 #   ./dev.sh bench     setup, then the benchmarks in bench/ (results in bench/results/);
 #                      ./dev.sh bench terrain runs bench/bench_terrain.py alone
 #   ./dev.sh throughput  setup, then `moonbot bench throughput` (options passed on; ~6 min on 2 cores)
@@ -20,9 +20,31 @@ APT_PACKAGES=(build-essential pkg-config python3 python3-dev python3-venv
               libembree-dev libopenimageio-dev openimageio-tools libglm-dev
               libgeographiclib-dev libtbb-dev zlib1g-dev)
 VENV=.venv
+# The tests that trace rays, re-run under every Embree ISA the CPU offers (`./dev.sh test`).
+ISA_TESTS=(tests/test_render_geometry.py tests/test_lighting.py tests/test_watertight.py tests/test_amodal.py
+           tests/test_embree_isa.py)
 PY="$VENV/bin/python"
+# Bounds on `./dev.sh test`, so that a hang fails CI with a stack instead of eating its 90 minutes:
+# ctest's limit for each test; the whole pytest run (each test has its own 300 s limit, set in
+# pyproject.toml); each re-run of the ray-tracing tests under another Embree ISA; each moonbot
+# command on the smoke sweep. At a bound `timeout` sends SIGABRT,
+# on which Python's faulthandler prints every thread's stack, and SIGKILL 30 s later.
+CTEST_TEST_LIMIT_S=300
+PYTEST_LIMIT_S=3600
+ISA_TESTS_LIMIT_S=900
+SMOKE_STEP_LIMIT_S=600
 
 log() { printf '\033[1m[dev]\033[0m %s\n' "$*"; }
+
+# bounded SECONDS COMMAND...: runs COMMAND (and its children: timeout signals its process group),
+# ending it with every Python thread's stack after SECONDS.
+bounded() {
+    local limit=$1 status=0
+    shift
+    PYTHONFAULTHANDLER=1 timeout --signal=ABRT --kill-after=30 "$limit" "$@" || status=$?
+    if [ "$status" -eq 124 ]; then log "timed out after $limit s: $*"; fi
+    return "$status"
+}
 
 apt_deps() {
     local missing=()
@@ -74,7 +96,7 @@ cpp_tests() {
         log "C++ tests ($variant)"
         "$cmake" -S . -B "build/ctest-$variant" -G Ninja -DMOONBOT_BUILD_PYTHON=OFF "${flags[@]}" >/dev/null
         "$cmake" --build "build/ctest-$variant"
-        "$ctest" --test-dir "build/ctest-$variant" --output-on-failure
+        "$ctest" --test-dir "build/ctest-$variant" --output-on-failure --timeout "$CTEST_TEST_LIMIT_S"
     done
 }
 
@@ -90,20 +112,27 @@ case "${1:-}" in
         setup
         cpp_tests
         log "Python tests"
-        "$PY" -m pytest "${@:2}"
+        bounded "$PYTEST_LIMIT_S" "$PY" -m pytest "${@:2}"
+        # The tests above ran the ISA `auto` picks here; the ray-tracing tests again under every
+        # other one this CPU offers, so an ISA-specific failure shows on any machine that has it.
+        for isa in $("$PY" -c 'from moonbot import _core as c; print(*(i for i in c.embree_isas() if i != c.resolve_embree_isa()))'); do
+            log "ray-tracing tests with MOONBOT_EMBREE_ISA=$isa"
+            MOONBOT_EMBREE_ISA=$isa bounded "$ISA_TESTS_LIMIT_S" "$PY" -m pytest -q "${ISA_TESTS[@]}"
+        done
         log "moonbot generate configs/smoke.yaml (the whole pipeline, on a local Dask cluster)"
         rm -rf build/smoke
-        "$VENV/bin/moonbot" generate configs/smoke.yaml --out build/smoke
+        bounded "$SMOKE_STEP_LIMIT_S" "$VENV/bin/moonbot" generate configs/smoke.yaml --out build/smoke
         log "moonbot validate, baseline and eval on the smoke dataset (its test split)"
-        "$VENV/bin/moonbot" validate build/smoke/dataset
-        "$VENV/bin/moonbot" baseline build/smoke/dataset
-        "$VENV/bin/moonbot" eval build/smoke/dataset --results build/smoke/dataset/eval/baseline_test.csv
+        bounded "$SMOKE_STEP_LIMIT_S" "$VENV/bin/moonbot" validate build/smoke/dataset
+        bounded "$SMOKE_STEP_LIMIT_S" "$VENV/bin/moonbot" baseline build/smoke/dataset
+        bounded "$SMOKE_STEP_LIMIT_S" "$VENV/bin/moonbot" eval build/smoke/dataset \
+            --results build/smoke/dataset/eval/baseline_test.csv
         ;;
     bench)  # ./dev.sh bench [render_one|settle|terrain|tonemap_exr ...]: those benchmarks, or all of them
         setup
         for name in "${@:2}"; do [ -f "bench/bench_$name.py" ] || { log "no bench/bench_$name.py"; exit 2; }; done
         for name in "${@:2}"; do "$PY" "bench/bench_$name.py"; done
-        [ $# -gt 1 ] || for name in render_one settle terrain tonemap_exr accuracy dust medium generate render_scenes; do "$PY" "bench/bench_$name.py"; done
+        [ $# -gt 1 ] || for name in render_one settle terrain tonemap_exr accuracy dust medium generate render_scenes embree_isa; do "$PY" "bench/bench_$name.py"; done
         ;;
     throughput)  # ./dev.sh throughput [--workers 1,2] [--levels ...]: moonbot bench throughput
         setup

@@ -14,8 +14,13 @@ class WovenSurface:
                  resolution: int = 512, stain_seed: int = 0,
                  dirt_colour: ArrayLike = (0.12, 0.11, 0.10)) -> None: ...
 
+def embree_isas() -> list[str]: ...
+def resolve_embree_isa(name: str = "auto") -> str: ...
+
 class Scene:
-    def __init__(self) -> None: ...
+    def __init__(self, embree_isa: str = "auto", watertight: bool = True) -> None: ...
+    @property
+    def embree_isa(self) -> str: ...
     def add_mesh(self, vertices: ArrayLike, triangles: ArrayLike, corner_uvs: ArrayLike | None = None,
                  vertex_albedo: ArrayLike | None = None, vertex_normals: ArrayLike | None = None) -> int: ...
     def add_instance(self, mesh: int, world_from_object: ArrayLike, instance_id: int,
@@ -25,6 +30,8 @@ class Scene:
                        photometry: Photometry = ...) -> int: ...
     def update_mesh(self, mesh: int, vertices: ArrayLike) -> None: ...
     def commit(self) -> None: ...
+    def intersect(self, origins: ArrayLike, directions: ArrayLike) -> tuple[
+        NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]: ...
     @property
     def committed(self) -> bool: ...
     @property
@@ -74,7 +81,9 @@ class RenderOutput(TypedDict, total=False):
     depth: NDArray[np.float32]
     instance: NDArray[np.uint8]
     camera_rays: int
+    second_look_rays: int
     shadow_rays: int
+    bounce_shadow_rays: int
     bounce_rays: int
     medium_rays: int
     seconds: float
@@ -150,6 +159,7 @@ def stain_mask_bytes() -> int: ...
 def stain_masks_allocated() -> int: ...
 
 MAX_DUST_STEP: float
+SPAWN_CLEARANCE: float  # metres between a fragment's bounding sphere and the surface under it at launch
 
 class EjectaState(TypedDict):
     position: NDArray[np.float64]  # (N, 3) metres, world
@@ -157,6 +167,7 @@ class EjectaState(TypedDict):
     diameter: NDArray[np.float64]  # (N,) metres
     age: NDArray[np.float64]       # (N,) seconds since launch
     bounces: NDArray[np.int32]
+    corrections: NDArray[np.int32]  # times found behind a surface and put back in front of it
     resting: NDArray[np.bool_]
     vertices: NDArray[np.float32]  # (12 N, 3) the fragments as one mesh, world metres
     triangles: NDArray[np.uint32]  # (20 N, 3)

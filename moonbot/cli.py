@@ -254,8 +254,13 @@ def plan(config_path: Path, bench_record: Path | None) -> None:
               help="Render only the tasks missing from --out (the default anyway: finished tasks are never redone).")
 @click.option("--merge/--no-merge", default=True, show_default=True,
               help="Merge the complete tasks into the BOP dataset --out/dataset at the end.")
+@click.option("--task-timeout", type=click.FloatRange(min=0), metavar="SECONDS",
+              help="A task that enters no new stage (render view k, encode view k, ...) for this long is hung: "
+                   "its worker is restarted and it runs again, and after 3 hangs it is reported failed. "
+                   "Default: 300 s, more for views of over 5 megapixel-samples, and at least 10x the longest "
+                   "stage of the tasks finished so far; 0: never.")
 def generate(config_path: Path, out_dir: Path, workers: int | None, threads: int | None, scheduler: str | None,
-             scheduler_file: str | None, resume: bool, merge: bool) -> None:
+             scheduler_file: str | None, resume: bool, merge: bool, task_timeout: float | None) -> None:
     """Render CONFIG's sweep into --out on a Dask cluster (a local one unless told otherwise)."""
     from moonbot.bop.merge import MergeError
     from moonbot.config import ConfigError, load_config
@@ -268,7 +273,7 @@ def generate(config_path: Path, out_dir: Path, workers: int | None, threads: int
         raise click.ClickException(str(e)) from None
     try:
         result = run(config, out_dir, workers=workers, threads=threads, scheduler=scheduler,
-                     scheduler_file=scheduler_file, merge=merge)
+                     scheduler_file=scheduler_file, merge=merge, task_timeout=task_timeout)
     except (OSError, MergeError) as e:
         raise click.ClickException(str(e)) from None
     click.echo(f"{result.rendered} tasks rendered ({result.samples} samples) in {result.seconds:.1f} s; "

@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from pathlib import Path
 
 import pytest
 
-from moonbot.config import Config, ConfigError, config_hash, default_config_path, load_config
+from moonbot.config import (Config, ConfigError, config_hash, default_config_path, load_config, parse_overrides,
+                            parse_yaml)
+from moonbot.config.load import parse_yaml_documents
 
 
 def test_embedded_default_equals_schema_defaults():
@@ -89,3 +92,69 @@ def test_top_level_must_be_a_mapping(tmp_path):
 def test_config_is_frozen():
     with pytest.raises(dataclasses.FrozenInstanceError):
         Config().seed = 3  # type: ignore[misc]
+
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_a_section_given_twice_is_an_error_naming_file_line_and_key(tmp_path):
+    """PyYAML keeps the second `camera:` block and drops the first's width without a word."""
+    path = tmp_path / "twice.yaml"
+    path.write_text("camera:\n  width: 320\nseed: 3\ncamera:\n  height: 240\n")
+    with pytest.raises(ConfigError) as caught:
+        load_config(path)
+    assert str(caught.value) == (f"{path}:4: camera: duplicate key (first given at line 1; "
+                                 "YAML would keep only the last)")
+
+
+def test_a_nested_duplicate_names_its_dotted_path(tmp_path):
+    path = tmp_path / "nested.yaml"
+    path.write_text("dust:\n  enabled: true\n  cloud:\n    voxel_m: 0.05\n    march_stride_px: 2\n"
+                    "    march_stride_px: 4\n")
+    with pytest.raises(ConfigError, match=r"nested\.yaml:6: dust\.cloud\.march_stride_px: duplicate key "
+                                          r"\(first given at line 5;"):
+        load_config(path)
+
+
+def test_every_duplicate_is_named_in_line_order(tmp_path):
+    """In a list item and in a JSON object too; keys compare as values (0x1 is 1), as in the dict."""
+    path = tmp_path / "many.yaml"
+    path.write_text('sweep:\n  splits:\n    - name: train\n      name: test\n'
+                    'bags: {"count": 1, "count": 2}\nmeshes:\n  1: a\n  0x1: b\n')
+    with pytest.raises(ConfigError) as caught:
+        load_config(path)
+    assert str(caught.value).splitlines() == [
+        f"{path}:4: sweep.splits[0].name: duplicate key (first given at line 3; YAML would keep only the last)",
+        f"{path}:5: bags.count: duplicate key (first given at line 5; YAML would keep only the last)",
+        f"{path}:8: meshes.1: duplicate key (first given at line 7; YAML would keep only the last)",
+    ]
+
+
+def test_a_duplicate_in_a_set_value_is_an_error():
+    with pytest.raises(ConfigError, match=r"--set camera:1: camera\.width: duplicate key"):
+        parse_overrides(["camera={width: 1, width: 2}"])
+
+
+def test_merge_keys_and_aliases_are_not_duplicates():
+    text = "base: &b {width: 64, height: 48}\ncamera:\n  <<: *b\n  width: 96\nalso: *b\n"
+    assert parse_yaml(text, "t.yaml") == {"base": {"width": 64, "height": 48},
+                                          "camera": {"width": 96, "height": 48},
+                                          "also": {"width": 64, "height": 48}}
+
+
+def test_invalid_yaml_names_the_file_and_line(tmp_path):
+    path = tmp_path / "broken.yaml"
+    path.write_text("camera:\n  width: [1, 2\nseed: 3\n")
+    with pytest.raises(ConfigError, match=r"broken\.yaml: not valid YAML/JSON \(line \d+: "):
+        load_config(path)
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "configs").rglob("*.yaml")), ids=lambda p: p.name)
+def test_the_shipped_configs_load_cleanly(path):
+    load_config(path)
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "cluster").rglob("*.yaml")), ids=lambda p: p.name)
+def test_the_cluster_recipes_have_no_duplicate_keys(path):
+    """Dask and Kubernetes read these, and keep the last of two keys as PyYAML does."""
+    assert parse_yaml_documents(path.read_text(), str(path))

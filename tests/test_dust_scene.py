@@ -112,8 +112,8 @@ def test_a_scene_without_dust_runs_no_dust_code(tmp_path, monkeypatch):
         assert kwargs.get("medium") is None
         return real_render(*args, **kwargs)
 
-    def build(spec):
-        scene = real_build(spec)
+    def build(spec, *args):
+        scene = real_build(spec, *args)
         scenes.append((spec, scene))
         return scene
 

@@ -295,3 +295,39 @@ def test_vertex_normals_shade_a_tessellated_sphere_as_a_sphere():
         errors[smooth] = float(np.abs(out["rgb"][..., 0] - expected)[lit].mean() / expected[lit].mean())
     assert errors[True] < 0.25 * errors[False]
     assert errors[True] < 0.01
+
+
+@pytest.mark.parametrize("incidence", [70.0, 87.0])
+@pytest.mark.parametrize("slope_deg", [15.0, 30.0, 60.0])
+def test_lit_slope_is_uniform(slope_deg, incidence):
+    """A Lambertian slope 4 km across in two triangles (the `slope` location's extent) under a Sun
+    20° or 3° above it shines E·(A/π)·cos i at every pixel: no shadow acne, however large its
+    triangles."""
+    from moonbot.terrain.ground import SlopedGround
+
+    ground = SlopedGround(slope_deg, downhill_azimuth_deg=90.0, size_m=4000.0)
+    h = 2000.0
+    corners = np.array([[-h, -h], [h, -h], [h, h], [-h, h]])
+    scene = _core.Scene()
+    mesh = scene.add_mesh(np.column_stack([corners, ground.height(corners[:, 0], corners[:, 1])]).astype(np.float32),
+                          np.array([[0, 1, 2], [0, 2, 3]]))
+    albedo = 0.12
+    scene.add_background(mesh, np.eye(4), (albedo,) * 3)
+    scene.commit()
+    # The slope falls toward +x, so its normal leans toward +x by slope_deg from the zenith. A Sun
+    # whose zenith angle, signed toward +x, is slope_deg − incidence meets it at that incidence.
+    tilt = slope_deg - incidence
+    elevation, azimuth = 90.0 - abs(tilt), (90.0 if tilt >= 0 else 270.0)
+    sun = _core.Sun(azimuth, elevation, E)
+    n = ground.plane()[1]
+    cos_i = float(np.dot(n, sun.direction))
+    assert cos_i == pytest.approx(math.cos(math.radians(incidence)), abs=1e-9)
+    # Downhill of the origin, 2.5 m above the slope, looking uphill: the slope fills the view.
+    camera, _, _ = look_at((2.0, -1.5, 2.5 + ground.height(2.0, -1.5)), (-0.5, 0.5, ground.height(-0.5, 0.5)),
+                           width=160, height=120, f=120.0)
+    out = _core.render(scene, camera, sun, spp=1, seed=0, threads=2, passes=["rgb", "depth"], bounces=0)
+    ground = out["depth"] > 0  # the rest is sky past the steepest slope's contour
+    assert ground.mean() > 0.6
+    radiance = out["rgb"][ground][:, 0]
+    expected = E * albedo / math.pi * cos_i
+    assert np.abs(radiance / expected - 1).max() < 1e-3, (np.mean(radiance < 0.8 * expected))

@@ -189,7 +189,9 @@ def test_identical_bags_share_one_bvh():
 def test_exact_depth_holds_far_from_the_origin(offset):
     """Hard case: with exact_depth the z-depth of a tilted plane matches the analytic value to
     float32 rounding (< 1e-7 relative) however far the scene is from the origin; Embree's own
-    float32 distance (exact_depth=False) stays within 1e-4 (its error grows with the offset)."""
+    float32 distance (exact_depth=False) stays within 2e-4 (its error grows with the offset, and
+    is larger in the kernels without FMA: 1.2e-4 at 10 km with SSE and AVX, under 1e-4 with AVX2
+    and AVX-512)."""
     scene = _core.Scene()
     world = translation(offset, offset, 0.0) @ rotation_x(10.0)
     scene.add_background(scene.add_mesh(*plane(50.0)), world, (0.1, 0.1, 0.1))
@@ -207,7 +209,7 @@ def test_exact_depth_holds_far_from_the_origin(offset):
         assert hit.mean() > 0.9
         errors[exact] = np.max(np.abs(out["depth"][hit] - t[hit]) / t[hit])
     assert errors[True] < 1e-7
-    assert errors[False] < 1e-4
+    assert errors[False] < 2e-4
 
 
 def test_embree_limit_probe_traces_the_renderers_rays():

@@ -106,6 +106,7 @@ def test_plan_prints_the_sweep_without_rendering(tmp_path):
     assert result.exit_code != 0 and "sun_elevations_deg[0]" in result.output
 
 
+@pytest.mark.timeout(900)  # 36 layouts settled: 112 s on a loaded 2-core machine; room for a slower one
 def test_every_layout_of_the_synbag_sweep_composes():
     """Every bag layout of SynBag-1.0 (split × mesh × location × bag count: 27 train, 9 test) is
     placed, settled and passes the exact ground and overlap checks, so no task of the full sweep

@@ -34,13 +34,14 @@ void bind_dust(py::module_& m) {
             }
             const auto n = static_cast<py::ssize_t>(fragments.size());
             py::array_t<double> position({n, py::ssize_t(3)}), velocity({n, py::ssize_t(3)}), diameter(n), age(n);
-            py::array_t<int32_t> bounces(n);
+            py::array_t<int32_t> bounces(n), corrections(n);
             py::array_t<bool> resting(n);
             auto P = position.mutable_unchecked<2>();
             auto V = velocity.mutable_unchecked<2>();
             auto D = diameter.mutable_unchecked<1>();
             auto A = age.mutable_unchecked<1>();
             auto B = bounces.mutable_unchecked<1>();
+            auto C = corrections.mutable_unchecked<1>();
             auto R = resting.mutable_unchecked<1>();
             for (py::ssize_t i = 0; i < n; ++i) {
                 const Fragment& f = fragments[static_cast<size_t>(i)];
@@ -51,6 +52,7 @@ void bind_dust(py::module_& m) {
                 D(i) = f.diameter_m;
                 A(i) = f.age_s;
                 B(i) = f.bounces;
+                C(i) = f.corrections;
                 R(i) = f.resting;
             }
             const FragmentMesh mesh = fragment_mesh(fragments, seed);
@@ -66,6 +68,7 @@ void bind_dust(py::module_& m) {
             out["diameter"] = diameter;
             out["age"] = age;
             out["bounces"] = bounces;
+            out["corrections"] = corrections;
             out["resting"] = resting;
             return out;
         },
@@ -79,9 +82,11 @@ void bind_dust(py::module_& m) {
         "gravity from launch in steps of at most dt_s and bounced on the scene's geometry (call it "
         "before the fragments' own mesh is in the scene, or they collide with themselves). Returns "
         "position (N, 3) and velocity (N, 3) float64 (metres, m/s, world), diameter (N,) metres, "
-        "age (N,) seconds since launch, bounces (N,) int32, resting (N,) bool, and the fragments "
+        "age (N,) seconds since launch, bounces (N,) int32, corrections (N,) int32 (times found behind "
+        "a surface and put back in front: 0 in a scene of outward-facing solids), resting (N,) bool, and the fragments "
         "as one mesh in world metres: vertices (12 N, 3) float32, triangles (20 N, 3) uint32.");
     m.attr("MAX_DUST_STEP") = kMaxDustStep;
+    m.attr("SPAWN_CLEARANCE") = kSpawnClearance;
     m.def(
         "cloud_puffs",
         [](uint64_t seed, double time_s, const py::handle& origin, const py::handle& box_m, double vertical_offset_m,

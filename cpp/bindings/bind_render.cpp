@@ -51,6 +51,7 @@ void bind_render(py::module_& m) {
                                medium);
             }
             out["camera_rays"] = stats.camera_rays;
+            out["second_look_rays"] = stats.second_look_rays;
             out["shadow_rays"] = stats.shadow_rays;
             out["bounce_shadow_rays"] = stats.bounce_shadow_rays;
             out["bounce_rays"] = stats.bounce_rays;
@@ -65,7 +66,8 @@ void bind_render(py::module_& m) {
         py::arg("earth") = py::none(), py::arg("medium") = nullptr,
         "Render one view. Returns a dict with the requested passes — rgb (H, W, 3) float32 "
         "W/(m²·sr), depth (H, W) float32 z-depth in metres (0 = no hit), instance (H, W) uint8 "
-        "(0 = background) — and camera_rays, shadow_rays (bounce_shadow_rays of them from bounce vertices), "
+        "(0 = background) — and camera_rays, second_look_rays (camera rays traced again where one may have "
+        "slipped through a shared vertex), shadow_rays (bounce_shadow_rays of them from bounce vertices), "
         "bounce_rays, medium_rays, seconds. exact_depth "
         "re-solves hit distances in double (exact at kilometre coordinates); False keeps Embree's "
         "float32 t. light_samples: shadow rays per sample toward each light's disk; bounces: "

@@ -1,4 +1,8 @@
+#include <limits>
+#include <memory>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include <pybind11/stl.h>
 
@@ -127,8 +131,27 @@ void bind_scene(py::module_& m) {
              py::arg("brush_size") = 0.18, py::arg("opacity") = 0.5, py::arg("resolution") = 512,
              py::arg("stain_seed") = 0, py::arg("dirt_colour") = py::make_tuple(0.12, 0.11, 0.10));
 
+    m.def("embree_isas", [] {
+        std::vector<std::string> names;
+        for (Isa isa : cpu_isas()) names.emplace_back(isa_name(isa));
+        return names;
+    }, "The ISAs this CPU can run Embree's kernels in, narrowest first (names as embree_isa takes them).");
+    m.def("resolve_embree_isa", [](const std::string& name) { return std::string(isa_name(resolve_isa(parse_isa(name)))); },
+          py::arg("name") = "auto",
+          "The ISA a scene asked for `name` traces in here: 'auto' is $MOONBOT_EMBREE_ISA where set, else avx2 "
+          "where this CPU runs it, else the widest it runs. ValueError for an unknown name or one this CPU "
+          "cannot run.");
+
     py::class_<Scene>(m, "Scene", "Triangle-mesh prototypes and their instances; metres, world ENU.")
-        .def(py::init<>())
+        .def(py::init([](const std::string& embree_isa, bool watertight) {
+                 return std::make_unique<Scene>(parse_isa(embree_isa), watertight);
+             }),
+             py::arg("embree_isa") = "auto", py::arg("watertight") = true,
+             "An empty scene whose rays Embree traces in `embree_isa` (auto, sse2, sse4.2, avx, avx2, avx512; "
+             "see resolve_embree_isa). watertight=False (Embree's default BVHs, no second look at shared "
+             "vertices) exists only to measure what watertightness costs and buys.")
+        .def_property_readonly("embree_isa", [](const Scene& s) { return std::string(isa_name(s.isa())); },
+                               "The ISA Embree traces this scene's rays in (never 'auto').")
         .def(
             "add_mesh",
             [](Scene& s, const py::handle& vertices, const py::handle& triangles, const py::handle& corner_uvs,
@@ -205,6 +228,49 @@ void bind_scene(py::module_& m) {
             "Add unlabelled geometry (terrain, rocks): label 0 in masks. Returns the instance index.")
         .def("commit", &Scene::commit, py::call_guard<py::gil_scoped_release>(),
              "Build the top-level BVH; required before rendering.")
+        .def(
+            "intersect",
+            [](const Scene& s, const py::handle& origins, const py::handle& directions) {
+                if (!s.committed()) throw std::logic_error("intersect: the scene is not committed");
+                auto o = float_rows(origins, "origins", 3);
+                auto d = float_rows(directions, "directions", 3);
+                if (o.shape(0) != d.shape(0))
+                    fail("directions", "must have as many rows as origins (" + std::to_string(o.shape(0)) +
+                                           "), got " + std::to_string(d.shape(0)));
+                const auto n = static_cast<size_t>(o.shape(0));
+                std::vector<RayHit> rays(n);
+                for (size_t i = 0; i < n; ++i) {
+                    RayHit& r = rays[i];
+                    r = RayHit{};
+                    r.org_x = o.at(i, 0), r.org_y = o.at(i, 1), r.org_z = o.at(i, 2);
+                    r.dir_x = d.at(i, 0), r.dir_y = d.at(i, 1), r.dir_z = d.at(i, 2);
+                    r.tfar = std::numeric_limits<float>::infinity();
+                    r.mask = 0xFFFFFFFFu;
+                }
+                {
+                    py::gil_scoped_release release;
+                    Scene::ReadLock lock(s);
+                    s.accel().intersect_watertight(rays.data(), n, s.has_background());
+                }
+                py::array_t<double> t(static_cast<py::ssize_t>(n));
+                py::array_t<int64_t> instance(static_cast<py::ssize_t>(n)), primitive(static_cast<py::ssize_t>(n));
+                auto tt = t.mutable_unchecked<1>();
+                auto ii = instance.mutable_unchecked<1>();
+                auto pp = primitive.mutable_unchecked<1>();
+                for (size_t i = 0; i < n; ++i) {
+                    const bool hit = rays[i].geom_id != kInvalidId;
+                    const auto k = static_cast<py::ssize_t>(i);
+                    tt(k) = hit ? rays[i].tfar : std::numeric_limits<double>::infinity();
+                    ii(k) = hit ? static_cast<int64_t>(rays[i].inst_id) : -1;
+                    pp(k) = hit ? static_cast<int64_t>(rays[i].prim_id) : -1;
+                }
+                return py::make_tuple(t, instance, primitive);
+            },
+            py::arg("origins"), py::arg("directions"),
+            "Closest hits of rays (origins and directions (N, 3), metres, world; narrowed to float32 as Embree "
+            "traces them), watertight as the renderer's camera rays are: (t (N,) float64 in units of |direction|, inf on a miss; instance (N,) int64, -1 on a "
+            "miss; primitive (N,) int64, the triangle's index in its mesh, -1 on a miss). For checking the "
+            "traversal itself; renders resolve hits in double on top of this.")
         .def_property_readonly("committed", &Scene::committed)
         .def_property_readonly("mesh_count", &Scene::mesh_count)
         .def_property_readonly("instance_count", &Scene::instance_count)

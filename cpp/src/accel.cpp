@@ -3,9 +3,13 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstddef>
+#include <cstdlib>
 #include <limits>
+#include <map>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -77,29 +81,142 @@ struct alignas(4 * W) ValidMask {
                              std::to_string(static_cast<int>(code)) + ")");
 }
 
+constexpr Isa kIsas[] = {Isa::automatic, Isa::sse2, Isa::sse42, Isa::avx, Isa::avx2, Isa::avx512};
+
+bool cpu_runs(Isa isa) {
+    __builtin_cpu_init();
+    switch (isa) {
+        case Isa::automatic: return true;
+        case Isa::sse2: return __builtin_cpu_supports("sse2");
+        case Isa::sse42: return __builtin_cpu_supports("sse4.2") && __builtin_cpu_supports("popcnt");
+        case Isa::avx: return cpu_runs(Isa::sse42) && __builtin_cpu_supports("avx");
+        case Isa::avx2:
+            return cpu_runs(Isa::avx) && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
+                   __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2") && __builtin_cpu_supports("abm");
+        case Isa::avx512:
+            return cpu_runs(Isa::avx2) && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+                   __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("avx512bw") &&
+                   __builtin_cpu_supports("avx512vl");
+    }
+    return false;
+}
+
+std::string isa_list(const std::vector<Isa>& isas) {
+    std::string out;
+    for (Isa i : isas) out += (out.empty() ? "" : ", ") + std::string(isa_name(i));
+    return out;
+}
+
+int native_packet_width(RTCDevice device) {
+    if (rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED)) return 16;
+    if (rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED)) return 8;
+    return 4;
+}
+
+int expected_packet_width(Isa isa) {
+    switch (isa) {
+        case Isa::avx512: return 16;
+        case Isa::avx2:
+        case Isa::avx: return 8;
+        default: return 4;
+    }
+}
+
+/// The process's Embree device for each resolved ISA, shared by the Accels that use it (Embree
+/// devices are thread-safe) and released with the last of them.
+std::shared_ptr<RTCDeviceTy> device_for(Isa isa) {
+    static std::mutex mutex;
+    static std::map<Isa, std::weak_ptr<RTCDeviceTy>> devices;
+    std::lock_guard<std::mutex> lock(mutex);
+    if (auto device = devices[isa].lock()) return device;
+    // Embree uses the process's TBB scheduler, so builds honour the caller's task_arena.
+    const std::string config = std::string("verbose=0,isa=") + isa_name(isa);
+    RTCDevice raw = rtcNewDevice(config.c_str());
+    if (!raw) throw std::runtime_error("embree: rtcNewDevice(\"" + config + "\") failed");
+    std::shared_ptr<RTCDeviceTy> device(raw, rtcReleaseDevice);
+    // Embree silently falls back to a narrower ISA when the library lacks the kernels asked for;
+    // its native packet width (4 for SSE, 8 for AVX and AVX2, 16 for AVX-512) tells.
+    const int width = native_packet_width(raw);
+    if (width != expected_packet_width(isa))
+        throw std::runtime_error(std::string("embree: this Embree library has no ") + isa_name(isa) +
+                                 " kernels (its devices run " + std::to_string(width) +
+                                 "-wide packets); set embree_isa to a narrower ISA");
+    devices[isa] = device;
+    return device;
+}
+
 }  // namespace
 
+const char* isa_name(Isa isa) {
+    switch (isa) {
+        case Isa::automatic: return "auto";
+        case Isa::sse2: return "sse2";
+        case Isa::sse42: return "sse4.2";
+        case Isa::avx: return "avx";
+        case Isa::avx2: return "avx2";
+        case Isa::avx512: return "avx512";
+    }
+    return "?";
+}
+
+Isa parse_isa(const std::string& name, const std::string& what) {
+    for (Isa isa : kIsas)
+        if (name == isa_name(isa)) return isa;
+    throw std::invalid_argument(what + ": must be one of auto, sse2, sse4.2, avx, avx2, avx512; got '" + name + "'");
+}
+
+std::vector<Isa> cpu_isas() {
+    std::vector<Isa> out;
+    for (Isa isa : kIsas)
+        if (isa != Isa::automatic && cpu_runs(isa)) out.push_back(isa);
+    return out;
+}
+
+Isa resolve_isa(Isa requested) {
+    const std::vector<Isa> offered = cpu_isas();
+    if (offered.empty()) throw std::invalid_argument("embree_isa: this CPU runs none of Embree's kernels (no SSE2)");
+    // AVX2 where the CPU runs it: as fast as AVX-512 on the benchmark's scenes
+    // (bench/results/embree-isa-*.json), and clear of Debian's AVX-512 kernels, whose masks GCC 12
+    // may break (the coherent hang is one such case; no other is known, none is ruled out).
+    const Isa preferred = cpu_runs(Isa::avx2) ? Isa::avx2 : offered.back();
+    if (requested == Isa::automatic) {
+        const char* pinned = std::getenv("MOONBOT_EMBREE_ISA");
+        if (!pinned || !*pinned) return preferred;
+        requested = parse_isa(pinned, "MOONBOT_EMBREE_ISA");
+        if (requested == Isa::automatic) return preferred;
+    }
+    if (!cpu_runs(requested))
+        throw std::invalid_argument(std::string("embree_isa: this CPU cannot run '") + isa_name(requested) +
+                                    "'; it runs " + isa_list(offered));
+    return requested;
+}
+
 struct Accel::Impl {
+    std::shared_ptr<RTCDeviceTy> device_owner;
     RTCDevice device = nullptr;
     RTCScene top = nullptr;
     std::vector<RTCScene> prototypes;
     std::vector<uint32_t> instance_prototype;  // per instance id: the prototype it instances
+    // Per instance id, the cofactor of its linear part, column-major: it maps a prototype's
+    // geometric normal to the world with the winding's orientation kept (Embree's Ng is
+    // (v1 − v0) × (v2 − v0), outward for counter-clockwise triangles).
+    std::vector<std::array<double, 9>> instance_normal;
     uint32_t n_instances = 0;
 };
 
-Accel::Accel() : m_impl(std::make_unique<Impl>()) {
-    // Embree uses the process's TBB scheduler, so builds honour the caller's task_arena.
-    m_impl->device = rtcNewDevice("verbose=0");
-    if (!m_impl->device) throw std::runtime_error("embree: rtcNewDevice failed");
+Accel::Accel(Isa isa, bool watertight)
+    : m_impl(std::make_unique<Impl>()), m_isa(resolve_isa(isa)), m_watertight(watertight) {
+    m_impl->device_owner = device_for(m_isa);
+    m_impl->device = m_impl->device_owner.get();
     m_impl->top = rtcNewScene(m_impl->device);
     if (!m_impl->top) throw_device_error(m_impl->device, "rtcNewScene");
+    if (m_watertight) rtcSetSceneFlags(m_impl->top, RTC_SCENE_FLAG_ROBUST);
     rtcSetSceneBuildQuality(m_impl->top, RTC_BUILD_QUALITY_MEDIUM);
 }
 
 Accel::~Accel() {
     for (RTCScene s : m_impl->prototypes) rtcReleaseScene(s);
     if (m_impl->top) rtcReleaseScene(m_impl->top);
-    if (m_impl->device) rtcReleaseDevice(m_impl->device);
 }
 
 uint32_t Accel::add_prototype(const float* vertices, size_t n_vertices, const uint32_t* triangles,
@@ -110,6 +227,7 @@ uint32_t Accel::add_prototype(const float* vertices, size_t n_vertices, const ui
     // MEDIUM: HIGH gave no measurable trace speed-up on this CPU and builds 40 % slower
     // (reference/performance-limits.md, BVH build table).
     rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_MEDIUM);
+    if (m_watertight) rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
     RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
     if (!geom) {
         rtcReleaseScene(scene);
@@ -144,6 +262,15 @@ uint32_t Accel::add_instance(uint32_t prototype, const float world_from_object_3
     rtcAttachGeometryByID(m_impl->top, inst, id);
     rtcReleaseGeometry(inst);
     m_impl->instance_prototype.push_back(prototype);
+    const float* m = world_from_object_3x4;  // columns: m[0..2], m[3..5], m[6..8], translation
+    auto at = [&](int row, int col) { return static_cast<double>(m[3 * col + row]); };
+    std::array<double, 9> cof{};
+    for (int c = 0; c < 3; ++c)
+        for (int r = 0; r < 3; ++r) {
+            const int r1 = (r + 1) % 3, r2 = (r + 2) % 3, c1 = (c + 1) % 3, c2 = (c + 2) % 3;
+            cof[3 * c + r] = at(r1, c1) * at(r2, c2) - at(r1, c2) * at(r2, c1);
+        }
+    m_impl->instance_normal.push_back(cof);
     return id;
 }
 
@@ -169,10 +296,11 @@ void Accel::commit() {
     ++m_builds;
 }
 
-void Accel::intersect(RayHit* rays, size_t n, bool coherent) const {
+// Every context below is rtcInitIntersectContext's: RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT (see
+// accel.h on the coherent kernels).
+void Accel::intersect(RayHit* rays, size_t n) const {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
-    context.flags = coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
     for (size_t i = 0; i < n; ++i) {
         rays[i].geom_id = kInvalidId;
         rays[i].inst_id = kInvalidId;
@@ -184,10 +312,80 @@ void Accel::intersect(RayHit* rays, size_t n, bool coherent) const {
     }
 }
 
-void Accel::occluded(RayHit* rays, size_t n, bool coherent) const {
+namespace {
+
+/// Whether `r`'s hit is on the back of its triangle: its world normal (`cofactor` applied to
+/// Embree's object-space Ng) points along the ray.
+bool back_face(const RayHit& r, const std::array<double, 9>& cofactor) {
+    double along = 0.0;
+    for (int row = 0; row < 3; ++row) {
+        const double n = cofactor[row] * r.ng_x + cofactor[3 + row] * r.ng_y + cofactor[6 + row] * r.ng_z;
+        along += n * (row == 0 ? r.dir_x : row == 1 ? r.dir_y : r.dir_z);
+    }
+    return along > 0.0;
+}
+
+}  // namespace
+
+size_t Accel::intersect_watertight(RayHit* rays, size_t n, bool ground) const {
+    intersect(rays, n);
+    if (!m_watertight) return 0;
+    const auto& normals = m_impl->instance_normal;
+    // Rays toward the sky miss by right; only a downward one can have slipped through the ground.
+    auto suspect = [&](const RayHit& r) {
+        return r.geom_id == kInvalidId ? ground && r.dir_z < 0.0f : back_face(r, normals[r.inst_id]);
+    };
+    std::vector<size_t> again;
+    for (size_t i = 0; i < n; ++i)
+        if (suspect(rays[i])) again.push_back(i);
+    if (again.empty()) return 0;
+    constexpr int kLooks = 4;
+    std::vector<RayHit> tilted(again.size() * kLooks);
+    for (size_t k = 0; k < again.size(); ++k) {
+        const RayHit& r = rays[again[k]];
+        const double dx = r.dir_x, dy = r.dir_y, dz = r.dir_z;
+        const double len = std::sqrt(dx * dx + dy * dy + dz * dz);
+        // Two directions across the ray (Duff et al. 2017's basis of the unit direction).
+        const double wx = dx / len, wy = dy / len, wz = dz / len;
+        const double sign = std::copysign(1.0, wz), a = -1.0 / (sign + wz), b = wx * wy * a;
+        const double across[2][3] = {{1.0 + sign * wx * wx * a, sign * b, -sign * wx}, {b, sign + wy * wy * a, -wy}};
+        for (int look = 0; look < kLooks; ++look) {
+            RayHit& t = tilted[k * kLooks + look];
+            t = r;
+            const double* e = across[look / 2];
+            const double step = (look % 2 ? -kVertexNudge : kVertexNudge) * len;
+            t.dir_x = static_cast<float>(dx + step * e[0]);
+            t.dir_y = static_cast<float>(dy + step * e[1]);
+            t.dir_z = static_cast<float>(dz + step * e[2]);
+            t.tfar = std::numeric_limits<float>::infinity();
+            t.geom_id = t.inst_id = kInvalidId;
+        }
+    }
+    intersect(tilted.data(), tilted.size());
+    for (size_t k = 0; k < again.size(); ++k) {
+        RayHit& r = rays[again[k]];
+        // A back face the ray met stands unless a front face comes no later: a ray through a
+        // silhouette edge touches the back triangle there, and its tilted copies pass beside it.
+        const float limit = r.geom_id == kInvalidId ? std::numeric_limits<float>::infinity()
+                                                    : r.tfar * (1.0f + 1e-4f);
+        const RayHit* best = nullptr;
+        for (int look = 0; look < kLooks; ++look) {
+            const RayHit& t = tilted[k * kLooks + look];
+            if (t.geom_id == kInvalidId || back_face(t, normals[t.inst_id]) || !(t.tfar <= limit)) continue;
+            if (!best || t.tfar < best->tfar) best = &t;
+        }
+        if (!best) continue;
+        r.tfar = best->tfar;
+        r.ng_x = best->ng_x, r.ng_y = best->ng_y, r.ng_z = best->ng_z;
+        r.u = best->u, r.v = best->v;
+        r.prim_id = best->prim_id, r.geom_id = best->geom_id, r.inst_id = best->inst_id;
+    }
+    return tilted.size();
+}
+
+void Accel::occluded(RayHit* rays, size_t n) const {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
-    context.flags = coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
     for (size_t begin = 0; begin < n; begin += kStream) {
         const size_t count = std::min(kStream, n - begin);
         // RTCRay is the leading member of RTCRayHit, so the same buffer with the RayHit stride
@@ -217,7 +415,7 @@ void Accel::occluded_single(RayHit* rays, size_t n) const {
 template <int W>
 void Accel::intersect_packets(RayHitPacket<W>* packets, size_t n) const {
     RTCIntersectContext context;
-    rtcInitIntersectContext(&context);  // incoherent: see accel.h
+    rtcInitIntersectContext(&context);
     const ValidMask<W> full(W);
     for (size_t p = 0; p * W < n; ++p) {
         RayHitPacket<W>& packet = packets[p];
@@ -237,7 +435,7 @@ void Accel::intersect_packets(RayHitPacket<W>* packets, size_t n) const {
 template <int W>
 void Accel::occluded_packets(RayHitPacket<W>* packets, size_t n) const {
     RTCIntersectContext context;
-    rtcInitIntersectContext(&context);  // incoherent: see accel.h
+    rtcInitIntersectContext(&context);
     const ValidMask<W> full(W);
     for (size_t p = 0; p * W < n; ++p) {
         // RTCRayW is the leading member of RTCRayHitW, as for the streams.

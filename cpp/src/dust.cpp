@@ -23,13 +23,89 @@ constexpr double kPi = 3.14159265358979323846;
 // A fragment that bounces more often than this in one flight is put to rest: after so many
 // bounces at restitution ≤ 0.95 its normal speed is gone, and it guards the loop.
 constexpr int kMaxBounces = 1000;
-// How far above the emitter's origin a fragment's spawn point looks down for the ground, metres.
+// How far above and below the emitter's origin a fragment's spawn point looks for the ground, metres.
 constexpr double kSpawnProbe = 1.0;
+// The spawn looks for the surface under the fragment's centre and under this many points on a
+// circle around it, of its radius over (cos − sin)(π / points): with the points that far out, no
+// plan corner of 90° or more (a bag's, a rock's) reaches into the fragment's footprint between
+// them unseen.
+constexpr int kFootprintPoints = 16;
+// Climbing out of solids (a probe that starts inside a bag or under the ground) gives up after
+// this many exits; each exit is one solid passed through.
+constexpr int kMaxExits = 64;
+// After a bounce or a push-out, a fragment is lifted off the surface by this much of its largest
+// coordinate (of 1 m at least): float32 traversal resolves positions to ~6e-8 of their
+// magnitude, so the next rays start clearly in front of the surface.
+constexpr double kLift = 2e-6;
 // Dimensions of the fragment's random numbers (key: the seed's ejecta stream, fragment, burst).
 enum Dim : uint32_t { kSpawnR, kSpawnPhi, kCone, kAzimuth, kSpeed, kDiameter };
 
+const glm::dvec3 kUp(0.0, 0.0, 1.0);
+
 void require(bool ok, const std::string& field, const std::string& what) {
     if (!ok) throw std::invalid_argument(field + ": " + what);
+}
+
+/// `point` moved along the unit `normal` by kLift of its largest coordinate (of 1 m at least).
+glm::dvec3 lifted(const glm::dvec3& point, const glm::dvec3& normal) {
+    const double scale = std::max({1.0, std::abs(point.x), std::abs(point.y), std::abs(point.z)});
+    return point + normal * (kLift * scale);
+}
+
+/// The first surface a ray meets: its distance `t` (metres along the unit direction), its unit
+/// normal in the world facing out of its solid (up, for the ground), and whether the ray met it
+/// from behind — that is, started inside a solid or under the ground.
+struct Contact {
+    bool hit = false;
+    double t = 0.0;
+    glm::dvec3 normal{0.0};
+    bool from_behind = false;
+};
+
+/// The first surface along the ray from `from` in the unit direction `dir`, within `reach` metres.
+/// Surfaces face the side their triangles wind counter-clockwise on (Embree's geometric normal):
+/// out of closed meshes, up from the ground.
+Contact first_contact(const Scene& scene, const glm::dvec3& from, const glm::dvec3& dir, double reach) {
+    RayHit ray{};
+    detail::set_ray(ray, from, dir);
+    ray.tfar = static_cast<float>(reach);
+    scene.accel().intersect_single(&ray, 1);  // one ray: no stream to build
+    Contact c;
+    if (ray.geom_id == kInvalidId) return c;
+    const Instance& inst = scene.instance(ray.inst_id);
+    const glm::dvec3 n = inst.normal_to_world * glm::dvec3(ray.ng_x, ray.ng_y, ray.ng_z);
+    c.hit = true;
+    c.t = static_cast<double>(ray.tfar);
+    c.normal = n / glm::length(n);
+    c.from_behind = glm::dot(c.normal, dir) > 0.0;
+    return c;
+}
+
+/// How high the vertical line through `point` must climb to be out of every solid (and above
+/// the ground) it is in at `point`: the height of the last surface it leaves from behind, or
+/// point.z when it is in none. Going up, a ray from inside a solid meets its surface from behind
+/// first, and one from outside meets a surface from the front, or nothing.
+double climb_out(const Scene& scene, glm::dvec3 point) {
+    const double inf = std::numeric_limits<double>::infinity();
+    for (int exits = 0; exits < kMaxExits; ++exits) {
+        const Contact up = first_contact(scene, point, kUp, inf);
+        if (!up.hit || !up.from_behind) break;
+        point = lifted(point + kUp * up.t, kUp);
+    }
+    return point.z;
+}
+
+/// The height of the topmost surface under (x, y) between `probe_z` and `floor_z`: the first
+/// surface met coming down from `probe_z` — from above any solid `probe_z` is inside — to
+/// `floor_z`. NaN where there is none.
+double surface_below(const Scene& scene, double x, double y, double probe_z, double floor_z) {
+    glm::dvec3 start(x, y, probe_z);
+    Contact down = first_contact(scene, start, -kUp, start.z - floor_z);
+    if (down.from_behind) {  // the probe starts inside a solid (a bag stacked high): start above it
+        start.z = climb_out(scene, start);
+        down = first_contact(scene, start, -kUp, start.z - floor_z);
+    }
+    return down.hit ? start.z - down.t : std::numeric_limits<double>::quiet_NaN();
 }
 
 /// Where a fragment starts, given the seed's ejecta stream, its index and burst.
@@ -39,16 +115,34 @@ Fragment launch(const Scene& scene, const EjectaParams& p, uint64_t stream, uint
     f.index = index;
     f.burst = burst;
     f.diameter_m = p.min_diameter_m + u(kDiameter) * (p.max_diameter_m - p.min_diameter_m);
+    const double radius = f.diameter_m / 2;
     const double r = p.spawn_radius_m * std::sqrt(u(kSpawnR)), phi = 2 * kPi * u(kSpawnPhi);
-    // Lying on whatever is under its spawn point (the ground is rarely level at the origin's
-    // height): the first surface below kSpawnProbe above the origin, centre one radius up.
     f.position = p.origin + glm::dvec3(r * std::cos(phi), r * std::sin(phi), 0.0);
-    RayHit down{};
-    detail::set_ray(down, f.position + glm::dvec3(0.0, 0.0, kSpawnProbe), glm::dvec3(0.0, 0.0, -1.0));
-    down.tfar = static_cast<float>(2 * kSpawnProbe);
-    scene.accel().intersect_single(&down, 1);
-    if (down.geom_id != kInvalidId) f.position.z += kSpawnProbe - static_cast<double>(down.tfar);
-    f.position.z += f.diameter_m / 2;
+    // Lying on whatever is under it (the ground is rarely level at the origin's height, and a bag
+    // may be there): its bounding sphere, which holds its whole mesh in any orientation, clear of
+    // the highest surface under its footprint by kSpawnClearance. On a plane of slope s that keeps
+    // every point of the sphere at least that high above the plane: the footprint's highest point
+    // is at least s·radius above the centre's.
+    const double probe_z = p.origin.z + kSpawnProbe, floor_z = p.origin.z - kSpawnProbe;
+    const double step = kPi / kFootprintPoints;
+    const double reach = radius / (std::cos(step) - std::sin(step));
+    double ground = surface_below(scene, f.position.x, f.position.y, probe_z, floor_z);
+    for (int k = 0; k < kFootprintPoints; ++k) {
+        const double a = 2 * step * k;
+        const double z = surface_below(scene, f.position.x + reach * std::cos(a), f.position.y + reach * std::sin(a),
+                                       probe_z, floor_z);
+        if (std::isnan(ground) || z > ground) ground = z;
+    }
+    f.position.z = (std::isnan(ground) ? p.origin.z : ground) + kSpawnClearance + radius;
+    // A solid reaching into the sphere between the probed lines (a corner sharper than 90°)
+    // could still hold its centre or lowest point: then it starts on top of that solid.
+    for (int exits = 0; exits < kMaxExits; ++exits) {
+        const double low = f.position.z - radius;
+        const double low_out = climb_out(scene, glm::dvec3(f.position.x, f.position.y, low));
+        const double centre_out = climb_out(scene, f.position);
+        if (low_out == low && centre_out == f.position.z) break;
+        f.position.z = std::max(low_out, centre_out) + kSpawnClearance + radius;
+    }
     // Uniform over the cone's solid angle about +z.
     const double cos_max = std::cos(p.cone_half_angle_deg * kPi / 180.0);
     const double c = 1.0 - u(kCone) * (1.0 - cos_max), s = std::sqrt(std::max(0.0, 1.0 - c * c));
@@ -58,25 +152,45 @@ Fragment launch(const Scene& scene, const EjectaParams& p, uint64_t stream, uint
     return f;
 }
 
-/// Flies `f` for `duration` seconds in steps of at most `dt`, bouncing on `scene`.
+/// fly_fragment without the argument checks (simulate_ejecta has made them once for all).
 void fly(const Scene& scene, const EjectaParams& p, Fragment& f, double duration, double dt) {
     const glm::dvec3 g(0.0, 0.0, -p.gravity_m_s2);
-    const glm::dvec3 down(0.0, 0.0, -1.0);
+    // The fragment collides as the vertical segment from its lowest point up to its centre: the
+    // lowest point meets the ground, the centre meets overhangs and walls first. Both start every
+    // step in free space; a ray along the step's chord from each finds the first contact.
+    const glm::dvec3 leg(0.0, 0.0, f.diameter_m / 2);
     while (f.age_s < duration && !f.resting) {
         const double h = std::min(dt, duration - f.age_s);
-        const glm::dvec3 next = f.position + f.velocity * h + 0.5 * g * (h * h);
-        // The chord of the fragment's lowest point: contact is that point meeting the ground.
-        const glm::dvec3 from = f.position + down * (f.diameter_m / 2);
-        const glm::dvec3 chord = next - f.position;
+        const glm::dvec3 chord = f.velocity * h + 0.5 * g * (h * h);
         const double length = glm::length(chord);
-        RayHit ray{};
+        Contact low, centre;
+        glm::dvec3 dir(0.0);
         if (length > 0.0) {
-            detail::set_ray(ray, from, chord / length);
-            ray.tfar = static_cast<float>(length);
-            scene.accel().intersect_single(&ray, 1);  // one ray: no stream to build
+            dir = chord / length;
+            low = first_contact(scene, f.position - leg, dir, length);
+            centre = first_contact(scene, f.position, dir, length);
         }
-        if (length == 0.0 || ray.geom_id == kInvalidId) {
-            f.position = next;
+        if (low.from_behind || centre.from_behind) {
+            // A ray that meets a surface from behind started inside a solid or under the ground:
+            // not a contact but a fragment where no valid step can take it (launched there, or a
+            // float rounding of a contact). Bouncing off the back of the surface would send it
+            // further in; instead it is put back out in front of the surface, along the surface's
+            // normal by the depth the ray found there, and the step is taken again. Time does
+            // not pass and its velocity (which the chord shows leaving the solid) is kept.
+            const Contact& behind = low.from_behind ? low : centre;
+            const double depth = behind.t * glm::dot(dir, behind.normal);
+            f.position = lifted(f.position + behind.normal * depth, behind.normal);
+            if (++f.corrections >= kMaxCorrections) {
+                f.velocity = glm::dvec3(0.0);
+                f.resting = true;
+                f.flight_s = f.age_s;
+                f.age_s = duration;
+            }
+            continue;
+        }
+        const Contact& first = (centre.hit && (!low.hit || centre.t < low.t)) ? centre : low;
+        if (!first.hit) {
+            f.position += chord;
             f.velocity += g * h;
             f.age_s += h;
             f.flight_s = f.age_s;
@@ -84,15 +198,12 @@ void fly(const Scene& scene, const EjectaParams& p, Fragment& f, double duration
         }
         // Contact after the chord's fraction s of the step: the chord is parametrised nearly
         // uniformly in time, and it lies below the parabola, so the fragment never gains energy.
-        const double s = std::clamp(static_cast<double>(ray.tfar) / length, 0.0, 1.0);
+        const double s = std::clamp(first.t / length, 0.0, 1.0);
         const double tau = s * h;
-        const Instance& inst = scene.instance(ray.inst_id);
-        glm::dvec3 n = inst.normal_to_world * glm::dvec3(ray.ng_x, ray.ng_y, ray.ng_z);
-        n /= glm::length(n);
-        if (glm::dot(n, chord) > 0.0) n = -n;  // the side the fragment came from
+        const glm::dvec3& n = first.normal;  // met from the front: the side the fragment is on
         f.position += chord * s;
         const glm::dvec3 v = f.velocity + g * tau;
-        const double vn = glm::dot(v, n);  // < 0: into the ground
+        const double vn = glm::dot(v, n);  // < 0: into the surface
         const glm::dvec3 vt = v - vn * n;
         const double impulse = (1.0 + p.restitution) * std::max(0.0, -vn);
         const double speed_t = glm::length(vt);
@@ -103,19 +214,32 @@ void fly(const Scene& scene, const EjectaParams& p, Fragment& f, double duration
         ++f.bounces;
         f.flight_s = f.age_s;
         if (rebound < p.rest_speed_m_s || f.bounces >= kMaxBounces) {
-            // Too slow to leave the ground again: at rest where it touched (a micro-bounce would
+            // Too slow to leave the surface again: at rest where it touched (a micro-bounce would
             // otherwise repeat endlessly).
             f.velocity = glm::dvec3(0.0);
             f.resting = true;
             f.age_s = duration;
         }
         // Lift off the surface by a hair so the next chord does not start inside it.
-        const double scale = std::max({1.0, std::abs(f.position.x), std::abs(f.position.y), std::abs(f.position.z)});
-        f.position += n * (2e-6 * scale);
+        f.position = lifted(f.position, n);
     }
 }
 
 }  // namespace
+
+void fly_fragment(const Scene& scene, const EjectaParams& params, Fragment& f, double duration, double dt) {
+    params.validate();
+    require(dt > 0.0 && dt <= kMaxDustStep, "dt", "must be in (0, " + std::to_string(kMaxDustStep) + "]");
+    require(std::isfinite(duration), "duration", "must be finite");
+    require(std::isfinite(f.position.x) && std::isfinite(f.position.y) && std::isfinite(f.position.z) &&
+                std::isfinite(f.velocity.x) && std::isfinite(f.velocity.y) && std::isfinite(f.velocity.z) &&
+                std::isfinite(f.age_s),
+            "fragment", "position, velocity and age must be finite");
+    require(f.diameter_m > 0.0 && std::isfinite(f.diameter_m), "fragment.diameter_m", "must be positive and finite");
+    const Scene::ReadLock lock(scene);
+    require(scene.committed(), "scene", "not committed (call commit() after adding geometry)");
+    fly(scene, params, f, duration, dt);
+}
 
 FragmentMesh fragment_mesh(const std::vector<Fragment>& fragments, uint64_t seed) {
     // The regular icosahedron: 12 vertices (0, ±1, ±φ) cyclically, 20 faces, outward winding.

@@ -163,7 +163,7 @@ int bounce_rays(const InstanceData* instances, const RayHit* from, const glm::dv
         double mu;
         const glm::dvec3 wi = cosine_direction(normal, stream_uniform01(stream, 0, 2 * generation),
                                                stream_uniform01(stream, 0, 2 * generation + 1), mu);
-        out_origins[count] = lift_off(point, normal);
+        out_origins[count] = lift_off(point, normal, triangle_reach(instances[ray.inst_id], ray.prim_id));
         out_dirs[count] = wi;
         out_pixel[count] = pixel_of[k];
         set_ray(out[count], out_origins[count], wi);
@@ -182,7 +182,8 @@ int sun_rays(const InstanceData* instances, const RayHit* traced, const glm::dve
         glm::dvec3 normal;
         if (!hit_normal(instances, traced[k], dirs[k], normal) || glm::dot(normal, to_sun) <= 0.0) continue;
         const glm::dvec3 point = origins[k] + static_cast<double>(traced[k].tfar) * dirs[k];
-        set_ray(out[count++], lift_off(point, normal), to_sun);
+        set_ray(out[count++], lift_off(point, normal, triangle_reach(instances[traced[k].inst_id], traced[k].prim_id)),
+                to_sun);
     }
     return count;
 }
@@ -233,7 +234,7 @@ EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const
             pack<16>(traced.data(), block_order(x1 - x0, y1 - y0, 4, 4), un, camera_16.items);
             camera_16.end_tile(un);
 
-            scene.accel().intersect(traced.data(), un, true);
+            scene.accel().intersect(traced.data(), un);
             hits.resolve(instances.data(), camera.center(), dirs.data(), traced.data(), n, x1 - x0, true);
             int n_shadow = 0;
             if (sun.irradiance() > 0.0)
@@ -263,7 +264,7 @@ EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const
                 Tiled<RayHit>& out = bounce[static_cast<size_t>(g)];
                 out.items.insert(out.items.end(), next.begin(), next.begin() + made);
                 out.end_tile(static_cast<size_t>(made));
-                if (made > 0) scene.accel().intersect(next.data(), static_cast<size_t>(made), false);
+                if (made > 0) scene.accel().intersect(next.data(), static_cast<size_t>(made));
                 const int lit = sun.irradiance() > 0.0
                                     ? sun_rays(instances.data(), next.data(), next_origin.data(), next_dir.data(),
                                                made, sun.direction(), shadow.data())
@@ -294,7 +295,7 @@ EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const
     limit.intersect_packet16_s = embree_seconds(arena, camera_16, repeats, overhead,
         [&](RayHitPacket<16>* p, size_t n) { accel.intersect_packets(p, n); });
     limit.intersect_stream_s = embree_seconds(arena, camera_rays, repeats, overhead,
-        [&](RayHit* r, size_t n) { accel.intersect(r, n, true); });
+        [&](RayHit* r, size_t n) { accel.intersect(r, n); });
     limit.occluded_single_s = embree_seconds(arena, shadow_rays, repeats, overhead,
         [&](RayHit* r, size_t n) { accel.occluded_single(r, n); });
     limit.occluded_packet8_s = embree_seconds(arena, shadow_8, repeats, overhead,
@@ -302,21 +303,21 @@ EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const
     limit.occluded_packet16_s = embree_seconds(arena, shadow_16, repeats, overhead,
         [&](RayHitPacket<16>* p, size_t n) { accel.occluded_packets(p, n); });
     limit.occluded_stream_s = embree_seconds(arena, shadow_rays, repeats, overhead,
-        [&](RayHit* r, size_t n) { accel.occluded(r, n, true); });
+        [&](RayHit* r, size_t n) { accel.occluded(r, n); });
     for (size_t g = 0; g < bounce.size(); ++g) {
         limit.bounce_rays.push_back(bounce[g].items.size());
         limit.bounce_stream_s.push_back(embree_seconds(arena, bounce[g], repeats, overhead,
-            [&](RayHit* r, size_t n) { accel.intersect(r, n, false); }));
+            [&](RayHit* r, size_t n) { accel.intersect(r, n); }));
         limit.bounce_single_s.push_back(embree_seconds(arena, bounce[g], repeats, overhead,
             [&](RayHit* r, size_t n) { accel.intersect_single(r, n); }));
         limit.bounce_shadow_rays.push_back(bounce_shadow[g].items.size());
         limit.bounce_shadow_stream_s.push_back(embree_seconds(arena, bounce_shadow[g], repeats, overhead,
-            [&](RayHit* r, size_t n) { accel.occluded(r, n, false); }));
+            [&](RayHit* r, size_t n) { accel.occluded(r, n); }));
     }
     limit.intersect_stream_from_memory_s = wall_seconds_from_memory(arena, camera_rays, repeats,
-        [&](RayHit* r, size_t n) { accel.intersect(r, n, true); });
+        [&](RayHit* r, size_t n) { accel.intersect(r, n); });
     limit.occluded_stream_from_memory_s = wall_seconds_from_memory(arena, shadow_rays, repeats,
-        [&](RayHit* r, size_t n) { accel.occluded(r, n, true); });
+        [&](RayHit* r, size_t n) { accel.occluded(r, n); });
     return limit;
 }
 

@@ -172,7 +172,7 @@ DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& s
                 which[static_cast<size_t>(n++)] = i;
             }
             if (n == 0) continue;
-            scene.accel().intersect(batch.data(), static_cast<size_t>(n), /*coherent=*/true);
+            scene.accel().intersect(batch.data(), static_cast<size_t>(n));
             rays += static_cast<uint64_t>(n);
             for (int r = 0; r < n; ++r) {
                 const RayHit& hit = batch[static_cast<size_t>(r)];

@@ -19,19 +19,25 @@
 
 namespace moonbot::detail {
 
-constexpr int kTile = 8;  // 8×8 = 64 pixels: one coherent Embree ray stream per tile and pass
+constexpr int kTile = 8;  // 8×8 = 64 pixels: one Embree ray stream per tile and pass
 constexpr int kTilePixels = kTile * kTile;
 
-// Shadow rays start this far above the surface, relative to the magnitude of the hit position:
-// float32 traversal resolves positions to ~6e-8 of their magnitude, so 2e-5 clears self-hits by
-// two orders of magnitude (no acne at grazing Sun) while staying far below any feature we model.
+// Rays leaving a surface start above it, by the larger of two bounds on where float32 traversal
+// puts the surface. kShadowBias of the point's largest coordinate (of 1 m at least): float32
+// resolves a position to ~6e-8 of its magnitude, so 2e-5 clears self-hits by two orders of
+// magnitude (no acne at grazing Sun) while staying far below any feature we model. And
+// kTriangleBias of the triangle's largest vertex coordinate (triangle_reach): Embree tests a
+// triangle with its vertices relative to the ray's origin, in float32, so a triangle kilometres
+// across is placed only to ~1e-4 m even where the hit is near the origin; 1e-6 is 16 float32 ulps.
 constexpr double kShadowBias = 2e-5;
+constexpr double kTriangleBias = 1e-6;
 
 /// Where rays leaving a surface start: `point` moved off the surface along the unit `normal` (on
-/// the side they leave from) by kShadowBias of its largest coordinate (of 1 m at least).
-inline glm::dvec3 lift_off(const glm::dvec3& point, const glm::dvec3& normal) {
+/// the side they leave from) by the larger of kShadowBias of its largest coordinate (of 1 m at
+/// least) and kTriangleBias of `reach`, the largest coordinate of the triangle it lies on.
+inline glm::dvec3 lift_off(const glm::dvec3& point, const glm::dvec3& normal, double reach) {
     const double scale = std::max({1.0, std::abs(point.x), std::abs(point.y), std::abs(point.z)});
-    return point + normal * (kShadowBias * scale);
+    return point + normal * std::max(kShadowBias * scale, kTriangleBias * reach);
 }
 
 /// An orthonormal basis (a, b) completing unit w (Duff et al. 2017, "Building an Orthonormal
@@ -104,6 +110,23 @@ inline glm::dvec3 albedo_at(const InstanceData& inst, uint32_t prim, double u, d
     return inst.albedo * f;
 }
 
+/// Triangle `prim`'s vertex `k` (0–2) of instance `inst`, in the world, metres.
+inline glm::dvec3 world_vertex(const InstanceData& inst, uint32_t prim, int k) {
+    const float* v = inst.vertices + 3 * static_cast<size_t>(inst.triangles[3 * static_cast<size_t>(prim) + k]);
+    return inst.linear * glm::dvec3(v[0], v[1], v[2]) + inst.translation;
+}
+
+/// The largest coordinate magnitude (metres, world) of triangle `prim` of instance `inst`: the
+/// scale of float32 traversal's error on its plane (lift_off).
+inline double triangle_reach(const InstanceData& inst, uint32_t prim) {
+    double reach = 0.0;
+    for (int k = 0; k < 3; ++k) {
+        const glm::dvec3 p = world_vertex(inst, prim, k);
+        reach = std::max({reach, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+    }
+    return reach;
+}
+
 inline std::vector<InstanceData> instance_table(const Scene& scene) {
     std::vector<InstanceData> table(scene.instance_count());
     for (size_t i = 0; i < table.size(); ++i) {
@@ -161,10 +184,13 @@ inline int centre_rays(const Camera& camera, int x0, int y0, int x1, int y1, glm
 struct TriangleRecord {
     uint32_t instance = 0, prim = 0;
     float ng[3] = {};
-    glm::dvec3 n_raw{};   // world geometric normal, unnormalised, either side
-    double grazing = 0;   // 1e-24·|n_raw|²: a ray with (n_raw·dir)² ≤ grazing·|dir|² is too close
-                          // to parallel for the double solve, which then keeps Embree's t
-    double offset = 0;    // n_raw · (v0 − camera centre): the plane through the first vertex
+    glm::dvec3 n_raw{};   // world geometric normal from Embree's, unnormalised, either side
+    glm::dvec3 n_plane{};  // (v1 − v0) × (v2 − v0) in double from the world vertices: the plane
+                           // the double solve uses, the same bits whatever ISA Embree ran in
+    double grazing = 0;   // 1e-24·|n_plane|²: a ray with (n_plane·dir)² ≤ grazing·|dir|² is too
+                          // close to parallel for the double solve, which then keeps Embree's t
+    double offset = 0;    // n_plane · (v0 − camera centre): the plane through the first vertex
+    double reach = 0;     // triangle_reach: the scale of its rays' lift_off
     // Filled for the records that get shaded, on first use (see TileHits::shadow_rays):
     bool shading_known = false;
     glm::dvec3 normal[2];  // the unit normal, and its opposite (the side a ray coming from the
@@ -191,8 +217,8 @@ class TileHits {
 public:
     /// Resolves the `n` traced rays of a tile whose rows are `row` pixels wide. Embree's float t
     /// carries an error proportional to the scene's coordinates; with `exact`, the hit distance is
-    /// re-solved in double against the triangle's plane (Embree's geometric normal, whose float
-    /// rounding moves t by ~1e-7 of the triangle's size, through the triangle's first vertex).
+    /// re-solved in double against the triangle's plane, spanned in double by its world vertices
+    /// (Embree's own float normal differs in its last bit between kernels with and without FMA).
     void resolve(const InstanceData* instances, const glm::dvec3& origin, const glm::dvec3* dirs,
                  const RayHit* rays, int n, int row, bool exact) {
         m_n = n;
@@ -221,7 +247,7 @@ public:
             p.v = ray.v;
             if (!exact) continue;
             const glm::dvec3& dir = dirs[i];
-            const double denom = glm::dot(tri.n_raw, dir);
+            const double denom = glm::dot(tri.n_plane, dir);
             // Squared comparison: no square roots on the per-pixel path.
             if (denom * denom > tri.grazing * glm::dot(dir, dir)) {
                 const double t = tri.offset / denom;
@@ -244,7 +270,7 @@ public:
             const glm::dvec3& dir = dirs[i];
             p.side = glm::dot(tri.normal[0], dir) > 0.0 ? 1 : 0;
             if (tri.cos_sun[p.side] <= 0.0) continue;
-            set_ray(rays[count], lift_off(origin + p.t * dir, tri.normal[p.side]), to_sun);
+            set_ray(rays[count], lift_off(origin + p.t * dir, tri.normal[p.side], tri.reach), to_sun);
             of[count++] = i;
         }
         return count;
@@ -285,12 +311,15 @@ private:
         r.shading_known = false;
         const InstanceData& inst = instances[ray.inst_id];
         r.n_raw = inst.normal_to_world * glm::dvec3(ray.ng_x, ray.ng_y, ray.ng_z);
+        const glm::dvec3 v0 = world_vertex(inst, ray.prim_id, 0), v1 = world_vertex(inst, ray.prim_id, 1),
+                         v2 = world_vertex(inst, ray.prim_id, 2);
+        r.reach = 0.0;
+        for (const glm::dvec3& p : {v0, v1, v2})
+            r.reach = std::max({r.reach, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
         if (exact) {
-            r.grazing = 1e-24 * glm::dot(r.n_raw, r.n_raw);
-            const uint32_t first = inst.triangles[3 * static_cast<size_t>(ray.prim_id)];
-            const float* v = inst.vertices + 3 * static_cast<size_t>(first);
-            const glm::dvec3 v0 = inst.linear * glm::dvec3(v[0], v[1], v[2]) + inst.translation;
-            r.offset = glm::dot(r.n_raw, v0 - origin);
+            r.n_plane = glm::cross(v1 - v0, v2 - v0);
+            r.grazing = 1e-24 * glm::dot(r.n_plane, r.n_plane);
+            r.offset = glm::dot(r.n_plane, v0 - origin);
         }
         return m_used++;
     }

@@ -208,7 +208,8 @@ private:
                     set_ray(s.rays[i], origin, s.dirs[i]);
                 }
         }
-        m_scene.accel().intersect(s.rays.data(), n, /*coherent=*/true);
+        // Depth and masks are ground truth: no camera ray may slip through a shared vertex.
+        stats.second_look_rays += m_scene.accel().intersect_watertight(s.rays.data(), n, m_scene.has_background());
         stats.camera_rays += n;
         s.hits.resolve(m_instances.data(), origin, s.dirs.data(), s.rays.data(), n, tw,
                        m_settings.exact_depth);
@@ -231,7 +232,7 @@ private:
             const PixelHit& h = s.hits.pixel(i);
             v.point = origin + h.t * dir;
             v.normal = tri.normal[h.side];
-            v.lifted = lift_off(v.point, v.normal);
+            v.lifted = lift_off(v.point, v.normal, tri.reach);
             v.wo = -dir / glm::length(dir);
             v.throughput = glm::dvec3(1.0);
             v.instance = tri.instance;
@@ -383,9 +384,8 @@ private:
     /// sample·R .. sample·R + R − 1 of its sequence, R its rays a vertex), each
     /// vertex weighted by its path throughput (and the Sun's by `sun_dust`, the dust's
     /// transmittance toward it, per pixel, where given). `camera_hits`: the vertices are the
-    /// camera rays' hits, whose shadow rays leave neighbouring points in nearly one direction
-    /// (Embree's coherent stream mode); else a bounce's, scattered over the scene (its incoherent
-    /// mode, measured 20 % faster for them on the benchmark's scenes).
+    /// camera rays' hits; else a bounce's, scattered over the scene, whose shadow rays are
+    /// counted apart (bounce_shadow_rays).
     void light_vertices(int n, TileScratch& s, RenderStats& stats, uint32_t sample, int samples,
                         uint32_t pair, const double* sun_dust, bool camera_hits) const {
         for (size_t l = 0; l < m_lights.size(); ++l) {
@@ -417,7 +417,7 @@ private:
                     s.shadow_of[count++] = i;
                 }
                 if (count == 0) continue;
-                m_scene.accel().occluded(s.shadow.data(), count, /*coherent=*/camera_hits);
+                m_scene.accel().occluded(s.shadow.data(), count);
                 stats.shadow_rays += count;
                 if (!camera_hits) stats.bounce_shadow_rays += count;
                 for (int j = 0; j < count; ++j)
@@ -463,7 +463,7 @@ private:
             s.shadow_of[count++] = i;
         }
         if (count == 0) return false;
-        m_scene.accel().intersect(s.rays.data(), count, /*coherent=*/false);
+        m_scene.accel().intersect(s.rays.data(), count);
         stats.bounce_rays += count;
         for (int j = 0; j < count; ++j) {
             PathVertex& v = s.path[s.shadow_of[j]];
@@ -484,7 +484,7 @@ private:
             if (glm::dot(normal, wi) > 0.0) normal = -normal;  // the side the ray arrived from
             v.point += static_cast<double>(ray.tfar) * wi;
             v.normal = normal;
-            v.lifted = lift_off(v.point, normal);
+            v.lifted = lift_off(v.point, normal, triangle_reach(inst, ray.prim_id));
             v.shading = normal;
             v.shaded_apart = false;
             // Cloth met by a bounce shows its mean colour: neither weave nor stain is resolved
@@ -544,7 +544,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     if (medium && !medium->puffs.empty() && out.rgb)
         arena.execute([&] { dust.emplace(*medium, scene, lights.sun.direction()); });
     const TileRenderer tiles(scene, camera, lights, settings, out, dust ? &*dust : nullptr);
-    std::atomic<uint64_t> camera_rays{0}, shadow_rays{0}, bounce_shadow_rays{0}, bounce_rays{0};
+    std::atomic<uint64_t> camera_rays{0}, second_look_rays{0}, shadow_rays{0}, bounce_shadow_rays{0}, bounce_rays{0};
 
     arena.execute([&] {
         tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y), [&](const auto& range) {
@@ -556,6 +556,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
                                   local);
             }
             camera_rays += local.camera_rays;
+            second_look_rays += local.second_look_rays;
             shadow_rays += local.shadow_rays;
             bounce_shadow_rays += local.bounce_shadow_rays;
             bounce_rays += local.bounce_rays;
@@ -564,6 +565,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
 
     RenderStats stats;
     stats.camera_rays = camera_rays;
+    stats.second_look_rays = second_look_rays;
     stats.shadow_rays = shadow_rays;
     stats.bounce_shadow_rays = bounce_shadow_rays;
     stats.bounce_rays = bounce_rays;

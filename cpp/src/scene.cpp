@@ -47,7 +47,7 @@ void check_transform(const glm::dmat4& t) {
 
 }  // namespace
 
-Scene::Scene() = default;
+Scene::Scene(Isa isa, bool watertight) : m_accel(isa, watertight) {}
 
 void Scene::require_not_rendering() const {
     if (m_readers.load() > 0)
@@ -134,7 +134,9 @@ uint32_t Scene::add_instance(uint32_t mesh, const glm::dmat4& world_from_object,
 
 uint32_t Scene::add_background(uint32_t mesh, const glm::dmat4& world_from_object,
                                const Material& material) {
-    return add(mesh, world_from_object, 0, material);
+    const uint32_t id = add(mesh, world_from_object, 0, material);
+    m_has_background = true;
+    return id;
 }
 
 uint32_t Scene::add(uint32_t mesh, const glm::dmat4& world_from_object, uint8_t label,

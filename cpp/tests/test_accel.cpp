@@ -43,8 +43,8 @@ void packets_agree_with_streams(const Scene& scene, const Rays& rays, size_t n) 
         pack_lane(camera[i], camera_p[i / W], int(i % W));
         pack_lane(shadow[i], shadow_p[i / W], int(i % W));
     }
-    scene.accel().intersect(camera.data(), n, true);
-    scene.accel().occluded(shadow.data(), n, true);
+    scene.accel().intersect(camera.data(), n);
+    scene.accel().occluded(shadow.data(), n);
     scene.accel().intersect_packets(camera_p.data(), n);
     scene.accel().occluded_packets(shadow_p.data(), n);
     size_t hits = 0, blocked = 0;

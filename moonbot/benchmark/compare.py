@@ -172,10 +172,19 @@ def table_rows(name: str, record: dict) -> list[str]:
     return rows
 
 
+def _cpu(m: dict) -> str:
+    """The machine's CPU as a result records it: model, id, and the ISA Embree traced in out of
+    those the CPU offered (results before these were recorded say so)."""
+    if "embree_isa" not in m:
+        return f"{m['cpu']} (CPU id, SIMD flags and Embree ISA not recorded)"
+    return (f"{m['cpu']} ({m.get('cpu_id') or 'id unknown'}; Embree traced in {m['embree_isa']} of "
+            f"{', '.join(m.get('embree_isas', []))}; SIMD {' '.join(m.get('simd_flags', []))})")
+
+
 def format_record(record: dict, name: str = "this run") -> str:
     """One result as text: machine, the runs table, the limit, scaling and the projection."""
     m = record["machine"]
-    lines = [f"machine   {m['cpu']}, {m['cores']} cores, {m['memory_gib']} GiB, {m['os']}, {m['compiler']}, "
+    lines = [f"machine   {_cpu(m)}, {m['cores']} cores, {m['memory_gib']} GiB, {m['os']}, {m['compiler']}, "
              f"Embree {m['embree']}, OIIO {m['openimageio']}, commit {_commit(m)}",
              f"config    {record['config']['file']} (v{record['config']['version']}) at "
              f"{record['image']['width']}×{record['image']['height']}, {len(record['tasks'])} tasks"
@@ -226,12 +235,16 @@ def format_comparison(named: list[tuple[str, dict]]) -> str:
     for name, record in named:
         m = record["machine"]
         versions = ", ".join(f"{k} {v}" for k, v in record.get("libraries", {}).items() if v)
-        lines.append(f"{name}: {m['cpu']}, {m['cores']} cores, {m['memory_gib']} GiB, {m['os']}, "
+        lines.append(f"{name}: {_cpu(m)}, {m['cores']} cores, {m['memory_gib']} GiB, {m['os']}, "
                      f"{m['compiler']}, Embree {m['embree']}, OIIO {m['openimageio']}, TBB {m['tbb']}, "
                      f"commit {_commit(m)}, {m['date']}; {record['config']['file']} at "
                      f"{record['image']['width']}×{record['image']['height']}"
                      + (f", overrides {record['overrides']}" if record["overrides"] else "")
                      + (f"; {versions}" if versions else ""))
+    isas = {r["machine"].get("embree_isa", "not recorded") for _, r in named}
+    if len(isas) > 1:
+        lines.append("warning: Embree traced in different ISAs (" + ", ".join(sorted(isas)) + "): machines differ "
+                     "in more than their speed")
     configs = {(r["config"]["name"], r["config"]["sha256"]) for _, r in named}
     if len(configs) > 1:
         lines.append("warning: the results ran different benchmark configs: "

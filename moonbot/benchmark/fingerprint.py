@@ -12,11 +12,12 @@ import subprocess
 import time
 from pathlib import Path
 
+from moonbot.host import host_record
 
-def machine() -> dict:
-    """What the numbers were measured on."""
-    cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
-                if line.startswith("model name")), platform.processor())
+
+def machine(embree_isa: str = "auto") -> dict:
+    """What the numbers were measured on: with the CPU's model, id and SIMD flags, the ISA a scene
+    asked for `embree_isa` traces in (moonbot.host.host_record)."""
     mem_kb = int(re.search(r"MemTotal:\s+(\d+)", Path("/proc/meminfo").read_text()).group(1))
     os_name = dict(line.split("=", 1) for line in Path("/etc/os-release").read_text().splitlines()
                    if "=" in line).get("PRETTY_NAME", "").strip('"')
@@ -35,8 +36,10 @@ def machine() -> dict:
     # Dirty means uncommitted source changes; the result files themselves do not count.
     dirty = bool(run("git", "-C", str(root), "status", "--porcelain", "--untracked-files=no",
                      "--", ".", ":!bench/results"))
+    host = host_record(embree_isa)
     return {
-        "cpu": cpu, "cores": os.cpu_count(), "memory_gib": round(mem_kb / 2**20, 1), "os": os_name,
+        "cpu": host["cpu_model"], "cpu_id": host["cpu_id"], "simd_flags": host["simd_flags"],
+        "embree_isa": host["embree_isa"], "embree_isas": host["embree_isas"], "cores": os.cpu_count(), "memory_gib": round(mem_kb / 2**20, 1), "os": os_name,
         "python": platform.python_version(), "compiler": run("c++", "--version").split("\n")[0],
         "embree": deb("libembree-dev"), "openimageio": deb("libopenimageio-dev"),
         "tbb": deb("libtbb-dev"), "git_commit": commit + ("-dirty" if dirty else ""),

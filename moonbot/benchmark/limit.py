@@ -68,7 +68,7 @@ def limit_scene(config: Config, task: Task) -> ProbeView:
     c = dataclasses.replace(c, bags=dataclasses.replace(c.bags, settle=dataclasses.replace(c.bags.settle,
                                                                                            enabled=False)))
     spec = compose_scene(c)
-    scene = build_scene(spec)
+    scene = build_scene(spec, c.render.embree_isa)
     medium = None
     if c.dust.enabled:
         medium = SceneDust(scene, spec, c, [0]).for_view(0).medium  # adds the fragments' mesh and commits

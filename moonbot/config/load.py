@@ -1,8 +1,8 @@
 """Loading and validating configurations.
 
 A config file is YAML (JSON is YAML too) holding a subset of the schema's fields; the rest take
-their defaults. Unknown fields, wrong types and out-of-range values raise `ConfigError` with the
-dotted path of the field, before anything is rendered.
+their defaults. Unknown fields, wrong types, out-of-range values and a key given twice in one
+mapping raise `ConfigError` with the dotted path of the field, before anything is rendered.
 """
 
 from __future__ import annotations
@@ -39,10 +39,7 @@ def load_config(path: str | Path | None = None, overrides: dict[str, Any] | None
         text = source.read_text(encoding="utf-8")
     except OSError as e:
         raise ConfigError(f"{source}: cannot read config ({e.strerror or e})") from e
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as e:
-        raise ConfigError(f"{source}: not valid YAML/JSON ({e})") from e
+    data = parse_yaml(text, str(source))
     if data is None:
         data = {}
     if not isinstance(data, dict):
@@ -63,11 +60,87 @@ def parse_overrides(items: list[str] | tuple[str, ...]) -> dict[str, Any]:
         field, sep, value = item.partition("=")
         if not sep or not field.strip():
             raise ConfigError(f"--set: expected FIELD=VALUE, got {item!r}")
-        try:
-            parsed[field.strip()] = yaml.safe_load(value)
-        except yaml.YAMLError as e:
-            raise ConfigError(f"--set {field.strip()}: value is not valid YAML ({e.problem or e})") from None
+        name = field.strip()
+        parsed[name] = parse_yaml(value, f"--set {name}", invalid="value is not valid YAML", root=name)
     return parsed
+
+
+def parse_yaml(text: str, source: str, invalid: str = "not valid YAML/JSON", root: str = "") -> Any:
+    """The one YAML document in `text` as Python objects (yaml.safe_load's types), read from
+    `source` (a file name, or what the text is, for messages). Raises ConfigError on invalid YAML
+    ("SOURCE: INVALID (line N: the parser's complaint)") and on a key given twice in one mapping,
+    naming the line and the key's dotted path: PyYAML keeps the last of two `camera:` blocks
+    without a word, and so loses every field of the first. `root`: the dotted path of the
+    document itself in the config (a --set value's field), for the keys' paths."""
+    return _parse(text, source, invalid, root, single=True)
+
+
+def parse_yaml_documents(text: str, source: str) -> list[Any]:
+    """Every document of a multi-document YAML stream (`---` between them), checked as parse_yaml
+    checks one."""
+    return _parse(text, source, "not valid YAML/JSON", "", single=False)
+
+
+def _parse(text: str, source: str, invalid: str, root: str, single: bool) -> Any:
+    loader = yaml.SafeLoader(text)
+    try:
+        if single:
+            node = loader.get_single_node()
+            nodes = [] if node is None else [node]
+        else:
+            nodes = []
+            while loader.check_node():
+                nodes.append(loader.get_node())
+        documents = []
+        for node in nodes:
+            _reject_duplicate_keys(node, loader, source, root)
+            documents.append(loader.construct_document(node))
+        return (documents[0] if documents else None) if single else documents
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        problem = getattr(e, "problem", None) or e
+        raise ConfigError(f"{source}: {invalid} ({f'line {mark.line + 1}: ' if mark else ''}{problem})") from None
+    finally:
+        loader.dispose()
+
+
+def _reject_duplicate_keys(document: yaml.Node, loader: yaml.SafeLoader, source: str, root: str) -> None:
+    """Walks the composed document (before construction, so each key's dotted path is known) and
+    raises ConfigError naming every key given twice in one mapping, in line order. Keys compare as
+    the values they construct to (`1` and `0x1` are one key, as in the dict they would build);
+    merge keys (`<<`) are YAML's way of reusing a mapping, not duplicates. A node shared through
+    an alias is walked once."""
+    duplicates: list[tuple[int, str, int]] = []  # (line, dotted path, line of the first)
+    walked: set[int] = set()
+    stack: list[tuple[yaml.Node, str]] = [(document, root)]
+    while stack:
+        node, path = stack.pop()
+        if id(node) in walked:
+            continue
+        walked.add(id(node))
+        if isinstance(node, yaml.SequenceNode):
+            stack.extend((item, f"{path}[{i}]") for i, item in enumerate(node.value))
+        elif isinstance(node, yaml.MappingNode):
+            first_line: dict[Any, int] = {}
+            for key_node, value_node in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":
+                    stack.append((value_node, path))
+                    continue
+                key = loader.construct_object(key_node, deep=True)
+                key_path = f"{path}.{key}" if path else str(key)
+                line = key_node.start_mark.line + 1
+                try:
+                    first = first_line.get(key)
+                except TypeError:  # an unhashable (sequence or mapping) key: construction rejects it
+                    continue
+                if first is not None:
+                    duplicates.append((line, key_path, first))
+                else:
+                    first_line[key] = line
+                stack.append((value_node, key_path))
+    if duplicates:
+        raise ConfigError("\n".join(f"{source}:{line}: {key_path}: duplicate key (first given at line {first}; "
+                                     "YAML would keep only the last)" for line, key_path, first in sorted(duplicates)))
 
 
 def config_hash(config: Any) -> str:

@@ -406,6 +406,10 @@ class RenderConfig:
         "shadow rays per sample toward the Sun's disk (soft shadow edges)", lo=1, hi=1024))
     bounces: int = field(default=2, metadata=spec(
         "diffuse inter-reflections lighting the shadows (0 = direct sunlight only)", lo=0, hi=16))
+    embree_isa: Literal["auto", "sse2", "sse4.2", "avx", "avx2", "avx512"] = field(default="auto", metadata=spec(
+        "SIMD instruction set of Embree's ray traversal: auto = $MOONBOT_EMBREE_ISA where set, else avx2 "
+        "where the CPU runs it (as fast as avx512 in bench/bench_embree_isa.py, and clear of the AVX-512 "
+        "kernels), else the widest it runs; images do not depend on it"))
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """`moonbot validate`: a merged BOP dataset checked against itself (issue 8). Every file against
 the manifest (size and SHA-256, nothing unlisted but `moonbot eval`'s reports in eval/); the JSON
 files' BOP fields, types and units; per image, the 16-bit depth PNG × depth_scale against the
-metric .npy (to the PNG's 1 mm rounding), and per instance its masks against scene_gt_info.json
+metric .npy (to the PNG's 1 mm rounding) and no pixel below the horizon without depth, and per instance its masks against scene_gt_info.json
 (the visible mask inside the amodal one, visible masks of one image disjoint, counts, boxes and
 fractions as bop_toolkit defines them, moonbot/bop/gt_info.py). Each failure names the file and
 the check.
@@ -29,6 +29,9 @@ EVAL_DIR = "eval"  # moonbot eval's default output folder inside the dataset, no
 DEPTH_TOLERANCE_MM = 0.5 + 1e-3  # the PNG rounds to 1 mm
 POSE_MEDIAN_MM = 0.5
 POSE_P95_MM = 2.0
+# A pixel-centre ray this far below the horizon meets the ground within 60 m of a camera 1 m up,
+# far inside any location's extent: if it reports no depth, it slipped between triangles.
+HOLE_DEPRESSION_DEG = 1.0
 
 
 @dataclass
@@ -107,6 +110,18 @@ def _check_json(scene: Path, report: ValidationReport) -> tuple[dict, dict, dict
     return gt, camera, info
 
 
+def depth_holes(depth: np.ndarray, K: np.ndarray, R_w2c: np.ndarray) -> np.ndarray:
+    """The pixels (H, W) bool of a z-depth image (metres, 0 = no hit) that have no depth although
+    their pixel-centre ray, from the pinhole camera K (3, 3) with world-to-camera rotation R_w2c
+    (3, 3; world z up), points more than HOLE_DEPRESSION_DEG below the horizon, where the ground
+    lies under everything: holes in the depth ground truth."""
+    h, w = depth.shape
+    u, v = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    rays = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1) @ R_w2c
+    down = -rays[..., 2] / np.linalg.norm(rays, axis=-1)
+    return (depth <= 0) & (down > math.sin(math.radians(HOLE_DEPRESSION_DEG)))
+
+
 def render_at_gt(models: dict, instances: list[dict], cam: dict, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
     """The image's models at their ground-truth poses, seen through cam_K from the camera's own
     frame (millimetres): (z-depth (H, W) mm, 0 = none; labels (H, W) uint8, instance index + 1)."""
@@ -153,6 +168,12 @@ def check_scene(scene: Path, report: ValidationReport, models: dict | None = Non
             y, x = np.argwhere(bad)[0]
             report.fail(png_path, "depth", f"{int(bad.sum())} pixels disagree with {npy_path.name} (first at x={x}, "
                         f"y={y}: {png[y, x]:.1f} mm vs {mm[y, x]:.3f} mm)")
+        holes = depth_holes(metres, np.reshape(camera[im]["cam_K"], (3, 3)),
+                            np.reshape(camera[im]["cam_R_w2c"], (3, 3)))
+        if holes.any():
+            y, x = np.argwhere(holes)[0]
+            report.fail(npy_path, "depth", f"{int(holes.sum())} pixels below the horizon have no depth (first at "
+                        f"x={x}, y={y}): rays slipped between triangles")
         valid = png > 0
         seen = np.zeros(metres.shape, bool)
         rendered = None

@@ -2,13 +2,16 @@
 dask-distribution.md). Each task runs on a worker process with one Dask thread while the C++
 core uses the cores; the filesystem is the record of what is done, so a rerun (or --resume)
 submits only the tasks without a complete directory, and the dataset's bytes never depend on
-which worker ran what, in which order, or how often a task was retried."""
+which worker ran what, in which order, or how often a task was retried. A task that stops making
+progress (moonbot.pipeline.heartbeat) has its worker restarted and runs again; one that hangs
+RETRIES + 1 times is reported failed, and the others go on."""
 
 from __future__ import annotations
 
 import dataclasses
 import json
 import os
+import shutil
 import sys
 import time
 from dataclasses import dataclass, field
@@ -19,16 +22,21 @@ from distributed import Client, LocalCluster, WorkerPlugin, as_completed, get_wo
 
 from moonbot.bop.merge import merge_dataset
 from moonbot.config import Config, ConfigError, config_hash, load_config
+from moonbot.pipeline.heartbeat import Beat, Heartbeat, StallLimit, Watchdog, heartbeat_dir
 from moonbot.pipeline.stats import collect
-from moonbot.pipeline.tasks import is_complete, run_task, sweep_temporaries, task_dir
+from moonbot.pipeline.tasks import DONE, is_complete, run_task, sweep_temporaries, task_dir
 from moonbot.writer.staging import atomic_write
 from moonbot.sweep import Task, task_config, tasks
 
 # A worker's death counts against the tasks it held; a few deaths of one task are the cluster's
 # fault (preemption, the out-of-memory killer), more are the task's (dask-distribution.md §1.4).
 ALLOWED_FAILURES = 5
-# A task that raises (a transient I/O error) is tried this many more times before it is reported.
+# A task that raises (a transient I/O error), or hangs, is tried this many more times before it
+# is reported.
 RETRIES = 2
+# With no task finishing, the progress line is repeated this often (seconds), with the running
+# task longest without progress: a run never looks frozen.
+STATUS_EVERY_S = 30.0
 
 
 class TerrainWarmup(WorkerPlugin):
@@ -48,26 +56,35 @@ class TerrainWarmup(WorkerPlugin):
 
 
 def _run_on_worker(config: Config, task: Task, out_dir: str, threads: int | None) -> dict:
-    """The function a worker runs: one task, reported as a small dict (the images stay on disk)."""
+    """The function a worker runs: one task, with its heartbeat, reported as a small dict (the
+    images stay on disk)."""
     try:
         worker = get_worker().address
     except ValueError:
         worker = "local"
-    outcome = run_task(config, task, Path(out_dir), threads=threads, worker=worker)
+    heartbeat = Heartbeat(Path(out_dir), task.task_id, worker)
+    try:
+        heartbeat.stage("start")
+        outcome = run_task(config, task, Path(out_dir), threads=threads, worker=worker, on_stage=heartbeat.stage)
+    finally:
+        heartbeat.close()
     return {"task_id": outcome.task_id, "skipped": outcome.skipped, "samples": outcome.samples,
-            "seconds": outcome.stats["wall_s"] if outcome.stats else 0.0}
+            "seconds": outcome.stats["wall_s"] if outcome.stats else 0.0,
+            "longest_stage_s": heartbeat.longest_stage_s}
 
 
 @dataclass
 class GenerateResult:
     """What a run did: tasks in the sweep, already complete before it, rendered by it, and failed
-    (task_id → error text)."""
+    (task_id → error text); `hangs`: every hang detected (a Hang: the task's stage, worker,
+    host and times), retried or not."""
 
     tasks: int = 0
     complete_before: int = 0
     rendered: int = 0
     samples: int = 0
     failed: dict = field(default_factory=dict)
+    hangs: list = field(default_factory=list)
     seconds: float = 0.0
     merge: object = None  # the MergeReport of the merge that ended the run (None: not merged)
 
@@ -82,14 +99,17 @@ def pending_tasks(config: Config, out_dir: Path) -> tuple[list[Task], int]:
 
 def generate(config: Config | str | Path | None, out_dir: Path, *, client: Client | None = None,
              workers: int | None = None, threads: int | None = None, scheduler: str | None = None,
-             scheduler_file: str | None = None, merge: bool = True, progress=sys.stderr) -> GenerateResult:
+             scheduler_file: str | None = None, merge: bool = True, task_timeout: float | None = None,
+             progress=sys.stderr) -> GenerateResult:
     """Renders every task of the config's sweep missing from `out_dir` (OUT/tasks/<task_id>/).
     The cluster: `client` if given; else the scheduler at `scheduler` (an address) or in
     `scheduler_file`; else a LocalCluster of `workers` processes (default: one per core, at most
     the tasks) with one Dask thread each. `threads` sets each task's render threads (default: the
     config's render.threads on a given cluster, cores / workers on the local one; the images do
     not depend on it). Prints progress to
-    `progress` (None: silent). A task that fails is reported in the result and the others go on.
+    `progress` (None: silent). A task that fails is reported in the result and the others go on;
+    so is one that hangs (no new stage for `task_timeout` seconds, default: StallLimit's; 0:
+    never judged hung) RETRIES + 1 times, its worker restarted after each.
     The resolved config is kept as OUT/config.json (a later run into the same OUT must have the
     same config); at the end the tasks' stats are collected (OUT/stats/) and, with `merge`, the
     complete tasks are merged into the BOP dataset OUT/dataset (missing ones reported)."""
@@ -109,7 +129,7 @@ def generate(config: Config | str | Path | None, out_dir: Path, *, client: Clien
     say(f"{result.tasks} tasks, {complete} complete, {len(pending)} to render into {out_dir}")
     if pending:
         render_pending(config, out_dir, pending, result, client, workers, threads, scheduler, scheduler_file,
-                       start, say)
+                       start, say, StallLimit(config, task_timeout))
     sweep_temporaries(out_dir)
     if result.rendered or result.complete_before:
         collect(out_dir)
@@ -137,7 +157,7 @@ def keep_config(config: Config, out_dir: Path) -> None:
 
 
 def render_pending(config: Config, out_dir: Path, pending: list[Task], result: GenerateResult, client, workers,
-                   threads, scheduler, scheduler_file, start: float, say) -> None:
+                   threads, scheduler, scheduler_file, start: float, say, limit: StallLimit) -> None:
     """Runs `pending` on the cluster (see generate) and records outcomes in `result`."""
     own_cluster = own_client = None
     with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
@@ -152,8 +172,11 @@ def render_pending(config: Config, out_dir: Path, pending: list[Task], result: G
                 own_cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                            dashboard_address=":0", silence_logs=40)
                 own_client = client = Client(own_cluster)
+        # Heartbeats of an earlier, interrupted run are not this run's tasks'.
+        shutil.rmtree(heartbeat_dir(out_dir), ignore_errors=True)
         try:
             say(f"dashboard: {client.dashboard_link}")
+            say(f"a task is hung after {limit.describe()}")
             # One task per location stands for its terrain (task_config costs ~10 ms; a sweep has thousands).
             by_location = {t.location: t for t in reversed(pending)}
             terrains = list({task_config(config, t).terrain: None for t in by_location.values()})
@@ -161,28 +184,167 @@ def render_pending(config: Config, out_dir: Path, pending: list[Task], result: G
             futures = client.map(_run_on_worker, [config] * len(pending), pending, [str(out_dir)] * len(pending),
                                  [threads] * len(pending), key=[f"render-{t.task_id}" for t in pending],
                                  pure=False, retries=RETRIES)
-            names = {f.key: t.task_id for f, t in zip(futures, pending)}
-            done = 0
-            for future in as_completed(futures):
-                task_id = names[future.key]
-                if future.status == "finished":
-                    outcome = future.result()
-                    result.samples += outcome["samples"]
-                    result.rendered += 0 if outcome["skipped"] else 1
-                else:
-                    result.failed[task_id] = repr(future.exception())
-                # Release at once: a held result pins its task to the worker that ran it, and
-                # that worker's death would make the scheduler run the finished task again.
-                future.release()
-                done += 1
-                elapsed = time.perf_counter() - start
-                rate = result.samples / elapsed if elapsed > 0 else 0.0
-                eta = elapsed / done * (len(pending) - done)
-                say(f"[{done}/{len(pending)}] {task_id}: {'failed' if task_id in result.failed else 'done'}; "
-                    f"{result.samples} samples, {rate:.2f} samples/s, ETA {eta:.0f} s")
+            SweepWatch(client, futures, pending, result, Watchdog(out_dir, limit), start, say, out_dir).run()
             del futures
         finally:
             if own_client is not None:
                 own_client.close()
             if own_cluster is not None:
                 own_cluster.close()
+            shutil.rmtree(heartbeat_dir(out_dir), ignore_errors=True)
+
+
+@dataclass(frozen=True)
+class Hang:
+    """One hang of a task as the driver saw it: the task's last heartbeat (its stage, worker,
+    host and pid), the seconds it had gone without progress and since the task started when it
+    was judged hung, and how the restart of its worker went."""
+
+    beat: Beat
+    stalled_s: float
+    task_s: float
+    restart: str
+
+    def describe(self) -> str:
+        return (f"no progress for {self.stalled_s:.0f} s in {self.beat.where()}, {self.task_s:.0f} s into "
+                f"the task; worker {self.restart}")
+
+
+class SweepWatch:
+    """Waits for a sweep's futures: records each outcome in `result` as it comes, and every few
+    seconds reads the running tasks' heartbeats, restarting the worker of a task hung beyond the
+    limit (RETRIES + 1 hangs: the task is cancelled and reported failed). Prints a progress line
+    per finished task, and a status line when none finished for STATUS_EVERY_S."""
+
+    def __init__(self, client: Client, futures: list, tasks: list[Task], result: GenerateResult,
+                 watchdog: Watchdog, start: float, say, out_dir: Path) -> None:
+        self.client = client
+        self.out_dir = Path(out_dir)
+        self.tasks = {t.task_id: t for t in tasks}
+        self.waiting = {t.task_id: f for f, t in zip(futures, tasks)}  # task_id → its future, until reported
+        self.names = {f.key: t.task_id for f, t in zip(futures, tasks)}
+        self.result = result
+        self.watchdog = watchdog
+        self.hangs: dict[str, list[Hang]] = {}
+        self.start = start
+        self.say = say
+        self.total = len(tasks)
+        self.done = 0
+        self.last_line = time.monotonic()
+
+    def run(self) -> None:
+        ready = as_completed(list(self.waiting.values()))
+        next_poll = 0.0
+        while self.waiting:
+            if ready.has_ready():
+                for future in ready.next_batch(block=False):
+                    self.finished(future)
+                continue
+            now = time.monotonic()
+            if now >= next_poll:
+                for beat in self.watchdog.poll(set(self.waiting), now):
+                    self.hung(beat)
+                if now - self.last_line >= STATUS_EVERY_S:
+                    count = len(self.waiting)
+                    self.line(f"waiting for {count} task{'s' if count > 1 else ''}{self.running(now)}")
+                limit = self.watchdog.limit.seconds
+                next_poll = now + (5.0 if limit is None else min(5.0, max(0.5, limit / 20)))
+            time.sleep(0.05)
+
+    def finished(self, future) -> None:
+        task_id = self.names[future.key]
+        if self.waiting.get(task_id) is not future:
+            return  # cancelled after hanging, and reported then
+        directory = task_dir(self.out_dir, self.tasks[task_id])
+        if future.status == "finished":
+            outcome = future.result()
+            self.result.samples += outcome["samples"]
+            self.result.rendered += 0 if outcome["skipped"] else 1
+            self.watchdog.limit.finished(outcome["longest_stage_s"])
+        elif future.status != "error" and is_complete(directory):
+            # It finished, but its small result went with a worker that died before the driver
+            # read it (the future is "lost"): the task's directory is the record of what it did.
+            self.result.samples += json.loads((directory / DONE).read_text())["samples"]
+            self.result.rendered += 1
+        elif future.status != "error":
+            self.result.failed[task_id] = f"its future ended {future.status!r} without an error or a finished task"
+        else:
+            earlier = self.hangs.get(task_id)
+            self.result.failed[task_id] = repr(future.exception()) + (
+                f"; it had hung {len(earlier)} times before: {hang_history(earlier)}" if earlier else "")
+        self.report(task_id, future)
+
+    def hung(self, beat: Beat) -> None:
+        """Restarts the worker of a task hung at `beat`, so that the scheduler runs the task again.
+        At its RETRIES + 1st hang, or when the worker cannot be restarted (and so the task cannot
+        run again), the task is cancelled (before the restart: the scheduler must not run it again)
+        and reported failed."""
+        now = time.monotonic()
+        tries = self.hangs.setdefault(beat.task_id, [])
+        future = self.waiting[beat.task_id]
+        final = len(tries) == RETRIES
+        if final:
+            future.cancel()
+        stalled_s, task_s = beat.stalled_s(now), beat.task_s(now)
+        restarted, how = self.restart(beat.worker)
+        if not restarted and not final:
+            future.cancel()
+            final = True
+        hang = Hang(beat, stalled_s, task_s, how)
+        tries.append(hang)
+        self.result.hangs.append(hang)
+        self.watchdog.dismiss(beat)  # its next run beats afresh
+        limit = self.watchdog.limit.seconds or 0.0
+        what = f"{beat.task_id}: hung (limit {limit:.0f} s): {hang.describe()}"
+        if not final:
+            self.say(f"{what}; trying it again ({len(tries) + 1} of {RETRIES + 1})")
+            return
+        self.say(f"{what}; giving up after {len(tries)} tries")
+        self.result.failed[beat.task_id] = (f"hung {len(tries)} times (limit {limit:.0f} s without progress): "
+                                            f"{hang_history(tries)}")
+        self.report(beat.task_id, future)
+
+    def restart(self, worker: str) -> tuple[bool, str]:
+        """Has the nanny of `worker` kill its process and start a new one (a worker already gone
+        needs nothing: the scheduler reruns its task). (whether the worker is free of the hung
+        task, how it went). A restart that fails (no nanny, a nanny that does not answer) is
+        reported, never stops the sweep."""
+        try:
+            if worker not in self.client.scheduler_info(n_workers=-1)["workers"]:
+                return True, "gone already"
+            status = self.client.restart_workers([worker], timeout=60, raise_for_error=False)[worker]
+        except Exception as e:  # noqa: BLE001 — see docstring
+            return False, f"not restarted ({e!r})"
+        outcomes = {"OK": "restarted", "removed": "removed (it had no nanny to restart it)"}
+        return status in outcomes, outcomes.get(status, f"not restarted ({status})")
+
+    def report(self, task_id: str, future) -> None:
+        # Release at once: a held result pins its task to the worker that ran it, and
+        # that worker's death would make the scheduler run the finished task again.
+        future.release()
+        del self.waiting[task_id]
+        self.watchdog.forget(task_id)
+        self.done += 1
+        elapsed = time.perf_counter() - self.start
+        rate = self.result.samples / elapsed if elapsed > 0 else 0.0
+        eta = elapsed / self.done * (self.total - self.done)
+        self.line(f"{task_id}: {'failed' if task_id in self.result.failed else 'done'}; {self.result.samples} "
+                  f"samples, {rate:.2f} samples/s, ETA {eta:.0f} s{self.running(time.monotonic())}")
+
+    def running(self, now: float) -> str:
+        """", N running, the slowest: its stage and seconds without progress" (empty: none known)."""
+        beats = [b for b in self.watchdog.beats.values() if b.task_id in self.waiting]
+        if not beats:
+            return ""
+        slowest = max(beats, key=lambda b: b.stalled_s(now))
+        return (f"; {len(beats)} running, longest without progress {slowest.task_id} in {slowest.stage!r} "
+                f"for {slowest.stalled_s(now):.0f} s ({slowest.task_s(now):.0f} s into the task)")
+
+    def line(self, text: str) -> None:
+        self.say(f"[{self.done}/{self.total}] {text}")
+        self.last_line = time.monotonic()
+
+
+def hang_history(hangs: list[Hang]) -> str:
+    """Each hang of one task, numbered: where it was and for how long."""
+    return " ".join(f"{i}) {h.describe()}." for i, h in enumerate(hangs, 1))

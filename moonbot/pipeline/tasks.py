@@ -11,15 +11,16 @@ import dataclasses
 import datetime
 import json
 import os
-import platform
 import shutil
 import socket
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 from moonbot import __version__
 from moonbot.config import Config, config_hash
+from moonbot.host import host_record
 from moonbot.pipeline.views import run_views
 from moonbot.sweep import Task, task_config
 from moonbot.writer.checksum import file_sha256
@@ -87,10 +88,13 @@ def task_record(config: Config, task: Task, views: list[int]) -> dict:
     }
 
 
-def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = None, worker: str = "local") -> TaskOutcome:
+def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = None, worker: str = "local",
+             on_stage: Callable[[str], None] | None = None) -> TaskOutcome:
     """Renders `task` of `config`'s sweep into OUT/tasks/<task_id>/ unless it is complete there
-    already. `threads` overrides render.threads (the images do not depend on it). Raises on
-    failure (a full disk, an unwritable directory), leaving no partial task behind."""
+    already. `threads` overrides render.threads (the images do not depend on it); `on_stage(name)`
+    is told each stage as it starts (run_views's, then "finish task": task.json, stats.json, the
+    checksums and the rename). Raises on failure (a full disk, an unwritable directory), leaving
+    no partial task behind."""
     final = task_dir(out_dir, task)
     if is_complete(final):
         return TaskOutcome(task.task_id, True, 0, None)
@@ -99,7 +103,9 @@ def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = No
     tconfig = task_config(config, task)
     views = list(range(tconfig.orbit.views))
     with staged_directory(final) as staging:
-        results = run_views(tconfig, views, staging, threads=threads)
+        results = run_views(tconfig, views, staging, threads=threads, on_stage=on_stage)
+        if on_stage is not None:
+            on_stage("finish task")
         record = task_record(config, task, views)
         atomic_write(staging / "task.json", "w", lambda f: f.write(json.dumps(record, indent=2, sort_keys=True) + "\n"))
         stages: dict[str, float] = {}
@@ -111,7 +117,9 @@ def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = No
                 rays[kind] = rays.get(kind, 0) + int(count)
         wall_s = time.perf_counter() - wall
         stats = {
-            "task_id": task.task_id, "host": socket.gethostname(), "pid": os.getpid(), "cpu_model": cpu_model(),
+            "task_id": task.task_id, "host": socket.gethostname(), "pid": os.getpid(),
+            # CPU model, id and SIMD flags, and the ISA Embree traced this task's rays in.
+            **host_record(tconfig.render.embree_isa),
             "cores": os.cpu_count() or 1, "threads": threads or tconfig.render.threads or render_threads_default(), "worker": worker,
             "started_utc": started.isoformat(), "wall_s": wall_s, "cpu_s": time.process_time() - cpu,
             "stages_s": stages, "samples": len(results),
@@ -141,13 +149,3 @@ def render_threads_default() -> int:
     except (AttributeError, OSError):
         return os.cpu_count() or 1
 
-
-def cpu_model() -> str:
-    """The CPU's model name (Linux: /proc/cpuinfo), or the platform's processor string."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -44,29 +45,40 @@ def view_seed(dataset_seed: int, view: int) -> int:
     return z ^ (z >> 31)
 
 
-def run_views(config: Config, views: list[int], out_root: Path, threads: int | None = None) -> list[ViewResult]:
+def run_views(config: Config, views: list[int], out_root: Path, threads: int | None = None,
+              on_stage: Callable[[str], None] | None = None) -> list[ViewResult]:
     """Renders `views` (orbit indices) of the config's scene into `out_root/view_NNN/` and returns
     per-view timings. `threads` overrides render.threads (the images do not depend on it, nor
-    does the config hash the samples record). Raises ValueError for a view outside the orbit."""
+    does the config hash the samples record). `on_stage(name)` is told each stage as it starts
+    ("compose scene", "build BVH", "dust setup", "amodal scenes", then per view k "dust view k",
+    "render view k", "amodal view k", "encode view k"): a task's heartbeat. Raises ValueError for
+    a view outside the orbit."""
+    stage = on_stage or (lambda name: None)
     for v in views:
         if not 0 <= v < config.orbit.views:
             raise ValueError(f"view: must be in 0..{config.orbit.views - 1}, got {v}")
     digest = config_hash(config)
     if threads is not None:
         config = dataclasses.replace(config, render=dataclasses.replace(config.render, threads=threads))
+    stage("compose scene")
     start = time.perf_counter()
     spec = compose_scene(config)
     # Settling is its own stage, present only in scenes that settle (principle 3).
     settle_s = spec.placement.settle_seconds
     terrain_s = spec.terrain_seconds  # 0 when this process had the terrain cached
     compose_s = time.perf_counter() - start - (settle_s or 0.0) - terrain_s
+    stage("build BVH")
     start = time.perf_counter()
-    scene = build_scene(spec)
+    scene = build_scene(spec, config.render.embree_isa)
     build_s = time.perf_counter() - start
     # Dust only when the scene calls for it: otherwise no simulation, no mesh, no medium, no stage.
-    dust = SceneDust(scene, spec, config, views) if config.dust.enabled else None
+    dust = None
+    if config.dust.enabled:
+        stage("dust setup")
+        dust = SceneDust(scene, spec, config, views)
     # Each bag alone, for its amodal mask (BOP mask/); built once, paid by the first view.
-    amodal_scenes = build_amodal_scenes(spec)
+    stage("amodal scenes")
+    amodal_scenes = build_amodal_scenes(spec, config.render.embree_isa)
     amodal_build_s = amodal_scenes.seconds
 
     K = intrinsics(config.camera)
@@ -77,13 +89,18 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
         height = orbit_height(spec.target, config.orbit.radius_m, config.orbit.height_m, azimuth, spec.ground)
         pose = orbit_pose(spec.target, config.orbit.radius_m, height, azimuth)
         seed = view_seed(config.seed, v)
-        view_dust = dust.for_view(v) if dust is not None else None
+        view_dust = None
+        if dust is not None:
+            stage(f"dust view {v}")
+            view_dust = dust.for_view(v)
+        stage(f"render view {v}")
         rendered = render_view(scene, config, K, pose, seed, view_dust.medium if view_dust else None)
         out_dir = out_root / f"view_{v:03d}"
         timings = {"terrain": terrain_s, "compose": compose_s, "build_bvh": build_s}
         if view_dust is not None:  # its ejecta simulation, fragment mesh update and cloud
             timings["dust"] = view_dust.seconds
         timings["render"] = rendered.stats["seconds"]
+        stage(f"amodal view {v}")
         amodal = render_amodal_masks(amodal_scenes, K, pose, config.camera.width, config.camera.height,
                                      config.render.threads)
         timings["amodal"] = amodal_build_s + amodal.seconds
@@ -103,6 +120,7 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
             meta["dust"] = view_dust.meta
         if spec.site is not None:  # a dem location: the world frame is this site's East-North-Up
             meta["site"] = spec.site.as_json()
+        stage(f"encode view {v}")
         with staged_directory(out_dir) as staging:
             gt = write_sample(staging, rendered, exposure, K, pose, spec.bags,
                               config.output.png_compression, meta, timings, exr=config.output.exr,

@@ -88,14 +88,15 @@ class AmodalScenes:
     seconds: float
 
 
-def build_amodal_scenes(spec: SceneSpec) -> AmodalScenes:
+def build_amodal_scenes(spec: SceneSpec, embree_isa: str = "auto") -> AmodalScenes:
     """Builds, for every bag of `spec`, a scene holding that bag alone at its pose with its
-    instance id (plain material: only the instance pass is ever rendered from it)."""
+    instance id (plain material: only the instance pass is ever rendered from it), traced with
+    `embree_isa`'s kernels (render.embree_isa)."""
     start = time.perf_counter()
     bags = []
     for bag in spec.bags:
         vertices, triangles = spec.meshes[bag.obj_id]
-        scene = _core.Scene()
+        scene = _core.Scene(embree_isa)
         mesh = scene.add_mesh(vertices, triangles)
         scene.add_instance(mesh, bag.world_from_model, bag.instance_id, (1.0, 1.0, 1.0))
         scene.commit()

@@ -55,6 +55,21 @@ def emitter_origin(spec: SceneSpec, dust: DustConfig) -> np.ndarray:
     return np.array([x, y, z])
 
 
+def ejecta_state(scene: _core.Scene, dust: DustConfig, seed: int, origin: np.ndarray, time_s: float,
+                 threads: int = 0) -> _core.EjectaState:
+    """The ejecta of `dust.ejecta` thrown from `origin` ((3,) world metres) at `time_s` seconds
+    after the emitter starts, flown on `scene` (committed, without the fragments' own mesh) in
+    steps of `dust.time_step_s`: `_core.simulate_ejecta`'s state, every fragment of the burst
+    (none is ever dropped)."""
+    e = dust.ejecta
+    return _core.simulate_ejecta(
+        scene, seed, time_s, dt_s=dust.time_step_s, origin=tuple(float(x) for x in origin), count=e.count,
+        spawn_radius_m=e.spawn_radius_m, cone_half_angle_deg=e.cone_half_angle_deg, mean_speed_m_s=e.mean_speed_m_s,
+        min_diameter_m=e.min_diameter_m, max_diameter_m=e.max_diameter_m, gravity_m_s2=e.gravity_m_s2,
+        restitution=e.restitution, friction=e.friction, rest_speed_m_s=e.rest_speed_m_s,
+        burst_period_s=e.burst_period_s, threads=threads)
+
+
 @dataclass(frozen=True)
 class ViewDust:
     """One view's dust, ready to render: `medium` for `_core.render` (None when the cloud has no
@@ -88,13 +103,8 @@ class SceneDust:
         # Every capture first: the fragments must not collide with their own mesh.
         for v in dict.fromkeys(views):
             start = time.perf_counter()
-            state = _core.simulate_ejecta(
-                scene, self._seed, capture_time(config.dust, v), dt_s=config.dust.time_step_s,
-                origin=tuple(self._origin), count=e.count, spawn_radius_m=e.spawn_radius_m,
-                cone_half_angle_deg=e.cone_half_angle_deg, mean_speed_m_s=e.mean_speed_m_s,
-                min_diameter_m=e.min_diameter_m, max_diameter_m=e.max_diameter_m, gravity_m_s2=e.gravity_m_s2,
-                restitution=e.restitution, friction=e.friction, rest_speed_m_s=e.rest_speed_m_s,
-                burst_period_s=e.burst_period_s, threads=config.render.threads)
+            state = ejecta_state(scene, config.dust, self._seed, self._origin, capture_time(config.dust, v),
+                                 threads=config.render.threads)
             self._fragments[v] = (len(state["position"]), state["vertices"])
             self._triangles = state["triangles"]
             self._seconds[v] = time.perf_counter() - start

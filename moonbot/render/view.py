@@ -21,7 +21,7 @@ EARTH_DIAMETER_DEG = 1.9
 class RenderedView:
     """One rendered view. rgb (H, W, 3) float32 linear radiance W/(m²·sr); depth (H, W) float32
     z-depth in metres, 0 where nothing is hit; instance (H, W) uint8 labels, 0 = background.
-    `stats` holds camera_rays, shadow_rays (bounce_shadow_rays of them leave bounce vertices),
+    `stats` holds camera_rays (second_look_rays: those traced again at a shared vertex), shadow_rays (bounce_shadow_rays of them leave bounce vertices),
     bounce_rays, medium_rays (the dust medium's shadow rays toward the Sun, 0 without dust) and the
     core's render seconds."""
 
@@ -31,12 +31,14 @@ class RenderedView:
     stats: dict
 
 
-def build_scene(spec: SceneSpec) -> _core.Scene:
+def build_scene(spec: SceneSpec, embree_isa: str = "auto", watertight: bool = True) -> _core.Scene:
     """Builds the Embree scene once: one prototype BVH per mesh (bags of one obj_id share it,
     rocks of one prototype too); the terrain (with its per-vertex albedo factors and smooth
     normals) and the rocks as regolith background; each bag as a labelled instance of woven
-    cloth on its atlas UVs, its stain painted by the core (none for zero seeds); then commits."""
-    scene = _core.Scene()
+    cloth on its atlas UVs, its stain painted by the core (none for zero seeds); then commits.
+    `embree_isa` is render.embree_isa: the SIMD kernels Embree traces it with; watertight=False
+    only measures what watertight traversal costs (bench/bench_embree_isa.py)."""
+    scene = _core.Scene(embree_isa, watertight)
     bag_ids = {bag.obj_id for bag in spec.bags}
     terrain = {"vertex_albedo": spec.terrain_albedo_scale, "vertex_normals": spec.terrain_normals}
     mesh_index = {key: scene.add_mesh(v, t, spec.bag_uvs.reshape(len(t), 6) if key in bag_ids else None,
@@ -88,7 +90,8 @@ def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraP
                        threads=config.render.threads, exact_depth=config.render.exact_depth,
                        light_samples=config.render.light_samples, bounces=config.render.bounces, earth=earth,
                        medium=medium)
-    stats = {"camera_rays": out["camera_rays"], "shadow_rays": out["shadow_rays"],
-             "bounce_shadow_rays": out["bounce_shadow_rays"], "bounce_rays": out["bounce_rays"], "medium_rays": out["medium_rays"], "core_seconds": out["seconds"],
+    stats = {"camera_rays": out["camera_rays"], "second_look_rays": out["second_look_rays"],
+             "shadow_rays": out["shadow_rays"], "bounce_shadow_rays": out["bounce_shadow_rays"],
+             "bounce_rays": out["bounce_rays"], "medium_rays": out["medium_rays"], "core_seconds": out["seconds"],
              "seconds": time.perf_counter() - start}
     return RenderedView(rgb=out["rgb"], depth=out["depth"], instance=out["instance"], stats=stats)

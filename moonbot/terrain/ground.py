@@ -62,13 +62,38 @@ class Ground(ABC):
         return v.astype(np.float64), t[near]
 
 
+# The analytic grounds' innermost grid cell, metres; cells double outward from it.
+PLANE_CELL_M = 0.25
+
+
+def _plane_lines(half: float) -> np.ndarray:
+    """Grid lines of an analytic ground, metres: 0, ±PLANE_CELL_M, doubling outward, and ±half."""
+    steps = [0.0]
+    step = PLANE_CELL_M
+    while step < half:
+        steps.append(step)
+        step *= 2.0
+    steps.append(half)
+    return np.array(sorted({-s for s in steps} | set(steps)))
+
+
 def _plane_mesh(size_m: float, a: float, b: float) -> tuple[np.ndarray, np.ndarray]:
-    """The plane z = a·x + b·y over the square of side size_m, as two triangles. Exact: the
-    renderer resolves hits in double precision, so a plane needs no tessellation."""
-    h = size_m / 2.0
-    xy = np.array([[-h, -h], [h, -h], [h, h], [-h, h]])
+    """The plane z = a·x + b·y over the square of side size_m, on a grid whose cells are
+    PLANE_CELL_M wide at the origin and double outward (1,568 triangles at 4 km). A plane needs no
+    tessellation for its shape (the renderer resolves hits in double), but float32 traversal
+    places a triangle to ~1e-7 of its vertices' coordinates, and rays leaving a surface must start
+    above that (cpp/src/rays.h, lift_off): small triangles near the bags keep that lift, and so
+    the shadows' positions, at tens of micrometres."""
+    lines = _plane_lines(size_m / 2.0)
+    n = len(lines)
+    x, y = np.meshgrid(lines, lines)  # vertex (row j, column i) at (lines[i], lines[j])
+    xy = np.column_stack([x.ravel(), y.ravel()])
     vertices = np.column_stack([xy, a * xy[:, 0] + b * xy[:, 1]]).astype(np.float32)
-    return vertices, np.array([[0, 1, 2], [0, 2, 3]], dtype=np.int32)
+    corner = (np.arange(n - 1)[None, :] + n * np.arange(n - 1)[:, None]).ravel()
+    # Counter-clockwise seen from above: (i, j), (i+1, j), (i+1, j+1) and (i, j), (i+1, j+1), (i, j+1).
+    triangles = np.concatenate([np.column_stack([corner, corner + 1, corner + n + 1]),
+                                np.column_stack([corner, corner + n + 1, corner + n])])
+    return vertices, triangles.astype(np.int32)
 
 
 @dataclass(frozen=True)

@@ -5,8 +5,32 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <string>
+#include <vector>
 
 namespace moonbot {
+
+/// The SIMD instruction set Embree's traversal kernels run in, narrowest first. Debian's Embree
+/// 3.13.5 carries kernels for each; `automatic` is resolve_isa's choice.
+enum class Isa : uint8_t { automatic, sse2, sse42, avx, avx2, avx512 };
+
+/// "auto", "sse2", "sse4.2", "avx", "avx2" or "avx512" (Embree's own spelling of each).
+const char* isa_name(Isa isa);
+
+/// The Isa named `name` (as isa_name spells it). Throws std::invalid_argument that lists the
+/// names, prefixed with `what` (the field or variable the name came from).
+Isa parse_isa(const std::string& name, const std::string& what = "embree_isa");
+
+/// The ISAs this CPU can run Embree's kernels in, narrowest first (never `automatic`), from the
+/// CPU's feature flags as Embree requires them (AVX2 with FMA, BMI1/2 and LZCNT; AVX-512 with F,
+/// DQ, CD, BW and VL).
+std::vector<Isa> cpu_isas();
+
+/// The ISA a device asked for `requested` runs in here. `automatic` is the environment variable
+/// MOONBOT_EMBREE_ISA where set (so one machine's every process can be pinned), else AVX2 where
+/// the CPU runs it (measured as fast as AVX-512, and clear of the AVX-512 kernels), else the
+/// widest of cpu_isas(). Throws std::invalid_argument when the CPU lacks the ISA asked for.
+Isa resolve_isa(Isa requested);
 
 /// Sentinel for "no hit" in RayHit::geom_id / inst_id.
 constexpr uint32_t kInvalidId = 0xFFFFFFFFu;
@@ -56,9 +80,22 @@ inline void pack_lane(const RayHit& r, RayHitPacket<W>& p, int lane) {
 /// A two-level bounding volume hierarchy: prototypes (triangle meshes, each its own BVH) and
 /// instances of them in a top-level scene. Not copyable; not thread-safe to modify, thread-safe
 /// to trace once committed.
+///
+/// Every query runs in Embree's incoherent mode. With the coherent flag, Debian's Embree 3.13.5
+/// (built with GCC 12) spins forever in rtcOccluded1M on AVX-512 CPUs (AMD Zen 4 and Zen 5 seen;
+/// the AVX2 kernels finish). Embree 4.4.1 fixed a loop over the ray mask in its coherent hybrid
+/// kernel (BVHNIntersectorKHybrid::occludedCoherent) that cannot end when GCC before 14 leaves the
+/// mask's upper bits undefined (Embree pull request 574): the same code path. No call here passes
+/// the coherent flag, so no ISA reaches those kernels; the coherent mode bought this renderer no
+/// speed at any ISA (bench/bench_embree_isa.py). Every BVH is built robust (RTC_SCENE_FLAG_ROBUST): watertight
+/// triangle tests, so a ray through an edge or vertex shared by two triangles hits one of them.
 class Accel {
 public:
-    Accel();
+    /// A BVH on the process's Embree device for `isa` (resolve_isa's answer; one device per ISA,
+    /// shared by every Accel that uses it and released with the last of them). `watertight`
+    /// false builds Embree's default (non-robust) BVHs and makes intersect_watertight a plain
+    /// intersect: only for measuring what watertightness costs.
+    explicit Accel(Isa isa = Isa::automatic, bool watertight = true);
     ~Accel();
     Accel(const Accel&) = delete;
     Accel& operator=(const Accel&) = delete;
@@ -81,12 +118,28 @@ public:
     /// Builds the top-level BVH. Cheap next to prototype builds: it only bounds instances.
     void commit();
 
-    /// Closest hits for `n` rays, as 64-ray streams. `coherent` hints that rays share origin and
-    /// nearly share direction (camera rays). Misses keep geom_id == kInvalidId.
-    void intersect(RayHit* rays, size_t n, bool coherent) const;
+    /// Closest hits for `n` rays, as 64-ray streams. Misses keep geom_id == kInvalidId.
+    void intersect(RayHit* rays, size_t n) const;
+
+    /// intersect(), made watertight at shared vertices too. Robust traversal closes shared edges,
+    /// but a ray through a vertex that several triangles share can still slip past all of them
+    /// (0.2 % of rays aimed exactly at terrain-grid vertices). Every mesh here is a closed
+    /// surface or a height field seen from above, wound counter-clockwise seen from outside, so a
+    /// ray from outside meets a triangle's front first. A ray whose first hit is a back face, or,
+    /// with `ground` (the scene has a height field under everything: world z is up), a downward
+    /// ray that misses, is traced again along four directions tilted by kVertexNudge; the nearest
+    /// front-face hit among them replaces its result if it comes no later than the back face (a
+    /// ray grazing a silhouette edge touches the back triangle there); none: the result stands.
+    /// The replacement's t and barycentrics are the tilted ray's; callers that need them exact
+    /// re-solve against the hit triangle's plane. Returns the rays it traced beyond the n.
+    size_t intersect_watertight(RayHit* rays, size_t n, bool ground) const;
+
+    /// The tilt of intersect_watertight's second look, relative to the ray's direction: far
+    /// above float32's resolution of a position (6e-8 of it), far below a pixel's footprint.
+    static constexpr double kVertexNudge = 1.0 / 65536.0;
 
     /// Any-hit test for `n` rays; an occluded ray gets tfar = -inf, a free one keeps its tfar.
-    void occluded(RayHit* rays, size_t n, bool coherent) const;
+    void occluded(RayHit* rays, size_t n) const;
 
     /// The same two queries one ray at a time (rtcIntersect1 / rtcOccluded1): the baseline the
     /// Embree-limit benchmark compares streams against.
@@ -96,9 +149,6 @@ public:
     /// The same two queries as packets of W = 8 or 16 rays (rtcIntersect8/16, rtcOccluded8/16):
     /// `n` rays in ceil(n / W) packets, the lanes past the n-th inactive. Misses keep
     /// geom_id == kInvalidId; an occluded ray gets tfar = -inf. For the Embree-limit benchmark.
-    /// Always with Embree's default (incoherent) context: with RTC_INTERSECT_CONTEXT_FLAG_COHERENT,
-    /// Debian's Embree 3.13.5 on an AVX-512 CPU never returned from rtcOccluded16 once
-    /// rtcIntersect16 had been called on the scene (sun shadow rays of the default scene).
     template <int W>
     void intersect_packets(RayHitPacket<W>* packets, size_t n) const;
     template <int W>
@@ -108,10 +158,16 @@ public:
     /// scene is not rebuilt per view.
     uint64_t builds() const { return m_builds; }
 
+    /// The ISA this BVH's device runs in (never `automatic`).
+    Isa isa() const { return m_isa; }
+    bool watertight() const { return m_watertight; }
+
 private:
     struct Impl;
     std::unique_ptr<Impl> m_impl;
     uint64_t m_builds = 0;
+    Isa m_isa;
+    bool m_watertight;
 };
 
 }  // namespace moonbot

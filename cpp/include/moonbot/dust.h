@@ -4,9 +4,17 @@
 //
 // Kinematics are exact: with no drag a fragment's flight is a parabola, so each step advances it
 // in closed form (p + v·dt + ½·g·dt², v + g·dt) and the time step only sets how finely contacts
-// are looked for. Contacts are found by casting the step's chord against the scene (Embree), so
-// nothing tunnels through terrain however thin or however long the step. The chord cuts the
+// are looked for. A fragment collides as the vertical segment from its lowest point to its centre:
+// each step casts the step's chord from both ends against the scene (Embree), so a contact is
+// found on terrain or a bag wall however thin, however long the step, and neither end crosses a
+// surface (short of a ray slipping through a shared edge, which Embree's default, non-robust
+// traversal allows and tests/test_dust_containment.py has not seen). The chord cuts the
 // parabola's corner by at most g·dt²/8 (0.5 mm at dt = 0.05 s), the only error the step adds.
+//
+// Surfaces have a front: the side their triangles wind counter-clockwise on, out of every closed
+// mesh (bags, rocks) and up from the ground. A fragment starts in front of every surface (clear
+// of the ground and of bags by kSpawnClearance); a ray that meets a surface from behind means a
+// fragment inside a solid, which is not bounced off but put back out in front (fly_fragment).
 //
 // Deterministic: every fragment is simulated on its own from its own launch, keyed by the seed,
 // its index and its burst; the result does not depend on the number of threads.
@@ -52,8 +60,17 @@ struct Fragment {
     uint32_t index;       ///< its number in the burst (with `burst`, keys its shape and spin)
     uint32_t burst;
     int bounces;
+    int corrections;      ///< times it was found behind a surface and put back in front of it
     bool resting;
 };
+
+/// At launch, a fragment's bounding sphere (which holds its mesh in any orientation) is this far
+/// above the highest surface under it, metres.
+constexpr double kSpawnClearance = 1e-3;
+
+/// A fragment found behind a surface this many times in one flight is put to rest where it was
+/// last put back out (a guard against a fragment wedged between solids that overlap).
+constexpr int kMaxCorrections = 16;
 
 /// The state of every fragment of the current burst at `time_s` (≥ 0; burst k launches at
 /// k·period, so the state is that of a flight of `time_s mod period`), stepping at most `dt_s`
@@ -63,6 +80,18 @@ struct Fragment {
 /// arguments.
 std::vector<Fragment> simulate_ejecta(const Scene& scene, const EjectaParams& params, uint64_t seed,
                                       double time_s, double dt_s, int threads = 0);
+
+/// Flies `f` from its current state until it is `duration` seconds old (or at rest), in steps of
+/// at most `dt`, bouncing on `scene` (committed; the caller holds its ReadLock): a bounce keeps
+/// `restitution` of the normal speed and loses tangential speed up to `friction` × the normal
+/// impulse; a rebound slower than `rest_speed_m_s` leaves it at rest. A fragment that finds
+/// itself behind a surface (a chord meets the surface from behind) is moved back out along the
+/// surface's normal by the depth found, lifted by a hair, and the step retried with no time
+/// passing; `corrections` counts it (see kMaxCorrections). simulate_ejecta flies every fragment
+/// so from launch. Throws std::invalid_argument naming the field on bad params, dt (in
+/// (0, kMaxDustStep]), duration (finite), a fragment that is not finite or has no positive
+/// diameter, or a scene not committed.
+void fly_fragment(const Scene& scene, const EjectaParams& params, Fragment& f, double duration, double dt);
 
 /// The fragments as one triangle soup in world coordinates, kFragmentVertices vertices and
 /// kFragmentTriangles triangles per fragment in order: each a jagged icosahedron (vertex radii

@@ -20,8 +20,9 @@ namespace moonbot {
 /// on the camera's side, leaving from the lifted hit point (rays.h: cosine_direction, lift_off);
 /// generation g + 1 leaves from generation g's hits the same way, as the renderer's paths do;
 /// and from every generation's hits that face the Sun, a shadow ray toward its centre. Both are
-/// incoherent (origins spread over the scene), traced as the renderer traces them: 64-ray streams
-/// without the coherent hint, one stream per tile, generation and kind.
+/// incoherent (origins spread over the scene), traced as the renderer traces them: 64-ray streams,
+/// one stream per tile, generation and kind. Every stream, packet and single-ray query runs in
+/// Embree's incoherent mode, as all of the renderer's do (accel.h).
 ///
 /// Each tile's rays are copied into a per-thread buffer first, untimed, and only the Embree
 /// calls are timed, tile by tile: the renderer also traces rays it has just written, from the
@@ -35,7 +36,7 @@ struct EmbreeLimit {
     double intersect_single_s = 0;    ///< rtcIntersect1, one ray at a time
     double intersect_packet8_s = 0;   ///< rtcIntersect8, 4×2-pixel packets
     double intersect_packet16_s = 0;  ///< rtcIntersect16, 4×4-pixel packets
-    double intersect_stream_s = 0;    ///< rtcIntersect1M, the tile as one coherent 64-ray stream
+    double intersect_stream_s = 0;    ///< rtcIntersect1M, the tile as one 64-ray stream
                                       ///< (what render uses)
     double occluded_single_s = 0;     ///< rtcOccluded1
     double occluded_packet8_s = 0;    ///< rtcOccluded8, a tile's shadow rays in order, 8 a packet

@@ -47,6 +47,7 @@ struct FrameView {
 /// What a render did. Counts are exact and deterministic; `seconds` is wall time.
 struct RenderStats {
     uint64_t camera_rays = 0;
+    uint64_t second_look_rays = 0;    ///< camera rays traced again at a shared vertex (Accel::intersect_watertight)
     uint64_t shadow_rays = 0;         ///< toward the lights, from every path vertex
     uint64_t bounce_shadow_rays = 0;  ///< of shadow_rays, those from bounce vertices (scattered origins)
     uint64_t bounce_rays = 0;

@@ -65,7 +65,10 @@ struct Instance {
 
 class Scene {
 public:
-    Scene();
+    /// An empty scene whose BVHs run Embree's kernels in `isa` (resolved as accel.h's
+    /// resolve_isa does; throws std::invalid_argument where this CPU cannot run it), watertight
+    /// unless `watertight` is false (Accel; for measuring its cost only).
+    explicit Scene(Isa isa = Isa::automatic, bool watertight = true);
     Scene(const Scene&) = delete;
     Scene& operator=(const Scene&) = delete;
 
@@ -110,6 +113,10 @@ public:
     const Instance& instance(uint32_t i) const { return m_instances[i]; }
     size_t mesh_count() const { return m_meshes.size(); }
     size_t instance_count() const { return m_instances.size(); }
+    /// Whether any instance is background (label 0): the terrain, which lies under everything.
+    bool has_background() const { return m_has_background; }
+    /// The ISA Embree traces this scene's rays in.
+    Isa isa() const { return m_accel.isa(); }
     /// BVH builds so far (one per mesh plus one per commit).
     uint64_t bvh_builds() const { return m_accel.builds(); }
 
@@ -138,6 +145,7 @@ private:
     std::vector<Instance> m_instances;
     std::vector<std::unique_ptr<StainMask>> m_stains;  // painted masks; instances point into them
     bool m_label_used[256] = {};
+    bool m_has_background = false;
     bool m_committed = false;
     mutable std::atomic<int> m_readers{0};
 };
