@@ -16,9 +16,9 @@ from click.testing import CliRunner
 from PIL import Image
 
 from moonbot import _core
+from moonbot.bop import merge_dataset
 from moonbot.cli import main
 from moonbot.config.load import ConfigError, load_config
-from moonbot.bop import merge_dataset
 from moonbot.pipeline import run_views
 from moonbot.pipeline.tasks import run_task
 from moonbot.sweep import tasks

@@ -10,8 +10,9 @@ horizon, with the Moon's curvature.
 - `crater`: the plain beside a fresh simple crater (`craters.crater_profile`, its ejecta cut off
   at 2.5 R) whose centre lies `crater_distance_m` from the target; rocks cluster toward it
   (`rocks.py`).
-- `dem`: a real site: a `LocalDem` (`moonbot terrain import`) around `dem_site_m`, interpolated
-  smoothly (`DemRelief`) and refined below its pixel by the plain's roughness and the small
+- `dem`: a real site: a `LocalDem` (`moonbot terrain import`) around `dem_site_m`, seen in the
+  site's own East-North-Up frame (`DemRelief`: its true north, its up; recorded as a `DemSite`),
+  interpolated smoothly and refined below its pixel by the plain's roughness and the small
   craters the DEM cannot resolve, so the near field shows no DEM facets.
 
 **One graded grid, horizon to bags.** A single tensor grid (`graded_axis`) is uniform at
@@ -213,15 +214,19 @@ class DemRelief:
         x, y = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
         shape, x, y = x.shape, x.ravel(), y.ravel()
         to_dem = self.rotation.T
-        # Start on the sphere through the site: then only the relief is left to converge.
+        # Start on the sphere through the site: then only the relief is left to converge. Each
+        # step works on the points that moved by more than the tolerance in the one before.
         z = -curvature_drop(np.hypot(x, y), self.site_radius)
+        active = np.arange(z.size)
         for _ in range(DEM_MAX_STEPS):
-            u, v = self._grid_offsets(to_dem @ np.stack([x, y, z]))
-            q = self.rotation[2] @ self._offset_from_site(u, v, self.grid_height(u, v))
-            moved = float(np.max(np.abs(q - z))) if q.size else 0.0
-            z = q
-            if moved <= DEM_CONVERGED_M:
+            if active.size == 0:
                 return z.reshape(shape)
+            xa, ya = x[active], y[active]
+            u, v = self._grid_offsets(to_dem @ np.stack([xa, ya, z[active]]))
+            q = self.rotation[2] @ self._offset_from_site(u, v, self.grid_height(u, v))
+            moved = np.abs(q - z[active]) > DEM_CONVERGED_M
+            z[active] = q
+            active = active[moved]
         raise ValueError(f"{self.name}: the surface under the terrain was not found in {DEM_MAX_STEPS} steps "
                          "(a near-vertical cliff?)")
 
