@@ -1,5 +1,7 @@
 #include "moonbot/accel.h"
 
+#include "rays.h"
+
 #include <embree3/rtcore.h>
 
 #include <algorithm>
@@ -343,20 +345,18 @@ size_t Accel::intersect_watertight(RayHit* rays, size_t n, bool ground) const {
     std::vector<RayHit> tilted(again.size() * kLooks);
     for (size_t k = 0; k < again.size(); ++k) {
         const RayHit& r = rays[again[k]];
-        const double dx = r.dir_x, dy = r.dir_y, dz = r.dir_z;
-        const double len = std::sqrt(dx * dx + dy * dy + dz * dz);
-        // Two directions across the ray (Duff et al. 2017's basis of the unit direction).
-        const double wx = dx / len, wy = dy / len, wz = dz / len;
-        const double sign = std::copysign(1.0, wz), a = -1.0 / (sign + wz), b = wx * wy * a;
-        const double across[2][3] = {{1.0 + sign * wx * wx * a, sign * b, -sign * wx}, {b, sign + wy * wy * a, -wy}};
+        const glm::dvec3 dir(r.dir_x, r.dir_y, r.dir_z);
+        const double len = glm::length(dir);
+        glm::dvec3 across[2];  // two directions across the ray
+        detail::orthonormal_basis(dir / len, across[0], across[1]);
         for (int look = 0; look < kLooks; ++look) {
             RayHit& t = tilted[k * kLooks + look];
             t = r;
-            const double* e = across[look / 2];
             const double step = (look % 2 ? -kVertexNudge : kVertexNudge) * len;
-            t.dir_x = static_cast<float>(dx + step * e[0]);
-            t.dir_y = static_cast<float>(dy + step * e[1]);
-            t.dir_z = static_cast<float>(dz + step * e[2]);
+            const glm::dvec3 d = dir + step * across[look / 2];
+            t.dir_x = static_cast<float>(d.x);
+            t.dir_y = static_cast<float>(d.y);
+            t.dir_z = static_cast<float>(d.z);
             t.tfar = std::numeric_limits<float>::infinity();
             t.geom_id = t.inst_id = kInvalidId;
         }

@@ -32,11 +32,16 @@ constexpr int kTilePixels = kTile * kTile;
 constexpr double kShadowBias = 2e-5;
 constexpr double kTriangleBias = 1e-6;
 
+/// The largest coordinate magnitude of `p` (∞-norm), metres.
+inline double largest_coordinate(const glm::dvec3& p) {
+    return std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+}
+
 /// Where rays leaving a surface start: `point` moved off the surface along the unit `normal` (on
 /// the side they leave from) by the larger of kShadowBias of its largest coordinate (of 1 m at
 /// least) and kTriangleBias of `reach`, the largest coordinate of the triangle it lies on.
 inline glm::dvec3 lift_off(const glm::dvec3& point, const glm::dvec3& normal, double reach) {
-    const double scale = std::max({1.0, std::abs(point.x), std::abs(point.y), std::abs(point.z)});
+    const double scale = std::max(1.0, largest_coordinate(point));
     return point + normal * std::max(kShadowBias * scale, kTriangleBias * reach);
 }
 
@@ -119,12 +124,8 @@ inline glm::dvec3 world_vertex(const InstanceData& inst, uint32_t prim, int k) {
 /// The largest coordinate magnitude (metres, world) of triangle `prim` of instance `inst`: the
 /// scale of float32 traversal's error on its plane (lift_off).
 inline double triangle_reach(const InstanceData& inst, uint32_t prim) {
-    double reach = 0.0;
-    for (int k = 0; k < 3; ++k) {
-        const glm::dvec3 p = world_vertex(inst, prim, k);
-        reach = std::max({reach, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
-    }
-    return reach;
+    return std::max({largest_coordinate(world_vertex(inst, prim, 0)), largest_coordinate(world_vertex(inst, prim, 1)),
+                     largest_coordinate(world_vertex(inst, prim, 2))});
 }
 
 inline std::vector<InstanceData> instance_table(const Scene& scene) {
@@ -313,9 +314,7 @@ private:
         r.n_raw = inst.normal_to_world * glm::dvec3(ray.ng_x, ray.ng_y, ray.ng_z);
         const glm::dvec3 v0 = world_vertex(inst, ray.prim_id, 0), v1 = world_vertex(inst, ray.prim_id, 1),
                          v2 = world_vertex(inst, ray.prim_id, 2);
-        r.reach = 0.0;
-        for (const glm::dvec3& p : {v0, v1, v2})
-            r.reach = std::max({r.reach, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+        r.reach = std::max({largest_coordinate(v0), largest_coordinate(v1), largest_coordinate(v2)});
         if (exact) {
             r.n_plane = glm::cross(v1 - v0, v2 - v0);
             r.grazing = 1e-24 * glm::dot(r.n_plane, r.n_plane);
