@@ -51,7 +51,8 @@ def test_same_seed_same_bytes_other_seed_other_terrain():
     a = ROUGH.height(x, y)
     np.testing.assert_array_equal(a, Roughness(seed=11, law=MARE).height(x, y))
     assert np.abs(a - Roughness(seed=12, law=MARE).height(x, y)).mean() > 0.01
-    np.testing.assert_array_equal(ROUGH.height(np.float64(0.3), -0.2), ROUGH.height(np.array([0.3]), np.array([-0.2]))[0])
+    np.testing.assert_array_equal(ROUGH.height(np.float64(0.3), -0.2),
+                                  ROUGH.height(np.array([0.3]), np.array([-0.2]))[0])
     assert np.all(Roughness(seed=5, law=SlopeLaw(0.0, 1.0, 0.9, 0.9, 1.0)).height([1.0, 2.0], [3.0, 4.0]) == 0.0)
 
 
@@ -83,6 +84,9 @@ def test_band_limiting_removes_only_octaves_a_mesh_cannot_hold():
         one.__dict__["amplitudes"] = np.where(np.arange(len(kept)) == k, ROUGH.amplitudes, 0.0)
         by_hand += one.height(x.ravel(), y.ravel())
     np.testing.assert_allclose(coarse.ravel(), by_hand, atol=1e-12)
+    # Leaving out the octaves a DEM carries (longer than 3 m) leaves exactly the rest.
+    below_dem = Roughness(seed=11, law=MARE, longest_drawn_m=3.0).height(x, y)
+    np.testing.assert_allclose(full - below_dem, coarse, atol=1e-12)
     per_point = ROUGH.height(x, y, cell=np.where(x < 5.5, 1.0, ROUGH.min_wavelength_m / 4))
     np.testing.assert_array_equal(per_point[x < 5.5], coarse[x < 5.5])
     np.testing.assert_array_equal(per_point[x >= 5.5], full[x >= 5.5])

@@ -281,18 +281,20 @@ class Location:
         seed = config.seed
         r = config.roughness
         c = config.craters
-        max_wavelength, max_crater = r.max_wavelength_m, c.max_diameter_m
+        longest, max_crater = math.inf, c.max_diameter_m
         self.dem = None
         if dem is not None:
             self.dem = DemRelief(dem, config.dem_site_m, name=config.dem_file)
             self.dem.require_covers(float(np.max(np.abs(axis))))
             # Detail only below what the DEM resolves: the DEM carries everything larger.
-            max_wavelength = min(max_wavelength, DEM_ROUGHNESS_PIXELS * dem.spacing_m)
+            longest = DEM_ROUGHNESS_PIXELS * dem.spacing_m
             max_crater = min(max_crater, DEM_CRATER_PIXELS * dem.spacing_m)
         self.roughness = None
-        if max_wavelength > r.min_wavelength_m:
+        if longest > r.min_wavelength_m:
+            # The octaves follow the whole law (fitted up to max_wavelength_m); a DEM's location
+            # draws only those below what the DEM resolves, the DEM being the rest.
             self.roughness = Roughness(seed=seed, law=slope_law(r), min_wavelength_m=r.min_wavelength_m,
-                                       max_wavelength_m=max_wavelength)
+                                       max_wavelength_m=r.max_wavelength_m, longest_drawn_m=longest)
         self.hills = None
         if config.location == "hilly":
             hills = SlopeLaw(rms_slope_deg=config.hills_rms_slope_deg, baseline_m=HILLS_BASELINE_M,

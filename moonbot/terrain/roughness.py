@@ -172,12 +172,14 @@ def _structure_at(u: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True)
 class Roughness:
     """Band-limited fractal heights following `law` with octaves from `max_wavelength_m` down
-    to `min_wavelength_m` (metres)."""
+    to `min_wavelength_m` (metres). Octaves longer than `longest_drawn_m` are fitted but left
+    out of the heights: a DEM carries that relief itself."""
 
     seed: int
     law: SlopeLaw
     min_wavelength_m: float = 0.02
     max_wavelength_m: float = 512.0
+    longest_drawn_m: float = math.inf
 
     def __post_init__(self) -> None:
         if not 0 < self.min_wavelength_m < self.max_wavelength_m:
@@ -233,7 +235,7 @@ class Roughness:
     def _sum(self, x: np.ndarray, y: np.ndarray, cell: np.ndarray | None) -> np.ndarray:
         z = np.zeros(np.broadcast(x, y).shape)
         for k, (lam, amp) in enumerate(zip(self.wavelengths, self.amplitudes)):
-            if amp == 0.0:
+            if amp == 0.0 or lam > self.longest_drawn_m:
                 continue
             if cell is None:
                 at, weight = slice(None), 1.0
