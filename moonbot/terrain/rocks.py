@@ -24,12 +24,13 @@
 within `PIXELS_REACH`·D of the target (a rock subtends at least ~2 pixels of a 640-pixel,
 60° image there: 1 cm pebbles within 3 m, 10 cm rocks within 30 m) and within `reach_m`.
 
-**Shapes.** `PROTOTYPES` irregular rocks: an 80-face icosphere whose radius is jittered, given a
-few broad random lobes and cut by three random fracture planes, then flattened (rocks lie on
-their broad side) and scaled to unit longest extent; the renderer shades their facets flat, so
-every edge is sharp. Each rock is an instance of one of them: random yaw, scale D, sunk into the
-ground by 10–70 % of its height (lunar-physics.md §4.3; Apollo 12 rocks show the line between
-their buried and their exposed, micro-cratered parts).
+**Shapes.** `PROTOTYPES` irregular rocks, flattened (rocks lie on their broad side) and scaled
+to unit longest horizontal extent: lobed boulders (an 80-face icosphere whose radius is jittered,
+given a few broad random lobes and cut by three random fracture planes) and angular clasts (the
+convex hull of 14 random points: a dozen or two large faces). The renderer shades their facets
+flat, so every edge is sharp. Each rock is an instance of one of them: random yaw, scale D, sunk
+into the ground by 10–70 % of its height (lunar-physics.md §4.3; Apollo 12 rocks show the line
+between their buried and their exposed, micro-cratered parts).
 """
 
 from __future__ import annotations
@@ -38,11 +39,13 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import ConvexHull
 from scipy.special import exp1
 
 from moonbot.config.schema import RocksConfig
 
 PROTOTYPES = 8  # distinct rock meshes; every rock is an instance of one
+CLAST_CORNERS = 14  # random points whose convex hull is an angular clast
 PIXELS_REACH = 300.0  # rocks of diameter D are drawn within PIXELS_REACH·D of the target
 _TABLE = 4096  # inverse-CDF table size for the sizes
 
@@ -178,27 +181,54 @@ def _icosphere(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
     return np.array(vertices), np.array(faces, dtype=np.int32)
 
 
+def _angular_clast(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """A fractured clast: the convex hull of `CLAST_CORNERS` random points on a sphere, each
+    pulled in by up to 30 % (vertices (N, 3) float64, triangles (M, 3) int32, counter-clockwise
+    seen from outside). Convex, so closed and never self-intersecting; its few large faces meet
+    in sharp edges."""
+    direction = rng.normal(size=(CLAST_CORNERS, 3))
+    points = direction / np.linalg.norm(direction, axis=1, keepdims=True) * rng.uniform(0.7, 1.0, (CLAST_CORNERS, 1))
+    hull = ConvexHull(points)
+    used = np.unique(hull.simplices)
+    index = np.full(CLAST_CORNERS, -1)
+    index[used] = np.arange(len(used))
+    vertices, triangles = points[used], index[hull.simplices]
+    a, b, c = (vertices[triangles[:, k]] for k in range(3))
+    inward = np.einsum("ij,ij->i", np.cross(b - a, c - a), a - vertices.mean(axis=0)) < 0
+    triangles[inward] = triangles[inward][:, ::-1]
+    return vertices, triangles.astype(np.int32)
+
+
+def _lobed_boulder(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """A weathered boulder: an 80-face icosphere whose radius is jittered, given broad random
+    lobes and cut by three random fracture planes (vertices (N, 3) float64, triangles (M, 3)
+    int32). Star-shaped about the origin, so closed and never self-intersecting."""
+    sphere, triangles = _icosphere(1)  # 80 faces: coarse enough to read as angular facets
+    radius = 1.0 + rng.uniform(-0.08, 0.08, len(sphere))  # chipped corners
+    for _ in range(6):  # broad lobes and dents
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        radius += rng.uniform(-0.25, 0.25) * np.maximum(sphere @ axis, 0.0) ** rng.uniform(2.0, 6.0)
+    for _ in range(3):  # flat fracture faces: clip the radius against random planes
+        normal = rng.normal(size=3)
+        normal /= np.linalg.norm(normal)
+        along = sphere @ normal
+        cut = rng.uniform(0.55, 0.8)
+        radius = np.where(along > 0, np.minimum(radius, cut / np.maximum(along, 1e-9)), radius)
+    return sphere * radius[:, None], triangles
+
+
 def rock_prototypes(seed: int = 0) -> list[tuple[np.ndarray, np.ndarray]]:
     """`PROTOTYPES` irregular rock meshes: (vertices (N, 3) float32, triangles (M, 3) int32),
     model frame with the longest horizontal extent 1 (so an instance's scale is its diameter D),
-    centred on the origin, z up. Star-shaped about the origin, so they are closed and never
-    self-intersect."""
-    sphere, triangles = _icosphere(1)  # 80 faces: coarse enough to read as angular facets
+    centred on the origin, z up; flattened (rocks lie on their broad side). Even ones are lobed
+    boulders, odd ones angular clasts (the Apollo photographs' cm-dm rocks are mostly angular
+    fragments); every size draws from all of them."""
     meshes = []
     for p in range(PROTOTYPES):
         rng = np.random.default_rng([seed, 0x0C5, 0x9000 + p])
-        radius = 1.0 + rng.uniform(-0.08, 0.08, len(sphere))  # chipped corners
-        for _ in range(6):  # broad lobes and dents
-            axis = rng.normal(size=3)
-            axis /= np.linalg.norm(axis)
-            radius += rng.uniform(-0.25, 0.25) * np.maximum(sphere @ axis, 0.0) ** rng.uniform(2.0, 6.0)
-        for _ in range(3):  # flat fracture faces: clip the radius against random planes
-            normal = rng.normal(size=3)
-            normal /= np.linalg.norm(normal)
-            along = sphere @ normal
-            cut = rng.uniform(0.55, 0.8)
-            radius = np.where(along > 0, np.minimum(radius, cut / np.maximum(along, 1e-9)), radius)
-        v = sphere * radius[:, None] * np.array([1.0, rng.uniform(0.6, 0.9), rng.uniform(0.35, 0.65)])
+        v, triangles = (_angular_clast if p % 2 else _lobed_boulder)(rng)
+        v = v * np.array([1.0, rng.uniform(0.6, 0.9), rng.uniform(0.35, 0.65)])
         v -= (v.max(axis=0) + v.min(axis=0)) / 2.0
         v /= max(np.ptp(v[:, 0]), np.ptp(v[:, 1]))
         meshes.append((v.astype(np.float32), triangles))
