@@ -16,9 +16,9 @@ Statistics (all dimensionless unless stated):
 * luma_percentiles: the ground's 5th, 25th, 75th, 95th and 99th percentiles of Y', each over the
   median (p50): the shape of the brightness distribution without its exposure.
 * spectrum_slope: the exponent s of the ground's radially averaged power spectrum P(f) ∝ f^s,
-  least squares in log-log over `SPECTRUM_BAND` (cycles per analysis pixel). P is the mean
-  periodogram of square tiles wholly inside the ground mask, each tile mean-subtracted, divided
-  by its mean (luma contrast) and Hann-windowed. A 1/f^β image gives s = −β; natural images ≈ −2.
+  least squares in log-log over `SPECTRUM_BAND` (0.04-0.25 cycles per analysis pixel). P is the mean
+  periodogram of square tiles wholly inside the ground mask, each less its fitted plane, divided
+  by the ground's mean luma (contrast) and Hann-windowed. A 1/f^β image gives s = −β; natural images ≈ −2.
 * octave_rms_contrast: RMS contrast (std / mean of luma) in octave bands of radial spatial
   frequency, from the same periodograms (Parseval): band k spans [0.5·2^-(k+1), 0.5·2^-k)
   cycles per pixel, k = 0 the finest. Also as cycles per degree.
@@ -61,7 +61,9 @@ LUMA_WEIGHTS = (0.2126, 0.7152, 0.0722)  # ITU-R BT.709, applied to gamma-encode
 SHADOW_LEVEL = 0.05  # a shadow pixel is below this fraction of the ground's 99th percentile
 SHADOW_REFERENCE_PERCENTILE = 99.0
 PERCENTILES = (5, 25, 75, 95, 99)
-SPECTRUM_BAND = (0.02, 0.2)  # cycles per analysis pixel: above the tiles' lowest bins, below JPEG/grain
+# Cycles per analysis pixel: from the third bin of a 64-px tile (the first two hold the window's
+# leakage) to a quarter of the sampling rate (a tenth of the scans' own, below JPEG's blocks).
+SPECTRUM_BAND = (0.04, 0.25)
 TILE_PX = 64  # square tiles for the spectrum; f = 1/64 cycles/px is the lowest frequency resolved
 OCTAVES = 5  # finest band [0.25, 0.5) down to [1/64, 1/32) cycles/px
 SKY_LEVEL = 0.16  # luma below this, in a run from the top of a column, is sky (black) or rebate
@@ -281,20 +283,32 @@ def ground_tiles(y: np.ndarray, mask: np.ndarray, tile: int = TILE_PX) -> np.nda
     return np.array(out).reshape(-1, tile, tile)
 
 
-def contrast_periodogram(tiles: np.ndarray) -> np.ndarray:
-    """(n, t, t) → (t, t) mean periodogram of the tiles' luma contrast, (y − mean) / mean,
-    Hann-windowed and normalised so that its sum is the windowed contrast variance (Parseval):
-    sum over all frequencies ≈ var(contrast). Frequencies as np.fft.fftfreq(t). Tiles whose mean
-    is 0 (black) are skipped; no usable tile gives an all-NaN array."""
+def remove_planes(tiles: np.ndarray) -> np.ndarray:
+    """(n, t, t) tiles less each one's least-squares plane a + b·row + c·col. A steep spectrum's
+    strongest, lowest frequencies leak through the window into the lowest bins and steepen the
+    fitted slope (−3.15 for β = 3 over 0.02-0.2 cycles/px with the mean alone removed); the
+    plane carries most of them."""
     n, t, _ = tiles.shape
-    means = tiles.reshape(n, -1).mean(axis=1)
-    usable = means > 0
-    if not usable.any():
+    rows, cols = np.mgrid[:t, :t]
+    design = np.stack([np.ones(t * t), rows.ravel() - (t - 1) / 2, cols.ravel() - (t - 1) / 2], axis=1)
+    flat = tiles.reshape(n, t * t).T
+    coefficients = np.linalg.lstsq(design, flat, rcond=None)[0]
+    return (flat - design @ coefficients).T.reshape(n, t, t)
+
+
+def contrast_periodogram(tiles: np.ndarray, reference_mean: float) -> np.ndarray:
+    """(n, t, t) → (t, t) mean periodogram of the tiles' luma contrast, (y − the tile's plane,
+    see remove_planes) / `reference_mean` (the whole ground's mean, not the tile's: a tile in deep shadow has a mean
+    near 0 and would blow its own contrast up), Hann-windowed and normalised so that its sum is
+    the contrast variance (Parseval, window power divided out). Frequencies as
+    np.fft.fftfreq(t). No tiles or a reference mean ≤ 0 give an all-NaN array."""
+    n, t, _ = tiles.shape
+    if n == 0 or not reference_mean > 0:
         return np.full((t, t), np.nan)
     window = np.outer(np.hanning(t), np.hanning(t))
-    contrast = (tiles[usable] - means[usable, None, None]) / means[usable, None, None]
+    contrast = remove_planes(tiles) / reference_mean
     spectra = np.abs(np.fft.fft2(contrast * window)) ** 2
-    return spectra.mean(axis=0) / (t * t * np.mean(window ** 2)) / (t * t)
+    return spectra.mean(axis=0) / (t ** 4 * np.mean(window ** 2))
 
 
 def radial_frequency(t: int) -> np.ndarray:
@@ -437,7 +451,7 @@ def measure(rgb8: np.ndarray, hfov_deg: float, px_per_deg: float, roi: RegionOfI
 def image_statistics(y: np.ndarray, mask: np.ndarray, px_per_deg: float, tile_px: int = TILE_PX) -> dict:
     """Every statistic of the module's list for luma `y` (H, W) at `px_per_deg` over `mask`."""
     tiles = ground_tiles(y, mask, tile_px)
-    periodogram = contrast_periodogram(tiles) if len(tiles) else np.full((tile_px, tile_px), np.nan)
+    periodogram = contrast_periodogram(tiles, float(y[mask].mean()))
     octaves = octave_rms_contrast(periodogram)
     blobs = dark_blobs(y, mask, px_per_deg)
     return {
@@ -471,13 +485,14 @@ def flatten(stats: dict, prefix: str = "") -> dict[str, float]:
 # Patches and a classifier two-sample test
 
 PATCH_PX = 32
+PATCH_MIN_MEDIAN = 0.02  # luma; patches darker than this (≈ code 5) are skipped
 PATCH_FEATURES = ("log_contrast", "p10_over_median", "p90_over_median", "dark_fraction", "log_laplacian",
                   "log_fine_octave", "log_mid_octave", "log_coarse_octave")
 
 
 def patch_features(y: np.ndarray, mask: np.ndarray, patch_px: int = PATCH_PX) -> np.ndarray:
-    """(n, len(PATCH_FEATURES)) float64, one row per `ground_tiles` patch of `patch_px` with a
-    positive mean: log(std/mean), p10/p50, p90/p50, the fraction below half the median,
+    """(n, len(PATCH_FEATURES)) float64, one row per `ground_tiles` patch of `patch_px` whose
+    median luma is at least PATCH_MIN_MEDIAN: log(std/mean), p10/p50, p90/p50, the fraction below half the median,
     log(Laplacian RMS/mean), and the log RMS contrast of the patch's three finest octaves."""
     patches = ground_tiles(y, mask, patch_px)
     rows = []
@@ -488,7 +503,7 @@ def patch_features(y: np.ndarray, mask: np.ndarray, patch_px: int = PATCH_PX) ->
     for p in patches:
         mean = p.mean()
         median = np.median(p)
-        if mean <= 0 or median <= 0:
+        if median < PATCH_MIN_MEDIAN:  # near-black: crushed shadow has no measurable texture
             continue
         q10, q90 = np.percentile(p, (10, 90))
         lap = p[:-2, 1:-1] + p[2:, 1:-1] + p[1:-1, :-2] + p[1:-1, 2:] - 4.0 * p[1:-1, 1:-1]
