@@ -445,12 +445,11 @@ def bench_realism(photos: Path, regions: Path | None, width: int, height: int, s
     from moonbot.benchmark.realism_bench import Options, run_realism
     from moonbot.config import ConfigError, parse_overrides
 
+    names = tuple(dict.fromkeys(["flat"] + [n.strip() for n in locations.split(",") if n.strip()]))
     try:
         options = Options(width=width, height=height, spp=spp, light_samples=light_samples, bounces=bounces,
                           threads=threads, pitch_deg=pitch_deg, camera_height_m=camera_height_m,
-                          detail_extent_m=detail_extent_m,
-                          locations=tuple(dict.fromkeys(["flat"] + [s.strip() for s in locations.split(",") if s.strip()])),
-                          overrides=parse_overrides(overrides))
+                          detail_extent_m=detail_extent_m, locations=names, overrides=parse_overrides(overrides))
         record, path = run_realism(photos, regions, options, out, sheet, say=lambda text: click.echo(text, err=True))
     except (ConfigError, ValueError, OSError) as e:
         raise click.ClickException(str(e)) from None

@@ -239,3 +239,8 @@ def test_read_sources_and_regions(tmp_path):
         realism.read_regions(regions)
     regions.write_text("file,x0,y0,x1,y1\na.jpg,0.1,0.2,0.9,0.8\n")
     assert realism.read_regions(regions)["a.jpg"] == realism.RegionOfInterest(0.1, 0.2, 0.9, 0.8)
+
+
+def test_fine_to_coarse_contrast():
+    assert realism.fine_to_coarse([3.0, 4.0, 9.0, 6.0, 8.0]) == pytest.approx(0.5)
+    assert math.isnan(realism.fine_to_coarse([3.0, 4.0, 9.0, 0.0, 0.0]))

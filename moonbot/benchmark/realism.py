@@ -22,6 +22,8 @@ Statistics (all dimensionless unless stated):
 * octave_rms_contrast: RMS contrast (std / mean of luma) in octave bands of radial spatial
   frequency, from the same periodograms (Parseval): band k spans [0.5·2^-(k+1), 0.5·2^-k)
   cycles per pixel, k = 0 the finest. Also as cycles per degree.
+* fine_to_coarse_contrast (granularity): the two finest octaves' RMS contrast over the two
+  coarsest octaves'.
 * laplacian_contrast: RMS of the 5-point Laplacian of Y' over ground pixels whose four
   neighbours are ground, over the mean Y': edge and grain energy at the finest scale.
 * dark blobs (granularity): pixels darker than `BLOB_DARKNESS` × their local background (a
@@ -70,7 +72,9 @@ SKY_LEVEL = 0.16  # luma below this, in a run from the top of a column, is sky (
 SKY_SMOOTH_PX = 3  # box smoothing before the sky test, so a single bright speck does not end the run
 HORIZON_MARGIN_PX = 3  # ground rows kept out below the sky: the limb's blend of sky and ground
 BLOB_DARKNESS = 0.5  # blob pixels are below half their local background
-BLOB_BACKGROUND_SIGMA_DEG = 0.4  # local background: a 0.4° Gaussian (≈ a 1 m boulder's width at 150 m)
+# The local background: wider than the widest blob kept, so a large shadow is dark throughout
+# (narrower, its core matches its own dark surroundings and only its rim is found).
+BLOB_BACKGROUND_SIGMA_DEG = 1.5
 BLOB_MIN_AREA_PX = 2
 BLOB_MAX_DIAMETER_DEG = 1.0  # beyond ≈ 1° a dark patch is a crater's, rock's or hardware's shadow
 RESEAU_ARM_DEG = 0.3  # a reseau cross's arm, from its centre (the Apollo 12 scans' crosses reach ≈ 0.35°)
@@ -354,6 +358,15 @@ def octave_rms_contrast(periodogram: np.ndarray, octaves: int = OCTAVES) -> list
     return out
 
 
+def fine_to_coarse(octaves: list[float]) -> float:
+    """Granularity: the RMS contrast of the two finest octaves over that of the two coarsest
+    (quadrature sums; NaN without coarse contrast). Grainy, pebble-strewn ground is high; smooth
+    dunes with broad shading are low."""
+    fine = math.hypot(octaves[0], octaves[1])
+    coarse = math.hypot(octaves[-2], octaves[-1])
+    return fine / coarse if coarse > 0 else float("nan")
+
+
 def laplacian_contrast(y: np.ndarray, mask: np.ndarray) -> float:
     """RMS of the 5-point Laplacian of `y` over masked pixels whose four neighbours are masked,
     divided by the mean of `y` over the same pixels (NaN when none or the mean is 0)."""
@@ -464,6 +477,7 @@ def image_statistics(y: np.ndarray, mask: np.ndarray, px_per_deg: float, tile_px
         "spectrum_slope": spectrum_slope(periodogram),
         "octave_rms_contrast": {f"{lo * px_per_deg:.3g}-{hi * px_per_deg:.3g}_cyc_per_deg": v
                                 for (lo, hi), v in zip(octave_bands(), octaves)},
+        "fine_to_coarse_contrast": fine_to_coarse(octaves),
         "laplacian_contrast": laplacian_contrast(y, mask),
         **blob_statistics(blobs, px_per_deg),
     }

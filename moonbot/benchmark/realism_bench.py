@@ -227,8 +227,8 @@ def noise_record(a: realism.Measured, b: realism.Measured, tile_px: int) -> dict
 
 COMPARED = ("shadow_fraction", "luma_percentiles_over_median.p5", "luma_percentiles_over_median.p25",
             "luma_percentiles_over_median.p75", "luma_percentiles_over_median.p95",
-            "luma_percentiles_over_median.p99", "spectrum_slope", "laplacian_contrast", "blobs_per_deg2",
-            "blob_cover_fraction", "d50_deg", "d90_deg")
+            "luma_percentiles_over_median.p99", "spectrum_slope", "fine_to_coarse_contrast",
+            "laplacian_contrast", "blobs_per_deg2", "blob_cover_fraction", "d50_deg", "d90_deg")
 
 
 def compared_statistics(stats: dict) -> dict[str, float]:
@@ -258,7 +258,8 @@ def run_realism(photos: Path, regions_path: Path | None = None, options: Options
         except ValueError as e:
             raise ValueError(f"{source.path}: {e}") from None
         photo_measured.append((source, measured))
-        photo_records.append({"file": source.path.name, "sun_elevation_deg": [source.sun_low_deg, source.sun_high_deg],
+        photo_records.append({"file": source.path.name,
+                              "sun_elevation_deg": [source.sun_low_deg, source.sun_high_deg],
                               "region": dataclasses.asdict(region), "listed_region": source.path.name in regions,
                               "reseau_px": int(measured.ground.reseau.sum()), "stats": measured.stats})
     say(f"{len(sources)} photos measured")
@@ -266,7 +267,8 @@ def run_realism(photos: Path, regions_path: Path | None = None, options: Options
     elevations = sorted({s.sun_mid_deg for s in sources})
     plans = render_plans(elevations, options)
     renders = render_all(plans, options, say)
-    render_measured = [(r, realism.measure(r.rgb8, options.hfov_deg, ppd, tile_px=options.tile_px)) for r in renders]
+    render_measured = [(r, realism.measure(r.rgb8, options.hfov_deg, ppd, tile_px=options.tile_px))
+                       for r in renders]
 
     compared_photos = {s.path.name: compared_statistics(m.stats) for s, m in photo_measured}
     render_records = []
@@ -284,6 +286,13 @@ def run_realism(photos: Path, regions_path: Path | None = None, options: Options
                                "band_photos": [s.path.name for s in band], "stats": m.stats,
                                "against_band": in_band})
 
+    bands = {}
+    for elevation in elevations:
+        band = [s.path.name for s in sources if s.sun_low_deg <= elevation <= s.sun_high_deg]
+        keys = sorted(set().union(*(compared_photos[name] for name in band)))
+        bands[f"{elevation:g}"] = {"photos": band, "range": {
+            key: band_range([compared_photos[name].get(key, float("nan")) for name in band]) for key in keys}}
+
     main_renders = [(r, m) for r, m in render_measured if r.plan.seed != options.noise_seed]
     keys = sorted(set().union(*compared_photos.values()))
     ranking = {key: separation([v.get(key, float("nan")) for v in compared_photos.values()],
@@ -292,8 +301,10 @@ def run_realism(photos: Path, regions_path: Path | None = None, options: Options
     noise_pair = [m for r, m in render_measured if r.plan.name in (plans[0].name, plans[-1].name)]
     noise = noise_record(noise_pair[0], noise_pair[1], options.tile_px)
 
-    photo_patches = np.vstack([realism.patch_features(m.luma, m.ground.mask, options.patch_px) for _, m in photo_measured])
-    render_patches = np.vstack([realism.patch_features(m.luma, m.ground.mask, options.patch_px) for _, m in main_renders])
+    def patches(measured: list) -> np.ndarray:
+        return np.vstack([realism.patch_features(m.luma, m.ground.mask, options.patch_px) for _, m in measured])
+
+    photo_patches, render_patches = patches(photo_measured), patches(main_renders)
     try:
         classifier = realism.two_sample_accuracy(render_patches, photo_patches)
         classifier["features"] = list(realism.PATCH_FEATURES)
@@ -306,7 +317,7 @@ def run_realism(photos: Path, regions_path: Path | None = None, options: Options
         "options": {**dataclasses.asdict(options), "px_per_deg": ppd, "photo_hfov_deg": HASSELBLAD_HFOV_DEG},
         "photos_dir_name": Path(photos).name, "regions_file": str(Path(regions_path or DEFAULT_REGIONS).name),
         "definitions": "moonbot/benchmark/realism.py; comparison: moonbot/benchmark/realism_bench.py",
-        "photos": photo_records, "renders": render_records,
+        "photos": photo_records, "sun_bands": bands, "renders": render_records,
         "separation": dict(sorted(ranking.items(), key=lambda kv: -_finite_or(kv[1]["score"], -1.0))),
         "monte_carlo_noise": {"renders": [plans[0].name, plans[-1].name], **noise},
         "patch_classifier": classifier,
@@ -338,7 +349,7 @@ def results_dir() -> Path:
     return (ROOT if (ROOT / "bench").is_dir() else Path.cwd()) / "bench" / "results"
 
 
-SHEET_ROW_PX = 240  # each image's height on the sheet
+SHEET_ROW_PX = 300  # each image's height on the sheet
 
 
 def write_sheet(path: Path, renders: list, photos: list) -> None:
@@ -353,8 +364,8 @@ def write_sheet(path: Path, renders: list, photos: list) -> None:
 
     rows = sorted(renders, key=lambda rm: (rm[0].plan.elevation_deg, rm[0].plan.location != "flat", rm[0].plan.name))
     used: dict[float, int] = {}
-    fig, axes = plt.subplots(len(rows), 2, figsize=(2 * SHEET_ROW_PX * 4 / 3 / 100, len(rows) * SHEET_ROW_PX / 100 + 0.3),
-                             dpi=100, squeeze=False)
+    size = (2 * SHEET_ROW_PX * 4 / 3 / 100, len(rows) * SHEET_ROW_PX / 100 + 0.3)
+    fig, axes = plt.subplots(len(rows), 2, figsize=size, dpi=100, squeeze=False)
     for row, (r, m) in enumerate(rows):
         band = [(s, pm) for s, pm in photos if s.sun_low_deg <= r.plan.elevation_deg <= s.sun_high_deg]
         axes[row, 0].imshow(r.rgb8)
@@ -409,8 +420,8 @@ def format_summary(record: dict) -> str:
         lines.append(f"  {band:<28} noise {n:.4f}  render {noise['render_octave_rms_contrast'][band]:.4f}")
     c = record["patch_classifier"]
     if "accuracy" in c:
-        lines.append(f"\npatch classifier (renders vs photos, {c['patches_per_class']} patches each, {c['folds']}-fold): "
-                     f"accuracy {c['accuracy']:.3f}")
+        lines.append(f"\npatch classifier (renders vs photos, {c['patches_per_class']} patches each, "
+                     f"{c['folds']}-fold): accuracy {c['accuracy']:.3f}")
         for name, w, a in zip(c["features"], c["weights"], c["single_feature_accuracy"]):
             lines.append(f"  {name:<20} weight {w:>7.2f}  alone {a:.3f}")
     else:
