@@ -359,7 +359,8 @@ def baseline(dataset: Path, split: str, out: Path | None, workers: int | None) -
 
 @main.group("bench")
 def bench() -> None:
-    """Benchmarks: throughput of the fixed benchmark config against its limit, and comparisons."""
+    """Benchmarks: throughput of the fixed benchmark config against its limit, comparisons, and realism
+    against reference photos."""
 
 
 def _int_list(ctx, param, value: str) -> list[int]:

@@ -244,3 +244,29 @@ def test_read_sources_and_regions(tmp_path):
 def test_fine_to_coarse_contrast():
     assert realism.fine_to_coarse([3.0, 4.0, 9.0, 6.0, 8.0]) == pytest.approx(0.5)
     assert math.isnan(realism.fine_to_coarse([3.0, 4.0, 9.0, 0.0, 0.0]))
+
+
+def test_look_pose_points_the_optical_axis_down_the_azimuth():
+    from moonbot.benchmark.realism_bench import look_pose
+
+    eye = np.array([1.0, 2.0, 1.5])
+    pose = look_pose(eye, azimuth_deg=90.0, pitch_deg=30.0)  # looking East, 30° down
+    assert pose.center == pytest.approx(eye)
+    assert pose.R[2] == pytest.approx([math.cos(math.radians(30)), 0.0, -math.sin(math.radians(30))], abs=1e-12)
+    assert pose.R[0][2] == pytest.approx(0.0)  # image x level
+    assert pose.R[1][2] < 0  # image y points down
+    assert pose.R @ pose.R.T == pytest.approx(np.eye(3), abs=1e-12)
+    assert np.linalg.det(pose.R) == pytest.approx(1.0)
+
+
+def test_render_plans_and_separation():
+    from moonbot.benchmark.realism_bench import Options, render_plans, separation
+
+    plans = render_plans([12.5, 14.5], Options(locations=("flat", "hilly")))
+    assert [p.name for p in plans] == [
+        "flat-sun12.5-cross-seed1", "flat-sun12.5-down-seed1", "flat-sun14.5-cross-seed1",
+        "flat-sun14.5-down-seed1", "flat-sun12.5-cross-bag-seed1", "hilly-sun12.5-cross-seed1",
+        "hilly-sun14.5-cross-seed1", "flat-sun12.5-cross-seed2"]
+    s = separation([1.0, 2.0, 3.0, 4.0, 5.0], [9.0, 11.0, 4.5])
+    assert s["score"] == pytest.approx((9.0 - 3.0) / 2.0)
+    assert s["outside_fraction"] == pytest.approx(2 / 3)

@@ -41,7 +41,9 @@ of the curve. JPEG's 8×8 blocks and film grain sit at the scan's finest scales;
 2000-pixel scan down to the analysis scale (≈2.6×) averages most of them away. Reseau crosses
 (thin dark crosses on a 10 mm grid on the Apollo 12 black-and-white film) are masked by
 `reseau_cross_mask`; the film rebate and hardware in frame are kept out by each photo's region
-of interest. Renders must be converged: Monte-Carlo noise adds fine-scale energy that a
+of interest. The scans' width is taken as the Hasselblad's 49.25° field; the visible rebate
+strips (2-3 % a side) mean the image area is somewhat narrower, so photos are analysed at a
+scale a few per cent finer than renders. Renders must be converged: Monte-Carlo noise adds fine-scale energy that a
 photo's ground texture would otherwise be credited with (the benchmark measures it with a
 second seed).
 
