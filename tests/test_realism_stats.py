@@ -76,6 +76,11 @@ def test_shadow_fraction_counts_pixels_below_five_percent_of_p99():
     assert realism.shadow_fraction(y, mask) == pytest.approx(0.10)
     with pytest.raises(ValueError, match="empty"):
         realism.shadow_fraction(y, np.zeros(y.shape, bool))
+    # a lifted black level hides the shadows unless it is taken off
+    lifted = 0.05 + 0.9 * y
+    assert realism.shadow_fraction(lifted, mask) == 0.0
+    assert realism.shadow_fraction(lifted, mask, black=0.05) == pytest.approx(0.10)
+    assert realism.black_level(lifted) == pytest.approx(0.05 + 0.9 * 0.01)
 
 
 def test_percentiles_over_the_median():

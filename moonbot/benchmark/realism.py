@@ -13,6 +13,9 @@ Statistics (all dimensionless unless stated):
 
 * shadow_fraction: fraction of ground pixels with Y' below `SHADOW_LEVEL` (5 %) of the ground's
   99th percentile.
+* shadow_fraction_black_corrected: the same with luma and the 99th percentile measured above
+  the frame's black level (its 0.5th percentile, sky and rebate included): scans whose black
+  is lifted (by the scanner or the film's fog) otherwise read as shadowless.
 * luma_percentiles: the ground's 5th, 25th, 75th, 95th and 99th percentiles of Y', each over the
   median (p50): the shape of the brightness distribution without its exposure.
 * spectrum_slope: the exponent s of the ground's radially averaged power spectrum P(f) ∝ f^s,
@@ -158,8 +161,9 @@ class RegionOfInterest:
 def sky_mask(y: np.ndarray, level: float = SKY_LEVEL, smooth_px: int = SKY_SMOOTH_PX) -> np.ndarray:
     """(H, W) bool: the sky, i.e. in each column the unbroken run of dark pixels (box-smoothed
     luma below `level`) from the top row down. Ground shadows are dark too but start below
-    lit ground, so they are not sky unless they touch the horizon. The same run catches a film
-    rebate along the top."""
+    lit ground, so they are not sky unless they touch the horizon, or the frame's top edge where
+    no sky is in view (hilly renders looking up-slope, photos of near ground): luma alone cannot
+    tell those from sky, and they are left out. The same run catches a film rebate along the top."""
     smoothed = ndimage.uniform_filter(y, size=smooth_px, mode="nearest") if smooth_px > 1 else y
     return np.cumprod(smoothed < level, axis=0).astype(bool)
 
@@ -257,12 +261,25 @@ def ground_mask(y: np.ndarray, px_per_deg: float, roi: RegionOfInterest = Region
 
 
 def shadow_fraction(y: np.ndarray, mask: np.ndarray, level: float = SHADOW_LEVEL,
-                    reference_percentile: float = SHADOW_REFERENCE_PERCENTILE) -> float:
-    """Fraction of masked pixels with luma below `level` × the masked pixels' `reference_percentile`."""
+                    reference_percentile: float = SHADOW_REFERENCE_PERCENTILE, black: float = 0.0) -> float:
+    """Fraction of masked pixels with luma below `level` × the masked pixels'
+    `reference_percentile`, both measured above `black` (a black level: 0, or the frame's own,
+    see black_level)."""
     values = y[mask]
     if values.size == 0:
         raise ValueError("shadow_fraction: the mask is empty")
-    return float(np.mean(values < level * np.percentile(values, reference_percentile)))
+    return float(np.mean(values - black < level * (np.percentile(values, reference_percentile) - black)))
+
+
+BLACK_PERCENTILE = 0.5
+
+
+def black_level(y: np.ndarray) -> float:
+    """The frame's black: its BLACK_PERCENTILE-th percentile luma over the whole frame (sky, film
+    rebate and deepest shadow included). Scans differ in it (0 on the Apollo 11 colour
+    re-exports, 0.03-0.05 on the Apollo 12 colour ones) while a photographed shadow is as black
+    as the frame gets."""
+    return float(np.percentile(y, BLACK_PERCENTILE))
 
 
 def luma_percentiles(y: np.ndarray, mask: np.ndarray, percentiles=PERCENTILES) -> dict[str, float]:
@@ -460,11 +477,13 @@ def measure(rgb8: np.ndarray, hfov_deg: float, px_per_deg: float, roi: RegionOfI
     ground = ground_mask(y, px_per_deg, roi)
     if not ground.mask.any():
         raise ValueError("no ground pixels: the region of interest is all sky, horizon or reseau")
-    return Measured(image_statistics(y, ground.mask, px_per_deg, tile_px), y, ground)
+    return Measured(image_statistics(y, ground.mask, px_per_deg, tile_px, black_level(y)), y, ground)
 
 
-def image_statistics(y: np.ndarray, mask: np.ndarray, px_per_deg: float, tile_px: int = TILE_PX) -> dict:
-    """Every statistic of the module's list for luma `y` (H, W) at `px_per_deg` over `mask`."""
+def image_statistics(y: np.ndarray, mask: np.ndarray, px_per_deg: float, tile_px: int = TILE_PX,
+                     black: float = 0.0) -> dict:
+    """Every statistic of the module's list for luma `y` (H, W) at `px_per_deg` over `mask`;
+    `black` is the frame's black level (shadow_fraction_black_corrected)."""
     tiles = ground_tiles(y, mask, tile_px)
     periodogram = contrast_periodogram(tiles, float(y[mask].mean()))
     octaves = octave_rms_contrast(periodogram)
@@ -474,6 +493,8 @@ def image_statistics(y: np.ndarray, mask: np.ndarray, px_per_deg: float, tile_px
         "ground_deg2": float(mask.sum() / px_per_deg ** 2),
         "tiles": int(len(tiles)),
         "shadow_fraction": shadow_fraction(y, mask),
+        "black_level": black,
+        "shadow_fraction_black_corrected": shadow_fraction(y, mask, black=black),
         "luma_median": float(np.median(y[mask])),
         "luma_percentiles_over_median": luma_percentiles(y, mask),
         "spectrum_slope": spectrum_slope(periodogram),

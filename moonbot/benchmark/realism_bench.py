@@ -225,7 +225,7 @@ def noise_record(a: realism.Measured, b: realism.Measured, tile_px: int) -> dict
             "statistic_change_between_seeds": {k: fb[k] - fa[k] for k in fa if k in fb}}
 
 
-COMPARED = ("shadow_fraction", "luma_percentiles_over_median.p5", "luma_percentiles_over_median.p25",
+COMPARED = ("shadow_fraction", "shadow_fraction_black_corrected", "luma_percentiles_over_median.p5", "luma_percentiles_over_median.p25",
             "luma_percentiles_over_median.p75", "luma_percentiles_over_median.p95",
             "luma_percentiles_over_median.p99", "spectrum_slope", "fine_to_coarse_contrast",
             "laplacian_contrast", "blobs_per_deg2", "blob_cover_fraction", "d50_deg", "d90_deg")
