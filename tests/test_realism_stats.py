@@ -275,3 +275,17 @@ def test_render_plans_and_separation():
     s = separation([1.0, 2.0, 3.0, 4.0, 5.0], [9.0, 11.0, 4.5])
     assert s["score"] == pytest.approx((9.0 - 3.0) / 2.0)
     assert s["outside_fraction"] == pytest.approx(2 / 3)
+
+
+def test_cli_names_the_bad_sources_file(tmp_path):
+    from click.testing import CliRunner
+
+    from moonbot.cli import main
+
+    (tmp_path / "a.jpg").write_bytes(b"")
+    (tmp_path / "SOURCES.csv").write_text("file,approx_sun_elevation_deg\na.jpg,dusk\n")
+    result = CliRunner().invoke(main, ["bench", "realism", "--photos", str(tmp_path), "--out",
+                                       str(tmp_path / "r.json")])
+    assert result.exit_code != 0
+    assert "SOURCES.csv: line 2: approx_sun_elevation_deg" in result.output
+    assert not (tmp_path / "r.json").exists()
