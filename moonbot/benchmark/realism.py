@@ -19,9 +19,10 @@ Statistics (all dimensionless unless stated):
 * luma_percentiles: the ground's 5th, 25th, 75th, 95th and 99th percentiles of Y', each over the
   median (p50): the shape of the brightness distribution without its exposure.
 * spectrum_slope: the exponent s of the ground's radially averaged power spectrum P(f) ∝ f^s,
-  least squares in log-log over `SPECTRUM_BAND` (0.04-0.25 cycles per analysis pixel). P is the mean
-  periodogram of square tiles wholly inside the ground mask, each less its fitted plane, divided
-  by the ground's mean luma (contrast) and Hann-windowed. A 1/f^β image gives s = −β; natural images ≈ −2.
+  least squares in log-log over `SPECTRUM_BAND` (0.04-0.25 cycles per analysis pixel). P is the
+  mean periodogram of square tiles wholly inside the ground mask, each less its fitted plane,
+  divided by the ground's mean luma (contrast) and Hann-windowed. A 1/f^β image gives s = −β;
+  natural images ≈ −2.
 * octave_rms_contrast: RMS contrast (std / mean of luma) in octave bands of radial spatial
   frequency, from the same periodograms (Parseval): band k spans [0.5·2^-(k+1), 0.5·2^-k)
   cycles per pixel, k = 0 the finest. Also as cycles per degree.
@@ -42,13 +43,16 @@ statistic that depends on the curve (shadow fraction, percentiles, blob darkness
 uncertainty; the spectrum slope and octave contrasts depend on it only through the local slope
 of the curve. JPEG's 8×8 blocks and film grain sit at the scan's finest scales; resampling a
 2000-pixel scan down to the analysis scale (≈2.6×) averages most of them away. Reseau crosses
-(thin dark crosses on a 10 mm grid on the Apollo 12 black-and-white film) are masked by
-`reseau_cross_mask`; the film rebate and hardware in frame are kept out by each photo's region
-of interest. The scans' width is taken as the Hasselblad's 49.25° field; the visible rebate
-strips (2-3 % a side) mean the image area is somewhat narrower, so photos are analysed at a
-scale a few per cent finer than renders. Renders must be converged: Monte-Carlo noise adds fine-scale energy that a
-photo's ground texture would otherwise be credited with (the benchmark measures it with a
-second seed).
+(thin crosses on a 10 mm grid exposed on every frame; bold on the Apollo 12 black-and-white
+scans, faint on the colour ones) are masked by `reseau_cross_mask`; the faintest Apollo 11 ones
+fall below its contrast and stay (lines about a pixel wide). The film rebate and hardware in
+frame are kept out by each photo's region of interest. The scans' width is taken as the
+Hasselblad's 49.25° field; the visible rebate strips (2-3 % a side) mean the image area is
+somewhat narrower, so photos are analysed at a scale a few per cent finer than renders.
+Renders must be converged: Monte-Carlo noise adds fine-scale energy that a photo's ground
+texture would otherwise be credited with (the benchmark measures it with a second seed).
+
+numpy and scipy.ndimage (filters, connected-component labels) only: no image library.
 
 Arrays: images are (H, W) float64 luma or (H, W, 3) uint8 sRGB; masks (H, W) bool, True = use.
 """
@@ -82,8 +86,8 @@ BLOB_DARKNESS = 0.5  # blob pixels are below half their local background
 BLOB_BACKGROUND_SIGMA_DEG = 1.5
 BLOB_MIN_AREA_PX = 2
 BLOB_MAX_DIAMETER_DEG = 1.0  # beyond ≈ 1° a dark patch is a crater's, rock's or hardware's shadow
-RESEAU_ARM_DEG = 0.3  # a reseau cross's arm, from its centre (the Apollo 12 scans' crosses reach ≈ 0.35°)
-RESEAU_CONTRAST = 0.06  # a line pixel differs from the ground two pixels beside it by this fraction of its luma
+RESEAU_ARM_DEG = 0.3  # a cross's arm from its centre (the Apollo 12 scans' crosses reach ≈ 0.35°)
+RESEAU_CONTRAST = 0.06  # a line pixel differs from the pixels two beside it by this fraction of its luma
 RESEAU_AGREEMENT = 0.75  # of the pixels along each of a cross's four arms lie on a line
 RESEAU_GRID_DEG = math.degrees(math.atan(10.0 / 60.0))  # 10 mm reseau pitch behind the 60 mm lens: 9.46°
 RESEAU_GRID_TOLERANCE = 0.15  # the scans' scale (rebate included or cropped) is known to ±15 %
@@ -232,8 +236,8 @@ def reseau_cross_mask(y: np.ndarray, px_per_deg: float, arm_deg: float = RESEAU_
     step = grid_deg * px_per_deg
     dy = np.abs(centres[:, None, 0] - centres[None, :, 0])
     dx = np.abs(centres[:, None, 1] - centres[None, :, 1])
-    near_step = lambda d: (d >= (1 - grid_tolerance) * step) & (d <= (1 + grid_tolerance) * step)
-    aligned = (near_step(dx) & (dy <= 2.0)) | (near_step(dy) & (dx <= 2.0))
+    low, high = (1 - grid_tolerance) * step, (1 + grid_tolerance) * step
+    aligned = ((dx >= low) & (dx <= high) & (dy <= 2.0)) | ((dy >= low) & (dy <= high) & (dx <= 2.0))
     half = round(1.5 * arm)
     for r, c in centres[aligned.any(axis=1)]:
         r, c = int(round(r)), int(round(c))

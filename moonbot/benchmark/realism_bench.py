@@ -225,7 +225,8 @@ def noise_record(a: realism.Measured, b: realism.Measured, tile_px: int) -> dict
             "statistic_change_between_seeds": {k: fb[k] - fa[k] for k in fa if k in fb}}
 
 
-COMPARED = ("shadow_fraction", "shadow_fraction_black_corrected", "luma_percentiles_over_median.p5", "luma_percentiles_over_median.p25",
+COMPARED = ("shadow_fraction", "shadow_fraction_black_corrected", "luma_percentiles_over_median.p5",
+            "luma_percentiles_over_median.p25",
             "luma_percentiles_over_median.p75", "luma_percentiles_over_median.p95",
             "luma_percentiles_over_median.p99", "spectrum_slope", "fine_to_coarse_contrast",
             "laplacian_contrast", "blobs_per_deg2", "blob_cover_fraction", "d50_deg", "d90_deg")
@@ -325,7 +326,7 @@ def run_realism(photos: Path, regions_path: Path | None = None, options: Options
     record["seconds_total"] = time.perf_counter() - start
     path = Path(out) if out else results_dir() / f"realism-{machine_slug(record['machine'])}.json"
     path.parent.mkdir(parents=True, exist_ok=True)
-    write_sheet(Path(sheet) if sheet else path.parent / "realism-sheet.png", main_renders, photo_measured)
+    write_sheet(Path(sheet) if sheet else path.parent / "realism-sheet.png", main_renders, photo_measured, ppd)
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_text(json.dumps(record, indent=2, default=_json_default) + "\n")
     tmp.replace(path)
@@ -349,13 +350,27 @@ def results_dir() -> Path:
     return (ROOT if (ROOT / "bench").is_dir() else Path.cwd()) / "bench" / "results"
 
 
-SHEET_ROW_PX = 300  # each image's height on the sheet
+SHEET_ROW_PX = 240  # each image's height on the sheet
+SHEET_CROP_PX = 128  # the ground crops at the analysis scale (8.2° at 768 px over 49.25°)
 
 
-def write_sheet(path: Path, renders: list, photos: list) -> None:
-    """A PNG of rows render | photo, by Sun elevation, each render beside a photo of its band
-    (taken in turn), the render's ground mask boundary and the photo's region drawn in; saved
-    as 256-colour PNG to stay small. Written to a temporary file, then renamed."""
+def matched_crops(a: realism.Measured, b: realism.Measured, largest: int = SHEET_CROP_PX) -> tuple[np.ndarray, ...]:
+    """Square luma crops of the ground of `a` and of `b` at the analysis scale, of one size (the
+    same angular size): the largest of `largest`, ¾, ½, ⅜ and ¼ of it at which both grounds hold
+    a tile wholly inside their mask (realism.ground_tiles; the middle one of each). Empty (0, 0)
+    arrays when even the smallest does not fit."""
+    for size in (largest, largest * 3 // 4, largest // 2, largest * 3 // 8, largest // 4):
+        tiles = [realism.ground_tiles(m.luma, m.ground.mask, size) for m in (a, b)]
+        if all(len(t) for t in tiles):
+            return tuple(t[len(t) // 2] for t in tiles)
+    return np.zeros((0, 0)), np.zeros((0, 0))
+
+
+def write_sheet(path: Path, renders: list, photos: list, px_per_deg: float) -> None:
+    """A PNG of rows render | photo | their ground crops at the analysis scale (the same angular
+    size, grey luma as measured: matched_crops), by Sun elevation, each render beside a photo of its band
+    (taken in turn), the ground masks' boundaries drawn in cyan; saved as 256-colour PNG to stay
+    small. Written to a temporary file, then renamed."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -364,8 +379,9 @@ def write_sheet(path: Path, renders: list, photos: list) -> None:
 
     rows = sorted(renders, key=lambda rm: (rm[0].plan.elevation_deg, rm[0].plan.location != "flat", rm[0].plan.name))
     used: dict[float, int] = {}
-    size = (2 * SHEET_ROW_PX * 4 / 3 / 100, len(rows) * SHEET_ROW_PX / 100 + 0.3)
-    fig, axes = plt.subplots(len(rows), 2, figsize=size, dpi=100, squeeze=False)
+    size = ((2 * 4 / 3 + 2) * SHEET_ROW_PX / 100, len(rows) * SHEET_ROW_PX / 100 + 0.3)
+    fig, axes = plt.subplots(len(rows), 4, figsize=size, dpi=100, squeeze=False,
+                             gridspec_kw={"width_ratios": [4 / 3, 4 / 3, 1, 1]})
     for row, (r, m) in enumerate(rows):
         band = [(s, pm) for s, pm in photos if s.sun_low_deg <= r.plan.elevation_deg <= s.sun_high_deg]
         axes[row, 0].imshow(r.rgb8)
@@ -384,6 +400,11 @@ def write_sheet(path: Path, renders: list, photos: list) -> None:
             axes[row, 1].set_title(f"photo {s.path.stem} (Sun {s.sun_low_deg:g}-{s.sun_high_deg:g}°; shadow "
                                    f"{pm.stats['shadow_fraction']:.2f}, blobs {pm.stats['blobs_per_deg2']:.2f}/deg²)",
                                    fontsize=5)
+            for column, crop, what in zip((2, 3), matched_crops(m, pm), ("render", "photo")):
+                if crop.size:
+                    axes[row, column].imshow(crop, cmap="gray", vmin=0, vmax=1, interpolation="nearest")
+                    axes[row, column].set_title(f"{what} ground, {crop.shape[1] / px_per_deg:.1f}° at the "
+                                                f"analysis scale", fontsize=5)
         for ax in axes[row]:
             ax.set_axis_off()
     fig.tight_layout(pad=0.2)
