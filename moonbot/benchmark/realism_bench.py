@@ -27,6 +27,7 @@ import dataclasses
 import io
 import json
 import math
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -245,6 +246,7 @@ def run_realism(photos: Path, regions_path: Path | None = None, options: Options
     `options`, compares them, writes the JSON record (default bench/results/realism-<machine>.json)
     and the side-by-side sheet (default realism-sheet.png beside it). Returns (record, path)."""
     start = time.perf_counter()
+    load_before = os.getloadavg()[0]
     sources = realism.read_sources(photos)
     if not sources:
         raise ValueError(f"{photos}/SOURCES.csv lists no photos")
@@ -324,6 +326,8 @@ def run_realism(photos: Path, regions_path: Path | None = None, options: Options
         "patch_classifier": classifier,
     }
     record["seconds_total"] = time.perf_counter() - start
+    # Other processes inflate every time here (provisional on a shared machine); ray counts do not.
+    record["load_average_1min"] = {"before": load_before, "after": os.getloadavg()[0]}
     path = Path(out) if out else results_dir() / f"realism-{machine_slug(record['machine'])}.json"
     path.parent.mkdir(parents=True, exist_ok=True)
     write_sheet(Path(sheet) if sheet else path.parent / "realism-sheet.png", main_renders, photo_measured, ppd)
