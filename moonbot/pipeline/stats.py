@@ -184,8 +184,8 @@ def read_tasks(out_dir: Path) -> Collected:
 def collect(out_dir: Path) -> Collected:
     """Reads every complete task's stats.json (`read_tasks`) and writes OUT/stats/tasks.jsonl (one
     record a line, keys sorted, lines in task_id order) and OUT/stats/tasks.parquet (`to_table`),
-    each atomically; the same tasks give the same bytes. The placement records (OUT/placements)
-    go into OUT/stats/placements.jsonl, without their poses."""
+    each atomically; the same tasks give the same bytes. The placement records (OUT/placements),
+    if any, go into OUT/stats/placements.jsonl, without their poses."""
     collected = dataclasses.replace(read_tasks(out_dir),
                                     placements=[placement_timing(r) for r in read_placements(out_dir)])
     stats_dir = Path(out_dir) / "stats"
@@ -194,8 +194,9 @@ def collect(out_dir: Path) -> Collected:
     atomic_write(stats_dir / "tasks.jsonl", "w", lambda f: f.write(lines))
     table = to_table(collected.records)
     atomic_write(stats_dir / "tasks.parquet", "wb", lambda f: pq.write_table(table, f, compression="zstd"))
-    placed = "".join(json.dumps(r, sort_keys=True, separators=(",", ":")) + "\n" for r in collected.placements)
-    atomic_write(stats_dir / "placements.jsonl", "w", lambda f: f.write(placed))
+    if collected.placements:  # a run of `moonbot generate` (one of run_task alone has none)
+        placed = "".join(json.dumps(r, sort_keys=True, separators=(",", ":")) + "\n" for r in collected.placements)
+        atomic_write(stats_dir / "placements.jsonl", "w", lambda f: f.write(placed))
     return collected
 
 
