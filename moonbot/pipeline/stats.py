@@ -26,9 +26,7 @@ CPU c_i, t_i render threads; all times in seconds, rates in samples per second):
   when both runs have the same worker shape (threads per worker) on the same hardware.
 - stage share_k = Σ_i stage_ik / Σ_i Σ_j stage_ij: the time-weighted mean share of stage k in the
   timed stages (the shares sum to 1); `stage_coverage` = Σ_ij stage_ij / Σ_i w_i is the fraction of
-  task wall time the stages account for (the remainder: writing task.json and stats.json). A
-  view's encode_write overlaps the next view's render (moonbot.pipeline.views), so the coverage
-  can exceed 1 by up to one encode a view.
+  task wall time the stages account for (the remainder: writing task.json and stats.json).
 - CPU use = Σ c_i / Σ w_i·t_i: process CPU seconds per second of the render threads' wall time.
 - placements: a scene layout's bags are placed and settled once, by a task of their own, for all
   the tasks that show them (moonbot.pipeline.placements); OUT/placements/<layout>.json records

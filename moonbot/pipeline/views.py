@@ -9,7 +9,6 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Callable
-from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -51,27 +50,13 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
               on_stage: Callable[[str], None] | None = None,
               placement: Placement | None = None) -> list[ViewResult]:
     """Renders `views` (orbit indices) of the config's scene into `out_root/view_NNN/` and returns
-    per-view timings. `threads` overrides render.threads (the images do not depend on it, nor
+    per-view timings. A `placement` given (the scene's bags placed and settled once for all its
+    tasks: moonbot.pipeline.placements) is used as it is, and its cost is not this run's: the
+    views' timings then have no `settle` stage. `threads` overrides render.threads (the images do not depend on it, nor
     does the config hash the samples record). `on_stage(name)` is told each stage as it starts
     ("compose scene", "build BVH", "dust setup", "amodal scenes", then per view k "dust view k",
-    "render view k", "amodal view k", "encode view k", and "finish encoding view k" while it waits
-    for one): a task's heartbeat. Raises ValueError for a view outside the orbit. A `placement`
-    given (the scene's bags placed and settled once for all its tasks:
-    moonbot.pipeline.placements) is not placed again, and its cost is not this run's: the views'
-    timings then have no `settle` stage.
-
-    A view is encoded and written on a thread of its own while the next one renders (the encoders
-    and the renderer release the GIL), one view at a time, so at most two views' images are held;
-    the bytes are the same, and a view's `encode_write` seconds overlap the next one's `render`."""
-    # Entered here so that a failure anywhere waits for the view being written before it unwinds.
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="moonbot-encode") as encoder:
-        return _render_views(config, views, out_root, threads, on_stage, placement, encoder)
-
-
-def _render_views(config: Config, views: list[int], out_root: Path, threads: int | None,
-                  on_stage: Callable[[str], None] | None, placement: Placement | None,
-                  encoder: ThreadPoolExecutor) -> list[ViewResult]:
-    """run_views's work, with `encoder` the thread that writes the views."""
+    "render view k", "amodal view k", "encode view k"): a task's heartbeat. Raises ValueError for
+    a view outside the orbit."""
     stage = on_stage or (lambda name: None)
     for v in views:
         if not 0 <= v < config.orbit.views:
@@ -102,21 +87,7 @@ def _render_views(config: Config, views: list[int], out_root: Path, threads: int
 
     K = intrinsics(config.camera)
     exposure = resolve_exposure(config)
-
-    def encode(v: int, out_dir: Path, rendered, pose, meta: dict, timings: dict, amodal) -> ViewResult:
-        """Writes view `v` (its staged directory renamed into place whole) and returns its result."""
-        with staged_directory(out_dir) as staging:
-            gt = write_sample(staging, rendered, exposure, K, pose, spec.bags,
-                              config.output.png_compression, meta, timings, exr=config.output.exr,
-                              amodal=amodal)
-        rays = {k: rendered.stats[k] for k in ("camera_rays", "shadow_rays", "bounce_shadow_rays", "bounce_rays",
-                                                "medium_rays")}
-        rays["amodal_rays"] = amodal.rays
-        pixels = {i["instance_id"]: i["px_count_visib"] for i in gt["instances"]}
-        return ViewResult(v, out_dir, gt["timings_s"], rays, pixels, meta.get("dust"))
-
     results = []
-    writing: tuple[int, Future] | None = None  # (view, its encode) in flight
     for v in views:
         azimuth = config.orbit.start_azimuth_deg + v * config.orbit.step_deg
         height = orbit_height(spec.target, config.orbit.radius_m, config.orbit.height_m, azimuth, spec.ground)
@@ -153,21 +124,16 @@ def _render_views(config: Config, views: list[int], out_root: Path, threads: int
             meta["dust"] = view_dust.meta
         if spec.site is not None:  # a dem location: the world frame is this site's East-North-Up
             meta["site"] = spec.site.as_json()
-        if writing is not None:
-            results.append(_finish(writing, stage))
         stage(f"encode view {v}")
-        writing = (v, encoder.submit(encode, v, out_dir, rendered, pose, meta, timings, amodal))
+        with staged_directory(out_dir) as staging:
+            gt = write_sample(staging, rendered, exposure, K, pose, spec.bags,
+                              config.output.png_compression, meta, timings, exr=config.output.exr,
+                              amodal=amodal)
+        rays = {k: rendered.stats[k] for k in ("camera_rays", "shadow_rays", "bounce_shadow_rays", "bounce_rays",
+                                                "medium_rays")}
+        rays["amodal_rays"] = amodal.rays
+        pixels = {i["instance_id"]: i["px_count_visib"] for i in gt["instances"]}
+        results.append(ViewResult(v, out_dir, gt["timings_s"], rays, pixels, meta.get("dust")))
         terrain_s = compose_s = build_s = amodal_build_s = 0.0  # paid once, by the first view
         settle_s = None if settle_s is None else 0.0
-    if writing is not None:
-        results.append(_finish(writing, stage))
     return results
-
-
-def _finish(writing: tuple[int, Future], stage: Callable[[str], None]) -> ViewResult:
-    """The result of the view being written, waited for (a heartbeat stage of its own if it is
-    not done yet: a write that hangs is seen as such); its failure is raised here."""
-    view, future = writing
-    if not future.done():
-        stage(f"finish encoding view {view}")
-    return future.result()
