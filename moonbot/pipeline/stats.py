@@ -506,8 +506,9 @@ def format_summary(s: Summary) -> str:
         f"efficiency  parallel {_frac(s.parallel_efficiency)} (task wall / workers × span)",
     ]
     if s.placements:
-        lines.append(f"placement   {s.placements} scene layout{'s' if s.placements != 1 else ''} placed and settled once "
-                     f"each, {s.placement_wall_s:.1f} s wall (in the stage shares below)")
+        layouts = f"{s.placements} scene layout{'s' if s.placements != 1 else ''}"
+        lines.append(f"placement   {layouts} placed and settled once each, {s.placement_wall_s:.1f} s wall "
+                     f"(in the stage shares below)")
     if s.reference is not None:
         lines.append(f"            scaling {_frac(s.scaling_efficiency)} (per-worker samples/s / "
                      f"{_num(s.reference.samples_per_s_per_worker, 4)} of the reference, {s.reference.source})")

@@ -52,7 +52,8 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
     """Renders `views` (orbit indices) of the config's scene into `out_root/view_NNN/` and returns
     per-view timings. A `placement` given (the scene's bags placed and settled once for all its
     tasks: moonbot.pipeline.placements) is used as it is, and its cost is not this run's: the
-    views' timings then have no `settle` stage. `threads` overrides render.threads (the images do not depend on it, nor
+    views' timings then have no `settle` stage. `threads` overrides render.threads (the images
+    do not depend on it, nor
     does the config hash the samples record). `on_stage(name)` is told each stage as it starts
     ("compose scene", "build BVH", "dust setup", "amodal scenes", then per view k "dust view k",
     "render view k", "amodal view k", "encode view k"): a task's heartbeat. Raises ValueError for
