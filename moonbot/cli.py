@@ -184,11 +184,11 @@ def stats(out_dir: Path, reference_path: Path | None, reference_rate: float | No
     try:
         if (out_dir / "tasks").is_dir():
             collected = st.collect(out_dir)
-            records = collected.records
+            records, placements = collected.records, collected.placements
             for d in collected.incomplete:
                 click.echo(f"skipped {d}: not a complete task (no sound DONE.json)", err=True)
         else:  # task directories gone: what collect wrote before
-            records = st.load(out_dir)
+            records, placements = st.load(out_dir), st.load_placements(out_dir)
         if not records:
             raise click.ClickException(f"{out_dir / 'tasks'}: no finished tasks")
         reference = None
@@ -198,13 +198,13 @@ def stats(out_dir: Path, reference_path: Path | None, reference_rate: float | No
             reference = st.reference_from_run(reference_path)
         elif reference_path is not None:
             reference = st.reference_from_bench(reference_path, max(r["threads"] for r in records))
-        summary = st.summarize(records, reference)
+        summary = st.summarize(records, reference, placements)
         (out_dir / "stats").mkdir(parents=True, exist_ok=True)
         st.write_plot(summary, out_dir / "stats" / "throughput.svg", f"moonbot throughput: {out_dir.name}")
     except (ValueError, OSError) as e:  # StatsError is a ValueError
         raise click.ClickException(str(e)) from None
     click.echo(st.format_summary(summary))
-    click.echo(f"\nwritten {out_dir / 'stats'}/tasks.jsonl, tasks.parquet, throughput.svg")
+    click.echo(f"\nwritten {out_dir / 'stats'}/tasks.jsonl, tasks.parquet, placements.jsonl, throughput.svg")
 
 
 @main.command("plan")
@@ -277,7 +277,8 @@ def generate(config_path: Path, out_dir: Path, workers: int | None, threads: int
     except (OSError, MergeError) as e:
         raise click.ClickException(str(e)) from None
     click.echo(f"{result.rendered} tasks rendered ({result.samples} samples) in {result.seconds:.1f} s; "
-               f"{result.complete_before} were complete already")
+               f"{result.complete_before} were complete already; {result.placed} scene layouts placed "
+               f"and settled, {result.placed_before} kept from an earlier run")
     if result.merge is not None:
         m = result.merge
         click.echo(f"dataset {m.dataset}: {m.scenes} scenes, {m.images} images"
