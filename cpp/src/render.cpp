@@ -402,19 +402,22 @@ private:
         }
         const double footprint = pixel_footprint(h, dir, n);
         const FabricSample f = fabric_eval(w.fabric, st.x * w.metres_per_uv, st.y * w.metres_per_uv, footprint);
-        double dust = 0.0;  // Dust mode's cover
+        double dirt = 0.0;  // the stain mask's value or the dust's cover
         if (w.dust) {
             const glm::dvec3 object_point = (1.0 - b1 - b2) * object_vertex(inst, corner[0]) +
                                             b1 * object_vertex(inst, corner[1]) + b2 * object_vertex(inst, corner[2]);
-            dust = w.dust->coverage(object_point, footprint);
-            v.albedo = dusted_colour(f.albedo, dust, w.dirt_colour);
+            dirt = w.dust->coverage(object_point, footprint);
+            v.albedo = dusted_colour(f.albedo, dirt, w.dirt_colour);
+        } else if (inst.stain) {
+            dirt = inst.stain->sample(st.x, st.y);
+            v.albedo = stained_base_colour(f.albedo, dirt, w.dirt_colour);
         } else {
-            v.albedo = inst.stain ? stained_base_colour(f.albedo, inst.stain->sample(st.x, st.y), w.dirt_colour) : f.albedo;
+            v.albedo = f.albedo;
         }
         const glm::dvec3 shading = t * f.normal.x + b * f.normal.y + n * f.normal.z;
         v.shading = shading / glm::length(shading);
         if (w.fabric.sheen > 0.0) {
-            v.sheen = w.fabric.sheen * (1.0 - dust);  // dust is matte: it covers the gloss
+            v.sheen = w.fabric.sheen * (1.0 - std::min(dirt, 1.0));  // dirt is matte: it covers the gloss
             v.fabric = &w.fabric;
             v.weave = f;
             // The warp direction in the weave's own tangent plane.
@@ -520,6 +523,8 @@ private:
             const glm::dvec3 wi = cosine_direction(v.normal, q.u, q.v, mu_i);
             const InstanceData& inst = m_instances[v.instance];
             const double shape = shape_at(inst, mu_i, glm::dot(v.normal, v.wo), glm::dot(wi, v.wo));
+            // Cosine-distributed directions weigh any BRDF f by π·f: the cloth's sheen too (a
+            // lobe this broad needs no sampling of its own).
             if (v.sheen > 0.0)
                 v.throughput *= (1.0 - v.sheen) * v.albedo * shape + glm::dvec3(v.sheen * sheen_weight(v, wi));
             else
