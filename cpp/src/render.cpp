@@ -414,7 +414,9 @@ private:
         } else {
             v.albedo = f.albedo;
         }
-        const glm::dvec3 shading = t * f.normal.x + b * f.normal.y + n * f.normal.z;
+        // Dust fills the weave's pits: under cover m the relief flattens toward the mean surface.
+        const glm::dvec3 weave = w.dust ? glm::mix(f.normal, glm::dvec3(0.0, 0.0, 1.0), dirt) : f.normal;
+        const glm::dvec3 shading = t * weave.x + b * weave.y + n * weave.z;
         v.shading = shading / glm::length(shading);
         if (w.fabric.sheen > 0.0) {
             v.sheen = w.fabric.sheen * (1.0 - std::min(dirt, 1.0));  // dirt is matte: it covers the gloss

@@ -18,7 +18,9 @@
 //
 // The bag's colour is then the area mix lerp(clean, dust, m): a dusted patch takes the dust's own
 // albedo, with no extra darkening (the paper's lerp(clean, m·dirt, m) darkens as m², which reads
-// as dark spots). Deterministic: counter-based draws keyed by (seed, deposit index).
+// as dark spots). Dust is matte and fills the weave: the renderer scales the cloth's sheen by
+// 1 − m and flattens the weave's normal toward the mean surface by m. Deterministic:
+// counter-based draws keyed by (seed, deposit index).
 #pragma once
 
 #include <cstddef>
