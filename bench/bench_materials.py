@@ -27,7 +27,7 @@ OFF = {"terrain.photometry.grain.albedo_rms": 0.0, "terrain.photometry.grain.slo
        "bags.fabric.sheen": 0.0}
 VARIANTS = {
     "off": OFF,
-    "grain": {**OFF, "terrain.photometry.grain.albedo_rms": 0.08, "terrain.photometry.grain.slope_rms_deg": 15.0},
+    "grain": {**OFF, "terrain.photometry.grain.albedo_rms": 0.08, "terrain.photometry.grain.slope_rms_deg": 12.5},
     "sheen": {**OFF, "bags.fabric.sheen": 0.1},
     "stamp90": {**OFF, "bags.stain.seeds": 90},
     "dust90": {**OFF, "bags.stain.seeds": 90, "bags.stain.mode": "dust"},
