@@ -59,6 +59,11 @@ struct PathVertex {
     double cos_light[2];    // normal · light dir, per light
     bool alive;
     bool shaded_apart;      // `shading` differs from `normal`
+    // The cloth's glossy tapes (fabric.h "Sheen"), at camera hits on cloth with sheen only:
+    double sheen;             // its weight s; 0 elsewhere, and then nothing below is read
+    const FabricParams* fabric;
+    FabricSample weave;       // the prefiltered weave at the hit
+    glm::dvec3 warp, weft;    // unit, with `shading` the frame the lobes are oriented in
 };
 
 /// One marched ray of a strided dust march (Medium::march_stride_px): where it crosses the grid
@@ -240,8 +245,10 @@ private:
             v.albedo = albedo_at(inst, tri.prim, h.u, h.v);
             v.shading = v.normal;
             v.shaded_apart = inst.woven != nullptr || inst.vertex_normals != nullptr;
+            v.sheen = 0.0;
             if (inst.vertex_normals) v.shading = shading_normal_at(inst, tri.prim, h.u, h.v, v.normal);
             if (inst.woven) cloth(inst, tri, h, dir, v);
+            if (inst.grain) regolith_grain(*inst.grain, h, dir, v);
             v.cos_light[0] = tri.cos_sun[h.side];
             for (size_t l = 1; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(v.normal, m_lights[l].dir);
             if (m_medium && m_sun) s.sun_dust[i] = m_medium->sun_transmittance(v.point);
@@ -333,6 +340,32 @@ private:
         }
     }
 
+    /// One pixel's width on the surface of a camera hit (metres): its angle 1/fx at the hit's
+    /// distance, stretched by the obliquity to the unit normal `n` (capped so a grazing hit still
+    /// gets a finite blur). The footprint textures are prefiltered over.
+    double pixel_footprint(const PixelHit& h, const glm::dvec3& dir, const glm::dvec3& n) const {
+        const double length = glm::length(dir);
+        const double distance = h.t * length;
+        const double obliquity = std::max(std::abs(glm::dot(n, dir)) / length, 0.1);
+        return distance / m_camera.intrinsics().fx / obliquity;
+    }
+
+    /// Regolith's granular micro-texture at a camera hit (regolith_texture.h), prefiltered over
+    /// the pixel's footprint: it scales the albedo and tilts the shading normal. Beyond the
+    /// texture's flat footprint nothing changes. A tilt that would turn the shading normal away
+    /// from the camera is dropped (a bump map cannot show a facet the geometry hides).
+    void regolith_grain(const RegolithGrain& grain, const PixelHit& h, const glm::dvec3& dir, PathVertex& v) const {
+        const double footprint = pixel_footprint(h, dir, v.shading);
+        if (!(footprint < grain.flat_footprint_m())) return;
+        const GrainSample g = grain.eval(v.point, footprint);
+        v.albedo *= g.albedo_factor;
+        if (g.gradient == glm::dvec3(0.0)) return;
+        const glm::dvec3 tilted = perturbed_normal(v.shading, g.gradient);
+        if (!(glm::dot(tilted, v.wo) > 0.0)) return;
+        v.shading = tilted;
+        v.shaded_apart = true;
+    }
+
     /// The bag's cloth at a camera hit: where the hit lies in the UV atlas, the weave there
     /// prefiltered over the pixel's footprint, the stain mask's value, and the weave's normal in
     /// the world (the tangent frame follows the atlas: +u along the warp, +v along the weft).
@@ -367,16 +400,49 @@ private:
         } else {
             orthonormal_basis(n, t, b);  // a degenerate UV triangle: any frame (the weave is then arbitrary)
         }
-        // One pixel's width on the cloth: its angle 1/fx at the hit's distance, stretched by the
-        // obliquity (capped so a grazing hit still gets a finite blur).
-        const double length = glm::length(dir);
-        const double distance = h.t * length;
-        const double obliquity = std::max(std::abs(glm::dot(n, dir)) / length, 0.1);
-        const double footprint = distance / m_camera.intrinsics().fx / obliquity;
+        const double footprint = pixel_footprint(h, dir, n);
         const FabricSample f = fabric_eval(w.fabric, st.x * w.metres_per_uv, st.y * w.metres_per_uv, footprint);
-        v.albedo = inst.stain ? stained_base_colour(f.albedo, inst.stain->sample(st.x, st.y), w.dirt_colour) : f.albedo;
-        const glm::dvec3 shading = t * f.normal.x + b * f.normal.y + n * f.normal.z;
+        double dirt = 0.0;  // the stain mask's value or the dust's cover
+        if (w.dust) {
+            const glm::dvec3 object_point = (1.0 - b1 - b2) * object_vertex(inst, corner[0]) +
+                                            b1 * object_vertex(inst, corner[1]) + b2 * object_vertex(inst, corner[2]);
+            dirt = w.dust->coverage(object_point, footprint);
+            v.albedo = dusted_colour(f.albedo, dirt, w.dirt_colour);
+        } else if (inst.stain) {
+            dirt = inst.stain->sample(st.x, st.y);
+            v.albedo = stained_base_colour(f.albedo, dirt, w.dirt_colour);
+        } else {
+            v.albedo = f.albedo;
+        }
+        // Dust fills the weave's pits: under cover m the relief flattens toward the mean surface.
+        const glm::dvec3 weave = w.dust ? glm::mix(f.normal, glm::dvec3(0.0, 0.0, 1.0), dirt) : f.normal;
+        const glm::dvec3 shading = t * weave.x + b * weave.y + n * weave.z;
         v.shading = shading / glm::length(shading);
+        if (w.fabric.sheen > 0.0) {
+            v.sheen = w.fabric.sheen * (1.0 - std::min(dirt, 1.0));  // dirt is matte: it covers the gloss
+            v.fabric = &w.fabric;
+            v.weave = f;
+            // The warp direction in the weave's own tangent plane.
+            const glm::dvec3 warp = t - v.shading * glm::dot(v.shading, t);
+            v.warp = warp / glm::length(warp);
+            v.weft = glm::cross(v.shading, v.warp);
+            if (glm::dot(v.weft, b) < 0.0) v.weft = -v.weft;
+        }
+    }
+
+    /// Vertex `i` of instance `inst`'s mesh in its object frame, metres.
+    static glm::dvec3 object_vertex(const InstanceData& inst, uint32_t i) {
+        const float* p = inst.vertices + 3 * static_cast<size_t>(i);
+        return {p[0], p[1], p[2]};
+    }
+
+    /// The cloth's sheen at vertex `v` for light arriving from `wi` (unit, world): π·f_sheen, in
+    /// the units of the renderer's albedo·shape (a Lambertian's π·f).
+    static double sheen_weight(const PathVertex& v, const glm::dvec3& wi) {
+        auto local = [&](const glm::dvec3& w) {
+            return glm::dvec3(glm::dot(w, v.warp), glm::dot(w, v.weft), glm::dot(w, v.shading));
+        };
+        return kPi * cloth_sheen(*v.fabric, v.weave, local(wi), local(v.wo));
     }
 
     /// Adds every light's contribution at the live path vertices to their pixels: `samples`
@@ -433,6 +499,13 @@ private:
                 // Grouped so that a Lambertian surface under a point Sun, seen directly, gets
                 // exactly albedo·(E/π·μi): every other factor is then 1.
                 const double dust = sun_dust && &light == m_sun ? sun_dust[i] : 1.0;
+                if (v.sheen > 0.0) {
+                    // The cloth's (1 − s)·albedo/π·shape + s·f_sheen.
+                    const glm::dvec3 brdf = (1.0 - v.sheen) * v.albedo * shape + glm::dvec3(v.sheen * sheen_weight(v, light.dir));
+                    s.radiance[i] += (brdf * (light.scale * mu_i)) *
+                                     ((double(s.visible[i]) / rays_per_vertex) * dust) * light.color * v.throughput;
+                    continue;
+                }
                 s.radiance[i] += (v.albedo * (light.scale * mu_i)) *
                                  (shape * (double(s.visible[i]) / rays_per_vertex) * dust) * light.color * v.throughput;
             }
@@ -452,7 +525,12 @@ private:
             const glm::dvec3 wi = cosine_direction(v.normal, q.u, q.v, mu_i);
             const InstanceData& inst = m_instances[v.instance];
             const double shape = shape_at(inst, mu_i, glm::dot(v.normal, v.wo), glm::dot(wi, v.wo));
-            v.throughput *= v.albedo * shape;
+            // Cosine-distributed directions weigh any BRDF f by π·f: the cloth's sheen too (a
+            // lobe this broad needs no sampling of its own).
+            if (v.sheen > 0.0)
+                v.throughput *= (1.0 - v.sheen) * v.albedo * shape + glm::dvec3(v.sheen * sheen_weight(v, wi));
+            else
+                v.throughput *= v.albedo * shape;
             if (!(mu_i > 0.0) || v.throughput == glm::dvec3(0.0)) {
                 v.alive = false;
                 continue;
@@ -487,6 +565,7 @@ private:
             v.lifted = lift_off(v.point, normal, triangle_reach(inst, ray.prim_id));
             v.shading = normal;
             v.shaded_apart = false;
+            v.sheen = 0.0;
             // Cloth met by a bounce shows its mean colour: neither weave nor stain is resolved
             // by the light it passes on.
             v.albedo = albedo_at(inst, ray.prim_id, ray.u, ray.v);

@@ -18,6 +18,7 @@ void check_material(const Material& m) {
     const WovenSurface& w = *m.woven;
     w.fabric.validate();
     w.stain.validate();
+    if (w.stain_mode == StainMode::Dust) w.soiling.validate();
     if (!(std::isfinite(w.metres_per_uv) && w.metres_per_uv > 0))
         throw std::invalid_argument("metres_per_uv: must be positive and finite");
     for (int c = 0; c < 3; ++c)
@@ -164,10 +165,23 @@ uint32_t Scene::add(uint32_t mesh, const glm::dmat4& world_from_object, uint8_t 
     if (material.woven) {
         // Whatever the instance, fabric colour is the material's albedo.
         inst.material.woven->fabric.albedo = glm::dvec3(material.albedo);
-        std::unique_ptr<StainMask> mask = paint_stain(material.woven->stain, material.woven->stain_seed);
-        if (mask) {  // zero stamps: no mask, nothing allocated
-            inst.stain = mask.get();
-            m_stains.push_back(std::move(mask));
+        WovenSurface& w = *inst.material.woven;
+        w.dust = nullptr;
+        if (w.stain_mode == StainMode::Dust) {
+            if (w.stain.stamps > 0) {  // zero deposits: no dust made
+                SoilingParams p = w.soiling;
+                p.deposits = w.stain.stamps;
+                p.opacity = w.stain.opacity;
+                const Mesh& m = *m_meshes[mesh];
+                w.dust = std::make_shared<const Soiling>(p, w.stain_seed, m.vertices.data(), m.vertex_count(),
+                                                         m.triangles.data(), m.triangle_count());
+            }
+        } else {
+            std::unique_ptr<StainMask> mask = paint_stain(w.stain, w.stain_seed);
+            if (mask) {  // zero stamps: no mask, nothing allocated
+                inst.stain = mask.get();
+                m_stains.push_back(std::move(mask));
+            }
         }
     }
     const uint32_t index = m_accel.add_instance(mesh, xfm);

@@ -66,6 +66,54 @@ class SunConfig:
         "Earthshine: linear RGB tint relative to sunlight (bluish: Rayleigh and oceans)", lo=0.0, hi=10.0, length=3))
 
 
+# Var of one octave of value noise (lattice values uniform on [-1, 1], cubic fade): 1/3·(26/35)^3
+# (cpp/include/moonbot/regolith_texture.h), which bounds the albedo factor below.
+VALUE_NOISE_VARIANCE = (26.0 / 35.0) ** 3 / 3.0
+
+
+@dataclass(frozen=True)
+class GrainConfig:
+    """Regolith's granular micro-texture at camera hits (cpp/include/moonbot/regolith_texture.h):
+    albedo speckle and mm-cm relief below the terrain mesh's spacing, octaves of value noise of
+    cells finest_cell_m·2^k up to coarsest_cell_m, a function of the world position prefiltered
+    over each pixel's footprint (far ground gets exactly the mean albedo and no tilt). Applied to
+    the terrain, rocks and ejecta fragments. albedo_rms and slope_rms_deg both 0 = off: no texture
+    code runs. The relief's slope spread adds (in tan²) to the mesh's relief and to a Hapke θ̄."""
+
+    albedo_rms: float = field(default=0.08, metadata=spec(
+        "relative RMS of the albedo factor at full resolution (mean 1 exactly)", lo=0.0, hi=0.5))
+    slope_rms_deg: float = field(default=12.5, metadata=spec(
+        "1-D RMS slope (RMS of tan along any surface direction) of the relief at full resolution, degrees "
+        "(12.5: the mare slope law's share between 1 cm and 1 mm, tan² of 13.9° at 1 mm less 6.3° at 1 cm)",
+        lo=0.0, hi=45.0))
+    finest_cell_m: float = field(default=0.001, metadata=spec(
+        "smallest lattice cell, metres (clods, mm rock chips)", lo=1e-5, hi=1.0))
+    coarsest_cell_m: float = field(default=0.016, metadata=spec(
+        "largest lattice cell, metres (octaves double up to it; below the mesh's 2 cm relief)", lo=1e-5, hi=1.0))
+    hurst: float = field(default=0.6, metadata=spec(
+        "relief amplitude grows with scale as cell^hurst (regolith 0.54-0.7 at 0.1 mm-cm)", lo=0.0, hi=1.0))
+    seed: int = field(default=0, metadata=spec("keys the texture's lattices", lo=0, hi=2**63 - 1))
+
+    @property
+    def enabled(self) -> bool:
+        return self.albedo_rms > 0.0 or self.slope_rms_deg > 0.0
+
+    @property
+    def octaves(self) -> int:
+        return int(math.floor(math.log2(self.coarsest_cell_m / self.finest_cell_m * (1 + 1e-9)))) + 1
+
+    def __post_init__(self) -> None:
+        if self.coarsest_cell_m < self.finest_cell_m:
+            raise ValueError(f"coarsest_cell_m: must be >= finest_cell_m = {self.finest_cell_m}, "
+                             f"got {self.coarsest_cell_m}")
+        if self.octaves > 16:
+            raise ValueError("coarsest_cell_m: at most 16 octaves (coarsest/finest <= 2^15)")
+        limit = math.sqrt(VALUE_NOISE_VARIANCE / self.octaves)
+        if self.albedo_rms >= limit:
+            raise ValueError(f"albedo_rms: must be < {limit:.4f} for {self.octaves} octaves (the albedo "
+                             f"factor would reach 0), got {self.albedo_rms}")
+
+
 @dataclass(frozen=True)
 class PhotometryConfig:
     """How regolith (terrain and rocks) reflects: moonbot/photometry.h, lunar-physics.md §1.
@@ -108,6 +156,7 @@ class PhotometryConfig:
     cboe_width: float = field(default=1.0, metadata=spec(
         "hapke: coherent-backscatter width h_C (unused while cboe_amplitude is 0)",
         lo=0.0, hi=10.0, lo_open=True))
+    grain: GrainConfig = field(default_factory=GrainConfig)
 
 
 @dataclass(frozen=True)
@@ -372,13 +421,23 @@ class FabricConfig:
         "height of a yarn float's crown over the pits between yarns, metres", lo=0.0, hi=0.01))
     contrast: float = field(default=0.04, metadata=spec(
         "albedo modulation between crowns (+) and pits (-), a fraction of the mean", lo=0.0, hi=1.0))
+    sheen: float = field(default=0.1, metadata=spec(
+        "weight s of the polypropylene tapes' glossy lobe: BRDF (1-s)·albedo/π + s·f_tape, an anisotropic "
+        "GGX lobe oriented along each tape (cpp/include/moonbot/fabric.h); 0 = matte", lo=0.0, hi=1.0))
+    sheen_along: float = field(default=0.35, metadata=spec(
+        "GGX roughness of a tape along its length (the over-under waviness)", lo=0.01, hi=1.0))
+    sheen_across: float = field(default=0.12, metadata=spec(
+        "GGX roughness of a tape across its width (flat slit film)", lo=0.01, hi=1.0))
 
 
 @dataclass(frozen=True)
 class StainConfig:
-    """Dirt on the bags (paper 3.4; cpp/include/moonbot/stain.h): per bag a UV mask of
+    """Dirt on the bags. mode stamp (paper 3.4; cpp/include/moonbot/stain.h): per bag a UV mask of
     `resolution`^2 texels accumulates `seeds` splats of side `brush_size` (UV units) and
-    opacity `opacity` at random UV centres; base colour = lerp(clean, M * dirt_colour, M)."""
+    opacity `opacity` at random UV centres; base colour = lerp(clean, M * dirt_colour, M).
+    mode dust (cpp/include/moonbot/soiling.h): `seeds` deposits of regolith dust near the bottom
+    and the top of each bag plus a band along its ground contact, grainy where partial; base
+    colour = lerp(clean, dirt_colour, m)."""
 
     seeds: int = field(default=0, metadata=spec(
         "number of stamps per bag (the paper sweeps 0, 15, 30, 90); 0 = clean, no mask allocated",
@@ -393,6 +452,19 @@ class StainConfig:
         lo=0.0, hi=1.0, length=3))
     resolution: int = field(default=512, metadata=spec(
         "mask texels per side (512: 2 mm texels on the default bag, 1 MiB per bag)", lo=1, hi=8192))
+    mode: Literal["stamp", "dust"] = field(default="stamp", metadata=spec(
+        "stamp: the paper's splat stamps into a UV mask; dust: regolith dust gathered at the ground "
+        "contact and where handled, grainy at its edges (cpp/include/moonbot/soiling.h; seeds deposits "
+        "of opacity `opacity`, colour dirt_colour)"))
+    contact_height_m: float = field(default=0.025, metadata=spec(
+        "dust: e-folding height of the dust band above the bag's lowest point, metres", lo=0.0, hi=1.0,
+        lo_open=True))
+    deposit_radius_m: float = field(default=0.04, metadata=spec(
+        "dust: mean radius of one deposit, metres (radii 0.6-1.4 times it)", lo=0.0, hi=1.0, lo_open=True))
+    handled_share: float = field(default=0.25, metadata=spec(
+        "dust: share of deposits left near the top by handling (the rest near the bottom)", lo=0.0, hi=1.0))
+    speckle: float = field(default=0.8, metadata=spec(
+        "dust: strength of the grainy break-up of partial cover (0 = smooth)", lo=0.0, hi=2.0))
 
 
 @dataclass(frozen=True)

@@ -13,27 +13,44 @@
 #include "moonbot/accel.h"
 #include "moonbot/fabric.h"
 #include "moonbot/photometry.h"
+#include "moonbot/regolith_texture.h"
+#include "moonbot/soiling.h"
 #include "moonbot/stain.h"
 
 namespace moonbot {
 
+/// How a bag's dirt is made.
+enum class StainMode : uint8_t {
+    Stamp,  ///< the paper's splat stamps into a UV mask (stain.h)
+    Dust,   ///< regolith dust gathered at the ground contact and where handled (soiling.h)
+};
+
 /// A bag's cloth: the woven fabric (fabric.h; its mean colour is the material's albedo) laid on
-/// the mesh's corner UVs at `metres_per_uv`, and the paper's dirt stain (stain.h) painted for
-/// this instance from `stain_seed` — with stain.stamps = 0, no mask is painted or allocated.
+/// the mesh's corner UVs at `metres_per_uv`, and its dirt, made for this instance from
+/// `stain_seed` — in Stamp mode the paper's stain (stain.h) painted into a mask, in Dust mode
+/// regolith dust (soiling.h, with stain.stamps deposits and stain.opacity); with stain.stamps = 0
+/// neither is made or allocated.
 struct WovenSurface {
     FabricParams fabric;
     double metres_per_uv = 1.0;  ///< fabric metres per atlas UV unit (bag_mesh.uv_atlas's scale)
     StainParams stain;
     uint64_t stain_seed = 0;
     glm::dvec3 dirt_colour{0.12, 0.11, 0.10};  ///< linear RGB
+    StainMode stain_mode = StainMode::Stamp;
+    SoilingParams soiling;  ///< Dust mode's shape (its deposits and opacity are taken from `stain`)
+    /// Set by Scene::add_instance in Dust mode with stamps > 0: this instance's dust.
+    std::shared_ptr<const Soiling> dust;
 };
 
 /// A surface: `albedo` linear RGB in [0, 1] and the photometric function that shapes it (the
-/// BRDF is albedo/π · photometric_shape(...); Lambertian by default); optionally woven.
+/// BRDF is albedo/π · photometric_shape(...); Lambertian by default); optionally woven; optionally
+/// regolith's granular micro-texture (regolith_texture.h) at camera hits, which multiplies the
+/// albedo and tilts the shading normal (null: none, and none of its code runs).
 struct Material {
     glm::vec3 albedo{0.5f};
     Photometry photometry{};
     std::optional<WovenSurface> woven;
+    std::shared_ptr<const RegolithGrain> grain;
 };
 
 /// A prototype mesh, held by the scene for the lifetime of its BVH.
