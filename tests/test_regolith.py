@@ -66,16 +66,21 @@ def test_the_mesh_has_the_law_s_slope_where_it_resolves_the_relief(mesh_slopes):
 
 
 def test_resolved_and_unresolved_slopes_add_up_to_the_law_at_its_smallest_scale(mesh_slopes):
-    """The mesh's facet slope (one cell) ⊕ the photometric roughness θ̄ the default config gives
-    the Hapke model = the law's total at 0.1 mm, in tan², to within 0.2° of θ̄."""
+    """The mesh's facet slope (one cell) ⊕ the grain's relief (terrain.photometry.grain, the
+    shading-normal texture below the mesh) ⊕ the photometric roughness θ̄ the default config
+    gives the Hapke model = the law's total at 0.1 mm, in tan², to within 0.2° of θ̄."""
     _, measured, law = mesh_slopes
     config = load_config(None, {})
     smallest = config.terrain.roughness.smallest_m
     facet = float(measured[0])
-    expected = unresolved_theta_bar_deg(law, smallest, facet)
+    grain = math.tan(math.radians(config.terrain.photometry.grain.slope_rms_deg))
+    expected = unresolved_theta_bar_deg(law, smallest, math.hypot(facet, grain))
     assert config.terrain.photometry.roughness_deg == pytest.approx(expected, abs=0.2)
     total = math.degrees(math.atan(float(law.tan_slope(smallest)) / math.sqrt(math.pi / 2)))
-    assert total - expected < 0.5  # a mesh at cm scales takes little of θ̄ (small, not zero)
+    # The mesh takes little of θ̄ (small, not zero); the grain's 1 cm–1 mm share takes a little more.
+    assert 0.5 < total - expected < 3.0
+    # Without the grain, θ̄ would cover everything below the mesh.
+    assert unresolved_theta_bar_deg(law, smallest, facet) - expected > 1.0
 
 
 def test_craters_reach_down_to_five_centimetres_in_the_fine_tile():

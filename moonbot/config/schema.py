@@ -143,11 +143,11 @@ class PhotometryConfig:
     c: float = field(default=0.30, metadata=spec(
         "hapke: weight of the back-scattering lobe, p = (1+c)/2·back + (1-c)/2·forward; c > 0 "
         "scatters back toward the Sun (Sato et al. 2014: 0.30)", lo=-1.0, hi=1.0))
-    roughness_deg: float = field(default=23.5, metadata=spec(
+    roughness_deg: float = field(default=21.6, metadata=spec(
         "hapke: macroscopic roughness, the mean facet slope θ̄ of Hapke 1984, degrees, of the relief "
-        "the terrain mesh does not hold: terrain.roughness's law at smallest_m (29°, θ̄ 23.8°) less the "
-        "1 cm mesh's 5.5° facet slope, added in tan² (Sato et al. 2014 fitted 23.4 to orbital "
-        "images; 0 = smooth)", lo=0.0, hi=60.0))
+        "neither the terrain mesh nor the grain holds: terrain.roughness's law at smallest_m (29°, "
+        "θ̄ 23.8°) less the 1 cm mesh's 5.5° facet slope and the grain's 12.5°, in tan² (23.5 with "
+        "the grain off; Sato et al. 2014 fitted 23.4 to orbital images; 0 = smooth)", lo=0.0, hi=60.0))
     filling_factor: float = field(default=0.3, metadata=spec(
         "hapke: volume fraction of grains φ (1 - porosity), giving Hapke's porosity factor "
         "K = -ln(1 - 1.209 φ^(2/3))/(1.209 φ^(2/3)) (0.3: K = 1.44; 0: K = 1)", lo=0.0, hi=0.75))
