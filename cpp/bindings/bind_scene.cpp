@@ -220,12 +220,15 @@ void bind_scene(py::module_& m) {
         .def(
             "add_background",
             [](Scene& s, uint32_t mesh, const py::handle& world_from_object, const py::handle& albedo,
-               const Photometry& photometry) {
+               const Photometry& photometry, bool moving) {
                 return s.add_background(mesh, matrix<4, 4>(world_from_object, "world_from_object"),
-                                        material(albedo, photometry));
+                                        material(albedo, photometry), moving);
             },
             py::arg("mesh"), py::arg("world_from_object"), py::arg("albedo"), py::arg("photometry") = Photometry{},
-            "Add unlabelled geometry (terrain, rocks): label 0 in masks. Returns the instance index.")
+            py::arg("moving") = false,
+            "Add unlabelled geometry (terrain, rocks): label 0 in masks. moving: it moves between views (the "
+            "dust's ejecta), so a LightCache neither caches it nor lets it shade what it caches. Returns the "
+            "instance index.")
         .def("commit", &Scene::commit, py::call_guard<py::gil_scoped_release>(),
              "Build the top-level BVH; required before rendering.")
         .def(

@@ -121,7 +121,8 @@ class SceneDust:
             fragments, vertices = self._fragments[view]
             if self._mesh is None:
                 self._mesh = self._scene.add_mesh(vertices, self._triangles)
-                self._scene.add_background(self._mesh, np.eye(4), self._albedo, self._photometry)
+                # Moving: a light cache neither caches the fragments nor lets them shade what it does.
+                self._scene.add_background(self._mesh, np.eye(4), self._albedo, self._photometry, moving=True)
                 self._scene.commit()
             elif self._current != view:
                 self._scene.update_mesh(self._mesh, vertices)
