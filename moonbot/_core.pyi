@@ -79,6 +79,8 @@ class Sun:
 class LightCacheStats(TypedDict):
     vertices: int
     blocks: int
+    nodes: int
+    probe_rays: int
     gather_rays: int
     shadow_rays: int
     bytes: int
@@ -87,7 +89,8 @@ class LightCacheStats(TypedDict):
 
 class LightCache:
     def __init__(self, scene: Scene, sun: Sun, earth: Sun | None = None, bounces: int = 2,
-                 rays_objects: int = 256, rays_background: int = 64, seed: int = 0, threads: int = 0) -> None: ...
+                 rays_objects: int = 256, rays_background: int = 64, background_cell_m: float = 0.0, object_cell_m: float = 0.0,
+                 seed: int = 0, threads: int = 0) -> None: ...
     def covers(self, instance: int) -> bool: ...
     def vertex(self, instance: int, vertex: int) -> tuple[tuple[float, float, float], tuple[float, float, float]]: ...
     def fill_all(self) -> None: ...

@@ -13,18 +13,21 @@ void bind_light_cache(py::module_& m) {
                            "(cpp/include/moonbot/light_cache.h): filled per vertex on first touch by render(), "
                            "shared by every view of the scene.")
         .def(py::init([](const Scene& scene, const Sun& sun, const std::optional<Sun>& earth, int bounces,
-                         int rays_objects, int rays_background, uint64_t seed, int threads) {
+                         int rays_objects, int rays_background, double background_cell_m, double object_cell_m, uint64_t seed,
+                         int threads) {
                  return std::make_unique<LightCache>(
                      scene, Lights{sun, earth},
-                     LightCacheSettings{bounces, rays_objects, rays_background, seed, threads});
+                     LightCacheSettings{bounces, rays_objects, rays_background, background_cell_m, object_cell_m, seed,
+                                        threads});
              }),
              py::arg("scene"), py::arg("sun"), py::arg("earth") = py::none(), py::arg("bounces") = 2,
-             py::arg("rays_objects") = 256, py::arg("rays_background") = 64, py::arg("seed") = 0,
+             py::arg("rays_objects") = 256, py::arg("rays_background") = 64, py::arg("background_cell_m") = 0.0, py::arg("object_cell_m") = 0.0, py::arg("seed") = 0,
              py::arg("threads") = 0,
              py::keep_alive<1, 2>(),  // the cache reads the scene's meshes for its whole life
              "bounces: path vertices after each gather point (as render's bounces, 1..16); rays_objects / "
-             "rays_background: gather rays per vertex on labelled instances (bags) / background (terrain, "
-             "rocks); seed: keys the gather rays; threads: of fill_all (0 = all).")
+             "rays_background: gather rays per vertex on labelled instances (bags) / per vertex or lattice node on "
+             "background (terrain, rocks); background_cell_m: the background's world-space lattice spacing, metres "
+             "(0 = per vertex); object_cell_m: the same for labelled instances; seed: keys the gather rays; threads: of fill_all (0 = all).")
         .def("covers", &LightCache::covers, py::arg("instance"),
              "Whether instance `instance` is cached (it was not moving when the cache was built).")
         .def(
@@ -50,6 +53,8 @@ void bind_light_cache(py::module_& m) {
                 py::dict d;
                 d["vertices"] = s.vertices;
                 d["blocks"] = s.blocks;
+                d["nodes"] = s.nodes;
+                d["probe_rays"] = s.probe_rays;
                 d["gather_rays"] = s.gather_rays;
                 d["shadow_rays"] = s.shadow_rays;
                 d["bytes"] = s.bytes;
@@ -57,7 +62,7 @@ void bind_light_cache(py::module_& m) {
                 d["fill_seconds"] = s.fill_seconds;
                 return d;
             },
-            "Cumulative: vertices filled, blocks allocated, gather_rays and shadow_rays they traced (each "
+            "Cumulative: vertices filled, blocks allocated, background lattice nodes and their probe_rays, gather_rays and shadow_rays they traced (each "
             "vertex counted once: deterministic), bytes held, redundant_fills (vertices a racing thread "
             "computed again) and fill_seconds (thread-seconds; these two depend on the threads).");
 }

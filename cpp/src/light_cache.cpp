@@ -3,10 +3,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
 #include <tbb/blocked_range.h>
+#include <tbb/concurrent_hash_map.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
@@ -30,6 +33,9 @@ constexpr double kInvPi = 1.0 / kPi;
 constexpr uint32_t kPairsPerBounce = 32;
 // Keeps the cache's random streams apart from the pixels' (rng.h pixel_stream) under one seed.
 constexpr uint64_t kCacheStreamSalt = 0x6C69676874636163ull;  // "lightcac"
+constexpr uint64_t kNodeStreamSalt = 0x6C61747469636521ull;   // "lattice!"
+// Lattice indices are packed 20 bits an axis: ±2^19 cells (±26 km at 5 cm).
+constexpr int64_t kLatticeHalfRange = int64_t(1) << 19;
 
 /// A light as the gather paths use it (render.cpp's LightData, the same sampling).
 struct GatherLight {
@@ -109,10 +115,67 @@ std::vector<float> area_weighted_normals(const Mesh& mesh) {
     return out;
 }
 
+/// Key of a lattice node: its integer coordinates (world / cell size) across its bin's axis and
+/// the normal bin of the surface it stands for (normal_bin).
+uint64_t node_key(int64_t i, int64_t j, int bin) {
+    auto field = [](int64_t c) { return static_cast<uint64_t>(c + kLatticeHalfRange) & 0xFFFFFFull; };
+    return field(i) | (field(j) << 24) | (static_cast<uint64_t>(bin) << 48);
+}
+
+/// Which of six directions a unit normal leans toward most: 2·axis + (component < 0). Surfaces
+/// of different bins never share a lattice node (a rock's sides, its top and the ground beside it).
+int normal_bin(const glm::dvec3& n) {
+    const glm::dvec3 a = glm::abs(n);
+    const int axis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
+    return 2 * axis + (n[axis] < 0.0 ? 1 : 0);
+}
+
+/// A background instance's lattice: its world bounds (where probes start), which vertices read
+/// it, and the nodes probed so far.
+struct Lattice {
+    double spacing = 0.0;  // metres
+    int rays = 0;          // gather rays per node
+    glm::dvec3 lo{std::numeric_limits<double>::infinity()}, hi{-std::numeric_limits<double>::infinity()};
+    std::vector<bool> fine;  // per vertex: every triangle edge at it is shorter than the spacing
+    // A node's value: the irradiance at the surface its probe met, or none (see lattice_node).
+    using Nodes = tbb::concurrent_hash_map<uint64_t, std::optional<IndirectLight>>;
+    Nodes nodes;
+};
+
+
+/// Instance `inst`'s lattice of spacing `h` over `mesh`: its world bounds and which vertices
+/// are fine enough to read it.
+std::unique_ptr<Lattice> make_lattice(const InstanceData& inst, const Mesh& mesh, double h, int rays) {
+    auto lattice = std::make_unique<Lattice>();
+    lattice->spacing = h;
+    lattice->rays = rays;
+    const size_t nv = mesh.vertex_count();
+    std::vector<glm::dvec3> world(nv);
+    for (size_t v = 0; v < nv; ++v) {
+        world[v] = inst.linear * mesh.vertex(static_cast<uint32_t>(v)) + inst.translation;
+        lattice->lo = glm::min(lattice->lo, world[v]);
+        lattice->hi = glm::max(lattice->hi, world[v]);
+    }
+    lattice->fine.assign(nv, true);
+    const double h2 = h * h;
+    for (size_t t = 0; t < mesh.triangle_count(); ++t) {
+        const uint32_t* c = &mesh.triangles[3 * t];
+        for (int k = 0; k < 3; ++k) {
+            const glm::dvec3 e = world[c[(k + 1) % 3]] - world[c[k]];
+            if (glm::dot(e, e) < h2) continue;
+            lattice->fine[c[k]] = false;
+            lattice->fine[c[(k + 1) % 3]] = false;
+        }
+    }
+    return lattice;
+}
+
 }  // namespace
 
 struct LightCache::Impl {
     std::vector<InstanceData> instances;
+    std::vector<std::unique_ptr<Lattice>> lattices;      // per background instance with a lattice, else null
+    std::atomic<uint64_t> n_nodes{0}, probe_rays{0};
     std::vector<GatherLight> lights;
     std::vector<bool> covered;                           // per instance
     std::vector<const float*> normals;                   // per instance: its mesh's vertex normals (object frame)
@@ -142,6 +205,12 @@ LightCache::LightCache(const Scene& scene, const Lights& lights, const LightCach
     if (settings.rays_background < 1 || settings.rays_background > kMaxGatherRays)
         throw std::invalid_argument("rays_background: must be in 1.." + std::to_string(kMaxGatherRays) +
                                     ", got " + std::to_string(settings.rays_background));
+    if (!(settings.background_cell_m >= 0.0) || !std::isfinite(settings.background_cell_m))
+        throw std::invalid_argument("background_cell_m: must be finite and >= 0, got " +
+                                    std::to_string(settings.background_cell_m));
+    if (!(settings.object_cell_m >= 0.0) || !std::isfinite(settings.object_cell_m))
+        throw std::invalid_argument("object_cell_m: must be finite and >= 0, got " +
+                                    std::to_string(settings.object_cell_m));
     if (settings.threads < 0 || settings.threads > kMaxThreads)
         throw std::invalid_argument("threads: must be in 0.." + std::to_string(kMaxThreads) +
                                     " (0 = all), got " + std::to_string(settings.threads));
@@ -157,6 +226,7 @@ LightCache::LightCache(const Scene& scene, const Lights& lights, const LightCach
     m.block_count.assign(n, 0);
     m.blocks.resize(n);
     m.computed_normals.resize(scene.mesh_count());
+    m.lattices.resize(n);
     for (uint32_t i = 0; i < n; ++i) {
         const Instance& inst = scene.instance(i);
         if (inst.moving) continue;
@@ -171,6 +241,13 @@ LightCache::LightCache(const Scene& scene, const Lights& lights, const LightCach
                 m.table_bytes += computed.size() * sizeof(float);
             }
             m.normals[i] = computed.data();
+        }
+        const bool labelled = inst.label != 0;
+        const double spacing = labelled ? settings.object_cell_m : settings.background_cell_m;
+        if (spacing > 0.0) {
+            m.lattices[i] = make_lattice(m.instances[i], mesh, spacing,
+                                         labelled ? settings.rays_objects : settings.rays_background);
+            m.table_bytes += sizeof(Lattice) + mesh.vertex_count() / 8;
         }
         m.vertex_count[i] = static_cast<uint32_t>(mesh.vertex_count());
         m.block_count[i] = (mesh.vertex_count() + kBlockVertices - 1) / kBlockVertices;
@@ -200,17 +277,14 @@ void vertex_frame(const InstanceData& inst, const float* normals, uint32_t verte
     normal = len > 0.0 ? normal / len : glm::dvec3(0.0, 0.0, 1.0);
 }
 
-/// The indirect irradiance at vertex `vertex` of instance `instance`: `rays` cosine-distributed
-/// gather rays about its normal, each continued for `bounces` path vertices as render.cpp's
-/// path tracer continues a bounce, all against the static geometry only.
+/// The indirect irradiance at `point` (world, metres) on a surface of unit `normal`: `rays`
+/// cosine-distributed gather rays about the normal (sample_pair's stream `stream`), each
+/// continued for `bounces` path vertices as render.cpp's path tracer continues a bounce, all
+/// against the static geometry only.
 IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instances,
-                     const std::vector<GatherLight>& lights, const float* normals, uint32_t instance,
-                     uint32_t vertex, int rays, int bounces, uint64_t seed, FillCounts& counts) {
-    const InstanceData& origin_inst = instances[instance];
-    glm::dvec3 point, normal;
-    vertex_frame(origin_inst, normals, vertex, point, normal);
+                     const std::vector<GatherLight>& lights, const glm::dvec3& point, const glm::dvec3& normal,
+                     uint64_t stream, int rays, int bounces, FillCounts& counts) {
     const glm::dvec3 lifted = lift_off(point, normal, largest_coordinate(point));
-    const uint64_t stream = pixel_stream(seed ^ kCacheStreamSalt, (static_cast<uint64_t>(instance) << 32) | vertex);
 
     const size_t n = static_cast<size_t>(rays);
     std::vector<GatherPath> paths(n);
@@ -356,15 +430,23 @@ IndirectLight LightCache::vertex(uint32_t instance, uint32_t vertex) const {
     const uint32_t j = vertex % kBlockVertices;
     uint8_t state = block->state[j].load(std::memory_order_acquire);
     if (state == kReady) return block->value[j];
-    const bool labelled = m.instances[instance].label != 0;
-    const int rays = labelled ? m_settings.rays_objects : m_settings.rays_background;
     const auto start = std::chrono::steady_clock::now();
     FillCounts counts;
-    const IndirectLight value = gather(m_scene.accel(), m.instances, m.lights, m.normals[instance], instance, vertex,
-                                       rays, m_settings.bounces, m_settings.seed, counts);
+    glm::dvec3 point, normal;
+    vertex_frame(m.instances[instance], m.normals[instance], vertex, point, normal);
+    std::optional<IndirectLight> value;
+    if (m.lattices[instance]) value = from_lattice(instance, vertex, point, normal);
+    if (!value) {
+        const bool labelled = m.instances[instance].label != 0;
+        const int rays = labelled ? m_settings.rays_objects : m_settings.rays_background;
+        const uint64_t stream =
+            pixel_stream(m_settings.seed ^ kCacheStreamSalt, (static_cast<uint64_t>(instance) << 32) | vertex);
+        value = gather(m_scene.accel(), m.instances, m.lights, point, normal, stream, rays, m_settings.bounces,
+                       counts);
+    }
     state = kEmpty;
     if (block->state[j].compare_exchange_strong(state, kFilling, std::memory_order_acq_rel)) {
-        block->value[j] = value;
+        block->value[j] = *value;
         block->state[j].store(kReady, std::memory_order_release);
         m.vertices.fetch_add(1, std::memory_order_relaxed);
         m.gather_rays.fetch_add(counts.gather_rays, std::memory_order_relaxed);
@@ -376,7 +458,81 @@ IndirectLight LightCache::vertex(uint32_t instance, uint32_t vertex) const {
     m.fill_nanoseconds.fetch_add(
         static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(elapsed).count()),
         std::memory_order_relaxed);
-    return value;
+    return *value;
+}
+
+std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_t vertex, const glm::dvec3& point,
+                                                      const glm::dvec3& normal) const {
+    const Lattice& lattice = *m_impl->lattices[instance];
+    if (!lattice.fine[vertex]) return std::nullopt;  // its triangles are as coarse as the lattice
+    const double h = lattice.spacing;
+    const int bin = normal_bin(normal);
+    const int a = bin / 2, b = (a + 1) % 3, c = (a + 2) % 3;  // the bin's axis and the plane across it
+    const double u = point[b] / h, v = point[c] / h;
+    const double u0 = std::floor(u), v0 = std::floor(v);
+    const double fu = u - u0, fv = v - v0;
+    IndirectLight out;
+    glm::dvec3 direction(0.0);
+    double total = 0.0;
+    for (int corner = 0; corner < 4; ++corner) {
+        const int du = corner & 1, dv = corner >> 1;
+        const double w = (du ? fu : 1.0 - fu) * (dv ? fv : 1.0 - fv);
+        if (!(w > 0.0)) continue;
+        const std::optional<IndirectLight> node =
+            lattice_node(instance, static_cast<int64_t>(u0) + du, static_cast<int64_t>(v0) + dv, bin);
+        if (!node) continue;
+        total += w;
+        out.irradiance += w * node->irradiance;
+        direction += (w * luminance(node->irradiance)) * node->direction;
+    }
+    if (!(total > 0.0)) return std::nullopt;
+    out.irradiance /= total;
+    const double len = glm::length(direction);
+    out.direction = len > 0.0 ? direction / len : glm::dvec3(0.0);
+    return out;
+}
+
+std::optional<IndirectLight> LightCache::lattice_node(uint32_t instance, int64_t i, int64_t j, int bin) const {
+    Impl& m = *m_impl;
+    Lattice& lattice = *m.lattices[instance];
+    const uint64_t key = node_key(i, j, bin);
+    {
+        Lattice::Nodes::const_accessor found;
+        if (lattice.nodes.find(found, key)) return found->second;
+    }
+    Lattice::Nodes::accessor slot;
+    // The first thread to insert computes it while holding the slot; the others wait in find.
+    if (!lattice.nodes.insert(slot, key)) return slot->second;
+    m.n_nodes.fetch_add(1, std::memory_order_relaxed);
+    // The probe comes from beyond the instance's bounds on the bin's side, against the bin.
+    const double h = lattice.spacing;
+    const int a = bin / 2, b = (a + 1) % 3, c = (a + 2) % 3;
+    const double sign = bin % 2 ? -1.0 : 1.0;
+    glm::dvec3 origin, along(0.0);
+    origin[a] = sign > 0.0 ? lattice.hi[a] + h : lattice.lo[a] - h;
+    origin[b] = static_cast<double>(i) * h;
+    origin[c] = static_cast<double>(j) * h;
+    along[a] = -sign;
+    RayHit probe;
+    set_ray(probe, origin, along);
+    probe.tfar = static_cast<float>(lattice.hi[a] - lattice.lo[a] + 2.0 * h);
+    probe.mask = kStaticGeometry;
+    m_scene.accel().intersect(&probe, 1);
+    m.probe_rays.fetch_add(1, std::memory_order_relaxed);
+    // Another instance in front (a bag, a rock on the ground), or a surface facing another bin:
+    // the node stands for nothing, and the vertices around it use their other nodes.
+    if (probe.geom_id == kInvalidId || probe.inst_id != instance) return std::nullopt;
+    const glm::dvec3 normal = normal_at(instance, probe.prim_id, probe.u, probe.v);
+    if (normal_bin(normal) != bin) return std::nullopt;
+    const glm::dvec3 point = origin + static_cast<double>(probe.tfar) * along;
+    FillCounts counts;
+    const uint64_t stream =
+        pixel_stream(m_settings.seed ^ kNodeStreamSalt, mix64(key) ^ (static_cast<uint64_t>(instance) << 32));
+    slot->second = gather(m_scene.accel(), m.instances, m.lights, point, normal, stream, lattice.rays,
+                          m_settings.bounces, counts);
+    m.gather_rays.fetch_add(counts.gather_rays, std::memory_order_relaxed);
+    m.shadow_rays.fetch_add(counts.shadow_rays, std::memory_order_relaxed);
+    return slot->second;
 }
 
 IndirectLight LightCache::at(uint32_t instance, uint32_t prim, double u, double v) const {
@@ -429,8 +585,12 @@ LightCacheStats LightCache::stats() const {
     s.gather_rays = m.gather_rays.load();
     s.shadow_rays = m.shadow_rays.load();
     s.redundant_fills = m.redundant.load();
+    s.nodes = m.n_nodes.load();
+    s.probe_rays = m.probe_rays.load();
     s.bytes = sizeof(LightCache) + sizeof(Impl) + m.table_bytes + m.instances.size() * sizeof(InstanceData) +
-              s.blocks * sizeof(Block);
+              s.blocks * sizeof(Block) +
+              // A node's entry: key, value and the map's list link and lock, about twice the pair.
+              s.nodes * 2 * sizeof(Lattice::Nodes::value_type);
     s.fill_seconds = static_cast<double>(m.fill_nanoseconds.load()) * 1e-9;
     return s;
 }

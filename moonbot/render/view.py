@@ -93,7 +93,9 @@ def build_light_cache(scene: _core.Scene, config: Config) -> _core.LightCache | 
         return None
     sun, earth = scene_lights(config)
     return _core.LightCache(scene, sun, earth, bounces=r.bounces, rays_objects=r.cache_rays_bags,
-                            rays_background=r.cache_rays_terrain, seed=config.seed, threads=r.threads)
+                            rays_background=r.cache_rays_terrain, background_cell_m=r.cache_terrain_cell_m,
+                            object_cell_m=r.cache_bag_cell_m,
+                            seed=config.seed, threads=r.threads)
 
 
 def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraPose,

@@ -17,6 +17,7 @@
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -33,8 +34,20 @@ struct LightCacheSettings {
     /// Gather rays per vertex on labelled instances (the bags: few vertices, much of the
     /// indirect light's variance), 1..kMaxGatherRays.
     int rays_objects = 256;
-    /// Gather rays per vertex on background instances (terrain, rocks), 1..kMaxGatherRays.
+    /// Gather rays per vertex (or lattice node) on background instances (terrain, rocks),
+    /// 1..kMaxGatherRays.
     int rays_background = 64;
+    /// Background instances' lattice spacing, metres (0 = per vertex). Indirect light varies
+    /// slowly over regolith, far more slowly than a 1 cm terrain grid. With a spacing h, a
+    /// background vertex whose triangle edges are all shorter than h takes its value bilinearly
+    /// from the 2D world-space lattice (multiples of h) across the axis its normal leans to most
+    /// (one of ±x, ±y, ±z); each node's value is the gather at the surface a probe ray meets
+    /// coming along that axis from beyond the instance's bounds, if that surface is the
+    /// instance's own and faces the same way (a bag or rock in front leaves the node empty).
+    /// Other vertices, or those with no valid node around them, gather themselves.
+    double background_cell_m = 0.0;
+    /// The same for labelled instances (the bags), with rays_objects a node; 0 = per vertex.
+    double object_cell_m = 0.0;
     uint64_t seed = 0;  ///< keys the gather rays' random numbers (with instance, vertex, ray)
     int threads = 0;    ///< worker threads of fill_all; 0 = all
 };
@@ -52,7 +65,9 @@ struct IndirectLight {
 struct LightCacheStats {
     uint64_t vertices = 0;       ///< vertices filled
     uint64_t blocks = 0;         ///< blocks of kBlockVertices allocated
-    uint64_t gather_rays = 0;    ///< rays leaving a vertex or a later path vertex
+    uint64_t nodes = 0;          ///< lattice nodes probed (valid or not)
+    uint64_t probe_rays = 0;     ///< rays finding the surface under a lattice node
+    uint64_t gather_rays = 0;    ///< rays leaving a vertex or node, or a later path vertex
     uint64_t shadow_rays = 0;    ///< toward the lights, from the path vertices
     uint64_t bytes = 0;          ///< held now: tables, vertex normals, blocks
     uint64_t redundant_fills = 0;  ///< vertices computed again by a thread racing the first (thread-dependent)
@@ -100,6 +115,14 @@ public:
     LightCacheStats stats() const;
 
 private:
+    /// Background vertex `vertex`'s value (at `point`, unit `normal`) from the lattice nodes
+    /// around it; none where the vertex is coarse or no node around it is valid.
+    std::optional<IndirectLight> from_lattice(uint32_t instance, uint32_t vertex, const glm::dvec3& point,
+                                              const glm::dvec3& normal) const;
+    /// Lattice node (i, j)·h across the axis of normal bin `bin` on instance `instance`, probed
+    /// and gathered on first touch; none where its probe meets another instance or another bin.
+    std::optional<IndirectLight> lattice_node(uint32_t instance, int64_t i, int64_t j, int bin) const;
+
     struct Impl;
     const Scene& m_scene;
     const Lights m_lights;
