@@ -565,6 +565,9 @@ glm::dvec3 LightCache::normal_at(uint32_t instance, uint32_t prim, double u, dou
 }
 
 void LightCache::fill_all() const {
+    const Scene::ReadLock lock(m_scene);  // no change to the scene while the gathers trace it
+    if (m_scene.static_revision() != m_revision)
+        throw std::invalid_argument("light_cache: the scene's static geometry changed since the cache was built");
     const Impl& m = *m_impl;
     tbb::task_arena arena(m_settings.threads > 0 ? m_settings.threads : tbb::task_arena::automatic);
     for (uint32_t i = 0; i < m.covered.size(); ++i) {

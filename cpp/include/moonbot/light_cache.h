@@ -101,7 +101,8 @@ public:
     glm::dvec3 normal_at(uint32_t instance, uint32_t prim, double u, double v) const;
 
     /// Fills every vertex of the covered instances (for tests and measurements; rendering fills
-    /// on demand), in parallel on settings.threads.
+    /// on demand), in parallel on settings.threads. Throws std::invalid_argument if the scene's
+    /// static geometry changed since the cache was built.
     void fill_all() const;
 
     /// The value of vertex `vertex` of covered instance `instance`, filling it if needed.
