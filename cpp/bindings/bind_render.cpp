@@ -3,6 +3,7 @@
 #include <pybind11/stl.h>
 
 #include "arrays.h"
+#include "moonbot/light_cache.h"
 #include "moonbot/render.h"
 
 namespace moonbot::bindings {
@@ -12,7 +13,7 @@ void bind_render(py::module_& m) {
         "render",
         [](const Scene& scene, const Camera& camera, const Sun& sun, int spp, uint64_t seed,
            int threads, const std::vector<std::string>& passes, bool exact_depth, int light_samples,
-           int bounces, const std::optional<Sun>& earth, const Medium* medium) {
+           int bounces, const std::optional<Sun>& earth, const Medium* medium, const LightCache* light_cache) {
             bool rgb = false, depth = false, instance = false;
             for (const std::string& p : passes) {
                 if (p == "rgb") rgb = true;
@@ -48,7 +49,7 @@ void bind_render(py::module_& m) {
                 py::gil_scoped_release release;
                 stats = render(scene, camera, Lights{sun, earth},
                                RenderSettings{spp, seed, threads, exact_depth, light_samples, bounces}, view,
-                               medium);
+                               medium, light_cache);
             }
             out["camera_rays"] = stats.camera_rays;
             out["second_look_rays"] = stats.second_look_rays;
@@ -63,7 +64,7 @@ void bind_render(py::module_& m) {
         py::arg("seed") = 0, py::arg("threads") = 0,
         py::arg("passes") = std::vector<std::string>{"rgb", "depth", "instance"},
         py::arg("exact_depth") = true, py::arg("light_samples") = 1, py::arg("bounces") = 0,
-        py::arg("earth") = py::none(), py::arg("medium") = nullptr,
+        py::arg("earth") = py::none(), py::arg("medium") = nullptr, py::arg("light_cache") = nullptr,
         "Render one view. Returns a dict with the requested passes — rgb (H, W, 3) float32 "
         "W/(m²·sr), depth (H, W) float32 z-depth in metres (0 = no hit), instance (H, W) uint8 "
         "(0 = background) — and camera_rays, second_look_rays (camera rays traced again where one may have "
@@ -73,7 +74,8 @@ void bind_render(py::module_& m) {
         "float32 t. light_samples: shadow rays per sample toward each light's disk; bounces: "
         "diffuse inter-reflections (0 = direct light only); earth: a second light (Earthshine); "
         "medium: dust (a Medium) attenuating and scattering sunlight in rgb only (medium_rays: its "
-        "shadow rays toward the Sun).");
+        "shadow rays toward the Sun); light_cache: a LightCache built for this scene, these lights and "
+        "bounces, from which camera hits on the surfaces it covers take their indirect light (no bounce rays).");
 }
 
 }  // namespace moonbot::bindings

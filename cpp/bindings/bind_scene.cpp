@@ -293,14 +293,15 @@ void bind_scene(py::module_& m) {
         .def(
             "add_background",
             [](Scene& s, uint32_t mesh, const py::handle& world_from_object, const py::handle& albedo,
-               const Photometry& photometry, std::shared_ptr<RegolithGrain> grain) {
+               const Photometry& photometry, std::shared_ptr<RegolithGrain> grain, bool moving) {
                 return s.add_background(mesh, matrix<4, 4>(world_from_object, "world_from_object"),
-                                        material(albedo, photometry, std::nullopt, std::move(grain)));
+                                        material(albedo, photometry, std::nullopt, std::move(grain)), moving);
             },
             py::arg("mesh"), py::arg("world_from_object"), py::arg("albedo"), py::arg("photometry") = Photometry{},
-            py::arg("grain") = py::none(),
+            py::arg("grain") = py::none(), py::arg("moving") = false,
             "Add unlabelled geometry (terrain, rocks): label 0 in masks. grain: a RegolithGrain textures "
-            "its camera hits (None: no texture). Returns the instance index.")
+            "its camera hits (None: no texture). moving: it moves between views (the dust's ejecta), so a "
+            "LightCache neither caches it nor lets it shade what it caches. Returns the instance index.")
         .def("commit", &Scene::commit, py::call_guard<py::gil_scoped_release>(),
              "Build the top-level BVH; required before rendering.")
         .def(

@@ -14,6 +14,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "moonbot/light_cache.h"
 #include "moonbot/rng.h"
 #include "moonbot/sampler.h"
 #include "rays.h"
@@ -134,9 +135,11 @@ std::vector<LightData> light_table(const Lights& lights) {
 class TileRenderer {
 public:
     TileRenderer(const Scene& scene, const Camera& camera, const Lights& lights,
-                 const RenderSettings& settings, const FrameView& out, const DustGrid* medium)
+                 const RenderSettings& settings, const FrameView& out, const DustGrid* medium,
+                 const LightCache* light_cache)
         : m_scene(scene), m_camera(camera), m_settings(settings), m_out(out),
-          m_instances(instance_table(scene)), m_lights(light_table(lights)), m_medium(medium) {
+          m_instances(instance_table(scene)), m_lights(light_table(lights)), m_medium(medium),
+          m_light_cache(light_cache) {
         for (const LightData& l : m_lights) m_random = m_random || !l.point;
         m_random = m_random || settings.bounces > 0;
         // Light 0 is the Sun unless the Sun is dark (light_table leaves dark lights out).
@@ -255,6 +258,16 @@ private:
         }
         light_vertices(n, s, stats, sample, m_settings.light_samples, kPairLight,
                        m_medium && m_sun ? s.sun_dust.data() : nullptr, /*camera_hits=*/true);
+        if (m_light_cache)
+            for (int i = 0; i < n; ++i) {
+                PathVertex& v = s.path[i];
+                if (!v.alive) continue;
+                const PixelHit& h = s.hits.pixel(i);
+                if (const auto indirect = cached_indirect(v, s.hits.record(h).prim, h.u, h.v)) {
+                    s.radiance[i] += *indirect;
+                    v.alive = false;  // the cache stands for its bounces
+                }
+            }
         for (int bounce = 1; bounce <= m_settings.bounces; ++bounce) {
             const uint32_t pair = kPairBounce + kPairsPerBounce * static_cast<uint32_t>(bounce - 1);
             if (!extend_paths(n, s, stats, sample, pair)) break;
@@ -512,6 +525,25 @@ private:
         }
     }
 
+    /// The indirect radiance toward the camera at camera hit `v` (on triangle `prim`, at Embree's
+    /// barycentrics u, w) from the light cache, W/(m²·sr): the cached irradiance E shaded with
+    /// the hit's BRDF, albedo/π · shape · E, the shape taken with the irradiance's mean incident
+    /// direction (about the geometric normal, as a bounce's weight is). None where the cache does
+    /// not serve the hit (moving geometry, or its surface seen from the back): that path bounces.
+    std::optional<glm::dvec3> cached_indirect(const PathVertex& v, uint32_t prim, double u, double w) const {
+        if (!m_light_cache->covers(v.instance)) return std::nullopt;
+        if (glm::dot(m_light_cache->normal_at(v.instance, prim, u, w), v.normal) <= 0.0) return std::nullopt;
+        const IndirectLight in = m_light_cache->at(v.instance, prim, u, w);
+        const InstanceData& inst = m_instances[v.instance];
+        double shape = 1.0;
+        if (inst.photometry.model != Photometry::Model::Lambert) {
+            // The mean direction may dip below a facet that leans from its vertices' normals.
+            const double mu_i = std::max(glm::dot(v.normal, in.direction), 1e-3);
+            shape = photometric_shape(inst.photometry, mu_i, glm::dot(v.normal, v.wo), glm::dot(in.direction, v.wo));
+        }
+        return v.albedo * (kInvPi * shape) * in.irradiance * v.throughput;
+    }
+
     /// Continues every live path by one bounce: a cosine-distributed direction about the normal
     /// (dimension pair `pair`), the throughput weighted by π·f·cos/pdf = albedo·shape,
     /// and the ray traced. Paths that leave the scene end. Returns whether any path lives on.
@@ -583,6 +615,7 @@ private:
     const std::vector<InstanceData> m_instances;
     const std::vector<LightData> m_lights;
     const DustGrid* m_medium;           // null: no dust, and none of its code runs
+    const LightCache* m_light_cache;    // null: every path bounces
     const LightData* m_sun = nullptr;   // the Sun's entry in m_lights, if it shines
     bool m_random = false;  // some shading draws random numbers (disk samples, bounces)
 };
@@ -594,8 +627,33 @@ RenderStats render(const Scene& scene, const Camera& camera, const Sun& sun,
     return render(scene, camera, Lights{sun, std::nullopt}, settings, out);
 }
 
+namespace {
+
+bool same_light(const Sun& a, const Sun& b) {
+    return a.direction() == b.direction() && a.irradiance() == b.irradiance() &&
+           a.half_angle() == b.half_angle() && a.color() == b.color();
+}
+
+/// Throws std::invalid_argument unless `cache` was built for this scene as it is, these lights
+/// and `bounces`.
+void check_light_cache(const LightCache& cache, const Scene& scene, const Lights& lights, int bounces) {
+    if (&cache.scene() != &scene) throw std::invalid_argument("light_cache: built for another scene");
+    if (cache.scene_revision() != scene.static_revision())
+        throw std::invalid_argument("light_cache: the scene's static geometry changed since the cache was built");
+    const Lights& built = cache.lights();
+    if (!same_light(built.sun, lights.sun) || built.earth.has_value() != lights.earth.has_value() ||
+        (lights.earth && !same_light(*built.earth, *lights.earth)))
+        throw std::invalid_argument("light_cache: built for other lights");
+    if (cache.settings().bounces != bounces)
+        throw std::invalid_argument("light_cache: built for " + std::to_string(cache.settings().bounces) +
+                                    " bounces, the render asks for " + std::to_string(bounces));
+}
+
+}  // namespace
+
 RenderStats render(const Scene& scene, const Camera& camera, const Lights& lights,
-                   const RenderSettings& settings, const FrameView& out, const Medium* medium) {
+                   const RenderSettings& settings, const FrameView& out, const Medium* medium,
+                   const LightCache* light_cache) {
     if (settings.light_samples < 1 || settings.light_samples > kMaxLightSamples)
         throw std::invalid_argument("light_samples: must be in 1.." + std::to_string(kMaxLightSamples) + ", got " +
                                     std::to_string(settings.light_samples));
@@ -612,6 +670,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     if (!scene.committed())
         throw std::invalid_argument("scene: not committed (call commit() after adding geometry)");
     if (scene.instance_count() == 0) throw std::invalid_argument("scene: has no instances");
+    if (light_cache) check_light_cache(*light_cache, scene, lights, settings.bounces);
 
     const auto start = std::chrono::steady_clock::now();
     const int w = camera.width(), h = camera.height();
@@ -622,7 +681,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     tbb::task_arena arena(settings.threads > 0 ? settings.threads : tbb::task_arena::automatic);
     if (medium && !medium->puffs.empty() && out.rgb)
         arena.execute([&] { dust.emplace(*medium, scene, lights.sun.direction()); });
-    const TileRenderer tiles(scene, camera, lights, settings, out, dust ? &*dust : nullptr);
+    const TileRenderer tiles(scene, camera, lights, settings, out, dust ? &*dust : nullptr, light_cache);
     std::atomic<uint64_t> camera_rays{0}, second_look_rays{0}, shadow_rays{0}, bounce_shadow_rays{0}, bounce_rays{0};
 
     arena.execute([&] {
@@ -659,7 +718,7 @@ Frame render_frame(const Scene& scene, const Camera& camera, const Sun& sun,
 }
 
 Frame render_frame(const Scene& scene, const Camera& camera, const Lights& lights,
-                   const RenderSettings& settings, const Medium* medium) {
+                   const RenderSettings& settings, const Medium* medium, const LightCache* light_cache) {
     Frame f;
     f.width = camera.width();
     f.height = camera.height();
@@ -667,7 +726,8 @@ Frame render_frame(const Scene& scene, const Camera& camera, const Lights& light
     f.rgb.assign(3 * n, 0.0f);
     f.depth.assign(n, 0.0f);
     f.instance.assign(n, 0);
-    f.stats = render(scene, camera, lights, settings, {f.rgb.data(), f.depth.data(), f.instance.data()}, medium);
+    f.stats = render(scene, camera, lights, settings, {f.rgb.data(), f.depth.data(), f.instance.data()}, medium,
+                     light_cache);
     return f;
 }
 

@@ -504,6 +504,23 @@ class RenderConfig:
         "shadow rays per sample toward the Sun's disk (soft shadow edges)", lo=1, hi=1024))
     bounces: int = field(default=2, metadata=spec(
         "diffuse inter-reflections lighting the shadows (0 = direct sunlight only)", lo=0, hi=16))
+    indirect: Literal["path", "cache"] = field(default="path", metadata=spec(
+        "how a pixel's first hit gets its indirect light: path = its own bounce paths (the reference); "
+        "cache = a per-task world-space cache of indirect irradiance per vertex of the static scene, "
+        "filled on first touch and shared by every view (cpp/include/moonbot/light_cache.h); "
+        "no cache is built when bounces is 0"))
+    cache_rays_bags: int = field(default=256, metadata=spec(
+        "indirect: cache: gather rays per bag lattice node or vertex (bags have few vertices and much of the indirect "
+        "light's noise)", lo=1, hi=65536))
+    cache_rays_terrain: int = field(default=64, metadata=spec(
+        "indirect: cache: gather rays per lattice node (or vertex) of the terrain and rocks", lo=1, hi=65536))
+    cache_terrain_cell_m: float = field(default=0.05, metadata=spec(
+        "indirect: cache: spacing of the world-space lattice the terrain's and rocks' indirect light is "
+        "gathered on, metres (it varies far more slowly than the 1 cm terrain grid); 0 = every vertex",
+        lo=0.0, hi=100.0))
+    cache_bag_cell_m: float = field(default=0.02, metadata=spec(
+        "indirect: cache: the same lattice spacing on the bags (cache_rays_bags a node), metres; 0 = every vertex",
+        lo=0.0, hi=100.0))
     embree_isa: Literal["auto", "sse2", "sse4.2", "avx", "avx2", "avx512"] = field(default="auto", metadata=spec(
         "SIMD instruction set of Embree's ray traversal: auto = $MOONBOT_EMBREE_ISA where set, else avx2 "
         "where the CPU runs it (as fast as avx512 in bench/bench_embree_isa.py, and clear of the AVX-512 "

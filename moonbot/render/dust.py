@@ -123,7 +123,9 @@ class SceneDust:
             fragments, vertices = self._fragments[view]
             if self._mesh is None:
                 self._mesh = self._scene.add_mesh(vertices, self._triangles)
-                self._scene.add_background(self._mesh, np.eye(4), self._albedo, self._photometry, grain=self._grain)
+                # Moving: a light cache neither caches the fragments nor lets them shade what it does.
+                self._scene.add_background(self._mesh, np.eye(4), self._albedo, self._photometry, grain=self._grain,
+                                           moving=True)
                 self._scene.commit()
             elif self._current != view:
                 self._scene.update_mesh(self._mesh, vertices)

@@ -110,23 +110,46 @@ def regolith_grain(config: GrainConfig) -> _core.RegolithGrain | None:
                                hurst=config.hurst, seed=config.seed)
 
 
-def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraPose,
-                seed: int, medium: _core.Medium | None = None) -> RenderedView:
-    """Renders rgb, depth and instance passes of one view with the config's Sun and quality, and
-    with `medium` (a dust scene's cloud; moonbot.render.dust) attenuating and scattering the
-    sunlight in rgb only."""
-    camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], config.camera.width,
-                          config.camera.height, pose.R, pose.t)
+def scene_lights(config: Config) -> tuple[_core.Sun, _core.Sun | None]:
+    """The config's Sun, and the Earth as a second light where earthshine is on (else None: no
+    second light, no shadow rays toward it; principle 3)."""
     s = config.sun
     sun = _core.Sun(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
-    # Earthshine only when asked: no second light, no shadow rays toward it (principle 3).
     earth = (_core.Sun(s.earth_azimuth_deg, s.earth_elevation_deg, s.earth_irradiance_w_m2, EARTH_DIAMETER_DEG,
                        s.earth_color) if s.earthshine else None)
+    return sun, earth
+
+
+def build_light_cache(scene: _core.Scene, config: Config) -> _core.LightCache | None:
+    """The task's light cache (render.indirect = cache) over the committed scene's non-moving
+    instances, keyed by the dataset seed so that every view of the task reads the same values;
+    empty until views touch it. None where render.indirect is path or render.bounces is 0: no
+    indirect light is asked of a cache, so none is built (principle 3)."""
+    r = config.render
+    if r.indirect != "cache" or r.bounces == 0:
+        return None
+    sun, earth = scene_lights(config)
+    return _core.LightCache(scene, sun, earth, bounces=r.bounces, rays_objects=r.cache_rays_bags,
+                            rays_background=r.cache_rays_terrain, background_cell_m=r.cache_terrain_cell_m,
+                            object_cell_m=r.cache_bag_cell_m,
+                            seed=config.seed, threads=r.threads)
+
+
+def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraPose,
+                seed: int, medium: _core.Medium | None = None,
+                light_cache: _core.LightCache | None = None) -> RenderedView:
+    """Renders rgb, depth and instance passes of one view with the config's Sun and quality, and
+    with `medium` (a dust scene's cloud; moonbot.render.dust) attenuating and scattering the
+    sunlight in rgb only. `light_cache` (build_light_cache's, for this scene and config) gives
+    the camera hits on the static scene their indirect light in place of per-pixel bounces."""
+    camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], config.camera.width,
+                          config.camera.height, pose.R, pose.t)
+    sun, earth = scene_lights(config)
     start = time.perf_counter()
     out = _core.render(scene, camera, sun, spp=config.render.spp, seed=seed,
                        threads=config.render.threads, exact_depth=config.render.exact_depth,
                        light_samples=config.render.light_samples, bounces=config.render.bounces, earth=earth,
-                       medium=medium)
+                       medium=medium, light_cache=light_cache)
     stats = {"camera_rays": out["camera_rays"], "second_look_rays": out["second_look_rays"],
              "shadow_rays": out["shadow_rays"], "bounce_shadow_rays": out["bounce_shadow_rays"],
              "bounce_rays": out["bounce_rays"], "medium_rays": out["medium_rays"], "core_seconds": out["seconds"],
