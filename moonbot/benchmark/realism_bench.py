@@ -60,7 +60,7 @@ class Options:
     hfov_deg: float = HASSELBLAD_HFOV_DEG
     spp: int = 16
     light_samples: int = 1
-    bounces: int = 1
+    bounces: int = 2  # render.bounces' default: shadowed ground lit by the sunlit ground around it
     threads: int = 0
     camera_height_m: float = 1.5
     pitch_deg: float = 20.0
@@ -145,10 +145,9 @@ class Rendered:
 
 def render_all(plans: list[RenderPlan], options: Options, say: Callable[[str], None]) -> list[Rendered]:
     """Renders every plan, building each location's scene once (the Sun only changes lights)."""
-    from moonbot import _core
     from moonbot.config import load_config
     from moonbot.render import build_scene, render_view
-    from moonbot.render.exposure import resolve_exposure
+    from moonbot.render.exposure import resolve_exposure, tonemap
     from moonbot.scene import compose_scene, intrinsics
 
     out = []
@@ -171,7 +170,7 @@ def render_all(plans: list[RenderPlan], options: Options, say: Callable[[str], N
             pose = look_pose(np.array([xy[0], xy[1], ground + options.camera_height_m]), azimuth, options.pitch_deg)
             view = render_view(scene, view_config, K, pose, plan.seed)
             exposure = resolve_exposure(view_config)
-            rgb8, _ = _core.tonemap_reinhard(view.rgb, exposure.scale)
+            rgb8, _ = tonemap(view.rgb, exposure)
             out.append(Rendered(plan, np.asarray(rgb8), exposure.ev100, view.stats))
             say(f"  {plan.name}: {view.stats['core_seconds']:.1f} s, EV100 {exposure.ev100:.2f}")
     return out
