@@ -50,8 +50,10 @@ class Options:
     """What the benchmark renders and how. Quality: `spp`, `light_samples`, `bounces` (the
     render section's knobs), `threads` (0 = all cores). Geometry: `width` × `height` pixels over
     `hfov_deg`, `camera_height_m` above the ground, `pitch_deg` down, the camera `standoff_m`
-    behind the target (the bag) looking at it for the bag view, and that far in front of it
-    looking away for the views without a bag. `detail_extent_m` widens the terrain's fine tile
+    behind the target (the bag) looking at it for the bag view, and `away_standoff_m` in front
+    of it looking away for the views without a bag: rocks are drawn within 300·D of the target
+    (terrain/rocks.py), 1 cm pebbles within 3 m, so the ground these views see (1.9-6 m ahead)
+    must start near it. `detail_extent_m` widens the terrain's fine tile
     so the foreground the camera sees (1.9-6 m ahead at 20° pitch) is on it (0 = the config's).
     `overrides` are further config fields; `locations` the variants beside flat."""
 
@@ -65,6 +67,7 @@ class Options:
     camera_height_m: float = 1.5
     pitch_deg: float = 20.0
     standoff_m: float = 2.5
+    away_standoff_m: float = 0.5
     detail_extent_m: float = 6.0
     noise_seed: int = 2
     locations: tuple[str, ...] = ("flat", "hilly", "crater")
@@ -165,7 +168,7 @@ def render_all(plans: list[RenderPlan], options: Options, say: Callable[[str], N
             azimuth = sun.azimuth_deg + (90.0 if plan.sun_side == "cross" else 180.0)
             ahead = np.array([math.sin(math.radians(azimuth)), math.cos(math.radians(azimuth))])
             # The bag view stands behind the target looking at it; the others in front, looking away.
-            xy = spec.target[:2] + (-1.0 if plan.bag_in_frame else 1.0) * options.standoff_m * ahead
+            xy = spec.target[:2] + (-options.standoff_m if plan.bag_in_frame else options.away_standoff_m) * ahead
             ground = float(spec.ground.height(np.array([xy[0]]), np.array([xy[1]]))[0])
             pose = look_pose(np.array([xy[0], xy[1], ground + options.camera_height_m]), azimuth, options.pitch_deg)
             view = render_view(scene, view_config, K, pose, plan.seed)
