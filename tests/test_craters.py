@@ -1,12 +1,14 @@
 """Small craters: the size-frequency distribution within Poisson sampling error, the profile's
-stated shape, and heights that add up each crater's profile within its reach only."""
+stated shape, its diffusion (against the heat equation's exact answer for a Gaussian), the
+equilibrium population's mean d/D, and heights that add up each crater's profile within its
+reach only."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
-
-import math
 
 from moonbot.terrain.craters import (DEPTH_RATIO, DIFFUSION_MAX, EJECTA_CUTOFF, RIM_RATIO, CraterField,
                                    crater_profile, crater_reach, depth_ratio, diffuse_radial, expected_count,

@@ -19,13 +19,13 @@ Icarus 326:63 find it is what sets the D^-2 equilibrium). Its solution is the fr
 convolved with a 2-D Gaussian of standard deviation σ = √(2κt): the rim rounds off first, the
 walls flatten, the bowl fills, and the depth falls as the rim's short wavelengths decay before
 the bowl's. Each crater's `degradation` is that diffusion length in crater radii, σ/R (0 =
-fresh), and `crater_profile` is the fresh profile diffused by it (`diffused_profile`, tabulated
-once). In equilibrium crater ages are uniform, and κt grows linearly with age, so σ² is uniform
-on [0, `DIFFUSION_MAX`²]. DIFFUSION_MAX = 0.65 makes the population's mean rim-to-floor d/D 0.061,
+fresh), and `crater_profile` is the fresh profile diffused by it (`diffuse_radial`, tabulated
+once). In equilibrium the ages of the craters still visible are uniform up to the age at which
+diffusion erases them, and κt grows linearly with age, so σ² is uniform on [0, `DIFFUSION_MAX`²]
+(the erasing age is where the fit below puts it). DIFFUSION_MAX = 0.65 makes the population's mean rim-to-floor d/D 0.061,
 the mean of the small craters measured in the Chang'E-4 1 cm Pancam DEM (Wu et al. 2021, EPSL
 553:116666): a few fresh bowls (d/D 0.13, walls 27°), most shallow dimples — a fifth have a
-wall steeper than 12.5° (σ/R < 0.3) and can hold a shadow under a 12.5° Sun, against 43 % of the
-earlier log-uniform heights-scaled fresh bowls.
+wall steeper than 12.5° (σ/R < 0.3) and can hold a shadow under a 12.5° Sun.
 """
 
 from __future__ import annotations
