@@ -423,7 +423,8 @@ def bench_throughput(config_path: Path | None, levels: str, workers: list[int], 
 @click.option("--spp", type=click.IntRange(min=1), default=16, show_default=True, help="Samples per pixel.")
 @click.option("--light-samples", type=click.IntRange(min=1), default=1, show_default=True,
               help="Shadow rays per sample toward the Sun's disk.")
-@click.option("--bounces", type=click.IntRange(min=0), default=1, show_default=True, help="Diffuse bounces.")
+@click.option("--bounces", type=click.IntRange(min=0), default=2, show_default=True,
+              help="Diffuse bounces (the product's render.bounces default: shadows lit by the sunlit ground).")
 @click.option("--threads", type=click.IntRange(min=0), default=0, show_default=True, help="Render threads (0 = all).")
 @click.option("--pitch-deg", type=click.FloatRange(5.0, 60.0), default=20.0, show_default=True,
               help="Camera look-down angle, degrees.")

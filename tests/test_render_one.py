@@ -143,13 +143,14 @@ def test_several_views_share_one_scene(tmp_path):
 
 def test_exr_output_is_the_radiance_behind_rgb_png(tmp_path):
     """With output.exr the view also has rgb.exr (decoded by the OpenEXR package): finite linear
-    radiance that the core's tone map at gt.json's EV100 turns into rgb.png byte for byte; the
-    summary lists it and the default exposure is `auto` metering of the regolith."""
+    radiance that gt.json's veiling glare and the core's tone map at its EV100 turn into rgb.png
+    byte for byte; the summary lists it and the default exposure is `auto` metering of the
+    regolith."""
     import OpenEXR
 
     from moonbot import _core
     from moonbot.config import load_config
-    from moonbot.render.exposure import auto_ev100, regolith_reflectance
+    from moonbot.render.exposure import add_veiling_glare, auto_ev100, regolith_reflectance
 
     result = CliRunner().invoke(main, ["render-one", "--out", str(tmp_path), *SMALL, "--set", "output.exr=true",
                                        "--set", "sun.elevation_deg=30"])
@@ -166,7 +167,10 @@ def test_exr_output_is_the_radiance_behind_rgb_png(tmp_path):
         channels = f.channels()
         hdr = channels["RGB"].pixels if "RGB" in channels else np.stack([channels[c].pixels for c in "RGB"], axis=-1)
     assert hdr.dtype == np.float32 and hdr.shape == (120, 160, 3) and np.isfinite(hdr).all()
-    rgb8, _ = _core.tonemap_reinhard(hdr, gt["exposure"]["scale_sr_m2_w"])
+    # rgb.exr is the scene radiance; rgb.png adds the lens's veiling glare before the tone map.
+    assert gt["exposure"]["veiling_glare_index"] == 0.02
+    veiled = add_veiling_glare(hdr, gt["exposure"]["veiling_glare_index"])
+    rgb8, _ = _core.tonemap_reinhard(veiled, gt["exposure"]["scale_sr_m2_w"])
     np.testing.assert_array_equal(np.array(Image.open(view / "rgb.png")), rgb8)
 
 

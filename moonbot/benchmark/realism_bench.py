@@ -50,8 +50,10 @@ class Options:
     """What the benchmark renders and how. Quality: `spp`, `light_samples`, `bounces` (the
     render section's knobs), `threads` (0 = all cores). Geometry: `width` × `height` pixels over
     `hfov_deg`, `camera_height_m` above the ground, `pitch_deg` down, the camera `standoff_m`
-    behind the target (the bag) looking at it for the bag view, and that far in front of it
-    looking away for the views without a bag. `detail_extent_m` widens the terrain's fine tile
+    behind the target (the bag) looking at it for the bag view, and `away_standoff_m` in front
+    of it looking away for the views without a bag: rocks are drawn within 300·D of the target
+    (terrain/rocks.py), 1 cm pebbles within 3 m, so the ground these views see (1.9-6 m ahead)
+    must start near it. `detail_extent_m` widens the terrain's fine tile
     so the foreground the camera sees (1.9-6 m ahead at 20° pitch) is on it (0 = the config's).
     `overrides` are further config fields; `locations` the variants beside flat."""
 
@@ -60,11 +62,12 @@ class Options:
     hfov_deg: float = HASSELBLAD_HFOV_DEG
     spp: int = 16
     light_samples: int = 1
-    bounces: int = 1
+    bounces: int = 2  # render.bounces' default: shadowed ground lit by the sunlit ground around it
     threads: int = 0
     camera_height_m: float = 1.5
     pitch_deg: float = 20.0
     standoff_m: float = 2.5
+    away_standoff_m: float = 0.5
     detail_extent_m: float = 6.0
     noise_seed: int = 2
     locations: tuple[str, ...] = ("flat", "hilly", "crater")
@@ -145,10 +148,9 @@ class Rendered:
 
 def render_all(plans: list[RenderPlan], options: Options, say: Callable[[str], None]) -> list[Rendered]:
     """Renders every plan, building each location's scene once (the Sun only changes lights)."""
-    from moonbot import _core
     from moonbot.config import load_config
     from moonbot.render import build_scene, render_view
-    from moonbot.render.exposure import resolve_exposure
+    from moonbot.render.exposure import resolve_exposure, tonemap
     from moonbot.scene import compose_scene, intrinsics
 
     out = []
@@ -166,12 +168,12 @@ def render_all(plans: list[RenderPlan], options: Options, say: Callable[[str], N
             azimuth = sun.azimuth_deg + (90.0 if plan.sun_side == "cross" else 180.0)
             ahead = np.array([math.sin(math.radians(azimuth)), math.cos(math.radians(azimuth))])
             # The bag view stands behind the target looking at it; the others in front, looking away.
-            xy = spec.target[:2] + (-1.0 if plan.bag_in_frame else 1.0) * options.standoff_m * ahead
+            xy = spec.target[:2] + (-options.standoff_m if plan.bag_in_frame else options.away_standoff_m) * ahead
             ground = float(spec.ground.height(np.array([xy[0]]), np.array([xy[1]]))[0])
             pose = look_pose(np.array([xy[0], xy[1], ground + options.camera_height_m]), azimuth, options.pitch_deg)
             view = render_view(scene, view_config, K, pose, plan.seed)
             exposure = resolve_exposure(view_config)
-            rgb8, _ = _core.tonemap_reinhard(view.rgb, exposure.scale)
+            rgb8, _ = tonemap(view.rgb, exposure)
             out.append(Rendered(plan, np.asarray(rgb8), exposure.ev100, view.stats))
             say(f"  {plan.name}: {view.stats['core_seconds']:.1f} s, EV100 {exposure.ev100:.2f}")
     return out

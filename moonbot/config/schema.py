@@ -537,6 +537,10 @@ class ToneMapConfig:
         "Apollo's sunlit setting is 14.2), or auto: the EV100 at which a Lambertian of terrain.albedo "
         "under the configured Sun (held at >= 1° elevation) reads as a reflected-light meter's "
         "mid-grey (K = 12.5): 12.98 for the default 12° Sun and albedo 0.12", lo=-10.0, hi=30.0))
+    veiling_glare: float = field(default=0.02, metadata=spec(
+        "the lens's veiling glare index (ISO 9358): every pixel gains this fraction of the frame's mean "
+        "radiance before the tone map, so shadows are never black; coated photographic lenses measure "
+        "~1-3 %; 0 = none", lo=0.0, hi=0.5))
 
 
 @dataclass(frozen=True)

@@ -26,12 +26,25 @@ the Sun; for a Lambertian, the albedo itself, which reproduces lunar-physics.md 
 gives EV100 14.24 at 30° (Apollo's sunlit f/11, 1/250 s, ISO 160 is 14.2) and 12.72 at 10°.
 Lunar-Lambert regolith of normal albedo 0.12 looks darker than that Lambertian away from zero
 phase, and the meter follows it.
+
+**Veiling glare.** A real lens scatters a fraction of all the light it passes over the whole
+focal plane (reflections between element surfaces, the barrel, the sensor or film and, on the
+Apollo Hasselblads, the réseau plate), so no part of a photograph of a bright scene is black.
+ISO 9358 measures it by the integral method: the veiling glare index (VGI) is the image
+irradiance at the centre of a small black spot over that of the uniform bright field around it.
+`tonemap` applies it as a uniform veil: every pixel gains VGI × the frame's mean radiance (per
+channel) before the exposure and tone map, which is exactly ISO 9358's black-spot reading for a
+uniform field (the veil's spatial spread is taken as flat over the frame). Coated photographic
+lenses measure around 1–3 %; `tonemap.veiling_glare` defaults to 2 % (0 = none: the image is the
+previous bit for bit and no glare code runs). rgb.exr keeps the scene radiance without the veil.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
+import numpy as np
 
 from moonbot.config.schema import Config
 from moonbot.render.view import regolith
@@ -79,24 +92,49 @@ def auto_ev100(albedo: float, sun_elevation_deg: float, irradiance_w_m2: float) 
 @dataclass(frozen=True)
 class Exposure:
     """The exposure of a view: `ev100` (camera exposure value at ISO 100), `setting` as configured
-    ("auto" or the number), `scale` in sr·m²/W (rendered radiance → signal, 1 = saturation)."""
+    ("auto" or the number), `scale` in sr·m²/W (rendered radiance → signal, 1 = saturation),
+    `veiling_glare` the lens's veiling glare index (a fraction, 0 = none; see `tonemap`)."""
 
     ev100: float
     setting: float | str
     scale: float
+    veiling_glare: float = 0.0
 
     def metadata(self) -> dict:
         """What gt.json records about the exposure."""
         return {"ev100": self.ev100, "ev100_setting": self.setting,
                 "saturation_luminance_cd_m2": saturation_luminance(self.ev100),
                 "luminous_efficacy_lm_w": LUMINOUS_EFFICACY_LM_W, "scale_sr_m2_w": self.scale,
-                "tonemap": "reinhard2002-luminance-srgb8"}
+                "veiling_glare_index": self.veiling_glare, "tonemap": "reinhard2002-luminance-srgb8"}
 
 
-def exposure_for_ev100(ev100: float, setting: float | str | None = None) -> Exposure:
+def exposure_for_ev100(ev100: float, setting: float | str | None = None, veiling_glare: float = 0.0) -> Exposure:
     """The exposure at `ev100`: scale = K_sun / L_sat(EV100) in sr·m²/W."""
     return Exposure(ev100=ev100, setting=ev100 if setting is None else setting,
-                    scale=LUMINOUS_EFFICACY_LM_W / saturation_luminance(ev100))
+                    scale=LUMINOUS_EFFICACY_LM_W / saturation_luminance(ev100), veiling_glare=veiling_glare)
+
+
+def add_veiling_glare(rgb: np.ndarray, glare_index: float) -> np.ndarray:
+    """(H, W, 3) float32 radiance plus the lens's uniform veil: `glare_index` × the mean of each
+    channel over the frame's finite, non-negative pixels (others are left as they are, for the
+    tone map to count as invalid). A new array; `rgb` is not changed."""
+    rgb = np.asarray(rgb, dtype=np.float32)
+    sound = np.isfinite(rgb).all(axis=2) & (rgb >= 0.0).all(axis=2)
+    if not sound.any():
+        return rgb.copy()
+    veil = (glare_index * rgb[sound].astype(np.float64).mean(axis=0)).astype(np.float32)
+    return rgb + veil
+
+
+def tonemap(rgb: np.ndarray, exposure: Exposure) -> tuple[np.ndarray, int]:
+    """(H, W, 3) linear radiance (W/(m²·sr)) to 8-bit sRGB at `exposure`: the lens's veiling
+    glare (`add_veiling_glare`, only where `exposure.veiling_glare` > 0), then the core's Reinhard
+    tone map. Returns (uint8 (H, W, 3), the count of invalid pixels)."""
+    from moonbot import _core
+
+    if exposure.veiling_glare > 0.0:
+        rgb = add_veiling_glare(rgb, exposure.veiling_glare)
+    return _core.tonemap_reinhard(rgb, exposure.scale)
 
 
 def regolith_reflectance(config: Config, azimuths: int = 36) -> float:
@@ -123,7 +161,7 @@ def resolve_exposure(config: Config) -> Exposure:
         ev100 = auto_ev100(regolith_reflectance(config), config.sun.elevation_deg, config.sun.irradiance_w_m2)
     else:
         ev100 = float(setting)
-    return exposure_for_ev100(ev100, setting)
+    return exposure_for_ev100(ev100, setting, config.tonemap.veiling_glare)
 
 
 def exposure_scale(config: Config) -> float:

@@ -10,21 +10,29 @@ the production population being steeper, D^-2.8), so the locations continue it d
 the smallest crater five cells of the 1 cm tile can draw. Centres are uniform
 (a Poisson process; craters may overlap, as on the saturated real surface). Each crater has
 the simple-crater profile of `terrain.CraterGround` (depth 0.13·D, rim 0.036·D, ejecta as
-(r/R)^-3), scaled by a degradation factor, and its ejecta is cut off at 2.5 R so that a crater
-changes nothing beyond it.
+(r/R)^-3, cut off at 2.5 R) when fresh, worn down by diffusion as below; a crater changes nothing
+beyond its reach.
 
-**Degradation.** A population in equilibrium is mostly old craters: if a crater's depth decays
-about exponentially with age (diffusive infill) and ages are uniform, depths are log-uniform.
-The factor is log-uniform in [`DEGRADATION_MIN`, `DEGRADATION_MAX`], i.e. depth/diameter from
-0.010 to 0.195: the freshest small craters at Pike's (1974) d/D ≈ 0.2, and a mean of 0.063, the
-mean of the small craters measured in the Chang'E-4 1 cm Pancam DEM (0.061; Wu et al. 2021, EPSL
-553:116666). Fewer than half are steep enough to hold a shadow at a 12° Sun.
+**Degradation.** Small lunar craters are worn down by topographic diffusion, ∂h/∂t = κ∇²h
+(Soderblom 1970, JGR 75:2655; Fassett & Thomson 2014, JGR Planets 119:2255; Minton et al. 2019,
+Icarus 326:63 find it is what sets the D^-2 equilibrium). Its solution is the fresh profile
+convolved with a 2-D Gaussian of standard deviation σ = √(2κt): the rim rounds off first, the
+walls flatten, the bowl fills, and the depth falls as the rim's short wavelengths decay before
+the bowl's. Each crater's `degradation` is that diffusion length in crater radii, σ/R (0 =
+fresh), and `crater_profile` is the fresh profile diffused by it (`diffuse_radial`, tabulated
+once). In equilibrium the ages of the craters still visible are uniform up to the age at which
+diffusion erases them, and κt grows linearly with age, so σ² is uniform on [0, `DIFFUSION_MAX`²]
+(the erasing age is where the fit below puts it). DIFFUSION_MAX = 0.65 makes the population's mean rim-to-floor d/D 0.061,
+the mean of the small craters measured in the Chang'E-4 1 cm Pancam DEM (Wu et al. 2021, EPSL
+553:116666): a few fresh bowls (d/D 0.13, walls 27°), most shallow dimples — a fifth have a
+wall steeper than 12.5° (σ/R < 0.3) and can hold a shadow under a 12.5° Sun.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -35,19 +43,100 @@ DEPTH_RATIO = 0.13
 RIM_RATIO = 0.036
 EJECTA_EXPONENT = 3.0
 EJECTA_CUTOFF = 2.5  # in crater radii
-DEGRADATION_MIN, DEGRADATION_MAX = 0.08, 1.5  # log-uniform factor on the fresh profile's heights
+DIFFUSION_MAX = 0.65  # largest diffusion length σ/R of the equilibrium population (see above)
+# The table `crater_profile` interpolates: source radii (crater radii) over the fresh profile's
+# support, diffusion lengths from 0 to DIFFUSION_MAX, and output radii out to the largest reach.
+_SOURCE_STEP = EJECTA_CUTOFF / 1000
+_DIFFUSION_GRID = np.concatenate([[0.0], np.geomspace(0.01, DIFFUSION_MAX, 32)])
+REACH_SIGMAS = 3.0  # a diffused crater's heights are cut off at EJECTA_CUTOFF + 3σ radii
+_OUTPUT_STEP = 0.01
+_OUTPUT_RADII = np.arange(0.0, EJECTA_CUTOFF + REACH_SIGMAS * DIFFUSION_MAX + 2 * _OUTPUT_STEP, _OUTPUT_STEP)
 
 
-def crater_profile(s: np.ndarray, diameter: float | np.ndarray, degradation: float | np.ndarray = 1.0) -> np.ndarray:
-    """Height (metres) at radial distance s = r/R from a crater's centre: a parabolic bowl to
-    the rim crest at s = 1, ejecta (r/R)^-3 outside, shifted so it reaches exactly 0 at the
-    cut-off 2.5 R (and stays 0 beyond); scaled by `degradation`."""
+def fresh_profile(s: np.ndarray) -> np.ndarray:
+    """Height over diameter at radial distance s = r/R of a fresh crater: a parabolic bowl of
+    depth DEPTH_RATIO to the rim crest at s = 1 (RIM_RATIO high), ejecta (r/R)^-3 outside, shifted
+    so it reaches exactly 0 at the cut-off EJECTA_CUTOFF and stays 0 beyond."""
     s = np.asarray(s, dtype=np.float64)
-    depth, rim = DEPTH_RATIO * diameter, RIM_RATIO * diameter
-    floor = rim * EJECTA_CUTOFF ** -EJECTA_EXPONENT  # ejecta height at the cut-off, removed
-    inside = rim - floor - depth * (1.0 - s * s)
-    outside = rim * np.clip(s, 1.0, EJECTA_CUTOFF) ** -EJECTA_EXPONENT - floor
-    return degradation * np.where(s < 1.0, inside, outside)
+    floor = RIM_RATIO * EJECTA_CUTOFF ** -EJECTA_EXPONENT  # ejecta height at the cut-off, removed
+    inside = RIM_RATIO - floor - DEPTH_RATIO * (1.0 - s * s)
+    outside = np.where(s < EJECTA_CUTOFF, RIM_RATIO * np.clip(s, 1.0, EJECTA_CUTOFF) ** -EJECTA_EXPONENT - floor, 0.0)
+    return np.where(s < 1.0, inside, outside)
+
+
+def diffuse_radial(values: np.ndarray, radii: np.ndarray, out_radii: np.ndarray, sigma: float) -> np.ndarray:
+    """A radially symmetric field sampled at evenly spaced `radii` (from 0, zero beyond the last)
+    convolved with a 2-D Gaussian of standard deviation `sigma` (same unit), at `out_radii`:
+    h(r) = ∫ h0(r') (r'/σ²) exp(−(r²+r'²)/2σ²) I0(r r'/σ²) dr', the angular integral of the
+    Gaussian done in closed form (trapezoidal rule in r'; i0e keeps it finite)."""
+    from scipy.special import i0e
+
+    weights = np.full(radii.size, radii[1] - radii[0])
+    weights[[0, -1]] *= 0.5
+    r, q = out_radii[:, None], radii[None, :]
+    kernel = (q / sigma**2) * np.exp(-((r - q) ** 2) / (2.0 * sigma**2)) * i0e(r * q / sigma**2)
+    return kernel @ (values * weights)
+
+
+@cache
+def _profile_table() -> np.ndarray:
+    """(len(_DIFFUSION_GRID), len(_OUTPUT_RADII)) heights over diameter of the fresh profile
+    diffused by each tabulated σ/R, each row shifted to 0 at its reach and 0 beyond it."""
+    source = np.arange(0.0, EJECTA_CUTOFF + _SOURCE_STEP / 2, _SOURCE_STEP)
+    fresh = fresh_profile(source)
+    rows = []
+    for sigma in _DIFFUSION_GRID:
+        row = fresh_profile(_OUTPUT_RADII) if sigma == 0.0 else diffuse_radial(fresh, source, _OUTPUT_RADII, sigma)
+        reach = EJECTA_CUTOFF + REACH_SIGMAS * sigma
+        row = np.where(_OUTPUT_RADII < reach, row - np.interp(reach, _OUTPUT_RADII, row), 0.0)
+        rows.append(row)
+    table = np.array(rows)
+    table.flags.writeable = False
+    return table
+
+
+def crater_reach(degradation: float | np.ndarray) -> float | np.ndarray:
+    """Radius (in crater radii) beyond which a crater diffused by σ/R = `degradation` adds nothing."""
+    return EJECTA_CUTOFF + REACH_SIGMAS * np.asarray(degradation, dtype=np.float64)
+
+
+def crater_profile(s: np.ndarray, diameter: float | np.ndarray, degradation: float | np.ndarray = 0.0) -> np.ndarray:
+    """Height (metres) at radial distance s = r/R from a crater's centre: the fresh profile
+    (`fresh_profile` × diameter) diffused by σ/R = `degradation` in [0, DIFFUSION_MAX] (0 = fresh,
+    exact), interpolated in the tabulated profiles (linear in σ and in s); 0 from the reach
+    EJECTA_CUTOFF + 3σ on. Arguments broadcast."""
+    s, diameter, degradation = np.broadcast_arrays(np.asarray(s, dtype=np.float64),
+                                                   np.asarray(diameter, dtype=np.float64),
+                                                   np.asarray(degradation, dtype=np.float64))
+    if np.any((degradation < 0.0) | (degradation > DIFFUSION_MAX)):
+        raise ValueError(f"degradation: must be in [0, {DIFFUSION_MAX}], got {degradation.min()}..{degradation.max()}")
+    if np.all(degradation == 0.0):
+        return diameter * fresh_profile(s)
+    table = _profile_table()
+    row = np.clip(np.searchsorted(_DIFFUSION_GRID, degradation, side="right") - 1, 0, len(_DIFFUSION_GRID) - 2)
+    w_row = (degradation - _DIFFUSION_GRID[row]) / (_DIFFUSION_GRID[row + 1] - _DIFFUSION_GRID[row])
+    position = np.clip(s, 0.0, _OUTPUT_RADII[-1]) / _OUTPUT_STEP
+    col = np.minimum(position.astype(np.int64), len(_OUTPUT_RADII) - 2)
+    w_col = position - col
+    low = table[row, col] * (1.0 - w_col) + table[row, col + 1] * w_col
+    high = table[row + 1, col] * (1.0 - w_col) + table[row + 1, col + 1] * w_col
+    height = low * (1.0 - w_row) + high * w_row
+    return np.where(s < crater_reach(degradation), diameter * height, 0.0)
+
+
+def depth_ratio(degradation: float | np.ndarray) -> np.ndarray:
+    """Rim-crest-to-floor depth over diameter of craters diffused by σ/R = `degradation`
+    (DEPTH_RATIO for a fresh one)."""
+    degradation = np.atleast_1d(np.asarray(degradation, dtype=np.float64))
+    s = _OUTPUT_RADII[None, :]
+    heights = crater_profile(s, 1.0, degradation[:, None])
+    return heights.max(axis=1) - heights[:, 0]
+
+
+def sample_degradation(rng: np.random.Generator, count: int) -> np.ndarray:
+    """σ/R of `count` craters of an equilibrium population: ages uniform, κt ∝ age, so σ² is
+    uniform on [0, DIFFUSION_MAX²]."""
+    return DIFFUSION_MAX * np.sqrt(rng.random(count))
 
 
 def expected_count(half_size_m: float, density: float, lo: float, hi: float) -> float:
@@ -59,7 +148,7 @@ def expected_count(half_size_m: float, density: float, lo: float, hi: float) -> 
 @dataclass(frozen=True)
 class CraterField:
     """Craters with centres (K, 2) metres, diameters (K,) metres and degradation (K,) in
-    [DEGRADATION_MIN, DEGRADATION_MAX]; `height` adds up their profiles."""
+    σ/R in [0, DIFFUSION_MAX] (`crater_profile`); `height` adds up their profiles."""
 
     centres: np.ndarray
     diameters: np.ndarray
@@ -81,7 +170,7 @@ class CraterField:
         u = rng.random(count)
         diameters = (a - u * (a - b)) ** -0.5
         centres = rng.uniform(-half_size_m, half_size_m, size=(count, 2))
-        degradation = DEGRADATION_MIN * (DEGRADATION_MAX / DEGRADATION_MIN) ** rng.random(count)
+        degradation = sample_degradation(rng, count)
         return CraterField(centres, diameters, degradation)
 
     def subset(self, keep: np.ndarray) -> "CraterField":
@@ -118,7 +207,7 @@ class CraterField:
         if len(self.diameters) == 0 or len(points) == 0:
             return z.reshape(x.shape)
         tree = cKDTree(points)
-        reach = EJECTA_CUTOFF * self.diameters / 2.0
+        reach = crater_reach(self.degradation) * self.diameters / 2.0
         for centre, diameter, degradation, r in zip(self.centres, self.diameters, self.degradation, reach):
             near = np.asarray(tree.query_ball_point(centre, r), dtype=np.int64)
             if len(near):

@@ -14,7 +14,7 @@ import numpy as np
 
 from moonbot import _core
 from moonbot.render.amodal import AmodalMasks
-from moonbot.render.exposure import LUMINOUS_EFFICACY_LM_W, Exposure
+from moonbot.render.exposure import LUMINOUS_EFFICACY_LM_W, Exposure, tonemap
 from moonbot.render.view import RenderedView
 from moonbot.scene.compose import BagInstance
 from moonbot.scene.orbit import CameraPose
@@ -86,7 +86,7 @@ def write_sample(out_dir: Path, view: RenderedView, exposure: Exposure, K: np.nd
     w = max − min; [-1, -1, -1, -1] when empty). Returns the gt.json content."""
     timings = dict(timings)
     start = time.perf_counter()
-    rgb8, invalid_pixels = _core.tonemap_reinhard(view.rgb, exposure.scale)
+    rgb8, invalid_pixels = tonemap(view.rgb, exposure)
     timings["tonemap"] = time.perf_counter() - start
 
     start = time.perf_counter()
