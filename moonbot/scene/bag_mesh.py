@@ -45,11 +45,13 @@ import numpy as np
 from moonbot.config.schema import BagShape, MeshesConfig
 
 
+# The variants' default shapes.
+FILLED = MeshesConfig().sandbag_01
 SEAMED = MeshesConfig().sandbag_02
 FOLDED = MeshesConfig().sandbag_03
 
 
-def filled_cuboid(shape: BagShape = BagShape(), wrinkles: bool = True) -> tuple[np.ndarray, np.ndarray]:
+def filled_cuboid(shape: BagShape = FILLED, wrinkles: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """sandbag-01 (or, with seam_height_m > 0, sandbag-02). Returns (vertices (N, 3) float32
     metres, triangles (M, 3) int32). wrinkles=False leaves the creases and puckers out on the
     same lattice, the smooth body to compare the wrinkled one with."""
@@ -327,7 +329,7 @@ def _box_surface_grid(half: np.ndarray, edge_length: float, band: float,
     return lattice, np.concatenate(triangles).astype(np.int32), np.concatenate(faces)
 
 
-def uv_atlas(shape: BagShape = BagShape()) -> np.ndarray:
+def uv_atlas(shape: BagShape = FILLED) -> np.ndarray:
     """Texture coordinates per triangle corner (M, 3, 2) float32 in [0, 1]², for the stain mask,
     matching the triangles of any variant with this `shape` (they share one lattice). The
     unfolded sharp box: the four side faces as one belt (−y, +x, +y, −x, continuous across their
@@ -353,7 +355,7 @@ def uv_atlas(shape: BagShape = BagShape()) -> np.ndarray:
     return uv.astype(np.float32)
 
 
-def atlas_metres_per_uv(shape: BagShape = BagShape()) -> float:
+def atlas_metres_per_uv(shape: BagShape = FILLED) -> float:
     """Metres of the sharp box's surface per unit of `uv_atlas` coordinates (the same along u
     and v): the longer of the belt of side faces, 2(L + W), and the column of top, −y face and
     bottom, H + 2W."""
