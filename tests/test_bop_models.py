@@ -86,9 +86,10 @@ def test_symmetry_search_reports_every_candidate():
     found, distances = find_symmetries(mm, t, tolerance, EVAL_SPACING_MM)
     assert len(distances) == 23 and len(found) == 1
     ranked = sorted(distances.values())
-    # Clear on both sides: the half-turn about z within 0.7 of the tolerance (the samples'
-    # spacing), the next (tipped over: sag) beyond twice it.
-    assert ranked[0] < 0.7 * tolerance and ranked[1] > 2 * tolerance
+    # Clear on both sides: the half-turn about z (an exact symmetry of the vertex set) within
+    # 0.8 of the tolerance (what is left is the samples' spacing), the next (tipped over: sag
+    # tells top from bottom) beyond 1.5 times it.
+    assert ranked[0] < 0.8 * tolerance and ranked[1] > 1.5 * tolerance
 
 
 @pytest.mark.parametrize("obj_id", VARIANTS)

@@ -253,7 +253,7 @@ class BagShape:
     pleat_depth_m: float = field(default=0.006, metadata=spec("pleat depth, metres"))
     sag_m: float = field(default=0.005, metadata=spec(
         "how far the top's centre settles below the unsettled bulge, metres (0 = no sag)"))
-    belly_m: float = field(default=0.004, metadata=spec("extra outward bow of the sides as the fill settles, metres"))
+    belly_m: float = field(default=0.002, metadata=spec("extra outward bow of the sides as the fill settles, metres"))
     belly_height: float = field(default=0.4, metadata=spec(
         "where the sides bow out most, as a fraction of the half-height below the middle (0 = the middle)"))
     flat_bottom: bool = field(default=True, metadata=spec("the bottom face rests pressed flat (no bulge)"))

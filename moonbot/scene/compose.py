@@ -10,7 +10,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from moonbot.config.schema import Config, FabricConfig, PhotometryConfig, StainConfig
-from moonbot.scene.bag_mesh import OBJ_IDS, atlas_metres_per_uv, uv_atlas, variant_mesh, variant_shape
+from moonbot.scene.bag_mesh import (OBJ_IDS, atlas_metres_per_uv, collision_points, uv_atlas, variant_mesh,
+                                    variant_shape)
 from moonbot.scene.placement import Placement, arrange_bags
 from moonbot.terrain import get_terrain
 from moonbot.terrain.ground import Ground
@@ -96,12 +97,15 @@ def compose_scene(config: Config) -> SceneSpec:
     instance ids 1..count, bag 1 the orbit target."""
     obj_id = OBJ_IDS[config.bags.mesh]
     vertices, triangles = variant_mesh(config.meshes, obj_id)
+    shape = variant_shape(config.meshes, obj_id)
     terrain, cached = get_terrain(config.terrain)
-    placement = arrange_bags(vertices, triangles, config.bags, terrain.ground, seed=config.seed)
+    # Only settling needs the collision shape: a scene that does not settle never builds it.
+    collision = collision_points(shape) if config.bags.settle.enabled else None
+    placement = arrange_bags(vertices, triangles, config.bags, terrain.ground, seed=config.seed,
+                             collision=collision)
     instances = tuple(BagInstance(obj_id=obj_id, instance_id=i + 1, world_from_model=pose,
                                   albedo=config.bags.albedo, stain_seed=stain_seed(config.seed, i + 1))
                       for i, pose in enumerate(placement.poses))
-    shape = variant_shape(config.meshes, obj_id)
     meshes = {TERRAIN_MESH: terrain.mesh, obj_id: (vertices, triangles)}
     rocks: tuple[tuple[int, np.ndarray], ...] = ()
     if terrain.rocks is not None and len(terrain.rocks):
