@@ -95,9 +95,11 @@ class PhotometryConfig:
     c: float = field(default=0.30, metadata=spec(
         "hapke: weight of the back-scattering lobe, p = (1+c)/2·back + (1-c)/2·forward; c > 0 "
         "scatters back toward the Sun (Sato et al. 2014: 0.30)", lo=-1.0, hi=1.0))
-    roughness_deg: float = field(default=23.4, metadata=spec(
-        "hapke: macroscopic roughness, the mean facet slope θ̄ of Hapke 1984, degrees (Sato et al. "
-        "2014 held it at 23.4; 0 = smooth)", lo=0.0, hi=60.0))
+    roughness_deg: float = field(default=23.5, metadata=spec(
+        "hapke: macroscopic roughness, the mean facet slope θ̄ of Hapke 1984, degrees, of the relief "
+        "the terrain mesh does not hold: terrain.roughness's law at smallest_m (29°, θ̄ 23.8°) less the "
+        "1 cm mesh's 5.5° facet slope, added in tan² (Sato et al. 2014 fitted 23.4 to orbital "
+        "images; 0 = smooth)", lo=0.0, hi=60.0))
     filling_factor: float = field(default=0.3, metadata=spec(
         "hapke: volume fraction of grains φ (1 - porosity), giving Hapke's porosity factor "
         "K = -ln(1 - 1.209 φ^(2/3))/(1.209 φ^(2/3)) (0.3: K = 1.44; 0: K = 1)", lo=0.0, hi=0.75))
@@ -110,16 +112,31 @@ class PhotometryConfig:
 
 @dataclass(frozen=True)
 class RoughnessConfig:
-    """Fractal regolith roughness (moonbot/terrain/roughness.py; lunar-physics.md §4.4)."""
+    """Regolith relief (moonbot/terrain/roughness.py): a law of 1-D RMS slope against baseline,
+    tan s(Δx) = tan s_b·(Δx/break_m)^(H−1), with H = hurst_coarse above break_m and hurst_fine
+    below, through rms_slope_deg at baseline_m; the mesh carries the octaves it can resolve and
+    terrain.photometry.roughness_deg the rest (Hapke's θ̄, for the law's total at smallest_m)."""
 
-    rms_slope_deg: float = field(default=20.0, metadata=spec(
-        "RMS slope over a 1 cm baseline, degrees (regolith: ~20, 15-35)", lo=0.0, hi=60.0))
-    hurst_fine: float = field(default=0.6, metadata=spec(
-        "Hurst exponent below 1 m (Helfenstein & Shepard 1999: 0.5-0.7)", lo=0.0, hi=1.0, lo_open=True))
+    rms_slope_deg: float = field(default=3.0, metadata=spec(
+        "1-D RMS slope over baseline_m, degrees (LOLA maria: median 2.0° at 17 m, Rosenburg et al. "
+        "2011, i.e. 3.0° RMS; highlands 7.5° median; 0 = no relief)", lo=0.0, hi=60.0))
+    baseline_m: float = field(default=17.0, metadata=spec(
+        "the baseline of rms_slope_deg, metres", lo=0.0, hi=100000.0, lo_open=True))
     hurst_coarse: float = field(default=0.9, metadata=spec(
-        "Hurst exponent above 1 m (LOLA: maria ~0.76, highlands ~0.95)", lo=0.0, hi=1.0, lo_open=True))
+        "Hurst exponent above break_m (LOLA 57 m-2.7 km: maria 0.76, highlands 0.95; 0.9 keeps the "
+        "cm-scale slope at the ~6° that Apollo photos' ~5 % shadow at a 12° Sun allows)",
+        lo=0.0, hi=1.0, lo_open=True))
+    hurst_fine: float = field(default=0.65, metadata=spec(
+        "Hurst exponent below break_m (Helfenstein & Shepard 1999, Apollo stereo: 0.54-0.7)",
+        lo=0.0, hi=1.0, lo_open=True))
+    break_m: float = field(default=0.01, metadata=spec(
+        "where the exponent changes, metres (the top of the stereo measurements' cm range)",
+        lo=0.0, hi=100000.0, lo_open=True))
+    smallest_m: float = field(default=0.0001, metadata=spec(
+        "the smallest relief, metres: the scale that sets Hapke's θ̄ (~100 µm, Hapke 2012 §12.2.4)",
+        lo=0.0, hi=1.0, lo_open=True))
     min_wavelength_m: float = field(default=0.02, metadata=spec(
-        "shortest octave, metres (two cells of a 1 cm mesh)", lo=0.001, hi=10.0))
+        "shortest octave of the mesh's relief, metres (two cells of a 1 cm mesh)", lo=0.001, hi=10.0))
     max_wavelength_m: float = field(default=512.0, metadata=spec(
         "longest octave, metres", lo=0.01, hi=100000.0))
 
@@ -131,24 +148,33 @@ class CratersConfig:
 
     density: float = field(default=0.05, metadata=spec(
         "C in N(>=D) = C·D^-2 per m^2, D in metres (Apollo 15 mare fit 0.0336, up to ~0.08)", lo=0.0, hi=10.0))
-    min_diameter_m: float = field(default=0.5, metadata=spec("smallest crater, metres", lo=0.01, hi=1000.0))
+    min_diameter_m: float = field(default=0.05, metadata=spec(
+        "smallest crater, metres (5 cells of the 1 cm tile; the equilibrium law holds down to 13 cm "
+        "at Surveyor 7, Shoemaker et al. 1969)", lo=0.01, hi=1000.0))
     max_diameter_m: float = field(default=200.0, metadata=spec("largest crater, metres", lo=0.01, hi=10000.0))
-    site_max_diameter_m: float = field(default=5.0, metadata=spec(
+    site_max_diameter_m: float = field(default=1.0, metadata=spec(
         "no crater larger than this has its bowl within the fine tile: the work site was chosen "
         "outside large craters, metres", lo=0.0, hi=10000.0))
 
 
 @dataclass(frozen=True)
 class RocksConfig:
-    """Rocks (moonbot/terrain/rocks.py): Golombek & Rapp (1997) cumulative fractional area
-    F(D) = k·exp(-q(k)·D), q(k) = 1.79 + 0.152/k, irregular instanced meshes."""
+    """Rocks and pebbles (moonbot/terrain/rocks.py): a background cumulative power law
+    N(>=D) = density_per_m2·D^exponent per m² (D in metres; Shoemaker & Morris 1969, Surveyor),
+    and at the crater location Golombek & Rapp's (1997) ejecta population, cumulative fractional
+    area F(D) = k·exp(-q(k)·D), q(k) = 1.79 + 0.152/k; irregular instanced meshes."""
 
-    k_background: float = field(default=0.005, metadata=spec(
-        "rock-covered area fraction away from craters (lunar mare: < 0.01)", lo=0.0, hi=0.5))
+    density_per_m2: float = field(default=2.34e-3, metadata=spec(
+        "background: rocks per m^2 of diameter >= 1 m in N(>=D) = density·D^exponent: 10x Surveyor I's "
+        "5.0e4 per 100 m^2 with D in mm (2.34e-4), as the Apollo 11 photographs' cm-dm rocks show; "
+        "0 = none", lo=0.0, hi=1.0))
+    exponent: float = field(default=-2.11, metadata=spec(
+        "background: cumulative exponent b (Surveyor I -2.11, III -2.56, VI -2.51, VII -1.82)", lo=-6.0, hi=-0.5))
     k_crater: float = field(default=0.1, metadata=spec(
         "crater location: rock-covered fraction on the crater's rim (fresh ejecta: 0.05-0.4), "
         "falling off outside as (r/R)^-3 like the ejecta", lo=0.0, hi=0.5))
-    min_diameter_m: float = field(default=0.03, metadata=spec("smallest rock, metres", lo=0.005, hi=10.0))
+    min_diameter_m: float = field(default=0.01, metadata=spec(
+        "smallest rock, metres (1 cm pebbles: 2 pixels at 3 m)", lo=0.005, hi=10.0))
     max_diameter_m: float = field(default=1.5, metadata=spec("largest rock, metres", lo=0.005, hi=20.0))
     reach_m: float = field(default=60.0, metadata=spec(
         "rocks lie within this distance of the target, metres", lo=0.0, hi=5000.0))

@@ -18,6 +18,7 @@ from moonbot.render import SceneDust, build_scene, render_view, resolve_exposure
 from moonbot.render.amodal import build_amodal_scenes, render_amodal_masks
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
 from moonbot.scene.orbit import orbit_height
+from moonbot.scene.placement import Placement
 from moonbot.writer import staged_directory, write_sample
 
 
@@ -46,9 +47,13 @@ def view_seed(dataset_seed: int, view: int) -> int:
 
 
 def run_views(config: Config, views: list[int], out_root: Path, threads: int | None = None,
-              on_stage: Callable[[str], None] | None = None) -> list[ViewResult]:
+              on_stage: Callable[[str], None] | None = None,
+              placement: Placement | None = None) -> list[ViewResult]:
     """Renders `views` (orbit indices) of the config's scene into `out_root/view_NNN/` and returns
-    per-view timings. `threads` overrides render.threads (the images do not depend on it, nor
+    per-view timings. A `placement` given (the scene's bags placed and settled once for all its
+    tasks: moonbot.pipeline.placements) is used as it is, and its cost is not this run's: the
+    views' timings then have no `settle` stage. `threads` overrides render.threads (the images
+    do not depend on it, nor
     does the config hash the samples record). `on_stage(name)` is told each stage as it starts
     ("compose scene", "build BVH", "dust setup", "amodal scenes", then per view k "dust view k",
     "render view k", "amodal view k", "encode view k"): a task's heartbeat. Raises ValueError for
@@ -62,9 +67,9 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
         config = dataclasses.replace(config, render=dataclasses.replace(config.render, threads=threads))
     stage("compose scene")
     start = time.perf_counter()
-    spec = compose_scene(config)
-    # Settling is its own stage, present only in scenes that settle (principle 3).
-    settle_s = spec.placement.settle_seconds
+    spec = compose_scene(config, placement)
+    # Settling is its own stage, present only in scenes that settle here (principle 3).
+    settle_s = spec.placement.settle_seconds if placement is None else None
     terrain_s = spec.terrain_seconds  # 0 when this process had the terrain cached
     compose_s = time.perf_counter() - start - (settle_s or 0.0) - terrain_s
     stage("build BVH")
