@@ -35,14 +35,25 @@ def build_scene(spec: SceneSpec, embree_isa: str = "auto", watertight: bool = Tr
     """Builds the Embree scene once: one prototype BVH per mesh (bags of one obj_id share it,
     rocks of one prototype too); the terrain (with its per-vertex albedo factors and smooth
     normals) and the rocks as regolith background; each bag as a labelled instance of woven
-    cloth on its atlas UVs, its stain painted by the core (none for zero seeds); then commits.
+    cloth on its atlas UVs, shaded with its mesh's area-weighted vertex normals (its BOP
+    model's), its stain painted by the core (none for zero seeds); then commits.
     `embree_isa` is render.embree_isa: the SIMD kernels Embree traces it with; watertight=False
     only measures what watertight traversal costs (bench/bench_embree_isa.py)."""
+    from moonbot.bop.models import vertex_normals  # here: moonbot.bop imports this module
+
     scene = _core.Scene(embree_isa, watertight)
     bag_ids = {bag.obj_id for bag in spec.bags}
     terrain = {"vertex_albedo": spec.terrain_albedo_scale, "vertex_normals": spec.terrain_normals}
+
+    def extras(key: int, v: np.ndarray, t: np.ndarray) -> dict:
+        if key == TERRAIN_MESH:
+            return terrain
+        if key in bag_ids:  # wrinkles shaded smooth, not as a mosaic of 5 mm facets
+            return {"vertex_normals": vertex_normals(v, t)}
+        return {}
+
     mesh_index = {key: scene.add_mesh(v, t, spec.bag_uvs.reshape(len(t), 6) if key in bag_ids else None,
-                                      **(terrain if key == TERRAIN_MESH else {}))
+                                      **extras(key, v, t))
                   for key, (v, t) in spec.meshes.items()}
     photometry, albedo = regolith(spec.terrain_photometry, spec.terrain_albedo)
     scene.add_background(mesh_index[TERRAIN_MESH], np.eye(4), albedo, photometry)
