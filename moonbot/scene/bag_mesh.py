@@ -172,10 +172,11 @@ def _lattice(shape: BagShape) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """_box_surface_grid of the shape, at `edge_length_m`, or finer where the shape has
     wrinkles to resolve: four triangle edges across a crease and along a pucker's wave."""
     spacing = shape.edge_length_m
-    if shape.crease_depth_m > 0 and shape.creases_per_corner > 0:
-        spacing = min(spacing, shape.crease_width_m / 4)
-    if shape.pucker_depth_m > 0:
-        spacing = min(spacing, shape.pucker_pitch_m / 4)
+    if shape.edge_radius_m > 0:  # a sharp box is left unwrinkled
+        if shape.crease_depth_m > 0 and shape.creases_per_corner > 0:
+            spacing = min(spacing, shape.crease_width_m / 4)
+        if shape.pucker_depth_m > 0:
+            spacing = min(spacing, shape.pucker_pitch_m / 4)
     half = np.asarray(shape.size_m, dtype=np.float64) / 2.0
     return _box_surface_grid(half, spacing, shape.edge_radius_m, shape.edge_steps)
 
