@@ -12,7 +12,8 @@ from moonbot.scene.orbit import CameraPose, orbit_pose, pixel_directions
 
 def box(size: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
     """An exact box centred on the origin: the sharp, unbulged lattice body, coarsely split."""
-    return filled_cuboid(BagShape(size_m=size, edge_radius_m=0.0, bulge_m=0.0,
+    return filled_cuboid(BagShape(size_m=size, edge_radius_m=0.0, bulge_m=0.0, sag_m=0.0, belly_m=0.0,
+                                  crease_depth_m=0.0, pucker_depth_m=0.0,
                                   edge_length_m=min(size) / 2, edge_steps=1))
 
 

@@ -11,12 +11,13 @@ import numpy as np
 import pytest
 
 from moonbot.config.schema import BagsConfig, MeshesConfig, SettleConfig
-from moonbot.scene.bag_mesh import variant_mesh
+from moonbot.scene.bag_mesh import variant_collision_points, variant_mesh
 from moonbot.scene.collision import solids_intersect, surfaces_cross, transform
 from moonbot.scene.placement import _plan_outline, arrange_bags, place_bags, polygons_apart, yaw_tilt_rotation
 from moonbot.terrain.ground import CraterGround, FlatGround, SlopedGround
 
 MESHES = {k: variant_mesh(MeshesConfig(), k) for k in (1, 3)}
+COLLISION = {k: variant_collision_points(MeshesConfig(), k) for k in (1, 3)}  # as compose_scene settles them
 VERTICES, TRIANGLES = MESHES[1][0].astype(np.float64), MESHES[1][1]
 GEOMETRIC = SettleConfig(enabled=False)
 
@@ -24,7 +25,7 @@ GEOMETRIC = SettleConfig(enabled=False)
 def arrange(count, layout, ground, settle=GEOMETRIC, obj_id=1, seed=0, **kw):
     v, t = MESHES[obj_id]
     bags = BagsConfig(count=count, layout=layout, settle=settle, **kw)
-    return arrange_bags(v, t, bags, ground, seed=seed).poses
+    return arrange_bags(v, t, bags, ground, seed=seed, collision=COLLISION[obj_id]).poses
 
 
 def hits_something(k, world, triangles, ground, ground_mesh):

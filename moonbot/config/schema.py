@@ -313,8 +313,11 @@ class BagShape:
         "body length, width, height before bulging, metres", length=3))
     edge_radius_m: float = field(default=0.010, metadata=spec("rounding of edges and corners, metres"))
     bulge_m: float = field(default=0.008, metadata=spec("outward bow at each face centre, metres"))
-    edge_length_m: float = field(default=0.006, metadata=spec("triangle edge length on flat parts, metres"))
-    edge_steps: int = field(default=6, metadata=spec("rows of vertices across each side of a rounded edge"))
+    edge_length_m: float = field(default=0.006, metadata=spec(
+        "triangle edge length on flat parts, metres (finer where the wrinkles need it: a quarter of "
+        "the crease width or pucker pitch)"))
+    edge_steps: int = field(default=4, metadata=spec(
+        "rows of vertices across each side of a rounded edge (4: 22.5° steps, 0.2 mm from a 10 mm arc)"))
     seam_height_m: float = field(default=0.0, metadata=spec("seam ridge height, metres (0 = no seam)"))
     seam_width_m: float = field(default=0.006, metadata=spec("seam ridge width along the edge arc, metres"))
     stitch_pitch_m: float = field(default=0.012, metadata=spec("distance between stitches, metres"))
@@ -323,6 +326,22 @@ class BagShape:
     gather: float = field(default=0.25, metadata=spec("cross-section shrink at the very ends (fraction)"))
     pleats: int = field(default=5, metadata=spec("pleats around the +x end (the -x end has one more)"))
     pleat_depth_m: float = field(default=0.006, metadata=spec("pleat depth, metres"))
+    sag_m: float = field(default=0.005, metadata=spec(
+        "how far the top's centre settles below the unsettled bulge, metres (0 = no sag)"))
+    belly_m: float = field(default=0.002, metadata=spec("extra outward bow of the sides as the fill settles, metres"))
+    belly_height: float = field(default=0.4, metadata=spec(
+        "where the sides bow out most, as a fraction of the half-height below the middle (0 = the middle)"))
+    flat_bottom: bool = field(default=True, metadata=spec("the bottom face rests pressed flat (no bulge)"))
+    crease_depth_m: float = field(default=0.0025, metadata=spec(
+        "largest depth of the creases fanning from each corner, metres (0 = none)"))
+    crease_length_m: float = field(default=0.07, metadata=spec("longest crease, metres"))
+    crease_width_m: float = field(default=0.02, metadata=spec("crease width across, metres"))
+    creases_per_corner: int = field(default=2, metadata=spec("creases from each corner onto each face meeting it"))
+    pucker_depth_m: float = field(default=0.0012, metadata=spec(
+        "depth of the puckers where the seams gather the fabric, metres (0 = none)"))
+    pucker_pitch_m: float = field(default=0.03, metadata=spec("mean spacing of the puckers along a seam, metres"))
+    pucker_length_m: float = field(default=0.025, metadata=spec("how far a pucker runs onto the face, metres"))
+    wrinkle_seed: int = field(default=0, metadata=spec("seed of the creases' and puckers' layout"))
 
     def __post_init__(self) -> None:
         if any(not s > 0 for s in self.size_m):
@@ -354,6 +373,32 @@ class BagShape:
             raise ValueError(f"pleats: must be in 2..32, got {self.pleats}")
         if not 0 <= self.pleat_depth_m <= min(self.size_m[1:]) / 4:
             raise ValueError(f"pleat_depth_m: must be in [0, {min(self.size_m[1:]) / 4}], got {self.pleat_depth_m}")
+        if not 0 <= self.sag_m <= min(self.size_m) / 4:
+            raise ValueError(f"sag_m: must be in [0, {min(self.size_m) / 4}], got {self.sag_m}")
+        if not 0 <= self.belly_m <= min(self.size_m) / 4:
+            raise ValueError(f"belly_m: must be in [0, {min(self.size_m) / 4}], got {self.belly_m}")
+        if not 0 <= self.belly_height <= 0.8:
+            raise ValueError(f"belly_height: must be in [0, 0.8], got {self.belly_height}")
+        # A wrinkle must be wide against its depth, or it would fold the surface through itself.
+        if not 0 <= self.crease_depth_m <= self.crease_width_m / 4:
+            raise ValueError(f"crease_depth_m: must be in [0, crease_width_m / 4 = {self.crease_width_m / 4}], "
+                             f"got {self.crease_depth_m}")
+        if not 0 < self.crease_length_m <= min(self.size_m[:2]):
+            raise ValueError(f"crease_length_m: must be in (0, {min(self.size_m[:2])}], got {self.crease_length_m}")
+        if not 0 < self.crease_width_m <= self.crease_length_m:
+            raise ValueError(f"crease_width_m: must be in (0, crease_length_m = {self.crease_length_m}], "
+                             f"got {self.crease_width_m}")
+        if not 0 <= self.creases_per_corner <= 8:
+            raise ValueError(f"creases_per_corner: must be in 0..8, got {self.creases_per_corner}")
+        if not 0 <= self.pucker_depth_m <= self.pucker_pitch_m / 8:
+            raise ValueError(f"pucker_depth_m: must be in [0, pucker_pitch_m / 8 = {self.pucker_pitch_m / 8}], "
+                             f"got {self.pucker_depth_m}")
+        if not 0 < self.pucker_pitch_m <= min(self.size_m):
+            raise ValueError(f"pucker_pitch_m: must be in (0, {min(self.size_m)}], got {self.pucker_pitch_m}")
+        if not 0 < self.pucker_length_m <= min(self.size_m) / 2:
+            raise ValueError(f"pucker_length_m: must be in (0, {min(self.size_m) / 2}], got {self.pucker_length_m}")
+        if not 0 <= self.wrinkle_seed < 2**63:
+            raise ValueError(f"wrinkle_seed: must be in [0, 2^63), got {self.wrinkle_seed}")
 
 
 @dataclass(frozen=True)
@@ -361,10 +406,10 @@ class MeshesConfig:
     """The three SynBag-1.0 mesh variants (obj_id 1, 2, 3). sandbag-03 is longer by default: its
     folds take up fabric, and 0.36 m keeps its diameter on the paper's ~400 mm ADD-S scale."""
 
-    sandbag_01: BagShape = field(default_factory=BagShape)
-    sandbag_02: BagShape = field(default_factory=lambda: BagShape(seam_height_m=0.003))
+    sandbag_01: BagShape = field(default_factory=lambda: BagShape(wrinkle_seed=1))
+    sandbag_02: BagShape = field(default_factory=lambda: BagShape(seam_height_m=0.003, wrinkle_seed=2))
     sandbag_03: BagShape = field(
-        default_factory=lambda: BagShape(size_m=(0.36, 0.20, 0.12), fold_length_m=0.06))
+        default_factory=lambda: BagShape(size_m=(0.36, 0.20, 0.12), fold_length_m=0.06, wrinkle_seed=3))
 
 
 @dataclass(frozen=True)

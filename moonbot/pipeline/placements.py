@@ -31,8 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from moonbot.config import Config
-from moonbot.scene.bag_mesh import OBJ_IDS, variant_mesh
-from moonbot.scene.placement import Placement, arrange_bags
+from moonbot.scene.compose import place_bags
+from moonbot.scene.placement import Placement
 from moonbot.sweep import Task, task_config
 from moonbot.terrain import get_terrain
 from moonbot.writer.staging import atomic_write
@@ -86,11 +86,9 @@ def place_layout(config: Config, task: Task, out_dir: Path, worker: str = "local
     started = datetime.datetime.now(datetime.timezone.utc)
     wall, cpu = time.perf_counter(), time.process_time()
     stage("place bags")
-    obj_id = OBJ_IDS[tconfig.bags.mesh]
-    vertices, triangles = variant_mesh(tconfig.meshes, obj_id)
     terrain, _ = get_terrain(tconfig.terrain)  # built already on a warmed worker
     try:
-        placement = arrange_bags(vertices, triangles, tconfig.bags, terrain.ground, seed=tconfig.seed)
+        placement = place_bags(tconfig, terrain.ground)
     except ValueError as e:
         raise PlacementError(f"scene layout {layout} (seed {tconfig.seed}): {e}") from e
     wall_s = time.perf_counter() - wall

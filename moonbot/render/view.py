@@ -35,24 +35,26 @@ def build_scene(spec: SceneSpec, embree_isa: str = "auto", watertight: bool = Tr
     """Builds the Embree scene once: one prototype BVH per mesh (bags of one obj_id share it,
     rocks of one prototype too); the terrain (with its per-vertex albedo factors and smooth
     normals) and the rocks as regolith background, with its granular micro-texture; each bag as
-    a labelled instance of woven cloth on its atlas UVs, its stain painted (or its dust gathered)
-    by the core (none for zero seeds); then commits.
+    a labelled instance of woven cloth on its atlas UVs, shaded with its mesh's area-weighted
+    vertex normals (its BOP model's), its stain painted (or its dust gathered) by the core (none
+    for zero seeds); then commits.
     `embree_isa` is render.embree_isa: the SIMD kernels Embree traces it with; watertight=False
     only measures what watertight traversal costs (bench/bench_embree_isa.py)."""
+    from moonbot.bop.models import vertex_normals  # here: moonbot.bop imports this module
+
     scene = _core.Scene(embree_isa, watertight)
     bag_ids = {bag.obj_id for bag in spec.bags}
     terrain = {"vertex_albedo": spec.terrain_albedo_scale, "vertex_normals": spec.terrain_normals}
-    # A glossy cloth needs a smooth shading normal: its narrow lobe would show every facet of the
-    # mesh, and whichever of two triangles an edge's ray is given (kernels differ in the last bit).
-    sheen = spec.fabric.sheen > 0.0
 
-    def extra(key: int, v: np.ndarray, t: np.ndarray) -> dict:
+    def extras(key: int, v: np.ndarray, t: np.ndarray) -> dict:
         if key == TERRAIN_MESH:
             return terrain
-        return {"vertex_normals": smooth_normals(v, t)} if key in bag_ids and sheen else {}
+        if key in bag_ids:  # wrinkles shaded smooth, not as a mosaic of 5 mm facets
+            return {"vertex_normals": vertex_normals(v, t)}
+        return {}
 
     mesh_index = {key: scene.add_mesh(v, t, spec.bag_uvs.reshape(len(t), 6) if key in bag_ids else None,
-                                      **extra(key, v, t))
+                                      **extras(key, v, t))
                   for key, (v, t) in spec.meshes.items()}
     photometry, albedo = regolith(spec.terrain_photometry, spec.terrain_albedo)
     grain = regolith_grain(spec.terrain_photometry.grain)
@@ -85,19 +87,6 @@ def regolith(config: PhotometryConfig, normal_albedo: float) -> tuple[_core.Phot
         filling_factor=config.filling_factor, cboe_amplitude=config.cboe_amplitude, cboe_width=config.cboe_width)
     # i = e = g = 0: cos i = cos e = cos g = 1.
     return photometry, (normal_albedo / photometry.shape(1.0, 1.0, 1.0),) * 3
-
-
-def smooth_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """Unit vertex normals (N, 3) float32 of a mesh (vertices (N, 3) metres, triangles (M, 3)
-    indices, counter-clockwise seen from outside): the area-weighted mean of the normals of the
-    triangles around each vertex."""
-    v = vertices.astype(np.float64)
-    t = np.asarray(triangles, dtype=np.int64)
-    face = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])  # length = 2 × area
-    normals = np.zeros_like(v)
-    for corner in range(3):
-        np.add.at(normals, t[:, corner], face)
-    return (normals / np.linalg.norm(normals, axis=1, keepdims=True)).astype(np.float32)
 
 
 def regolith_grain(config: GrainConfig) -> _core.RegolithGrain | None:

@@ -15,70 +15,295 @@ gathered (the cross-section shrinks by up to `gather` of its size, quadratically
 and pleated (radial folds of depth up to `pleat_depth_m` around the long axis). The two ends are
 folded differently (`pleats` and `pleats + 1` folds, a quarter-pleat apart), as real folded
 fabric is, so the body keeps fewer symmetries than a box.
+
+Every variant is a filled woven bag resting on its bottom, so it also shows:
+- **sag**: the fill settles, so the top's centre sits `sag_m` below the bulge it would have
+  unsettled, the sides bow out `belly_m` further, most at `belly_height` of the half-height below
+  the middle, and (`flat_bottom`) the bottom is pressed flat where it rests (sandbag-02's
+  seams fading toward it: the bag rests on the bottom, not on its seams);
+- **creases**: folds of the fabric gathered at each corner, `creases_per_corner` fanning from
+  the corner onto each face that meets it, up to `crease_length_m` long, `crease_width_m`
+  across and `crease_depth_m` deep, alternately ridges and grooves;
+- **puckers**: where a seam gathers the fabric, short waves across every edge, about one per
+  `pucker_pitch_m` along it, running `pucker_length_m` onto both faces, `pucker_depth_m` deep.
+On the top, which carries the next course, creases and puckers only dent the fabric.
+Creases and puckers move the surface along the rounded box's normal, by a smooth function of
+the point on the box, laid out from `wrinkle_seed` alone; they fade off the pressed bottom and
+inside sandbag-03's folds (which have their own pleats). Where they are on, the lattice is
+refined to a quarter of the crease width or the pucker pitch. They follow the rounding's
+normal, which a sharp box (edge_radius_m = 0) lacks at its edges: it is left unwrinkled.
+The layout of the +x half is repeated on the −x half turned about z. Sag breaks the box's
+other half-turns by about 2 % of the diameter but keeps this one; a random layout on both
+halves would move it by about BOP's 1 % of the diameter (a few mm of wrinkles), leaving the
+declared symmetry (moonbot/bop/models.py) to the seed's luck.
 """
 
 from __future__ import annotations
+
+import itertools
 
 import numpy as np
 
 from moonbot.config.schema import BagShape, MeshesConfig
 
 
+# The variants' default shapes.
+FILLED = MeshesConfig().sandbag_01
 SEAMED = MeshesConfig().sandbag_02
 FOLDED = MeshesConfig().sandbag_03
 
 
-def filled_cuboid(shape: BagShape = BagShape()) -> tuple[np.ndarray, np.ndarray]:
+def filled_cuboid(shape: BagShape = FILLED, wrinkles: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """sandbag-01 (or, with seam_height_m > 0, sandbag-02). Returns (vertices (N, 3) float32
-    metres, triangles (M, 3) int32)."""
+    metres, triangles (M, 3) int32). wrinkles=False leaves the creases and puckers out on the
+    same lattice, the smooth body to compare the wrinkled one with."""
+    body = _Body(shape)
+    vertices = body.smooth + body.wrinkles[:, None] * body.normal if wrinkles else body.smooth
+    return body.finish(vertices).astype(np.float32), body.triangles
+
+
+def collision_points(shape: BagShape) -> np.ndarray:
+    """Points (K, 3) float64, metres, model frame, whose convex hull holds the whole mesh of
+    `shape` (filled_cuboid / seamed_cuboid / folded_cuboid): settle.py's collision shape. They
+    are the mesh's vertices and the smooth body pushed out along its normal by the wrinkles'
+    and seams' envelopes (each crease's and pucker's depth without its sign and wave, the seam's
+    height without its stitches' dips: at least as far out as the feature itself). The hull is
+    thus smooth over them: resting on the crests of a hull of the wrinkled mesh itself, bags
+    chattered between them and never came to rest."""
+    body = _Body(shape)
+    mesh = body.finish(body.smooth + body.wrinkles[:, None] * body.normal)
+    return np.concatenate([mesh.astype(np.float32).astype(np.float64), body.finish(body.hull)])
+
+
+class _Body:
+    """A bag's lattice and smooth body before folding, with its wrinkles, for filled_cuboid
+    and collision_points: `smooth` (N, 3) float64 metres (seams included), the rounded box's
+    unit `normal` (N, 3), the wrinkles' displacement along it and their outward `envelope`
+    (N,) metres (envelope ≥ wrinkles everywhere), `hull` (N, 3): the body pushed out by the
+    seams' and wrinkles' envelopes, and `triangles` (M, 3) int32."""
+
+    def __init__(self, shape: BagShape) -> None:
+        self.shape = shape
+        self.half = half = np.asarray(shape.size_m, dtype=np.float64) / 2.0
+        lattice, self.triangles, _ = _lattice(shape)
+        points = lattice * half  # on the sharp box's surface
+
+        # Round: clamp into the inner box, then step out by the radius along the clamped-off
+        # offset. On a face that offset is the face normal; within `edge_radius_m` of an edge or
+        # corner it sweeps the arc, so shared edge vertices land on the same rounded point from
+        # either face.
+        inner = half - shape.edge_radius_m
+        core = np.clip(points, -inner, inner)
+        offset = points - core
+        length = np.linalg.norm(offset, axis=1, keepdims=True)
+        self.normal = normal = offset / np.maximum(length, 1e-300)
+        rounded = core + shape.edge_radius_m * normal
+
+        # Bulge only the flat part of each face, along the face normal, with the profile
+        # (1 − x²)²(1 − y²)² over the flat part's own coordinates: 1 at the centre, and zero
+        # value and zero slope where the rounding begins, so face and rounding meet tangentially.
+        rows = np.arange(len(points))
+        face_axis = np.argmax(np.abs(lattice), axis=1)  # the one axis at ±1 for a face-interior vertex
+        face_sign = np.sign(lattice[rows, face_axis])
+        direction = np.zeros_like(points)
+        direction[rows, face_axis] = face_sign
+        ratio = np.clip(np.abs(core) / np.maximum(inner, 1e-300), 0.0, 1.0)  # 1 on the rounding
+        # Sag: a side's profile peaks `belly_height` below the middle. The map
+        # w = (v − v0)/(1 − v0·v) takes [−1, 1] onto itself and v0 to 0, so (1 − w²)² keeps its
+        # zero value and slope at the rounding and its peak of 1, moved to v0.
+        v = np.clip(core[:, 2] / np.maximum(inner[2], 1e-300), -1.0, 1.0)
+        v0 = -shape.belly_height
+        side = face_axis < 2
+        ratio[side, 2] = np.abs((v[side] - v0) / (1.0 - v0 * v[side]))
+        ratio[rows, face_axis] = 0.0  # the face's own axis does not weigh
+        weight = np.prod((1.0 - ratio**2) ** 2, axis=1)
+        amplitude = np.where(side, shape.bulge_m + shape.belly_m,
+                             np.where(face_sign > 0, shape.bulge_m - shape.sag_m,
+                                      0.0 if shape.flat_bottom else shape.bulge_m))
+        smooth = rounded + (amplitude * weight)[:, None] * direction
+        # Seams: their height, and its envelope without the stitches' dips.
+        self.seam = self.seam_envelope = np.zeros(len(points))
+        if shape.seam_height_m > 0:
+            fade = _bottom_fade(normal) if shape.flat_bottom else 1.0  # pressed flat with the bottom
+            self.seam = shape.seam_height_m * _seam_profile(points, offset, shape) * fade
+            self.seam_envelope = shape.seam_height_m * _seam_profile(points, offset, shape, stitched=False) * fade
+        self.smooth = smooth + self.seam[:, None] * normal
+        self.wrinkles, self.envelope = _wrinkles(points, normal, self.smooth[:, 0], half, shape)
+        self.hull = smooth + (self.seam_envelope + self.envelope)[:, None] * normal
+
+    def finish(self, vertices: np.ndarray) -> np.ndarray:
+        """The body's `vertices` (N, 3) with sandbag-03's ends folded, if it has them."""
+        if self.shape.fold_length_m > 0:
+            return _fold_ends(vertices, self.half, self.shape)
+        return vertices
+
+
+def _wrinkles(points: np.ndarray, normal: np.ndarray, x: np.ndarray, half: np.ndarray,
+              shape: BagShape) -> tuple[np.ndarray, np.ndarray]:
+    """Creases and puckers: displacement (N,) metres along the rounded box's unit `normal`
+    (N, 3), outward positive, at `points` (N, 3) of the sharp box whose smooth body's point lies
+    at length coordinate `x` (N,), metres; and their outward envelope (N,) metres, at least the
+    displacement everywhere. The +x half's layout plus its image under the half-turn about z;
+    faded off the pressed bottom and inside the folds."""
+    turned = points * [-1.0, -1.0, 1.0]
+    out = (_creases(points, shape) + _creases(turned, shape)
+           + _puckers(points, half, shape) + _puckers(turned, half, shape))
+    envelope = (_creases(points, shape, envelope=True) + _creases(turned, shape, envelope=True)
+                + _puckers(points, half, shape, envelope=True) + _puckers(turned, half, shape, envelope=True))
+    # On the top, where the next course rests, the load presses the fabric in: what would stand
+    # out is turned inward there. Wrinkles standing out of the top (even as their smooth
+    # envelope) left the bag above chattering on its support's crests without coming to rest.
+    top = np.clip(normal[:, 2], 0.0, 1.0) ** 2
+    out -= 2.0 * np.maximum(out, 0.0) * top
+    envelope *= np.maximum(1.0 - 2.0 * top, 0.0)  # still ≥ out: out ≤ envelope before the turn
+    fade = _bottom_fade(normal) if shape.flat_bottom else np.ones(len(points))
+    if shape.fold_length_m > 0:  # the folds have their own pleats
+        fade *= 1.0 - _fold_weight(x, half, shape)
+    return out * fade, envelope * fade
+
+
+def _bottom_fade(normal: np.ndarray) -> np.ndarray:
+    """(1 + n_z)² of the rounded box's unit normals (N, 3), clipped to [0, 1]: 0 on the bottom
+    face, 1 wherever n_z >= 0; what a flat bottom keeps of features on and near it."""
+    return np.clip(1.0 + normal[:, 2], 0.0, 1.0) ** 2
+
+
+def _lattice(shape: BagShape) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """_box_surface_grid of the shape, at `edge_length_m`, or finer where the shape has
+    wrinkles to resolve: four triangle edges across a crease and along a pucker's wave."""
+    spacing = shape.edge_length_m
+    if shape.edge_radius_m > 0:  # a sharp box is left unwrinkled
+        if shape.crease_depth_m > 0 and shape.creases_per_corner > 0:
+            spacing = min(spacing, shape.crease_width_m / 4)
+        if shape.pucker_depth_m > 0:
+            spacing = min(spacing, shape.pucker_pitch_m / 4)
     half = np.asarray(shape.size_m, dtype=np.float64) / 2.0
-    lattice, triangles, _ = _box_surface_grid(half, shape.edge_length_m, shape.edge_radius_m,
-                                              shape.edge_steps)
-    points = lattice * half  # on the sharp box's surface
-
-    # Round: clamp into the inner box, then step out by the radius along the clamped-off offset.
-    # On a face that offset is the face normal; within `edge_radius_m` of an edge or corner it
-    # sweeps the arc, so shared edge vertices land on the same rounded point from either face.
-    inner = half - shape.edge_radius_m
-    core = np.clip(points, -inner, inner)
-    offset = points - core
-    length = np.linalg.norm(offset, axis=1, keepdims=True)
-    normal = offset / np.maximum(length, 1e-300)
-    rounded = core + shape.edge_radius_m * normal
-
-    # Bulge only the flat part of each face, along the face normal, with the profile
-    # (1 − x²)²(1 − y²)² over the flat part's own coordinates: 1 at the centre, and zero value
-    # and zero slope where the rounding begins, so face and rounding meet tangentially.
-    rows = np.arange(len(points))
-    face_axis = np.argmax(np.abs(lattice), axis=1)  # the one axis at ±1 for a face-interior vertex
-    direction = np.zeros_like(points)
-    direction[rows, face_axis] = np.sign(lattice[rows, face_axis])
-    ratio = np.clip(np.abs(core) / np.maximum(inner, 1e-300), 0.0, 1.0)  # 1 on the rounding
-    ratio[rows, face_axis] = 0.0  # the face's own axis does not weigh
-    weight = np.prod((1.0 - ratio**2) ** 2, axis=1, keepdims=True)
-    vertices = rounded + shape.bulge_m * weight * direction
-    if shape.seam_height_m > 0:
-        vertices += shape.seam_height_m * _seam_profile(points, offset, shape)[:, None] * normal
-    if shape.fold_length_m > 0:
-        vertices = _fold_ends(vertices, half, shape)
-    return vertices.astype(np.float32), triangles
+    return _box_surface_grid(half, spacing, shape.edge_radius_m, shape.edge_steps)
 
 
-def folded_cuboid(shape: BagShape = FOLDED) -> tuple[np.ndarray, np.ndarray]:
+def _bump(x: np.ndarray) -> np.ndarray:
+    """(1 − x²)² inside |x| < 1, 0 outside: 1 with zero slope at 0, zero value and slope at ±1."""
+    return np.where(np.abs(x) < 1.0, (1.0 - np.minimum(x * x, 1.0)) ** 2, 0.0)
+
+
+# Along a crease its depth rises from the corner (zero value and slope) to full at this fraction
+# of its length, then falls to zero value and slope at its tip: folds run out of the corner.
+_CREASE_PEAK = 0.25
+
+
+def _crease_envelope(tau: np.ndarray) -> np.ndarray:
+    """A crease's depth factor in [0, 1] at fraction `tau` of its length from the corner."""
+    t = np.clip(tau / _CREASE_PEAK, 0.0, 1.0)
+    rise = t * t * (3.0 - 2.0 * t)
+    fall = _bump((tau - _CREASE_PEAK) / (1.0 - _CREASE_PEAK))
+    return np.where(tau < _CREASE_PEAK, rise, fall) * ((tau > 0) & (tau < 1))
+
+
+def _wrinkle_rng(shape: BagShape, stream: int) -> np.random.Generator:
+    """The generator of one kind of wrinkle (stream 0: creases, 1: puckers) of this shape."""
+    return np.random.default_rng([shape.wrinkle_seed, stream])
+
+
+def crease_lines(shape: BagShape) -> list[tuple[np.ndarray, np.ndarray, float, float]]:
+    """The creases of the four +x corners as (start (3,), unit direction (3,), length, signed
+    depth) in metres on the sharp box; the −x corners carry their images under the half-turn
+    about z (filled_cuboid). From each corner, `creases_per_corner` onto each of its three
+    faces, fanned between 15° and 75° from the face's edges with jitter, 60–100 % of
+    `crease_length_m` long, ridges (+) and grooves (−) alternating; the deepest of each fan is
+    `crease_depth_m` deep."""
+    half = np.asarray(shape.size_m, dtype=np.float64) / 2.0
+    n = shape.creases_per_corner
+    if shape.crease_depth_m <= 0 or n == 0:
+        return []
+    rng = _wrinkle_rng(shape, 0)
+    lines = []
+    for signs in itertools.product((1.0,), (-1.0, 1.0), (-1.0, 1.0)):
+        corner = np.array(signs) * half
+        for a in range(3):
+            b, c = (a + 1) % 3, (a + 2) % 3
+            jitter, stretch, deep = rng.random(n), rng.random(n), rng.random(n)
+            deep = 0.5 + 0.5 * deep / deep.max()  # the deepest is exactly crease_depth_m
+            for k in range(n):
+                angle = np.radians(15.0 + 60.0 * (k + 0.2 + 0.6 * jitter[k]) / n)
+                direction = np.zeros(3)
+                direction[b] = -signs[b] * np.cos(angle)
+                direction[c] = -signs[c] * np.sin(angle)
+                sign = 1.0 if k % 2 == 0 else -1.0
+                lines.append((corner, direction, shape.crease_length_m * (0.6 + 0.4 * stretch[k]),
+                              sign * shape.crease_depth_m * deep[k]))
+    return lines
+
+
+def _creases(points: np.ndarray, shape: BagShape, envelope: bool = False) -> np.ndarray:
+    """crease_lines' displacement (N,) metres, outward positive, at points (N, 3) of the sharp box
+    (envelope=True: the ridges' alone, an upper bound of it).
+    Across a crease the profile is _bump of the distance from its line over half its width,
+    along it _crease_envelope; distances are straight (3D), so a crease starting at a corner
+    carries on over the rounding onto the neighbouring faces without a break."""
+    out = np.zeros(len(points))
+    half_width = shape.crease_width_m / 2
+    for start, direction, length, depth in crease_lines(shape):
+        if envelope and depth < 0:
+            continue
+        rel = points - start
+        along = rel @ direction
+        across = np.linalg.norm(rel - along[:, None] * direction, axis=1)
+        out += depth * _crease_envelope(along / length) * _bump(across / half_width)
+    return out
+
+
+def _puckers(points: np.ndarray, half: np.ndarray, shape: BagShape, envelope: bool = False) -> np.ndarray:
+    """The seams' puckers on the +x half's edges (the four at x = +L/2 and the two x edges at
+    y = +W/2; the half-turn about z gives the others): displacement (N,) metres at points (N, 3)
+    of the sharp box. For each edge, with ℓ the coordinate along it and e the distance from it
+    over the surface
+    (zero on the edge, growing over both faces that meet there),
+    depth · a(ℓ) · cos(2πℓ/pitch + φ(ℓ)) · _bump(e / pucker_length_m),
+    where the amplitude a ∈ [0.3, 1] and the phase wander φ are slow sums of sines laid out
+    from the seed, so the puckers are unevenly spaced and sized as sewn fabric gathers.
+    envelope=True leaves the wave out: the bound depth · a(ℓ) · _bump(e / pucker_length_m)."""
+    out = np.zeros(len(points))
+    if shape.pucker_depth_m <= 0:
+        return out
+    rng = _wrinkle_rng(shape, 1)
+    pitch = shape.pucker_pitch_m
+    for k, i, j, owned_i, owned_j in ((0, 1, 2, (1.0,), (-1.0, 1.0)), (1, 2, 0, (-1.0, 1.0), (1.0,)),
+                                      (2, 0, 1, (1.0,), (-1.0, 1.0))):
+        for si, sj in itertools.product(owned_i, owned_j):
+            phases = 2 * np.pi * rng.random(4)
+            ell = points[:, k]
+            e = (half[i] - si * points[:, i]) + (half[j] - sj * points[:, j])
+            near = e < shape.pucker_length_m
+            if not near.any():
+                continue
+            ell = ell[near]
+            wander = (0.5 * np.sin(2 * np.pi * ell / (3.7 * pitch) + phases[0])
+                      + 0.5 * np.sin(2 * np.pi * ell / (2.3 * pitch) + phases[1]))
+            amplitude = 0.65 + 0.35 * np.sin(2 * np.pi * ell / (5.3 * pitch) + phases[2])
+            wave = 1.0 if envelope else np.cos(2 * np.pi * ell / pitch + wander + phases[3])
+            out[near] += shape.pucker_depth_m * amplitude * wave * _bump(e[near] / shape.pucker_length_m)
+    return out
+def folded_cuboid(shape: BagShape = FOLDED, wrinkles: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """sandbag-03: the filled cuboid with its short ends gathered and pleated."""
     if shape.fold_length_m <= 0:
         raise ValueError("fold_length_m: sandbag-03 needs folded ends (> 0)")
-    return filled_cuboid(shape)
+    return filled_cuboid(shape, wrinkles)
+
+
+def _fold_weight(x: np.ndarray, half: np.ndarray, shape: BagShape) -> np.ndarray:
+    """How far into a folded end each x (metres) lies: 0 where the fold region begins (and
+    inward), 1 at the very end, smoothstep between (zero slope where the fold begins)."""
+    start = half[0] + shape.bulge_m + shape.belly_m - shape.fold_length_m
+    t = np.clip((np.abs(x) - start) / shape.fold_length_m, 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
 
 
 def _fold_ends(vertices: np.ndarray, half: np.ndarray, shape: BagShape) -> np.ndarray:
     """Gathers and pleats both short ends. Every vertex moves within its own cross-section
     (x is kept), by a smooth function of (x, angle around the long axis), so the surface stays
-    closed and the move is continuous; t = 0 where the fold region begins, 1 at the end."""
+    closed and the move is continuous."""
     x, y, z = vertices[:, 0], vertices[:, 1], vertices[:, 2]
-    start = half[0] + shape.bulge_m - shape.fold_length_m
-    t = np.clip((np.abs(x) - start) / shape.fold_length_m, 0.0, 1.0)
-    smooth = t * t * (3.0 - 2.0 * t)  # zero value and slope where the fold begins
+    smooth = _fold_weight(x, half, shape)
     angle = np.arctan2(z / half[2], y / half[1])  # around the long axis, scale-free
     plus = x > 0
     pleats = np.where(plus, shape.pleats, shape.pleats + 1)
@@ -97,17 +322,19 @@ def _fold_ends(vertices: np.ndarray, half: np.ndarray, shape: BagShape) -> np.nd
     out[:, 2] *= scale
     return out
 
-def seamed_cuboid(shape: BagShape = SEAMED) -> tuple[np.ndarray, np.ndarray]:
+
+def seamed_cuboid(shape: BagShape = SEAMED, wrinkles: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """sandbag-02: the filled cuboid with stitched seams along its edges."""
     if shape.seam_height_m <= 0:
         raise ValueError("seam_height_m: sandbag-02 needs a seam (> 0)")
-    return filled_cuboid(shape)
+    return filled_cuboid(shape, wrinkles)
 
 
-def _seam_profile(points: np.ndarray, offset: np.ndarray, shape: BagShape) -> np.ndarray:
+def _seam_profile(points: np.ndarray, offset: np.ndarray, shape: BagShape, stitched: bool = True) -> np.ndarray:
     """Seam height factor in [0, 1] per vertex. On an edge's arc (two axes clamped by the
     rounding) the angle from one face to the other is atan2 of the two offsets; the ridge is a
-    parabola in arc length around 45°, times the stitch modulation along the edge's own axis."""
+    parabola in arc length around 45°, times the stitch modulation along the edge's own axis
+    (stitched=False: without it, an upper bound)."""
     o = np.abs(offset)
     clamped = o > 1e-12
     profile = np.zeros(len(points))
@@ -116,7 +343,8 @@ def _seam_profile(points: np.ndarray, offset: np.ndarray, shape: BagShape) -> np
         theta = np.arctan2(o[:, j], o[:, i])
         distance = shape.edge_radius_m * np.abs(theta - np.pi / 4)  # arc length to the seam line
         ridge = np.clip(1.0 - (2.0 * distance / shape.seam_width_m) ** 2, 0.0, 1.0)
-        stitch = 1.0 - shape.stitch_depth * 0.5 * (1.0 - np.cos(2 * np.pi * points[:, k] / shape.stitch_pitch_m))
+        stitch = 1.0 - shape.stitch_depth * 0.5 * (1.0 - np.cos(2 * np.pi * points[:, k] / shape.stitch_pitch_m)) \
+            if stitched else 1.0
         profile = np.maximum(profile, np.where(on_arc, ridge * stitch, 0.0))
     return profile
 
@@ -160,7 +388,7 @@ def _box_surface_grid(half: np.ndarray, edge_length: float, band: float,
     return lattice, np.concatenate(triangles).astype(np.int32), np.concatenate(faces)
 
 
-def uv_atlas(shape: BagShape = BagShape()) -> np.ndarray:
+def uv_atlas(shape: BagShape = FILLED) -> np.ndarray:
     """Texture coordinates per triangle corner (M, 3, 2) float32 in [0, 1]², for the stain mask,
     matching the triangles of any variant with this `shape` (they share one lattice). The
     unfolded sharp box: the four side faces as one belt (−y, +x, +y, −x, continuous across their
@@ -168,8 +396,7 @@ def uv_atlas(shape: BagShape = BagShape()) -> np.ndarray:
     face has the same texel density. Per-corner coordinates keep the mesh's vertices shared:
     a vertex on a chart border simply has one coordinate per chart."""
     half = np.asarray(shape.size_m, dtype=np.float64) / 2.0
-    lattice, triangles, faces = _box_surface_grid(half, shape.edge_length_m, shape.edge_radius_m,
-                                                  shape.edge_steps)
+    lattice, triangles, faces = _lattice(shape)
     p = lattice[triangles] * half  # (M, 3, 3) corners on the sharp box, metres
     x, y, z = p[..., 0], p[..., 1], p[..., 2]
     hx, hy, hz = half
@@ -187,7 +414,7 @@ def uv_atlas(shape: BagShape = BagShape()) -> np.ndarray:
     return uv.astype(np.float32)
 
 
-def atlas_metres_per_uv(shape: BagShape = BagShape()) -> float:
+def atlas_metres_per_uv(shape: BagShape = FILLED) -> float:
     """Metres of the sharp box's surface per unit of `uv_atlas` coordinates (the same along u
     and v): the longer of the belt of side faces, 2(L + W), and the column of top, −y face and
     bottom, H + 2W."""
@@ -212,6 +439,11 @@ def variant_shape(meshes: MeshesConfig, obj_id: int) -> BagShape:
 def variant_mesh(meshes: MeshesConfig, obj_id: int) -> tuple[np.ndarray, np.ndarray]:
     """One variant with its configured shape."""
     return VARIANTS[obj_id][1](variant_shape(meshes, obj_id))
+
+
+def variant_collision_points(meshes: MeshesConfig, obj_id: int) -> np.ndarray:
+    """collision_points of one variant with its configured shape."""
+    return collision_points(variant_shape(meshes, obj_id))
 
 
 def variant_meshes(meshes: MeshesConfig) -> dict[int, tuple[np.ndarray, np.ndarray]]:

@@ -10,7 +10,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from moonbot.config.schema import Config, FabricConfig, PhotometryConfig, StainConfig
-from moonbot.scene.bag_mesh import OBJ_IDS, atlas_metres_per_uv, uv_atlas, variant_mesh, variant_shape
+from moonbot.scene.bag_mesh import (OBJ_IDS, atlas_metres_per_uv, collision_points, uv_atlas, variant_mesh,
+                                    variant_shape)
 from moonbot.scene.placement import Placement, arrange_bags
 from moonbot.terrain import get_terrain
 from moonbot.terrain.ground import Ground
@@ -90,6 +91,17 @@ def stain_seed(dataset_seed: int, instance_id: int) -> int:
     return int.from_bytes(digest, "little")
 
 
+def place_bags(config: Config, ground: Ground) -> Placement:
+    """The config's bags placed by `bags.layout` on `ground` (the terrain's) and, where
+    `bags.settle.enabled`, settled against it (moonbot.scene.placement; deterministic from the
+    dataset seed). Settling collides the variant's smooth hull (bag_mesh.collision_points), which
+    a scene that does not settle never builds."""
+    obj_id = OBJ_IDS[config.bags.mesh]
+    vertices, triangles = variant_mesh(config.meshes, obj_id)
+    collision = collision_points(variant_shape(config.meshes, obj_id)) if config.bags.settle.enabled else None
+    return arrange_bags(vertices, triangles, config.bags, ground, seed=config.seed, collision=collision)
+
+
 def compose_scene(config: Config, placement: Placement | None = None) -> SceneSpec:
     """`bags.count` bags of the configured mesh variant on the configured ground, placed by
     `bags.layout` and settled (moonbot.scene.placement; deterministic from the dataset seed),
@@ -97,15 +109,15 @@ def compose_scene(config: Config, placement: Placement | None = None) -> SceneSp
     once for every task of its scene: moonbot.pipeline.placements) is used as it is."""
     obj_id = OBJ_IDS[config.bags.mesh]
     vertices, triangles = variant_mesh(config.meshes, obj_id)
+    shape = variant_shape(config.meshes, obj_id)
     terrain, cached = get_terrain(config.terrain)
     if placement is None:
-        placement = arrange_bags(vertices, triangles, config.bags, terrain.ground, seed=config.seed)
+        placement = place_bags(config, terrain.ground)
     elif len(placement.poses) != config.bags.count:
         raise ValueError(f"bags.count: {config.bags.count} bags, but the placement given has {len(placement.poses)}")
     instances = tuple(BagInstance(obj_id=obj_id, instance_id=i + 1, world_from_model=pose,
                                   albedo=config.bags.albedo, stain_seed=stain_seed(config.seed, i + 1))
                       for i, pose in enumerate(placement.poses))
-    shape = variant_shape(config.meshes, obj_id)
     meshes = {TERRAIN_MESH: terrain.mesh, obj_id: (vertices, triangles)}
     rocks: tuple[tuple[int, np.ndarray], ...] = ()
     if terrain.rocks is not None and len(terrain.rocks):

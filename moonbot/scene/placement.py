@@ -214,9 +214,11 @@ class Placement:
 
 
 def arrange_bags(vertices: np.ndarray, triangles: np.ndarray, bags: BagsConfig, ground: Ground,
-                 seed: int) -> Placement:
+                 seed: int, collision: np.ndarray | None = None) -> Placement:
     """Places the configured bags on `ground`, settles them when `bags.settle.enabled`, and
-    checks the result against the ground's mesh (the triangles the renderer draws)."""
+    checks the result against the ground's mesh (the triangles the renderer draws).
+    `collision` (K, 3), model frame, metres: points whose convex hull holds the mesh, the shape
+    settling collides (bag_mesh.collision_points); None: the mesh's vertices."""
     settle_cfg = bags.settle
     clearance = settle_cfg.margin_m + (settle_cfg.drop_m if settle_cfg.enabled else 0.0)
     poses = place_bags(vertices, triangles, bags.count, bags.layout, seed=seed, ground=ground, yaw_deg=bags.yaw_deg,
@@ -225,7 +227,7 @@ def arrange_bags(vertices: np.ndarray, triangles: np.ndarray, bags: BagsConfig, 
     if settle_cfg.enabled:
         from moonbot.scene.settle import settle
 
-        result = settle(vertices, poses, ground, settle_cfg)
+        result = settle(vertices if collision is None else collision, poses, ground, settle_cfg)
         placement = Placement(poses=result.poses, settle_simulated_s=result.simulated_s,
                               settle_steps=result.steps, settle_seconds=result.seconds)
     check_placement(vertices, triangles, placement.poses, ground)

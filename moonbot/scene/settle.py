@@ -1,9 +1,10 @@
 """Settling bags as rigid bodies under lunar gravity with MuJoCo (the `mujoco-core` wheel from
 PyPI, headless; Kubric and BlenderProc settle objects with PyBullet the same way).
 
-Each bag is a free body whose collision shape is the convex hull of its mesh (MuJoCo collides
-convex shapes; every point of the bag lies inside its hull, so hulls that do not touch mean bags
-that do not touch). The ground is a MuJoCo height field sampled from the `Ground` on a grid of
+Each bag is a free body whose collision shape is the convex hull of the points it is given: its
+mesh's vertices, or points whose hull holds the mesh and is smooth over its wrinkles
+(bag_mesh.collision_points). MuJoCo collides convex shapes; every point of the bag lies inside
+that hull, so hulls that do not touch mean bags that do not touch. The ground is a MuJoCo height field sampled from the `Ground` on a grid of
 `ground_step_m` aligned with the world origin, so where the renderer's terrain grid uses the same
 spacing both are the same surface. Contacts engage at `margin_m`, so bags come to rest that far
 from what supports them rather than sunk into it by the soft contact model.
@@ -66,7 +67,8 @@ def _grid(poses: list[np.ndarray], reach: float, step: float) -> tuple[np.ndarra
 
 def settle(vertices: np.ndarray, poses: list[np.ndarray], ground: Ground,
            config: SettleConfig) -> Settled:
-    """Drops bags of mesh `vertices` ((N, 3) model frame, metres) from `poses` (world-from-model
+    """Drops bags whose collision shape is the convex hull of `vertices` ((N, 3) model frame,
+    metres: the mesh's, or bag_mesh.collision_points) from `poses` (world-from-model
     (4, 4), resting or a little above their supports) onto `ground` and each other, and steps
     until every point of every bag has moved slower than `rest_speed_m_s` for `rest_time_s`.
     Raises ValueError naming the field when they do not rest in `max_time_s` or slide away."""
