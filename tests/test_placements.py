@@ -22,8 +22,7 @@ from moonbot.pipeline.placements import (TASK_PREFIX, PlacementError, layout_id,
                                          placement_path, read_placements)
 from moonbot.pipeline.stats import load_placements, summarize
 from moonbot.pipeline.tasks import run_task, task_dir
-from moonbot.scene.bag_mesh import OBJ_IDS, variant_mesh
-from moonbot.scene.placement import arrange_bags
+from moonbot.scene.compose import place_bags
 from moonbot.sweep import task_config, tasks
 from moonbot.terrain import get_terrain
 
@@ -122,8 +121,7 @@ def test_a_kept_placement_reads_back_bit_for_bit(tmp_path):
     outcome = place_layout(config, first, tmp_path)
     assert outcome["placed"] and place_layout(config, first, tmp_path)["placed"] is False
     tconfig = task_config(config, first)
-    vertices, triangles = variant_mesh(tconfig.meshes, OBJ_IDS[tconfig.bags.mesh])
-    direct = arrange_bags(vertices, triangles, tconfig.bags, get_terrain(tconfig.terrain)[0].ground, tconfig.seed)
+    direct = place_bags(tconfig, get_terrain(tconfig.terrain)[0].ground)
     kept = placement_for(tconfig, json.loads(placement_path(tmp_path, layout_id(first)).read_text()))
     assert all(np.array_equal(a, b) and a.tobytes() == b.tobytes() for a, b in zip(kept.poses, direct.poses))
     with pytest.raises(PlacementError, match="train-sandbag-02-plane-b02: its placement was made for other inputs"):
