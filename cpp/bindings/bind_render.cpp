@@ -78,7 +78,7 @@ void bind_render(py::module_& m) {
         "diffuse inter-reflections (0 = direct light only); earth: a second light (Earthshine); "
         "medium: dust (a Medium) attenuating and scattering sunlight in rgb only (medium_rays: its "
         "shadow rays toward the Sun); adaptive_spp: 0 = off, else the samples (direct light only past spp) "
-        "a pixel whose spp base samples disagree in hit instance, Sun visibility or direct luminance "
+        "a pixel whose spp base samples (or a neighbour's) disagree in hit instance, Sun visibility or direct luminance "
         "(relative spread > adaptive_threshold) is brought up to (refined_pixels: how many; refinement_rays: "
         "their extra camera, second-look and shadow rays).");
 }

@@ -120,7 +120,7 @@ struct TileScratch {
     TileHits hits;
     std::array<int, kTilePixels> shadow_of;     // which pixel of the tile a shadow ray belongs to
     // pixel_stream of each camera ray's pixel, for random samples: the tile's pixels in order,
-    // then, for the refinement samples, the refined pixels' (TileRenderer::refine).
+    // or, for the refinement samples, the refined pixels' (TileRenderer::refine_tile).
     std::array<uint64_t, kTilePixels> streams;
     std::array<glm::dvec3, kTilePixels> radiance;  // of one sample: direct, then indirect added
     std::array<PathVertex, kTilePixels> path;
@@ -136,6 +136,22 @@ struct TileScratch {
     std::array<double, kTilePixels> dust_through;   // transmittance from the camera to the hit
     std::array<glm::dvec3, kTilePixels> dust_glow;  // sunlight the dust scatters toward the camera
     std::array<DustProfile, (kTile + 1) * (kTile + 1)> lattice;  // the marched rays of a strided march
+};
+
+/// Adaptive anti-aliasing's record of every pixel's base samples, written by the first pass over
+/// the tiles and read by the second, which refines a pixel where it or one of its eight
+/// neighbours disagrees: a sliver of a pixel that all of its own base samples miss is mostly
+/// caught by a neighbour's along the same edge. Complete before the second pass starts, so the
+/// decisions are the same whatever tile a thread took.
+struct AdaptiveFrame {
+    std::vector<glm::dvec3> sum, direct_sum;  // over the base samples: radiance, and its direct part
+    std::vector<uint8_t> disagree;            // SampleAgreement::disagree, 0 or 1
+    std::vector<double> dust_through;         // with dust only: the pixel's transmittance ...
+    std::vector<glm::dvec3> dust_glow;        // ... and glow (TileScratch), applied after refining
+
+    AdaptiveFrame(size_t pixels, bool dust)
+        : sum(pixels), direct_sum(pixels), disagree(pixels), dust_through(dust ? pixels : 0),
+          dust_glow(dust ? pixels : 0) {}
 };
 
 /// The photometric shape of an instance's surface (photometry.h). Lambert's is 1 outright: no
@@ -166,9 +182,11 @@ std::vector<LightData> light_table(const Lights& lights) {
 class TileRenderer {
 public:
     TileRenderer(const Scene& scene, const Camera& camera, const Lights& lights,
-                 const RenderSettings& settings, const FrameView& out, const DustGrid* medium)
+                 const RenderSettings& settings, const FrameView& out, const DustGrid* medium,
+                 AdaptiveFrame* adaptive)
         : m_scene(scene), m_camera(camera), m_settings(settings), m_out(out),
-          m_instances(instance_table(scene)), m_lights(light_table(lights)), m_medium(medium) {
+          m_instances(instance_table(scene)), m_lights(light_table(lights)), m_medium(medium),
+          m_adaptive(adaptive) {
         for (const LightData& l : m_lights) m_random = m_random || !l.point;
         m_random = m_random || settings.bounces > 0;
         // Light 0 is the Sun unless the Sun is dark (light_table leaves dark lights out).
@@ -209,7 +227,7 @@ public:
         if (m_settings.spp == 1) {
             shade(n, s, stats, 0, m_settings.bounces);
         } else {
-            const bool adaptive = m_settings.adaptive_spp > 0;
+            const bool adaptive = m_adaptive != nullptr;
             std::array<glm::dvec3, kTilePixels> sum, direct_sum;
             sum.fill(glm::dvec3(0.0));
             if (adaptive) {
@@ -228,10 +246,20 @@ public:
                                        s.sun_escaped[i], s.sun_hidden[i], luminance(s.direct[i]));
                 }
             }
-            std::array<glm::dvec3, kTilePixels> mean;
-            for (int i = 0; i < n; ++i) mean[i] = sum[i] / double(m_settings.spp);
-            if (adaptive) refine(x0, y0, tw, n, s, stats, sum, direct_sum, mean);
-            std::copy_n(mean.begin(), n, s.radiance.begin());
+            for (int i = 0; i < n; ++i) s.radiance[i] = sum[i] / double(m_settings.spp);
+            if (adaptive) {
+                AdaptiveFrame& a = *m_adaptive;
+                for (int y = y0, i = 0; y < y1; ++y)
+                    for (int x = x0; x < x1; ++x, ++i) {
+                        const size_t k = index(x, y);
+                        a.sum[k] = sum[i];
+                        a.direct_sum[k] = direct_sum[i];
+                        a.disagree[k] = s.agreement[i].disagree(m_settings.spp, m_settings.adaptive_threshold);
+                        if (!m_medium) continue;
+                        a.dust_through[k] = s.dust_through[i];
+                        a.dust_glow[k] = s.dust_glow[i];
+                    }
+            }
         }
         if (m_medium)
             for (int i = 0; i < n; ++i) s.radiance[i] = s.radiance[i] * s.dust_through[i] + s.dust_glow[i];
@@ -242,24 +270,26 @@ public:
         }
     }
 
-private:
-    size_t index(int x, int y) const { return static_cast<size_t>(y) * m_camera.width() + x; }
-
-    /// Adaptive anti-aliasing of the tile's n pixels after their base samples: the pixels whose
-    /// samples disagree (SampleAgreement) get samples spp .. adaptive_spp − 1 of direct light
-    /// alone, and their `radiance` becomes the split estimator (render.h) from `sum` (of the base
-    /// samples' radiance) and `direct_sum` (of their direct light). The others keep theirs.
-    void refine(int x0, int y0, int tw, int n, TileScratch& s, RenderStats& stats,
-                const std::array<glm::dvec3, kTilePixels>& sum, const std::array<glm::dvec3, kTilePixels>& direct_sum,
-                std::array<glm::dvec3, kTilePixels>& radiance) const {
-        const int base = m_settings.spp, total = m_settings.adaptive_spp;
+    /// Adaptive anti-aliasing's second pass over the tile [x0, x1) × [y0, y1), once every tile's
+    /// base samples are in (AdaptiveFrame): each pixel where it or a neighbour disagrees gets
+    /// samples spp .. adaptive_spp − 1 of direct light alone, and its rgb becomes the split
+    /// estimator (render.h). The other pixels keep what the first pass wrote.
+    void refine_tile(int x0, int y0, int x1, int y1, TileScratch& s, RenderStats& stats) const {
+        const AdaptiveFrame& a = *m_adaptive;
+        const int tw = x1 - x0, w = m_camera.width(), h = m_camera.height();
         int count = 0;
-        for (int i = 0; i < n; ++i)
-            if (s.agreement[i].disagree(base, m_settings.adaptive_threshold)) s.refined[count++] = i;
+        for (int y = y0, i = 0; y < y1; ++y)
+            for (int x = x0; x < x1; ++x, ++i) {
+                bool refine = false;
+                for (int ny = std::max(y - 1, 0); ny <= std::min(y + 1, h - 1) && !refine; ++ny)
+                    for (int nx = std::max(x - 1, 0); nx <= std::min(x + 1, w - 1) && !refine; ++nx)
+                        refine = a.disagree[index(nx, ny)] != 0;
+                if (!refine) continue;
+                s.refined[count] = i;
+                s.streams[count++] = pixel_stream(m_settings.seed, index(x, y));
+            }
         if (count == 0) return;
-        // From here on the camera rays are the refined pixels' (ray j: pixel refined[j] ≥ j, so
-        // the streams move down in place).
-        for (int j = 0; j < count; ++j) s.streams[j] = s.streams[s.refined[j]];
+        const int base = m_settings.spp, total = m_settings.adaptive_spp;
         const uint64_t rays_before = stats.camera_rays + stats.second_look_rays + stats.shadow_rays;
         std::array<glm::dvec3, kTilePixels> extra;
         std::fill_n(extra.begin(), count, glm::dvec3(0.0));
@@ -270,11 +300,18 @@ private:
         }
         for (int j = 0; j < count; ++j) {
             const int i = s.refined[j];
-            radiance[i] = (sum[i] - direct_sum[i]) / double(base) + (direct_sum[i] + extra[j]) / double(total);
+            const size_t k = index(x0 + i % tw, y0 + i / tw);
+            glm::dvec3 radiance =
+                (a.sum[k] - a.direct_sum[k]) / double(base) + (a.direct_sum[k] + extra[j]) / double(total);
+            if (m_medium) radiance = radiance * a.dust_through[k] + a.dust_glow[k];
+            for (int c = 0; c < 3; ++c) m_out.rgb[3 * k + c] = static_cast<float>(radiance[c]);
         }
         stats.refined_pixels += static_cast<uint64_t>(count);
         stats.refinement_rays += stats.camera_rays + stats.second_look_rays + stats.shadow_rays - rays_before;
     }
+
+private:
+    size_t index(int x, int y) const { return static_cast<size_t>(y) * m_camera.width() + x; }
 
     /// Traces n camera rays and resolves their hits: one per tile pixel through its centre
     /// (sample < 0), or jittered by the sample sequence; with `pixels`, ray j goes through the
@@ -611,6 +648,7 @@ private:
     const std::vector<InstanceData> m_instances;
     const std::vector<LightData> m_lights;
     const DustGrid* m_medium;           // null: no dust, and none of its code runs
+    AdaptiveFrame* m_adaptive;          // null: adaptive anti-aliasing is off (or no rgb)
     const LightData* m_sun = nullptr;   // the Sun's entry in m_lights, if it shines
     bool m_random = false;  // some shading draws random numbers (disk samples, bounces)
 };
@@ -662,18 +700,25 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     tbb::task_arena arena(settings.threads > 0 ? settings.threads : tbb::task_arena::automatic);
     if (medium && !medium->puffs.empty() && out.rgb)
         arena.execute([&] { dust.emplace(*medium, scene, lights.sun.direction()); });
-    const TileRenderer tiles(scene, camera, lights, settings, out, dust ? &*dust : nullptr);
+    // Adaptive anti-aliasing (rgb only, spp >= 2 checked above): a second pass refines.
+    std::optional<AdaptiveFrame> adaptive;
+    if (settings.adaptive_spp > 0 && out.rgb) adaptive.emplace(static_cast<size_t>(w) * h, dust.has_value());
+    const TileRenderer tiles(scene, camera, lights, settings, out, dust ? &*dust : nullptr,
+                             adaptive ? &*adaptive : nullptr);
     std::atomic<uint64_t> camera_rays{0}, second_look_rays{0}, shadow_rays{0}, bounce_shadow_rays{0}, bounce_rays{0},
         refined_pixels{0}, refinement_rays{0};
 
-    arena.execute([&] {
+    auto each_tile = [&](bool refining) {
         tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y), [&](const auto& range) {
             TileScratch scratch;
             RenderStats local;
             for (int t = range.begin(); t != range.end(); ++t) {
                 const int x0 = (t % tiles_x) * kTile, y0 = (t / tiles_x) * kTile;
-                tiles.render_tile(x0, y0, std::min(x0 + kTile, w), std::min(y0 + kTile, h), scratch,
-                                  local);
+                const int x1 = std::min(x0 + kTile, w), y1 = std::min(y0 + kTile, h);
+                if (refining)
+                    tiles.refine_tile(x0, y0, x1, y1, scratch, local);
+                else
+                    tiles.render_tile(x0, y0, x1, y1, scratch, local);
             }
             camera_rays += local.camera_rays;
             second_look_rays += local.second_look_rays;
@@ -683,6 +728,10 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
             refined_pixels += local.refined_pixels;
             refinement_rays += local.refinement_rays;
         });
+    };
+    arena.execute([&] {
+        each_tile(false);
+        if (adaptive) each_tile(true);
     });
 
     RenderStats stats;

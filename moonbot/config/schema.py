@@ -408,7 +408,7 @@ class RenderConfig:
         "diffuse inter-reflections lighting the shadows (0 = direct sunlight only)", lo=0, hi=16))
     adaptive_spp: int = field(default=0, metadata=spec(
         "adaptive anti-aliasing: 0 = off; else the samples a pixel gets (those past spp: direct light only) "
-        "when its spp base samples disagree in hit instance, Sun visibility or direct luminance; "
+        "when its spp base samples (or a neighbour's) disagree in hit instance, Sun visibility or direct luminance; "
         "spp < adaptive_spp, spp >= 2", lo=0, hi=65536))
     adaptive_threshold: float = field(default=0.25, metadata=spec(
         "spread (max - min) of direct luminance over a pixel's base samples, relative to their mean, "

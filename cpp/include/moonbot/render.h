@@ -32,12 +32,14 @@ struct RenderSettings {
     int bounces = 0;
     /// Adaptive anti-aliasing of direct light; 0 = off (every pixel gets `spp` samples). Else the
     /// samples a pixel is brought up to, spp < adaptive_spp ≤ 65536 (needs spp ≥ 2), when its
-    /// `spp` base samples disagree: they hit different instances (or some the sky), some of their
-    /// Sun shadow rays escape and some do not, or the luminance of their direct light spreads
-    /// (max − min) beyond `adaptive_threshold` times its mean. The extra samples carry direct
-    /// light only (a camera ray and its shadow rays); the pixel's indirect light stays the mean
-    /// of its base samples (render()'s split estimator). The decision rests on the pixel's own
-    /// samples alone: images stay identical whatever the thread count.
+    /// own `spp` base samples or those of one of its eight neighbours disagree: they hit
+    /// different instances (or some the sky), some of their Sun shadow rays escape and some do
+    /// not, or the luminance of their direct light spreads (max − min) beyond
+    /// `adaptive_threshold` times its mean. (The neighbours catch the slivers of an edge that all
+    /// of a pixel's own base samples miss.) The extra samples carry direct light only (a camera
+    /// ray and its shadow rays); the pixel's indirect light stays the mean of its base samples
+    /// (render()'s split estimator). The decisions follow from the base samples of every pixel,
+    /// all taken before any refinement: images stay identical whatever the thread count.
     int adaptive_spp = 0;
     /// The relative spread of direct luminance over a pixel's base samples that refines it; ≥ 0.
     double adaptive_threshold = 0.25;
