@@ -26,6 +26,8 @@ thread (core seconds):
                  and noise (its standard deviation), both relative to the image's mean, so that
                  rel_rmse² = Σ_region fraction·(bias² + noise²). The reference's own noise is
                  half the RMS difference of its halves (also relative to the mean).
+                 `--direct-only`: the same with bounces 0 everywhere, reference included: what
+                 anti-aliasing does to the direct light, apart from the indirect light's noise.
 
 Random numbers are keyed by (seed, pixel, sample, dimension), so renders that differ in one
 knob share everything else — the same pixel jitter, the same first bounces — and the error
@@ -237,7 +239,7 @@ def adaptive_label(spp: int, cap: int, threshold: float) -> str:
 
 
 def scene_rows(location: str, elevation: float, width: int, repeats: int, knobs: list[str],
-               fresh_reference: bool) -> list[dict]:
+               fresh_reference: bool, direct_only: bool = False) -> list[dict]:
     overrides = {"terrain.location": location, "sun.elevation_deg": elevation,
                  "camera.width": width, "camera.height": width * 3 // 4}
     config = load_config(None, overrides)
@@ -252,7 +254,8 @@ def scene_rows(location: str, elevation: float, width: int, repeats: int, knobs:
 
     rows = []
     if "adaptive" in knobs:
-        rows += adaptive_rows(config, scene, spec, exposure, repeats, fresh_reference)
+        direct = with_render(config, bounces=0) if direct_only else config
+        rows += adaptive_rows(direct, scene, spec, exposure, repeats, fresh_reference)
     for knob, levels in KNOBS.items():
         if knob not in knobs:
             continue
@@ -328,9 +331,12 @@ def main() -> int:
                         help="the curves to measure (default: all)")
     parser.add_argument("--fresh-reference", action="store_true",
                         help="render the adaptive curve's converged references again, not from build/")
+    parser.add_argument("--direct-only", action="store_true",
+                        help="the adaptive curve with bounces 0, its reference too (direct light alone)")
     args = parser.parse_args()
     defaults = load_config(None).render
     result = {"schema_version": SCHEMA_VERSION, "machine": machine(), "width": args.width, "knobs": args.knobs,
+              "direct_only": args.direct_only,
               "reference": REFERENCE, "converged_reference": CONVERGED,
               "defaults": {"spp": defaults.spp, "light_samples": defaults.light_samples,
                            "bounces": defaults.bounces, "earthshine": False},
@@ -338,7 +344,8 @@ def main() -> int:
     start = time.perf_counter()
     for location in LOCATIONS:
         for elevation in ELEVATIONS:
-            rows = scene_rows(location, elevation, args.width, args.repeats, args.knobs, args.fresh_reference)
+            rows = scene_rows(location, elevation, args.width, args.repeats, args.knobs, args.fresh_reference,
+                              args.direct_only)
             result["rows"] += rows
             print(f"\n{location}, Sun {elevation:g}°")
             print_rows(rows)
@@ -355,6 +362,7 @@ def main() -> int:
     result["seconds_total"] = time.perf_counter() - start
     RESULTS.mkdir(exist_ok=True)
     subset = "" if set(args.knobs) == {*KNOBS, "adaptive"} else "-".join(args.knobs) + "-"
+    subset += "direct-" if args.direct_only else ""
     out = RESULTS / f"accuracy-{subset}{machine_slug(result['machine'])}.json"
     out.write_text(json.dumps(result, indent=2, default=str) + "\n")
     commit = result["machine"]["git_commit"][:7]
