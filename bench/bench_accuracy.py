@@ -29,6 +29,22 @@ thread (core seconds):
                  `--direct-only`: the same with bounces 0 everywhere, reference included: what
                  anti-aliasing does to the direct light, apart from the indirect light's noise.
 
+With --light-cache, the indirect light instead (render.indirect; light_cache.h), against a
+`--reference-spp` (1024) path-traced reference of today's per-pixel bounces (render.bounces of the
+config, cached under build/bench_accuracy/), at the default spp and light_samples:
+
+  path_spp       per-pixel bounce paths (render.indirect = path) at 1, 2, 4, 8, 16 spp
+  cache_rays     the light cache's gather rays per terrain node (bags: 4×) at 8 .. 128; each
+                 level timed cold (view 0 fills the cache) and warm (a second view of the filled
+                 cache, the steady state of a task's 36 views)
+
+and for path at the default spp and the cache at its default rays, the bias and the noise of the
+indirect component (render minus a bounce-free render of the same seed) per region: sunlit and
+shadowed ground, sunlit and shadowed bag faces. Bias: the region's mean error relative to the
+reference's mean there; noise: the RMS difference of two seeds (of the cache: two cache seeds)
+over √2, relative to the same mean. --orbit-views N adds one task's N views of the first scene
+with one cache: its fill and render seconds, the vertices and bytes it ends with.
+
 Random numbers are keyed by (seed, pixel, sample, dimension), so renders that differ in one
 knob share everything else — the same pixel jitter, the same first bounces — and the error
 isolates that knob. For each level: the core's render seconds (median of `--repeats`) and the
@@ -38,7 +54,8 @@ reference's 99.9th percentile), and PSNR of the tone-mapped 8-bit images.
 Writes bench/results/accuracy-<machine>.json and .svg (time against relative RMSE, one curve per
 knob, all scenes pooled by median; `--knobs` naming some knobs only: accuracy-<knobs>-<machine>)
 and prints tables. Run:
-  .venv/bin/python bench/bench_accuracy.py [--width 320] [--repeats 3] [--knobs adaptive]
+  .venv/bin/python bench/bench_accuracy.py [--width 320] [--repeats 3] [--knobs adaptive] [--direct-only]
+  .venv/bin/python bench/bench_accuracy.py --light-cache [--reference-spp 1024] [--orbit-views 36]
 """
 
 from __future__ import annotations
@@ -55,9 +72,9 @@ import numpy as np
 
 from moonbot import _core
 from moonbot.config import config_hash, load_config
-from moonbot.render import build_scene, exposure_scale, render_view
+from moonbot.render import build_light_cache, build_scene, exposure_scale, render_view
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
-from moonbot.scene.orbit import pixel_directions
+from moonbot.scene.orbit import orbit_height, pixel_directions
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
 from svgplot import time_error_plot
@@ -321,6 +338,186 @@ def adaptive_curves(rows: list[dict]) -> dict[str, list]:
         if len(points) > 1:
             curves[name] = points
     return curves
+REFERENCE_CACHE = Path(__file__).resolve().parent.parent / "build" / "bench_accuracy"
+CACHE_KNOBS = {"path_spp": [1, 2, 4, 8, 16], "cache_rays": [8, 16, 32, 64, 128]}
+
+
+def scene_setup(location: str, elevation: float, width: int):
+    overrides = {"terrain.location": location, "sun.elevation_deg": elevation,
+                 "camera.width": width, "camera.height": width * 3 // 4}
+    config = load_config(None, overrides)
+    spec = compose_scene(config)
+    return config, spec, build_scene(spec)
+
+
+def path_reference(config, scene, spec, location: str, elevation: float, spp: int):
+    """The path-traced reference (render.indirect = path at `spp`) and its bounce-free twin of the
+    same seed (their difference is the reference indirect light), linear RGB float64, read from
+    build/bench_accuracy/ when computed before for this scene, size and render settings."""
+    r = config.render
+    key = (f"{location}-{elevation:g}-{config.camera.width}x{config.camera.height}-spp{spp}-b{r.bounces}"
+           f"-ls{r.light_samples}")
+    path = REFERENCE_CACHE / f"{key}.npz"
+    if path.exists():
+        with np.load(path) as f:
+            return f["rgb"], f["direct"]
+    rgb, _ = render(with_render(config, spp=spp, indirect="path"), scene, spec, 1)
+    direct, _ = render(with_render(config, spp=spp, bounces=0), scene, spec, 1)
+    REFERENCE_CACHE.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path, rgb=rgb, direct=direct)
+    return rgb, direct
+
+
+def render_with(config, scene, spec, seed: int = 7, cache=None):
+    """One render of view 0: linear RGB float64, the core's stats."""
+    pose = orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, config.orbit.start_azimuth_deg)
+    out = render_view(scene, config, intrinsics(config.camera), pose, seed=seed, light_cache=cache)
+    return out.rgb.astype(np.float64), out
+
+
+def regions(direct: np.ndarray, labels: np.ndarray) -> dict[str, np.ndarray]:
+    """Pixel masks: ground and bag faces, sunlit (direct light > 0 in the reference) or shadowed."""
+    lit = direct.sum(axis=2) > 0
+    ground, bag = labels == 0, labels > 0
+    return {"ground_sunlit": ground & lit, "ground_shadowed": ground & ~lit, "bag_sunlit": bag & lit,
+            "bag_shadowed": bag & ~lit}
+
+
+def bias_and_noise(first: np.ndarray, second: np.ndarray, reference: np.ndarray,
+                   masks: dict[str, np.ndarray]) -> dict:
+    """Per region: bias (mean of the first estimate minus the reference) and noise (RMS of the two
+    estimates' difference over √2), both relative to the reference's mean there; indirect light
+    only (each argument is a render minus its bounce-free twin)."""
+    out = {}
+    for name, mask in masks.items():
+        if mask.sum() == 0:
+            continue
+        mean = float(reference[mask].mean())
+        out[name] = {"pixels": int(mask.sum()), "reference_mean": mean,
+                     "bias": float((first[mask] - reference[mask]).mean()) / mean if mean > 0 else float("nan"),
+                     "noise": float(np.sqrt(np.mean((first[mask] - second[mask]) ** 2) / 2)) / mean
+                     if mean > 0 else float("nan")}
+    return out
+
+
+def light_cache_rows(location: str, elevation: float, width: int, repeats: int, reference_spp: int) -> list[dict]:
+    config, spec, scene = scene_setup(location, elevation, width)
+    exposure = exposure_scale(config)
+    start = time.perf_counter()
+    reference, reference_direct = path_reference(config, scene, spec, location, elevation, reference_spp)
+    base = {"location": location, "sun_elevation_deg": elevation}
+    rows = [{**base, "knob": "reference", "level": f"path {reference_spp} spp",
+             "seconds": time.perf_counter() - start}]
+    for spp in CACHE_KNOBS["path_spp"]:
+        times = []
+        for _ in range(repeats):
+            rgb, out = render_with(with_render(config, spp=spp, indirect="path"), scene, spec)
+            times.append(out.stats["core_seconds"])
+        rows.append({**base, "knob": "path_spp", "level": spp, "seconds": statistics.median(times),
+                     "bounce_rays": out.stats["bounce_rays"], **errors(rgb, reference, exposure)})
+    for rays in CACHE_KNOBS["cache_rays"]:
+        cached = with_render(config, indirect="cache", cache_rays_terrain=rays, cache_rays_bags=4 * rays)
+        cache = build_light_cache(scene, cached)
+        rgb, cold = render_with(cached, scene, spec, cache=cache)
+        filled = cache.stats()
+        warm = [render_with(cached, scene, spec, cache=cache)[1].stats["core_seconds"] for _ in range(repeats)]
+        rows.append({**base, "knob": "cache_rays", "level": rays, "seconds": statistics.median(warm),
+                     "seconds_cold": cold.stats["core_seconds"], "fill_thread_seconds": filled["fill_seconds"],
+                     "cache": {k: filled[k] for k in ("vertices", "nodes", "probe_rays", "gather_rays",
+                                                      "shadow_rays", "bytes")},
+                     **errors(rgb, reference, exposure)})
+    # Bias and noise of the indirect light per region, at the defaults of each mode.
+    reference_indirect = reference - reference_direct
+    labels = render_with(config, scene, spec)[1].instance
+    masks = regions(reference_direct, labels)
+    no_bounce = with_render(config, bounces=0)
+    direct = {seed: render_with(no_bounce, scene, spec, seed=seed)[0] for seed in (7, 8)}
+    path = [render_with(config, scene, spec, seed=seed)[0] - direct[seed] for seed in (7, 8)]
+    cached = with_render(config, indirect="cache")
+    caches = [build_light_cache(scene, dataclasses.replace(cached, seed=config.seed + k)) for k in (0, 1)]
+    cache = [render_with(cached, scene, spec, seed=7, cache=c)[0] - direct[7] for c in caches]
+    rows.append({**base, "knob": "regions", "level": "path", "spp": config.render.spp,
+                 "regions": bias_and_noise(path[0], path[1], reference_indirect, masks)})
+    rows.append({**base, "knob": "regions", "level": "cache", "spp": config.render.spp,
+                 "cache_rays_terrain": config.render.cache_rays_terrain,
+                 "cache_rays_bags": config.render.cache_rays_bags,
+                 "regions": bias_and_noise(cache[0], cache[1], reference_indirect, masks)})
+    return rows
+
+
+def orbit_rows(location: str, elevation: float, width: int, views: int) -> dict:
+    """One task's `views` orbit views with one light cache: per view the core's render seconds,
+    the vertices it filled and the fill's thread-seconds; the cache at the end."""
+    config, spec, scene = scene_setup(location, elevation, width)
+    config = with_render(config, indirect="cache")
+    cache = build_light_cache(scene, config)
+    K = intrinsics(config.camera)
+    per_view, path_seconds = [], []
+    for v in range(views):
+        azimuth = config.orbit.start_azimuth_deg + v * config.orbit.step_deg
+        height = orbit_height(spec.target, config.orbit.radius_m, config.orbit.height_m, azimuth, spec.ground)
+        pose = orbit_pose(spec.target, config.orbit.radius_m, height, azimuth)
+        before = cache.stats()
+        out = render_view(scene, config, K, pose, seed=v, light_cache=cache)
+        after = cache.stats()
+        per_view.append({"view": v, "seconds": out.stats["core_seconds"],
+                         "vertices_filled": after["vertices"] - before["vertices"],
+                         "fill_thread_seconds": after["fill_seconds"] - before["fill_seconds"]})
+        if v % 6 == 0:  # today's path tracer on the same view, for the comparison
+            path = render_view(scene, with_render(config, indirect="path"), K, pose, seed=v)
+            path_seconds.append(path.stats["core_seconds"])
+    return {"location": location, "sun_elevation_deg": elevation, "views": per_view,
+            "cache": cache.stats(), "render_seconds_total": sum(v["seconds"] for v in per_view),
+            "path_seconds_median_every_6th_view": statistics.median(path_seconds)}
+
+
+def light_cache_main(args) -> int:
+    result = {"schema_version": SCHEMA_VERSION, "machine": machine(), "width": args.width,
+              "reference": f"path {args.reference_spp} spp", "defaults": dataclasses.asdict(load_config(None).render),
+              "rows": []}
+    start = time.perf_counter()
+    for location in LOCATIONS:
+        for elevation in ELEVATIONS:
+            rows = light_cache_rows(location, elevation, args.width, args.repeats, args.reference_spp)
+            result["rows"] += rows
+            print(f"\n{location}, Sun {elevation:g}°")
+            for r in rows:
+                if r["knob"] in CACHE_KNOBS:
+                    cold = f"  cold {1e3 * r['seconds_cold']:.0f} ms" if "seconds_cold" in r else ""
+                    print(f"{r['knob']:<11} {str(r['level']):>5} {1e3 * r['seconds']:>8.1f} ms "
+                          f"rel RMSE {r['rel_rmse']:.4f}{cold}")
+                elif r["knob"] == "regions":
+                    cells = "  ".join(f"{k} {v['bias']:+.3f}/{v['noise']:.3f}" for k, v in r["regions"].items())
+                    print(f"{r['level']:<6} bias/noise  {cells}")
+    curves, summary = {}, []
+    for knob, levels in CACHE_KNOBS.items():
+        curve = []
+        for level in levels:
+            rows = [r for r in result["rows"] if r["knob"] == knob and r["level"] == level]
+            t = statistics.median(r["seconds"] for r in rows)
+            e = statistics.median(r["rel_rmse"] for r in rows)
+            curve.append((t, e, str(level)))
+            summary.append({"knob": knob, "level": level, "median_seconds": t, "median_rel_rmse": e,
+                            **({"median_seconds_cold": statistics.median(r["seconds_cold"] for r in rows)}
+                               if knob == "cache_rays" else {})})
+        curves[knob] = curve
+    result["summary"] = summary
+    if args.orbit_views:
+        result["orbit"] = orbit_rows(LOCATIONS[1], ELEVATIONS[1], args.width, args.orbit_views)
+    result["seconds_total"] = time.perf_counter() - start
+    RESULTS.mkdir(exist_ok=True)
+    out = RESULTS / f"accuracy-light-cache-{machine_slug(result['machine'])}.json"
+    out.write_text(json.dumps(result, indent=2, default=str) + "\n")
+    time_error_plot(out.with_suffix(".svg"), f"Indirect light: per-pixel paths vs the light cache "
+                    f"({result['machine']['git_commit'][:7]}, {args.width} px, median of 6 scenes; cache warm)",
+                    curves, "core render seconds per view", "RMSE / mean vs path reference")
+    print("\nmedian over scenes:")
+    for s in summary:
+        cold = f" (cold {1e3 * s['median_seconds_cold']:.0f} ms)" if "median_seconds_cold" in s else ""
+        print(f"{s['knob']:<11} {str(s['level']):>5} {1e3 * s['median_seconds']:>8.1f} ms "
+              f"{s['median_rel_rmse']:>8.4f}{cold}")
+    print(f"\nwritten {out} in {result['seconds_total']:.0f} s")
+    return 0
 
 
 def main() -> int:
@@ -333,7 +530,14 @@ def main() -> int:
                         help="render the adaptive curve's converged references again, not from build/")
     parser.add_argument("--direct-only", action="store_true",
                         help="the adaptive curve with bounces 0, its reference too (direct light alone)")
+    parser.add_argument("--light-cache", action="store_true",
+                        help="the indirect-light study (per-pixel paths vs the light cache) instead of the knobs")
+    parser.add_argument("--reference-spp", type=int, default=1024, help="--light-cache: the path reference's spp")
+    parser.add_argument("--orbit-views", type=int, default=0,
+                        help="--light-cache: also render this many orbit views of hilly, 22°, with one cache")
     args = parser.parse_args()
+    if args.light_cache:
+        return light_cache_main(args)
     defaults = load_config(None).render
     result = {"schema_version": SCHEMA_VERSION, "machine": machine(), "width": args.width, "knobs": args.knobs,
               "direct_only": args.direct_only,

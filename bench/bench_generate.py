@@ -28,6 +28,7 @@ from distributed import Client, LocalCluster
 
 from moonbot.config import load_config
 from moonbot.pipeline.generate import generate
+from moonbot.pipeline.stats import load_placements
 from moonbot.sweep.plan import split_plans
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
@@ -53,6 +54,8 @@ def run(workers: int, threads: int) -> dict:
         result = generate(config, Path(tmp), workers=workers, threads=threads, progress=None)
         assert not result.failed, result.failed
         stats = [json.loads(p.read_text()) for p in Path(tmp).glob("tasks/*/stats.json")]
+        # The layouts' placing and settling, once each (moonbot.pipeline.placements): stages too.
+        placements = load_placements(Path(tmp))
     starts = [datetime.datetime.fromisoformat(s["started_utc"]).timestamp() for s in stats]
     ends = [t + s["wall_s"] for t, s in zip(starts, stats)]
     samples = sum(s["samples"] for s in stats)
@@ -61,9 +64,9 @@ def run(workers: int, threads: int) -> dict:
     return {"workers": workers, "threads_per_worker": threads, "tasks": len(stats), "samples": samples, "seconds": span,
             "samples_per_s": samples / span, "bytes": sum(s["bytes_written"] for s in stats),
             "megapixel_samples": sum(p.megapixel_samples for p in plans),
-            "megapixels": sum(p.megapixels for p in plans),
-            "stages_s": {k: sum(s["stages_s"].get(k, 0.0) for s in stats)
-                         for k in sorted({k for s in stats for k in s["stages_s"]})}}
+            "megapixels": sum(p.megapixels for p in plans), "layouts": len(placements),
+            "stages_s": {k: sum(s["stages_s"].get(k, 0.0) for s in [*stats, *placements])
+                         for k in sorted({k for s in [*stats, *placements] for k in s["stages_s"]})}}
 
 
 def _peak_rss_mib() -> float:

@@ -2,7 +2,8 @@
 (issue 4; principle 1).
 
 Measures, on this machine:
-  1. per location (flat, hilly, crater, dem; default config): triangles, rocks, the cold build
+  1. per location (flat, hilly, crater, dem; default config): triangles, rocks (instances and the
+     triangles they instance), small craters drawn, the cold build
      (seconds; the Python heights and mesh), the same call again from the per-process cache,
      the Embree BVH build, one view's render, and memory: the mesh arrays (MB) and the growth
      of the process's resident set over building terrain + BVH (MB). The `dem` row reads a
@@ -91,8 +92,11 @@ def location_row(location: str, overrides: dict | None = None, label: str | None
     grown = rss_mb() - before
     _, render_s = view(config, spec, scene)
     v, t = terrain.mesh
+    rock_triangles = sum(len(spec.meshes[key][1]) for key, _ in spec.rocks)
+    craters = len(Location(config.terrain, location_axis(config.terrain)).craters.diameters) \
+        if location != "dem" else None
     return {"location": label or location, "triangles": int(len(t)), "vertices": int(len(v)),
-            "rocks": len(spec.rocks), "build_s": build_s, "cached_s": cached_s, "bvh_s": bvh_s,
+            "rocks": len(spec.rocks), "rock_triangles": rock_triangles, "craters": craters, "build_s": build_s, "cached_s": cached_s, "bvh_s": bvh_s,
             "render_view_s": render_s, "mesh_mb": (v.nbytes + t.nbytes) / 2**20, "rss_growth_mb": grown}
 
 

@@ -27,7 +27,7 @@ class Scene:
                      albedo: ArrayLike, photometry: Photometry = ...,
                      woven: WovenSurface | None = None) -> int: ...
     def add_background(self, mesh: int, world_from_object: ArrayLike, albedo: ArrayLike,
-                       photometry: Photometry = ...) -> int: ...
+                       photometry: Photometry = ..., moving: bool = False) -> int: ...
     def update_mesh(self, mesh: int, vertices: ArrayLike) -> None: ...
     def commit(self) -> None: ...
     def intersect(self, origins: ArrayLike, directions: ArrayLike) -> tuple[
@@ -76,6 +76,26 @@ class Sun:
     @property
     def angular_diameter_deg(self) -> float: ...
 
+class LightCacheStats(TypedDict):
+    vertices: int
+    blocks: int
+    nodes: int
+    probe_rays: int
+    gather_rays: int
+    shadow_rays: int
+    bytes: int
+    redundant_fills: int  # thread-dependent
+    fill_seconds: float   # thread-seconds, thread-dependent
+
+class LightCache:
+    def __init__(self, scene: Scene, sun: Sun, earth: Sun | None = None, bounces: int = 2,
+                 rays_objects: int = 256, rays_background: int = 64, background_cell_m: float = 0.0, object_cell_m: float = 0.0,
+                 seed: int = 0, threads: int = 0) -> None: ...
+    def covers(self, instance: int) -> bool: ...
+    def vertex(self, instance: int, vertex: int) -> tuple[tuple[float, float, float], tuple[float, float, float]]: ...
+    def fill_all(self) -> None: ...
+    def stats(self) -> LightCacheStats: ...
+
 class RenderOutput(TypedDict, total=False):
     rgb: NDArray[np.float32]
     depth: NDArray[np.float32]
@@ -93,7 +113,8 @@ class RenderOutput(TypedDict, total=False):
 def render(scene: Scene, camera: Camera, sun: Sun, spp: int = 1, seed: int = 0, threads: int = 0,
            passes: Sequence[str] = ("rgb", "depth", "instance"),
            exact_depth: bool = True, light_samples: int = 1, bounces: int = 0,
-           earth: Sun | None = None, medium: Medium | None = None, adaptive_spp: int = 0,
+           earth: Sun | None = None, medium: Medium | None = None,
+           light_cache: LightCache | None = None, adaptive_spp: int = 0,
            adaptive_threshold: float = 0.25) -> RenderOutput: ...
 def tonemap_reinhard(rgb: ArrayLike, exposure: float) -> tuple[NDArray[np.uint8], int]: ...
 def write_image(path: str, pixels: ArrayLike, png_compression: int = 1,

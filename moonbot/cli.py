@@ -184,11 +184,11 @@ def stats(out_dir: Path, reference_path: Path | None, reference_rate: float | No
     try:
         if (out_dir / "tasks").is_dir():
             collected = st.collect(out_dir)
-            records = collected.records
+            records, placements = collected.records, collected.placements
             for d in collected.incomplete:
                 click.echo(f"skipped {d}: not a complete task (no sound DONE.json)", err=True)
         else:  # task directories gone: what collect wrote before
-            records = st.load(out_dir)
+            records, placements = st.load(out_dir), st.load_placements(out_dir)
         if not records:
             raise click.ClickException(f"{out_dir / 'tasks'}: no finished tasks")
         reference = None
@@ -198,13 +198,13 @@ def stats(out_dir: Path, reference_path: Path | None, reference_rate: float | No
             reference = st.reference_from_run(reference_path)
         elif reference_path is not None:
             reference = st.reference_from_bench(reference_path, max(r["threads"] for r in records))
-        summary = st.summarize(records, reference)
+        summary = st.summarize(records, reference, placements)
         (out_dir / "stats").mkdir(parents=True, exist_ok=True)
         st.write_plot(summary, out_dir / "stats" / "throughput.svg", f"moonbot throughput: {out_dir.name}")
     except (ValueError, OSError) as e:  # StatsError is a ValueError
         raise click.ClickException(str(e)) from None
     click.echo(st.format_summary(summary))
-    click.echo(f"\nwritten {out_dir / 'stats'}/tasks.jsonl, tasks.parquet, throughput.svg")
+    click.echo(f"\nwritten {out_dir / 'stats'}/tasks.jsonl, tasks.parquet, placements.jsonl, throughput.svg")
 
 
 @main.command("plan")
@@ -277,7 +277,8 @@ def generate(config_path: Path, out_dir: Path, workers: int | None, threads: int
     except (OSError, MergeError) as e:
         raise click.ClickException(str(e)) from None
     click.echo(f"{result.rendered} tasks rendered ({result.samples} samples) in {result.seconds:.1f} s; "
-               f"{result.complete_before} were complete already")
+               f"{result.complete_before} were complete already; {result.placed} scene layouts placed "
+               f"and settled, {result.placed_before} kept from an earlier run")
     if result.merge is not None:
         m = result.merge
         click.echo(f"dataset {m.dataset}: {m.scenes} scenes, {m.images} images"
@@ -359,7 +360,8 @@ def baseline(dataset: Path, split: str, out: Path | None, workers: int | None) -
 
 @main.group("bench")
 def bench() -> None:
-    """Benchmarks: throughput of the fixed benchmark config against its limit, and comparisons."""
+    """Benchmarks: throughput of the fixed benchmark config against its limit, comparisons, and realism
+    against reference photos."""
 
 
 def _int_list(ctx, param, value: str) -> list[int]:
@@ -409,6 +411,54 @@ def bench_throughput(config_path: Path | None, levels: str, workers: list[int], 
         raise click.ClickException(str(e)) from None
     click.echo(format_record(record, path.stem))
     click.echo(f"\nwritten {path} and {path.with_suffix('.svg').name} ({record['seconds_total']:.0f} s)")
+
+
+@bench.command("realism")
+@click.option("--photos", type=click.Path(file_okay=False, exists=True, path_type=Path), required=True,
+              help="Folder of reference photos with SOURCES.csv (columns file, approx_sun_elevation_deg '~a-b').")
+@click.option("--regions", type=click.Path(dir_okay=False, exists=True, path_type=Path),
+              help="Per-photo ground regions, CSV file,x0,y0,x1,y1 (default: bench/realism-photo-rois.csv).")
+@click.option("--width", type=click.IntRange(min=64), default=768, show_default=True, help="Render width, pixels.")
+@click.option("--height", type=click.IntRange(min=64), default=576, show_default=True, help="Render height, pixels.")
+@click.option("--spp", type=click.IntRange(min=1), default=16, show_default=True, help="Samples per pixel.")
+@click.option("--light-samples", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Shadow rays per sample toward the Sun's disk.")
+@click.option("--bounces", type=click.IntRange(min=0), default=1, show_default=True, help="Diffuse bounces.")
+@click.option("--threads", type=click.IntRange(min=0), default=0, show_default=True, help="Render threads (0 = all).")
+@click.option("--pitch-deg", type=click.FloatRange(5.0, 60.0), default=20.0, show_default=True,
+              help="Camera look-down angle, degrees.")
+@click.option("--camera-height-m", type=click.FloatRange(0.1, 10.0), default=1.5, show_default=True,
+              help="Camera height above the ground under it, metres.")
+@click.option("--detail-extent-m", type=click.FloatRange(0.0, 50.0), default=6.0, show_default=True,
+              help="Half-width of the terrain's fine tile, metres (0 = the config's).")
+@click.option("--locations", default="flat,hilly,crater", show_default=True,
+              help="Locations to render, comma-separated (flat is always rendered).")
+@click.option("--set", "overrides", multiple=True, metavar="FIELD=VALUE", help="Override a config field.")
+@click.option("--out", type=click.Path(dir_okay=False, path_type=Path),
+              help="Result file (default: bench/results/realism-<machine>.json).")
+@click.option("--sheet", type=click.Path(dir_okay=False, path_type=Path),
+              help="Side-by-side PNG (default: realism-sheet.png beside the result).")
+def bench_realism(photos: Path, regions: Path | None, width: int, height: int, spp: int, light_samples: int,
+                  bounces: int, threads: int, pitch_deg: float, camera_height_m: float, detail_extent_m: float,
+                  locations: str, overrides: tuple[str, ...], out: Path | None, sheet: Path | None) -> None:
+    """Realism: statistics of the ground in Apollo photos against renders at matched geometry and
+    Sun (shadow fraction, luma percentiles, spectrum slope, octave contrasts, Laplacian, dark blobs,
+    a patch classifier). Definitions: moonbot/benchmark/realism.py."""
+    from moonbot.benchmark.realism_bench import Options, run_realism
+    from moonbot.config import ConfigError, parse_overrides
+
+    names = tuple(dict.fromkeys(["flat"] + [n.strip() for n in locations.split(",") if n.strip()]))
+    try:
+        options = Options(width=width, height=height, spp=spp, light_samples=light_samples, bounces=bounces,
+                          threads=threads, pitch_deg=pitch_deg, camera_height_m=camera_height_m,
+                          detail_extent_m=detail_extent_m, locations=names, overrides=parse_overrides(overrides))
+        record, path = run_realism(photos, regions, options, out, sheet, say=lambda text: click.echo(text, err=True))
+    except (ConfigError, ValueError, OSError) as e:
+        raise click.ClickException(str(e)) from None
+    from moonbot.benchmark.realism_bench import format_summary
+
+    click.echo(format_summary(record))
+    click.echo(f"\nwritten {path} ({record['seconds_total']:.0f} s)")
 
 
 @bench.command("compare")

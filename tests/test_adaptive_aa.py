@@ -173,3 +173,20 @@ def test_bad_config_names_the_field(overrides, message):
     with pytest.raises(ConfigError) as caught:
         load_config(None, overrides)
     assert message in str(caught.value)
+
+
+def test_with_the_light_cache_refinement_reads_no_cache_and_traces_no_bounces():
+    """With the light cache the base samples take their indirect light from it; the refinement
+    samples are direct light only, so adaptive sampling adds camera and shadow rays alone, and a
+    pixel not refined keeps the bytes of the render without it."""
+    scene = lunar_test_scene()
+    cache = _core.LightCache(scene, DISK_SUN, bounces=2, rays_background=64, seed=1)
+    off = _core.render(scene, ground_camera(), DISK_SUN, seed=5, light_cache=cache, **QUALITY)
+    on = _core.render(scene, ground_camera(), DISK_SUN, seed=5, light_cache=cache, adaptive_spp=16, **QUALITY)
+    assert on["refined_pixels"] > 0
+    assert on["bounce_rays"] == off["bounce_rays"]
+    added = (on["camera_rays"] - off["camera_rays"]) + (on["shadow_rays"] - off["shadow_rays"]) + (
+        on["second_look_rays"] - off["second_look_rays"])
+    assert added == on["refinement_rays"]
+    changed = np.any(on["rgb"] != off["rgb"], axis=-1)
+    assert 0 < changed.sum() <= on["refined_pixels"]

@@ -182,7 +182,7 @@ def periodic_file(tmp_path):
 def test_detail_is_only_below_the_dem_pixel(periodic_file):
     config = load_config(None, dem_config(periodic_file)).terrain
     location = Location(config, location_axis(config), LocalDem.load(periodic_file))
-    assert location.roughness.max_wavelength_m == 4.0  # two DEM pixels
+    assert location.roughness.longest_drawn_m == 4.0  # two DEM pixels
     assert location.craters.diameters.max() <= DEM_CRATER_PIXELS * 2.0
     assert location.main_crater is None and location.hills is None
     # Roughness off: the relief is the DEM itself about the site.
@@ -198,7 +198,8 @@ def test_a_site_2_km_from_the_dem_origin_renders_like_one_at_the_origin(tmp_path
     the equator a site due east keeps the DEM's north (no meridian convergence), and what is left
     between the two is the sphere: the site sees the DEM's tangent-plane grid stretched by
     (2 km / R)² = 1.3e-6, which moves the 60 m terrain's edge by 0.08 mm. So the meshes agree to
-    5e-5 m (slopes up to ~0.5), 2e-6 m under the bags, and the renders to the last few pixels.
+    5e-5 m (slopes up to ~0.5), 2e-6 m under the bags, and the renders to the last few pixels
+    (a pixel or two where a crater's or a pebble's shadow edge crosses its samples).
     Without the shift to the site, float32 vertices 2 km out would be 0.12 mm apart under the
     bags, the 5 cm near grid would show it, and these bounds would fail."""
     nx, ny = 2 * 1070 + 1, 85
@@ -231,7 +232,9 @@ def test_a_site_2_km_from_the_dem_origin_renders_like_one_at_the_origin(tmp_path
             np.testing.assert_allclose(ia["cam_t_m2c"], ib["cam_t_m2c"], rtol=0, atol=0.01)  # mm
             np.testing.assert_allclose(ia["cam_R_m2c"], ib["cam_R_m2c"], rtol=0, atol=1e-5)
         rgb = [np.asarray(Image.open(d / view / "rgb.png"), np.int16) for d in (a, b)]
-        assert np.abs(rgb[0] - rgb[1]).max() <= 1 and (rgb[0] != rgb[1]).any(axis=-1).mean() < 0.005
+        # A shadow edge of a 25 cm crater or of a pebble may still cross a pixel's samples.
+        off = np.abs(rgb[0] - rgb[1]).max(axis=-1)
+        assert np.count_nonzero(off > 1) <= 3 and (off > 0).mean() < 0.005
         masks = [np.asarray(Image.open(d / view / "mask.png")) for d in (a, b)]
         assert (masks[0] != masks[1]).mean() < 0.005
         da, db = (np.load(d / view / "depth.npy") for d in (a, b))

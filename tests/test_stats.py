@@ -488,7 +488,8 @@ def test_the_plain_recipe_renders_a_sweep_and_its_stats(tmp_path):
         records = stats.load(out)
         assert [r["samples"] for r in records] == [2, 2, 2]
         assert all(r["worker"].startswith("tcp://127.0.0.1:") for r in records)
-        assert {p.name for p in (out / "stats").iterdir()} == {"tasks.jsonl", "tasks.parquet", "throughput.svg"}
+        assert {p.name for p in (out / "stats").iterdir()} == {"tasks.jsonl", "tasks.parquet", "placements.jsonl",
+                                                                "throughput.svg"}
     finally:
         for proc in reversed(procs):  # the process groups this test started, by id
             os.killpg(proc.pid, signal.SIGTERM)

@@ -14,6 +14,7 @@ from click.testing import CliRunner
 from moonbot.cli import main
 from moonbot.config import ConfigError, load_config
 from moonbot.sweep import scene_seed, task_config, tasks
+from moonbot.sweep.plan import split_plans
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 
@@ -100,6 +101,17 @@ def test_plan_prints_the_sweep_without_rendering(tmp_path):
     mps = 176_256 * 640 * 480 * 4 / 1e6
     assert f"~{mps * 10.0 / 3600:.1f} h" in result.output  # 10 s a megapixel-sample
     assert f"~{176_256 * 640 * 480 / 1e6 * 2e6 / 1e9:.1f} GB" in result.output  # 2 MB a megapixel
+    # With its stages, the time splits into what is paid per megapixel-sample (here 80 %), per task
+    # (composing, the BVH: 15 %) and per layout (placing, settling: 5 %); the benchmark's 4 tasks of
+    # 6 views share 1 layout; the sweep has 4896 tasks and 36 layouts (27 train, 9 test).
+    record.write_text('{"runs": [{"workers": 2, "threads_per_worker": 1, "samples_per_s": 0.5, "seconds": 100.0, '
+                      '"megapixel_samples": 10.0, "bytes": 2e9, "megapixels": 1000.0, "tasks": 4, "layouts": 1, '
+                      '"stages_s": {"render": 70.0, "encode_write": 10.0, "compose": 5.0, "build_bvh": 10.0, '
+                      '"place": 1.0, "settle": 4.0}}]}')
+    result = CliRunner().invoke(main, ["plan", str(CONFIGS / "synbag-1.0.yaml"), "--bench-record", str(record)])
+    seconds = 100.0 * (0.80 * mps / 10.0 + 0.15 * 4896 / 4 + 0.05 * 36 / 1)
+    assert f"~{seconds / 3600:.1f} h" in result.output
+    assert sum(p.layouts for p in split_plans(load_config(CONFIGS / "synbag-1.0.yaml"))) == 36
     bad = tmp_path / "bad.yaml"
     bad.write_text("sweep:\n  splits:\n    - name: train\n      sun_elevations_deg: [95]\n")
     result = CliRunner().invoke(main, ["plan", str(bad)])

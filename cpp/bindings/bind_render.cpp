@@ -3,6 +3,7 @@
 #include <pybind11/stl.h>
 
 #include "arrays.h"
+#include "moonbot/light_cache.h"
 #include "moonbot/render.h"
 
 namespace moonbot::bindings {
@@ -12,8 +13,8 @@ void bind_render(py::module_& m) {
         "render",
         [](const Scene& scene, const Camera& camera, const Sun& sun, int spp, uint64_t seed,
            int threads, const std::vector<std::string>& passes, bool exact_depth, int light_samples,
-           int bounces, const std::optional<Sun>& earth, const Medium* medium, int adaptive_spp,
-           double adaptive_threshold) {
+           int bounces, const std::optional<Sun>& earth, const Medium* medium, const LightCache* light_cache,
+           int adaptive_spp, double adaptive_threshold) {
             bool rgb = false, depth = false, instance = false;
             for (const std::string& p : passes) {
                 if (p == "rgb") rgb = true;
@@ -49,7 +50,7 @@ void bind_render(py::module_& m) {
                 py::gil_scoped_release release;
                 const RenderSettings settings{spp,           seed,    threads,      exact_depth,
                                               light_samples, bounces, adaptive_spp, adaptive_threshold};
-                stats = render(scene, camera, Lights{sun, earth}, settings, view, medium);
+                stats = render(scene, camera, Lights{sun, earth}, settings, view, medium, light_cache);
             }
             out["camera_rays"] = stats.camera_rays;
             out["second_look_rays"] = stats.second_look_rays;
@@ -66,8 +67,8 @@ void bind_render(py::module_& m) {
         py::arg("seed") = 0, py::arg("threads") = 0,
         py::arg("passes") = std::vector<std::string>{"rgb", "depth", "instance"},
         py::arg("exact_depth") = true, py::arg("light_samples") = 1, py::arg("bounces") = 0,
-        py::arg("earth") = py::none(), py::arg("medium") = nullptr, py::arg("adaptive_spp") = 0,
-        py::arg("adaptive_threshold") = 0.25,
+        py::arg("earth") = py::none(), py::arg("medium") = nullptr, py::arg("light_cache") = nullptr,
+        py::arg("adaptive_spp") = 0, py::arg("adaptive_threshold") = 0.25,
         "Render one view. Returns a dict with the requested passes — rgb (H, W, 3) float32 "
         "W/(m²·sr), depth (H, W) float32 z-depth in metres (0 = no hit), instance (H, W) uint8 "
         "(0 = background) — and camera_rays, second_look_rays (camera rays traced again where one may have "
@@ -77,7 +78,9 @@ void bind_render(py::module_& m) {
         "float32 t. light_samples: shadow rays per sample toward each light's disk; bounces: "
         "diffuse inter-reflections (0 = direct light only); earth: a second light (Earthshine); "
         "medium: dust (a Medium) attenuating and scattering sunlight in rgb only (medium_rays: its "
-        "shadow rays toward the Sun); adaptive_spp: 0 = off, else the samples (direct light only past spp) "
+        "shadow rays toward the Sun); light_cache: a LightCache built for this scene, these lights and "
+        "bounces, from which camera hits on the surfaces it covers take their indirect light (no bounce rays); "
+        "adaptive_spp: 0 = off, else the samples (direct light only past spp) "
         "a pixel whose spp base samples (or a neighbour's) disagree in hit instance, Sun visibility or direct luminance "
         "(relative spread > adaptive_threshold) is brought up to (refined_pixels: how many; refinement_rays: "
         "their extra camera, second-look and shadow rays).");

@@ -16,17 +16,46 @@ namespace moonbot::bindings {
 namespace {
 
 Material material(const py::handle& albedo, const Photometry& photometry,
-                  const std::optional<WovenSurface>& woven = std::nullopt) {
-    return Material{glm::vec3(vector<3>(albedo, "albedo")), photometry, woven};
+                  const std::optional<WovenSurface>& woven = std::nullopt,
+                  std::shared_ptr<const RegolithGrain> grain = nullptr) {
+    return Material{glm::vec3(vector<3>(albedo, "albedo")), photometry, woven, std::move(grain)};
+}
+
+std::shared_ptr<const RegolithGrain> make_grain(double albedo_rms, double slope_rms_deg, double finest_cell_m,
+                                                double coarsest_cell_m, double hurst, uint64_t seed) {
+    GrainParams p;
+    p.albedo_rms = albedo_rms;
+    p.slope_rms_deg = slope_rms_deg;
+    p.finest_cell_m = finest_cell_m;
+    p.coarsest_cell_m = coarsest_cell_m;
+    p.hurst = hurst;
+    p.seed = seed;
+    try {
+        return std::make_shared<const RegolithGrain>(p);
+    } catch (const std::invalid_argument& e) {
+        throw py::value_error(e.what());
+    }
 }
 
 WovenSurface make_woven(double pitch_m, double relief_m, double contrast, double metres_per_uv, int stamps,
                         double brush_size, double opacity, int resolution, uint64_t stain_seed,
-                        const py::handle& dirt_colour) {
+                        const py::handle& dirt_colour, double sheen, double sheen_along, double sheen_across,
+                        const std::string& stain_mode, double contact_height_m, double deposit_radius_m,
+                        double handled_share, double speckle) {
     WovenSurface w;
     w.fabric.pitch_m = pitch_m;
     w.fabric.relief_m = relief_m;
     w.fabric.contrast = contrast;
+    w.fabric.sheen = sheen;
+    w.fabric.sheen_along = sheen_along;
+    w.fabric.sheen_across = sheen_across;
+    if (stain_mode == "stamp") w.stain_mode = StainMode::Stamp;
+    else if (stain_mode == "dust") w.stain_mode = StainMode::Dust;
+    else fail("stain_mode", "must be 'stamp' or 'dust', got '" + stain_mode + "'");
+    w.soiling.contact_height_m = contact_height_m;
+    w.soiling.deposit_radius_m = deposit_radius_m;
+    w.soiling.handled_share = handled_share;
+    w.soiling.speckle = speckle;
     w.metres_per_uv = metres_per_uv;
     w.stain.stamps = stamps;
     w.stain.brush_size = brush_size;
@@ -37,6 +66,7 @@ WovenSurface make_woven(double pitch_m, double relief_m, double contrast, double
     try {
         w.fabric.validate();
         w.stain.validate();
+        w.soiling.validate();
     } catch (const std::invalid_argument& e) {
         throw py::value_error(e.what());
     }
@@ -123,13 +153,56 @@ void bind_scene(py::module_& m) {
         }, "Hapke's porosity factor K(filling_factor); None for other models.");
 
     py::class_<WovenSurface>(m, "WovenSurface",
-                             "A bag's cloth: the procedural weave (fabric.h) on the mesh's corner UVs and the "
-                             "paper's dirt stain (stain.h), painted per instance from stain_seed; 0 stamps = clean, "
-                             "no mask.")
+                             "A bag's cloth: the procedural weave (fabric.h; sheen > 0 adds the tapes' glossy "
+                             "lobe) on the mesh's corner UVs and its dirt, made per instance from stain_seed: "
+                             "stain_mode 'stamp' paints the paper's stain (stain.h), 'dust' gathers regolith dust "
+                             "(soiling.h); 0 stamps = clean, nothing made.")
         .def(py::init(&make_woven), py::arg("pitch_m") = 1.5e-3, py::arg("relief_m") = 1.0e-4,
              py::arg("contrast") = 0.04, py::arg("metres_per_uv") = 1.0, py::arg("stamps") = 0,
              py::arg("brush_size") = 0.18, py::arg("opacity") = 0.5, py::arg("resolution") = 512,
-             py::arg("stain_seed") = 0, py::arg("dirt_colour") = py::make_tuple(0.12, 0.11, 0.10));
+             py::arg("stain_seed") = 0, py::arg("dirt_colour") = py::make_tuple(0.12, 0.11, 0.10),
+             py::arg("sheen") = 0.0, py::arg("sheen_along") = FabricParams{}.sheen_along,
+             py::arg("sheen_across") = FabricParams{}.sheen_across, py::arg("stain_mode") = "stamp",
+             py::arg("contact_height_m") = SoilingParams{}.contact_height_m,
+             py::arg("deposit_radius_m") = SoilingParams{}.deposit_radius_m,
+             py::arg("handled_share") = SoilingParams{}.handled_share, py::arg("speckle") = SoilingParams{}.speckle);
+
+    py::class_<RegolithGrain, std::shared_ptr<RegolithGrain>>(
+        m, "RegolithGrain",
+        "Regolith's granular micro-texture (regolith_texture.h): octaves of value noise of cells "
+        "finest_cell_m·2^k up to coarsest_cell_m (metres), an albedo factor of relative RMS albedo_rms "
+        "and relief of 1-D RMS slope slope_rms_deg (degrees), prefiltered over each pixel's footprint.")
+        .def(py::init([](double albedo_rms, double slope_rms_deg, double finest_cell_m, double coarsest_cell_m,
+                         double hurst, uint64_t seed) {
+                 return std::const_pointer_cast<RegolithGrain>(
+                     make_grain(albedo_rms, slope_rms_deg, finest_cell_m, coarsest_cell_m, hurst, seed));
+             }),
+             py::arg("albedo_rms") = 0.0, py::arg("slope_rms_deg") = 0.0, py::arg("finest_cell_m") = 1e-3,
+             py::arg("coarsest_cell_m") = 1.6e-2, py::arg("hurst") = 0.6, py::arg("seed") = 0)
+        .def_property_readonly("octaves", &RegolithGrain::octaves)
+        .def_property_readonly("flat_footprint_m", &RegolithGrain::flat_footprint_m,
+                               "footprints (metres) at or above this give exactly the mean")
+        .def(
+            "eval",
+            [](const RegolithGrain& g, const py::handle& points, double footprint_m) {
+                py::array a = as_array(points, "points");
+                if (a.ndim() != 2 || a.shape(1) != 3) fail("points", "must have shape (N, 3), got " + shape_of(a));
+                auto p = converted<double>(a, "points").unchecked<2>();
+                const auto n = static_cast<py::ssize_t>(p.shape(0));
+                py::array_t<double> factor(n), gradient({n, py::ssize_t{3}});
+                auto f = factor.mutable_unchecked<1>();
+                auto gr = gradient.mutable_unchecked<2>();
+                if (!(footprint_m >= 0.0)) fail("footprint_m", "must be >= 0");
+                for (py::ssize_t i = 0; i < n; ++i) {
+                    const GrainSample s = g.eval({p(i, 0), p(i, 1), p(i, 2)}, footprint_m);
+                    f(i) = s.albedo_factor;
+                    for (int c = 0; c < 3; ++c) gr(i, c) = s.gradient[c];
+                }
+                return py::make_tuple(factor, gradient);
+            },
+            py::arg("points"), py::arg("footprint_m"),
+            "(albedo factor (N,) float64, relief gradient (N, 3) float64) at world points (N, 3) metres, "
+            "prefiltered over footprint_m metres.");
 
     m.def("embree_isas", [] {
         std::vector<std::string> names;
@@ -220,12 +293,15 @@ void bind_scene(py::module_& m) {
         .def(
             "add_background",
             [](Scene& s, uint32_t mesh, const py::handle& world_from_object, const py::handle& albedo,
-               const Photometry& photometry) {
+               const Photometry& photometry, std::shared_ptr<RegolithGrain> grain, bool moving) {
                 return s.add_background(mesh, matrix<4, 4>(world_from_object, "world_from_object"),
-                                        material(albedo, photometry));
+                                        material(albedo, photometry, std::nullopt, std::move(grain)), moving);
             },
             py::arg("mesh"), py::arg("world_from_object"), py::arg("albedo"), py::arg("photometry") = Photometry{},
-            "Add unlabelled geometry (terrain, rocks): label 0 in masks. Returns the instance index.")
+            py::arg("grain") = py::none(), py::arg("moving") = false,
+            "Add unlabelled geometry (terrain, rocks): label 0 in masks. grain: a RegolithGrain textures "
+            "its camera hits (None: no texture). moving: it moves between views (the dust's ejecta), so a "
+            "LightCache neither caches it nor lets it shade what it caches. Returns the instance index.")
         .def("commit", &Scene::commit, py::call_guard<py::gil_scoped_release>(),
              "Build the top-level BVH; required before rendering.")
         .def(

@@ -16,6 +16,7 @@ void bind_dem(py::module_& m);
 void bind_limit(py::module_& m);
 void bind_material(py::module_& m);
 void bind_dust(py::module_& m);
+void bind_light_cache(py::module_& m);
 }  // namespace moonbot::bindings
 
 PYBIND11_MODULE(_core, m) {
@@ -29,6 +30,7 @@ PYBIND11_MODULE(_core, m) {
     });
     moonbot::bindings::bind_scene(m);
     moonbot::bindings::bind_dust(m);  // before render, which takes its Medium
+    moonbot::bindings::bind_light_cache(m);  // before render, which takes it
     moonbot::bindings::bind_render(m);
     moonbot::bindings::bind_image(m);
     moonbot::bindings::bind_geo(m);

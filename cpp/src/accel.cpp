@@ -259,6 +259,7 @@ uint32_t Accel::add_instance(uint32_t prototype, const float world_from_object_3
     if (!inst) throw_device_error(m_impl->device, "rtcNewGeometry(instance)");
     rtcSetGeometryInstancedScene(inst, m_impl->prototypes[prototype]);
     rtcSetGeometryTransform(inst, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, world_from_object_3x4);
+    rtcSetGeometryMask(inst, kAllRays);
     rtcCommitGeometry(inst);
     const uint32_t id = m_impl->n_instances++;
     rtcAttachGeometryByID(m_impl->top, inst, id);
@@ -274,6 +275,13 @@ uint32_t Accel::add_instance(uint32_t prototype, const float world_from_object_3
         }
     m_impl->instance_normal.push_back(cof);
     return id;
+}
+
+void Accel::set_instance_mask(uint32_t instance, uint32_t mask) {
+    if (instance >= m_impl->n_instances) throw std::out_of_range("embree: no instance " + std::to_string(instance));
+    RTCGeometry geom = rtcGetGeometry(m_impl->top, instance);
+    rtcSetGeometryMask(geom, mask);
+    rtcCommitGeometry(geom);
 }
 
 void Accel::update_prototype(uint32_t prototype) {

@@ -23,6 +23,46 @@ void FabricParams::validate() const {
     for (int c = 0; c < 3; ++c)
         require(std::isfinite(albedo[c]) && albedo[c] >= 0 && albedo[c] <= 1, "albedo",
                 "every channel must be in [0, 1]");
+    require(std::isfinite(sheen) && sheen >= 0 && sheen <= 1, "sheen", "must be in [0, 1]");
+    require(std::isfinite(sheen_along) && sheen_along >= 0.01 && sheen_along <= 1, "sheen_along",
+            "must be in [0.01, 1]");
+    require(std::isfinite(sheen_across) && sheen_across >= 0.01 && sheen_across <= 1, "sheen_across",
+            "must be in [0.01, 1]");
+}
+
+namespace {
+
+/// Smith's Λ for the anisotropic GGX distribution (Heitz 2014 eq. 86 with the anisotropic
+/// projected roughness), direction w in the local frame, w.z > 0.
+double ggx_lambda(const glm::dvec3& w, double ax2, double ay2) {
+    const double z2 = w.z * w.z;
+    return 0.5 * (-1.0 + std::sqrt(1.0 + (ax2 * w.x * w.x + ay2 * w.y * w.y) / z2));
+}
+
+double tape_lobe2(const glm::dvec3& wi, const glm::dvec3& wo, double ax2, double ay2) {
+    if (!(wi.z > 0.0 && wo.z > 0.0)) return 0.0;
+    const glm::dvec3 h = glm::normalize(wi + wo);
+    const double e = h.x * h.x / ax2 + h.y * h.y / ay2 + h.z * h.z;
+    const double d = 1.0 / (kPi * std::sqrt(ax2 * ay2) * e * e);
+    const double g2 = 1.0 / (1.0 + ggx_lambda(wi, ax2, ay2) + ggx_lambda(wo, ax2, ay2));
+    return d * g2 / (4.0 * wi.z * wo.z);
+}
+
+}  // namespace
+
+double tape_lobe(const glm::dvec3& wi, const glm::dvec3& wo, double ax, double ay) {
+    return tape_lobe2(wi, wo, ax * ax, ay * ay);
+}
+
+double cloth_sheen(const FabricParams& params, const FabricSample& sample, const glm::dvec3& wi,
+                   const glm::dvec3& wo) {
+    const double along2 = params.sheen_along * params.sheen_along, across2 = params.sheen_across * params.sheen_across;
+    // α² = 2σ² relates a Beckmann lobe to its per-axis slope variance σ² (Walter et al. 2007); we
+    // widen the GGX lobe by the same amount.
+    const double wx = 2.0 * sample.lost_slope2_x, wy = 2.0 * sample.lost_slope2_y;
+    const double warp = tape_lobe2(wi, wo, along2 + wx, across2 + wy);
+    const double weft = tape_lobe2(wi, wo, across2 + wx, along2 + wy);
+    return sample.warp_share * warp + (1.0 - sample.warp_share) * weft;
 }
 
 double weave_height(double a, double b) {
@@ -54,6 +94,14 @@ FabricSample fabric_eval(const FabricParams& params, double x, double y, double 
     // n ∝ (−∂z/∂x, −∂z/∂y, 1) for the surface z = relief·h(kx, ky).
     const double scale = params.relief_m * k;
     out.normal = glm::normalize(glm::dvec3(-scale * dh_da, -scale * dh_db, 1.0));
+    if (params.sheen > 0.0) {
+        // sin a·sin b is the (1, 1) harmonic: filtered by g1·g1.
+        out.warp_share = 0.5 * (1.0 + g1_2 * sa * sb);
+        // Over a period ⟨(∂h/∂a)²⟩ = ⅛g2² + (1/64)·(5/2)·g31² (the harmonics are orthogonal), the
+        // same for b; unfiltered (g = 1) minus filtered is what the footprint hides.
+        const double lost = scale * scale * (0.125 * (1.0 - g2 * g2) + 0.0390625 * (1.0 - g31 * g31));
+        out.lost_slope2_x = out.lost_slope2_y = lost;
+    }
     return out;
 }
 

@@ -86,6 +86,7 @@ struct InstanceData {
     const StainMask* stain;      // null unless the instance is stained
     const float* vertex_albedo;  // per-vertex albedo factors, or null
     const float* vertex_normals; // per-vertex unit shading normals (object frame), or null
+    const RegolithGrain* grain;  // granular micro-texture at camera hits, or null
 };
 
 /// The interpolated shading normal of instance `inst` at barycentrics (u, v) of triangle
@@ -139,7 +140,8 @@ inline std::vector<InstanceData> instance_table(const Scene& scene) {
                     mesh.corner_uvs.empty() ? nullptr : mesh.corner_uvs.data(),
                     inst.material.woven ? &*inst.material.woven : nullptr, inst.stain,
                     mesh.vertex_albedo.empty() ? nullptr : mesh.vertex_albedo.data(),
-                    mesh.vertex_normals.empty() ? nullptr : mesh.vertex_normals.data()};
+                    mesh.vertex_normals.empty() ? nullptr : mesh.vertex_normals.data(),
+                    inst.material.grain.get()};
     }
     return table;
 }

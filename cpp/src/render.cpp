@@ -14,6 +14,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "moonbot/light_cache.h"
 #include "moonbot/rng.h"
 #include "moonbot/sampler.h"
 #include "rays.h"
@@ -59,6 +60,11 @@ struct PathVertex {
     double cos_light[2];    // normal · light dir, per light
     bool alive;
     bool shaded_apart;      // `shading` differs from `normal`
+    // The cloth's glossy tapes (fabric.h "Sheen"), at camera hits on cloth with sheen only:
+    double sheen;             // its weight s; 0 elsewhere, and then nothing below is read
+    const FabricParams* fabric;
+    FabricSample weave;       // the prefiltered weave at the hit
+    glm::dvec3 warp, weft;    // unit, with `shading` the frame the lobes are oriented in
 };
 
 /// What a pixel's base samples say about whether they agree (adaptive anti-aliasing).
@@ -183,10 +189,10 @@ class TileRenderer {
 public:
     TileRenderer(const Scene& scene, const Camera& camera, const Lights& lights,
                  const RenderSettings& settings, const FrameView& out, const DustGrid* medium,
-                 AdaptiveFrame* adaptive)
+                 const LightCache* light_cache, AdaptiveFrame* adaptive)
         : m_scene(scene), m_camera(camera), m_settings(settings), m_out(out),
           m_instances(instance_table(scene)), m_lights(light_table(lights)), m_medium(medium),
-          m_adaptive(adaptive) {
+          m_light_cache(light_cache), m_adaptive(adaptive) {
         for (const LightData& l : m_lights) m_random = m_random || !l.point;
         m_random = m_random || settings.bounces > 0;
         // Light 0 is the Sun unless the Sun is dark (light_table leaves dark lights out).
@@ -225,7 +231,7 @@ public:
 
         if (m_medium) march_dust(x0, y0, tw, n, s);
         if (m_settings.spp == 1) {
-            shade(n, s, stats, 0, m_settings.bounces);
+            shade(n, s, stats, 0, /*indirect=*/true);
         } else {
             const bool adaptive = m_adaptive != nullptr;
             std::array<glm::dvec3, kTilePixels> sum, direct_sum;
@@ -236,7 +242,7 @@ public:
             }
             for (int sample = 0; sample < m_settings.spp; ++sample) {
                 trace(x0, y0, tw, n, s, stats, sample);
-                shade(n, s, stats, static_cast<uint32_t>(sample), m_settings.bounces);
+                shade(n, s, stats, static_cast<uint32_t>(sample), /*indirect=*/true);
                 for (int i = 0; i < n; ++i) sum[i] += s.radiance[i];
                 if (!adaptive) continue;
                 for (int i = 0; i < n; ++i) {
@@ -295,7 +301,7 @@ public:
         std::fill_n(extra.begin(), count, glm::dvec3(0.0));
         for (int sample = base; sample < total; ++sample) {
             trace(x0, y0, tw, count, s, stats, sample, s.refined.data());
-            shade(count, s, stats, static_cast<uint32_t>(sample), /*bounces=*/0);
+            shade(count, s, stats, static_cast<uint32_t>(sample), /*indirect=*/false);
             for (int j = 0; j < count; ++j) extra[j] += s.direct[j];
         }
         for (int j = 0; j < count; ++j) {
@@ -338,8 +344,8 @@ private:
     }
 
     /// The radiance of the n resolved camera hits for one sample: the lights at the hit (also
-    /// kept apart in `direct` when adaptive_spp > 0), then at each of `bounces` bounces' vertices.
-    void shade(int n, TileScratch& s, RenderStats& stats, uint32_t sample, int bounces) const {
+    /// kept apart in `direct` when adaptive_spp > 0), then, with `indirect`, the indirect light (add_indirect).
+    void shade(int n, TileScratch& s, RenderStats& stats, uint32_t sample, bool indirect) const {
         std::fill_n(s.radiance.begin(), n, glm::dvec3(0.0));
         if (m_settings.adaptive_spp > 0) {
             // Where no light shines (or not the Sun), nothing below writes them.
@@ -368,8 +374,10 @@ private:
             v.albedo = albedo_at(inst, tri.prim, h.u, h.v);
             v.shading = v.normal;
             v.shaded_apart = inst.woven != nullptr || inst.vertex_normals != nullptr;
+            v.sheen = 0.0;
             if (inst.vertex_normals) v.shading = shading_normal_at(inst, tri.prim, h.u, h.v, v.normal);
             if (inst.woven) cloth(inst, tri, h, dir, v);
+            if (inst.grain) regolith_grain(*inst.grain, h, dir, v);
             v.cos_light[0] = tri.cos_sun[h.side];
             for (size_t l = 1; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(v.normal, m_lights[l].dir);
             if (m_medium && m_sun) s.sun_dust[i] = m_medium->sun_transmittance(v.point);
@@ -377,13 +385,23 @@ private:
         light_vertices(n, s, stats, sample, m_settings.light_samples, kPairLight,
                        m_medium && m_sun ? s.sun_dust.data() : nullptr, /*camera_hits=*/true);
         if (m_settings.adaptive_spp > 0) std::copy_n(s.radiance.begin(), n, s.direct.begin());
-        add_indirect(n, s, stats, sample, bounces);
+        if (indirect) add_indirect(n, s, stats, sample);
     }
 
-    /// Adds the light of `bounces` diffuse bounces from the camera hits (the paths set up by
-    /// shade) to the radiance of one sample.
-    void add_indirect(int n, TileScratch& s, RenderStats& stats, uint32_t sample, int bounces) const {
-        for (int bounce = 1; bounce <= bounces; ++bounce) {
+    /// Adds the indirect light at the camera hits (the paths set up by shade) to the radiance of
+    /// one sample: the light cache's, where it serves the hit, else that of the diffuse bounces.
+    void add_indirect(int n, TileScratch& s, RenderStats& stats, uint32_t sample) const {
+        if (m_light_cache)
+            for (int i = 0; i < n; ++i) {
+                PathVertex& v = s.path[i];
+                if (!v.alive) continue;
+                const PixelHit& h = s.hits.pixel(i);
+                if (const auto indirect = cached_indirect(v, s.hits.record(h).prim, h.u, h.v)) {
+                    s.radiance[i] += *indirect;
+                    v.alive = false;  // the cache stands for its bounces
+                }
+            }
+        for (int bounce = 1; bounce <= m_settings.bounces; ++bounce) {
             const uint32_t pair = kPairBounce + kPairsPerBounce * static_cast<uint32_t>(bounce - 1);
             if (!extend_paths(n, s, stats, sample, pair)) break;
             light_vertices(n, s, stats, sample, 1, pair + 1, nullptr, /*camera_hits=*/false);
@@ -468,6 +486,32 @@ private:
         }
     }
 
+    /// One pixel's width on the surface of a camera hit (metres): its angle 1/fx at the hit's
+    /// distance, stretched by the obliquity to the unit normal `n` (capped so a grazing hit still
+    /// gets a finite blur). The footprint textures are prefiltered over.
+    double pixel_footprint(const PixelHit& h, const glm::dvec3& dir, const glm::dvec3& n) const {
+        const double length = glm::length(dir);
+        const double distance = h.t * length;
+        const double obliquity = std::max(std::abs(glm::dot(n, dir)) / length, 0.1);
+        return distance / m_camera.intrinsics().fx / obliquity;
+    }
+
+    /// Regolith's granular micro-texture at a camera hit (regolith_texture.h), prefiltered over
+    /// the pixel's footprint: it scales the albedo and tilts the shading normal. Beyond the
+    /// texture's flat footprint nothing changes. A tilt that would turn the shading normal away
+    /// from the camera is dropped (a bump map cannot show a facet the geometry hides).
+    void regolith_grain(const RegolithGrain& grain, const PixelHit& h, const glm::dvec3& dir, PathVertex& v) const {
+        const double footprint = pixel_footprint(h, dir, v.shading);
+        if (!(footprint < grain.flat_footprint_m())) return;
+        const GrainSample g = grain.eval(v.point, footprint);
+        v.albedo *= g.albedo_factor;
+        if (g.gradient == glm::dvec3(0.0)) return;
+        const glm::dvec3 tilted = perturbed_normal(v.shading, g.gradient);
+        if (!(glm::dot(tilted, v.wo) > 0.0)) return;
+        v.shading = tilted;
+        v.shaded_apart = true;
+    }
+
     /// The bag's cloth at a camera hit: where the hit lies in the UV atlas, the weave there
     /// prefiltered over the pixel's footprint, the stain mask's value, and the weave's normal in
     /// the world (the tangent frame follows the atlas: +u along the warp, +v along the weft).
@@ -502,16 +546,49 @@ private:
         } else {
             orthonormal_basis(n, t, b);  // a degenerate UV triangle: any frame (the weave is then arbitrary)
         }
-        // One pixel's width on the cloth: its angle 1/fx at the hit's distance, stretched by the
-        // obliquity (capped so a grazing hit still gets a finite blur).
-        const double length = glm::length(dir);
-        const double distance = h.t * length;
-        const double obliquity = std::max(std::abs(glm::dot(n, dir)) / length, 0.1);
-        const double footprint = distance / m_camera.intrinsics().fx / obliquity;
+        const double footprint = pixel_footprint(h, dir, n);
         const FabricSample f = fabric_eval(w.fabric, st.x * w.metres_per_uv, st.y * w.metres_per_uv, footprint);
-        v.albedo = inst.stain ? stained_base_colour(f.albedo, inst.stain->sample(st.x, st.y), w.dirt_colour) : f.albedo;
-        const glm::dvec3 shading = t * f.normal.x + b * f.normal.y + n * f.normal.z;
+        double dirt = 0.0;  // the stain mask's value or the dust's cover
+        if (w.dust) {
+            const glm::dvec3 object_point = (1.0 - b1 - b2) * object_vertex(inst, corner[0]) +
+                                            b1 * object_vertex(inst, corner[1]) + b2 * object_vertex(inst, corner[2]);
+            dirt = w.dust->coverage(object_point, footprint);
+            v.albedo = dusted_colour(f.albedo, dirt, w.dirt_colour);
+        } else if (inst.stain) {
+            dirt = inst.stain->sample(st.x, st.y);
+            v.albedo = stained_base_colour(f.albedo, dirt, w.dirt_colour);
+        } else {
+            v.albedo = f.albedo;
+        }
+        // Dust fills the weave's pits: under cover m the relief flattens toward the mean surface.
+        const glm::dvec3 weave = w.dust ? glm::mix(f.normal, glm::dvec3(0.0, 0.0, 1.0), dirt) : f.normal;
+        const glm::dvec3 shading = t * weave.x + b * weave.y + n * weave.z;
         v.shading = shading / glm::length(shading);
+        if (w.fabric.sheen > 0.0) {
+            v.sheen = w.fabric.sheen * (1.0 - std::min(dirt, 1.0));  // dirt is matte: it covers the gloss
+            v.fabric = &w.fabric;
+            v.weave = f;
+            // The warp direction in the weave's own tangent plane.
+            const glm::dvec3 warp = t - v.shading * glm::dot(v.shading, t);
+            v.warp = warp / glm::length(warp);
+            v.weft = glm::cross(v.shading, v.warp);
+            if (glm::dot(v.weft, b) < 0.0) v.weft = -v.weft;
+        }
+    }
+
+    /// Vertex `i` of instance `inst`'s mesh in its object frame, metres.
+    static glm::dvec3 object_vertex(const InstanceData& inst, uint32_t i) {
+        const float* p = inst.vertices + 3 * static_cast<size_t>(i);
+        return {p[0], p[1], p[2]};
+    }
+
+    /// The cloth's sheen at vertex `v` for light arriving from `wi` (unit, world): π·f_sheen, in
+    /// the units of the renderer's albedo·shape (a Lambertian's π·f).
+    static double sheen_weight(const PathVertex& v, const glm::dvec3& wi) {
+        auto local = [&](const glm::dvec3& w) {
+            return glm::dvec3(glm::dot(w, v.warp), glm::dot(w, v.weft), glm::dot(w, v.shading));
+        };
+        return kPi * cloth_sheen(*v.fabric, v.weave, local(wi), local(v.wo));
     }
 
     /// Adds every light's contribution at the live path vertices to their pixels: `samples`
@@ -577,10 +654,36 @@ private:
                 // Grouped so that a Lambertian surface under a point Sun, seen directly, gets
                 // exactly albedo·(E/π·μi): every other factor is then 1.
                 const double dust = sun_dust && &light == m_sun ? sun_dust[i] : 1.0;
+                if (v.sheen > 0.0) {
+                    // The cloth's (1 − s)·albedo/π·shape + s·f_sheen.
+                    const glm::dvec3 brdf = (1.0 - v.sheen) * v.albedo * shape + glm::dvec3(v.sheen * sheen_weight(v, light.dir));
+                    s.radiance[i] += (brdf * (light.scale * mu_i)) *
+                                     ((double(s.visible[i]) / rays_per_vertex) * dust) * light.color * v.throughput;
+                    continue;
+                }
                 s.radiance[i] += (v.albedo * (light.scale * mu_i)) *
                                  (shape * (double(s.visible[i]) / rays_per_vertex) * dust) * light.color * v.throughput;
             }
         }
+    }
+
+    /// The indirect radiance toward the camera at camera hit `v` (on triangle `prim`, at Embree's
+    /// barycentrics u, w) from the light cache, W/(m²·sr): the cached irradiance E shaded with
+    /// the hit's BRDF, albedo/π · shape · E, the shape taken with the irradiance's mean incident
+    /// direction (about the geometric normal, as a bounce's weight is). None where the cache does
+    /// not serve the hit (moving geometry, or its surface seen from the back): that path bounces.
+    std::optional<glm::dvec3> cached_indirect(const PathVertex& v, uint32_t prim, double u, double w) const {
+        if (!m_light_cache->covers(v.instance)) return std::nullopt;
+        if (glm::dot(m_light_cache->normal_at(v.instance, prim, u, w), v.normal) <= 0.0) return std::nullopt;
+        const IndirectLight in = m_light_cache->at(v.instance, prim, u, w);
+        const InstanceData& inst = m_instances[v.instance];
+        double shape = 1.0;
+        if (inst.photometry.model != Photometry::Model::Lambert) {
+            // The mean direction may dip below a facet that leans from its vertices' normals.
+            const double mu_i = std::max(glm::dot(v.normal, in.direction), 1e-3);
+            shape = photometric_shape(inst.photometry, mu_i, glm::dot(v.normal, v.wo), glm::dot(in.direction, v.wo));
+        }
+        return v.albedo * (kInvPi * shape) * in.irradiance * v.throughput;
     }
 
     /// Continues every live path by one bounce: a cosine-distributed direction about the normal
@@ -596,7 +699,12 @@ private:
             const glm::dvec3 wi = cosine_direction(v.normal, q.u, q.v, mu_i);
             const InstanceData& inst = m_instances[v.instance];
             const double shape = shape_at(inst, mu_i, glm::dot(v.normal, v.wo), glm::dot(wi, v.wo));
-            v.throughput *= v.albedo * shape;
+            // Cosine-distributed directions weigh any BRDF f by π·f: the cloth's sheen too (a
+            // lobe this broad needs no sampling of its own).
+            if (v.sheen > 0.0)
+                v.throughput *= (1.0 - v.sheen) * v.albedo * shape + glm::dvec3(v.sheen * sheen_weight(v, wi));
+            else
+                v.throughput *= v.albedo * shape;
             if (!(mu_i > 0.0) || v.throughput == glm::dvec3(0.0)) {
                 v.alive = false;
                 continue;
@@ -631,6 +739,7 @@ private:
             v.lifted = lift_off(v.point, normal, triangle_reach(inst, ray.prim_id));
             v.shading = normal;
             v.shaded_apart = false;
+            v.sheen = 0.0;
             // Cloth met by a bounce shows its mean colour: neither weave nor stain is resolved
             // by the light it passes on.
             v.albedo = albedo_at(inst, ray.prim_id, ray.u, ray.v);
@@ -648,6 +757,7 @@ private:
     const std::vector<InstanceData> m_instances;
     const std::vector<LightData> m_lights;
     const DustGrid* m_medium;           // null: no dust, and none of its code runs
+    const LightCache* m_light_cache;    // null: every path bounces
     AdaptiveFrame* m_adaptive;          // null: adaptive anti-aliasing is off (or no rgb)
     const LightData* m_sun = nullptr;   // the Sun's entry in m_lights, if it shines
     bool m_random = false;  // some shading draws random numbers (disk samples, bounces)
@@ -660,8 +770,33 @@ RenderStats render(const Scene& scene, const Camera& camera, const Sun& sun,
     return render(scene, camera, Lights{sun, std::nullopt}, settings, out);
 }
 
+namespace {
+
+bool same_light(const Sun& a, const Sun& b) {
+    return a.direction() == b.direction() && a.irradiance() == b.irradiance() &&
+           a.half_angle() == b.half_angle() && a.color() == b.color();
+}
+
+/// Throws std::invalid_argument unless `cache` was built for this scene as it is, these lights
+/// and `bounces`.
+void check_light_cache(const LightCache& cache, const Scene& scene, const Lights& lights, int bounces) {
+    if (&cache.scene() != &scene) throw std::invalid_argument("light_cache: built for another scene");
+    if (cache.scene_revision() != scene.static_revision())
+        throw std::invalid_argument("light_cache: the scene's static geometry changed since the cache was built");
+    const Lights& built = cache.lights();
+    if (!same_light(built.sun, lights.sun) || built.earth.has_value() != lights.earth.has_value() ||
+        (lights.earth && !same_light(*built.earth, *lights.earth)))
+        throw std::invalid_argument("light_cache: built for other lights");
+    if (cache.settings().bounces != bounces)
+        throw std::invalid_argument("light_cache: built for " + std::to_string(cache.settings().bounces) +
+                                    " bounces, the render asks for " + std::to_string(bounces));
+}
+
+}  // namespace
+
 RenderStats render(const Scene& scene, const Camera& camera, const Lights& lights,
-                   const RenderSettings& settings, const FrameView& out, const Medium* medium) {
+                   const RenderSettings& settings, const FrameView& out, const Medium* medium,
+                   const LightCache* light_cache) {
     if (settings.light_samples < 1 || settings.light_samples > kMaxLightSamples)
         throw std::invalid_argument("light_samples: must be in 1.." + std::to_string(kMaxLightSamples) + ", got " +
                                     std::to_string(settings.light_samples));
@@ -690,6 +825,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     if (!scene.committed())
         throw std::invalid_argument("scene: not committed (call commit() after adding geometry)");
     if (scene.instance_count() == 0) throw std::invalid_argument("scene: has no instances");
+    if (light_cache) check_light_cache(*light_cache, scene, lights, settings.bounces);
 
     const auto start = std::chrono::steady_clock::now();
     const int w = camera.width(), h = camera.height();
@@ -703,7 +839,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     // Adaptive anti-aliasing (rgb only, spp >= 2 checked above): a second pass refines.
     std::optional<AdaptiveFrame> adaptive;
     if (settings.adaptive_spp > 0 && out.rgb) adaptive.emplace(static_cast<size_t>(w) * h, dust.has_value());
-    const TileRenderer tiles(scene, camera, lights, settings, out, dust ? &*dust : nullptr,
+    const TileRenderer tiles(scene, camera, lights, settings, out, dust ? &*dust : nullptr, light_cache,
                              adaptive ? &*adaptive : nullptr);
     std::atomic<uint64_t> camera_rays{0}, second_look_rays{0}, shadow_rays{0}, bounce_shadow_rays{0}, bounce_rays{0},
         refined_pixels{0}, refinement_rays{0};
@@ -753,7 +889,7 @@ Frame render_frame(const Scene& scene, const Camera& camera, const Sun& sun,
 }
 
 Frame render_frame(const Scene& scene, const Camera& camera, const Lights& lights,
-                   const RenderSettings& settings, const Medium* medium) {
+                   const RenderSettings& settings, const Medium* medium, const LightCache* light_cache) {
     Frame f;
     f.width = camera.width();
     f.height = camera.height();
@@ -761,7 +897,8 @@ Frame render_frame(const Scene& scene, const Camera& camera, const Lights& light
     f.rgb.assign(3 * n, 0.0f);
     f.depth.assign(n, 0.0f);
     f.instance.assign(n, 0);
-    f.stats = render(scene, camera, lights, settings, {f.rgb.data(), f.depth.data(), f.instance.data()}, medium);
+    f.stats = render(scene, camera, lights, settings, {f.rgb.data(), f.depth.data(), f.instance.data()}, medium,
+                     light_cache);
     return f;
 }
 

@@ -18,6 +18,7 @@ void check_material(const Material& m) {
     const WovenSurface& w = *m.woven;
     w.fabric.validate();
     w.stain.validate();
+    if (w.stain_mode == StainMode::Dust) w.soiling.validate();
     if (!(std::isfinite(w.metres_per_uv) && w.metres_per_uv > 0))
         throw std::invalid_argument("metres_per_uv: must be positive and finite");
     for (int c = 0; c < 3; ++c)
@@ -117,6 +118,13 @@ void Scene::update_mesh(uint32_t mesh, const float* vertices, size_t n_vertices)
             throw std::invalid_argument("vertices: non-finite coordinate at vertex " + std::to_string(i / 3));
     // In place: Embree shares this buffer, so it must not move.
     std::copy(vertices, vertices + 3 * n_vertices, m.vertices.begin());
+    for (uint32_t i = 0; i < m_instances.size(); ++i) {
+        Instance& inst = m_instances[i];
+        if (inst.mesh != mesh || inst.moving) continue;
+        inst.moving = true;
+        m_accel.set_instance_mask(i, kMovingGeometry);
+        ++m_static_revision;
+    }
     m_accel.update_prototype(mesh);
     m_committed = false;
 }
@@ -127,20 +135,20 @@ uint32_t Scene::add_instance(uint32_t mesh, const glm::dmat4& world_from_object,
         throw std::invalid_argument("instance_id: must be in 1..255, got " + std::to_string(label));
     if (m_label_used[label])
         throw std::invalid_argument("instance_id: " + std::to_string(label) + " is already used");
-    const uint32_t index = add(mesh, world_from_object, static_cast<uint8_t>(label), material);
+    const uint32_t index = add(mesh, world_from_object, static_cast<uint8_t>(label), material, false);
     m_label_used[label] = true;
     return index;
 }
 
 uint32_t Scene::add_background(uint32_t mesh, const glm::dmat4& world_from_object,
-                               const Material& material) {
-    const uint32_t id = add(mesh, world_from_object, 0, material);
+                               const Material& material, bool moving) {
+    const uint32_t id = add(mesh, world_from_object, 0, material, moving);
     m_has_background = true;
     return id;
 }
 
 uint32_t Scene::add(uint32_t mesh, const glm::dmat4& world_from_object, uint8_t label,
-                    const Material& material) {
+                    const Material& material, bool moving) {
     require_not_rendering();
     if (mesh >= m_meshes.size())
         throw std::invalid_argument("mesh: no mesh " + std::to_string(mesh) + " in the scene (has " +
@@ -164,13 +172,31 @@ uint32_t Scene::add(uint32_t mesh, const glm::dmat4& world_from_object, uint8_t 
     if (material.woven) {
         // Whatever the instance, fabric colour is the material's albedo.
         inst.material.woven->fabric.albedo = glm::dvec3(material.albedo);
-        std::unique_ptr<StainMask> mask = paint_stain(material.woven->stain, material.woven->stain_seed);
-        if (mask) {  // zero stamps: no mask, nothing allocated
-            inst.stain = mask.get();
-            m_stains.push_back(std::move(mask));
+        WovenSurface& w = *inst.material.woven;
+        w.dust = nullptr;
+        if (w.stain_mode == StainMode::Dust) {
+            if (w.stain.stamps > 0) {  // zero deposits: no dust made
+                SoilingParams p = w.soiling;
+                p.deposits = w.stain.stamps;
+                p.opacity = w.stain.opacity;
+                const Mesh& m = *m_meshes[mesh];
+                w.dust = std::make_shared<const Soiling>(p, w.stain_seed, m.vertices.data(), m.vertex_count(),
+                                                         m.triangles.data(), m.triangle_count());
+            }
+        } else {
+            std::unique_ptr<StainMask> mask = paint_stain(w.stain, w.stain_seed);
+            if (mask) {  // zero stamps: no mask, nothing allocated
+                inst.stain = mask.get();
+                m_stains.push_back(std::move(mask));
+            }
         }
     }
+    inst.moving = moving;
     const uint32_t index = m_accel.add_instance(mesh, xfm);
+    if (moving)
+        m_accel.set_instance_mask(index, kMovingGeometry);
+    else
+        ++m_static_revision;
     m_instances.push_back(inst);
     m_committed = false;
     return index;

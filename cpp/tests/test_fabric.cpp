@@ -1,4 +1,5 @@
 #include <cmath>
+#include <stdexcept>
 
 #include "check.h"
 #include "moonbot/fabric.h"
@@ -192,4 +193,122 @@ TEST_CASE(params_are_validated) {
     p = FabricParams{};
     p.albedo.z = NAN;
     CHECK_THROWS(std::invalid_argument, p.validate());
+}
+
+// --- sheen ---------------------------------------------------------------------------------------
+
+namespace {
+
+/// ∫ f_tape(ωi, ωo)·μi dωi over the hemisphere: the lobe's directional albedo at ωo, by the
+/// midpoint rule in (t, φ) with μi = t² (dω·μi = 2t³ dt dφ; cells crowd toward the horizon, where
+/// a grazing view's reflection lies), n × 2n cells.
+double tape_albedo(const glm::dvec3& wo, double ax, double ay, int n) {
+    double sum = 0.0;
+    for (int j = 0; j < n; ++j) {
+        const double t = (j + 0.5) / n, mu = t * t, sin_t = std::sqrt(1 - mu * mu);
+        double ring = 0.0;
+        for (int k = 0; k < 2 * n; ++k) {
+            const double phi = (k + 0.5) * kPi / n;
+            ring += tape_lobe({sin_t * std::cos(phi), sin_t * std::sin(phi), mu}, wo, ax, ay);
+        }
+        sum += 2 * t * t * t * ring;
+    }
+    return sum * (1.0 / n) * (kPi / n);
+}
+
+}  // namespace
+
+TEST_CASE(tape_lobe_white_furnace_reflects_at_most_everything) {
+    // Heitz 2014: with height-correlated Smith masking the single-scattering albedo is ≤ 1, close
+    // to 1 for a smooth lobe seen from above, and lower for rough lobes and grazing views (the
+    // energy of light that would scatter twice is lost, never created).
+    const double roughness[][2] = {{0.35, 0.12}, {0.12, 0.35}, {0.1, 0.1}, {1.0, 1.0}, {1.0, 0.05}};
+    double smooth_from_above = 0.0;
+    for (const auto& a : roughness)
+        for (double theta_deg : {0.0, 30.0, 60.0, 80.0, 88.0})
+            for (double phi_deg : {0.0, 40.0, 90.0}) {
+                const double t = theta_deg * kPi / 180, p = phi_deg * kPi / 180;
+                const glm::dvec3 wo(std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t));
+                const double albedo = tape_albedo(wo, a[0], a[1], 600);
+                CHECK(albedo <= 1.0 + 2e-3);
+                CHECK(albedo > 0.0);
+                if (a[0] == 0.1 && theta_deg == 0.0) smooth_from_above = albedo;
+            }
+    CHECK(smooth_from_above > 0.97);
+    // Closed form: α = 1 seen from straight above, D = 1/π and G2 = 1/(1 + Λ(ωi)) with
+    // Λ = (1/μi − 1)/2, so the albedo is ½∫₀¹ 2μ/(1 + μ) dμ = 1 − ln 2.
+    CHECK_NEAR(tape_albedo({0, 0, 1}, 1.0, 1.0, 600), 1 - std::log(2.0), 1e-4);
+    // Below the surface: nothing.
+    CHECK(tape_lobe({0, 0, -1}, {0, 0, 1}, 0.3, 0.3) == 0.0);
+    CHECK(tape_lobe({0, 0, 1}, {0.6, 0, -0.8}, 0.3, 0.3) == 0.0);
+}
+
+TEST_CASE(tape_lobe_is_reciprocal_and_anisotropic) {
+    const glm::dvec3 a = glm::normalize(glm::dvec3(0.3, -0.2, 0.9)), b = glm::normalize(glm::dvec3(-0.5, 0.4, 0.6));
+    CHECK_NEAR(tape_lobe(a, b, 0.35, 0.12), tape_lobe(b, a, 0.35, 0.12), 1e-12 * tape_lobe(a, b, 0.35, 0.12));
+    // A lobe rough along x spreads its highlight along x: off-specular by 20° in the x-z plane it
+    // keeps more than off-specular by 20° in the y-z plane; swapping the roughnesses swaps that.
+    const double d = 20 * kPi / 180;
+    const glm::dvec3 wi(0, 0, 1), off_x(std::sin(d), 0, std::cos(d)), off_y(0, std::sin(d), std::cos(d));
+    CHECK(tape_lobe(wi, off_x, 0.35, 0.12) > 3 * tape_lobe(wi, off_y, 0.35, 0.12));
+    CHECK_NEAR(tape_lobe(wi, off_x, 0.35, 0.12), tape_lobe(wi, off_y, 0.12, 0.35), 1e-12);
+    // The GGX peak at normal incidence and mirror view: D(n)·G2/4 with D(n) = 1/(π ax ay), G2 = 1.
+    CHECK_NEAR(tape_lobe(wi, wi, 0.35, 0.12), 1.0 / (kPi * 0.35 * 0.12) / 4.0, 1e-12);
+}
+
+TEST_CASE(sheen_prefilter_averages_the_weave_exactly) {
+    FabricParams p;
+    p.sheen = 0.1;
+    const double scale = p.relief_m * kPi / p.pitch_m;
+    // Far away (1 cm footprint over 1.5 mm threads) the warp share is the checkerboard's mean ½
+    // and the whole relief's slope variance has moved into the lobe.
+    const FabricSample far = fabric_eval(p, 0.0123, -0.0456, 1e-2);
+    CHECK_NEAR(far.warp_share, 0.5, 1e-15);
+    CHECK_NEAR(far.lost_slope2_x, scale * scale * (0.125 + 0.0390625), 1e-15);
+    CHECK_NEAR(far.lost_slope2_y, far.lost_slope2_x, 0.0);
+    // Up close nothing is lost, the share spans [0, 1] over a period and averages ½ (the
+    // far value is the period mean: the sheen averages without aliasing).
+    double lo = 1, hi = 0, mean = 0;
+    const int n = 64;
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            const FabricSample s = fabric_eval(p, 2 * p.pitch_m * i / n, 2 * p.pitch_m * j / n, 0.0);
+            CHECK(s.lost_slope2_x == 0.0);
+            lo = std::min(lo, s.warp_share);
+            hi = std::max(hi, s.warp_share);
+            mean += s.warp_share / (n * n);
+        }
+    CHECK_NEAR(lo, 0.0, 1e-12);
+    CHECK_NEAR(hi, 1.0, 1e-12);
+    CHECK_NEAR(mean, 0.5, 1e-12);
+    // The ⟨(∂h/∂a)²⟩ closed form behind lost_slope2: the unfiltered mean square of the normal's
+    // slope over a period is scale²·(1/8 + 5/128).
+    double slope2 = 0;
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            const glm::dvec3 nn = fabric_eval(p, 2 * p.pitch_m * i / n, 2 * p.pitch_m * j / n, 0.0).normal;
+            slope2 += (nn.x / nn.z) * (nn.x / nn.z) / (n * n);
+        }
+    CHECK_NEAR(slope2, scale * scale * (0.125 + 0.0390625), 1e-12);
+    // Sheen off: the sample is the matte weave's, warp share and losses untouched.
+    p.sheen = 0.0;
+    const FabricSample matte = fabric_eval(p, 0.0123, -0.0456, 1e-2);
+    CHECK(matte.warp_share == 0.5 && matte.lost_slope2_x == 0.0);
+}
+
+TEST_CASE(cloth_sheen_mixes_the_two_tape_directions) {
+    FabricParams p;
+    p.sheen = 0.2;
+    FabricSample s;
+    s.warp_share = 0.25;
+    const glm::dvec3 wi = glm::normalize(glm::dvec3(0.4, 0.1, 0.9)), wo = glm::normalize(glm::dvec3(-0.3, 0.2, 0.8));
+    CHECK_NEAR(cloth_sheen(p, s, wi, wo),
+               0.25 * tape_lobe(wi, wo, p.sheen_along, p.sheen_across) + 0.75 * tape_lobe(wi, wo, p.sheen_across, p.sheen_along),
+               1e-12);
+    FabricParams bad = p;
+    bad.sheen = 1.5;
+    CHECK_THROWS(std::invalid_argument, bad.validate());
+    bad = p;
+    bad.sheen_along = 0.0;
+    CHECK_THROWS(std::invalid_argument, bad.validate());
 }

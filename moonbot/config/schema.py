@@ -66,6 +66,54 @@ class SunConfig:
         "Earthshine: linear RGB tint relative to sunlight (bluish: Rayleigh and oceans)", lo=0.0, hi=10.0, length=3))
 
 
+# Var of one octave of value noise (lattice values uniform on [-1, 1], cubic fade): 1/3·(26/35)^3
+# (cpp/include/moonbot/regolith_texture.h), which bounds the albedo factor below.
+VALUE_NOISE_VARIANCE = (26.0 / 35.0) ** 3 / 3.0
+
+
+@dataclass(frozen=True)
+class GrainConfig:
+    """Regolith's granular micro-texture at camera hits (cpp/include/moonbot/regolith_texture.h):
+    albedo speckle and mm-cm relief below the terrain mesh's spacing, octaves of value noise of
+    cells finest_cell_m·2^k up to coarsest_cell_m, a function of the world position prefiltered
+    over each pixel's footprint (far ground gets exactly the mean albedo and no tilt). Applied to
+    the terrain, rocks and ejecta fragments. albedo_rms and slope_rms_deg both 0 = off: no texture
+    code runs. The relief's slope spread adds (in tan²) to the mesh's relief and to a Hapke θ̄."""
+
+    albedo_rms: float = field(default=0.08, metadata=spec(
+        "relative RMS of the albedo factor at full resolution (mean 1 exactly)", lo=0.0, hi=0.5))
+    slope_rms_deg: float = field(default=12.5, metadata=spec(
+        "1-D RMS slope (RMS of tan along any surface direction) of the relief at full resolution, degrees "
+        "(12.5: the mare slope law's share between 1 cm and 1 mm, tan² of 13.9° at 1 mm less 6.3° at 1 cm)",
+        lo=0.0, hi=45.0))
+    finest_cell_m: float = field(default=0.001, metadata=spec(
+        "smallest lattice cell, metres (clods, mm rock chips)", lo=1e-5, hi=1.0))
+    coarsest_cell_m: float = field(default=0.016, metadata=spec(
+        "largest lattice cell, metres (octaves double up to it; below the mesh's 2 cm relief)", lo=1e-5, hi=1.0))
+    hurst: float = field(default=0.6, metadata=spec(
+        "relief amplitude grows with scale as cell^hurst (regolith 0.54-0.7 at 0.1 mm-cm)", lo=0.0, hi=1.0))
+    seed: int = field(default=0, metadata=spec("keys the texture's lattices", lo=0, hi=2**63 - 1))
+
+    @property
+    def enabled(self) -> bool:
+        return self.albedo_rms > 0.0 or self.slope_rms_deg > 0.0
+
+    @property
+    def octaves(self) -> int:
+        return int(math.floor(math.log2(self.coarsest_cell_m / self.finest_cell_m * (1 + 1e-9)))) + 1
+
+    def __post_init__(self) -> None:
+        if self.coarsest_cell_m < self.finest_cell_m:
+            raise ValueError(f"coarsest_cell_m: must be >= finest_cell_m = {self.finest_cell_m}, "
+                             f"got {self.coarsest_cell_m}")
+        if self.octaves > 16:
+            raise ValueError("coarsest_cell_m: at most 16 octaves (coarsest/finest <= 2^15)")
+        limit = math.sqrt(VALUE_NOISE_VARIANCE / self.octaves)
+        if self.albedo_rms >= limit:
+            raise ValueError(f"albedo_rms: must be < {limit:.4f} for {self.octaves} octaves (the albedo "
+                             f"factor would reach 0), got {self.albedo_rms}")
+
+
 @dataclass(frozen=True)
 class PhotometryConfig:
     """How regolith (terrain and rocks) reflects: moonbot/photometry.h, lunar-physics.md §1.
@@ -95,9 +143,11 @@ class PhotometryConfig:
     c: float = field(default=0.30, metadata=spec(
         "hapke: weight of the back-scattering lobe, p = (1+c)/2·back + (1-c)/2·forward; c > 0 "
         "scatters back toward the Sun (Sato et al. 2014: 0.30)", lo=-1.0, hi=1.0))
-    roughness_deg: float = field(default=23.4, metadata=spec(
-        "hapke: macroscopic roughness, the mean facet slope θ̄ of Hapke 1984, degrees (Sato et al. "
-        "2014 held it at 23.4; 0 = smooth)", lo=0.0, hi=60.0))
+    roughness_deg: float = field(default=21.6, metadata=spec(
+        "hapke: macroscopic roughness, the mean facet slope θ̄ of Hapke 1984, degrees, of the relief "
+        "neither the terrain mesh nor the grain holds: terrain.roughness's law at smallest_m (29°, "
+        "θ̄ 23.8°) less the 1 cm mesh's 5.5° facet slope and the grain's 12.5°, in tan² (23.5 with "
+        "the grain off; Sato et al. 2014 fitted 23.4 to orbital images; 0 = smooth)", lo=0.0, hi=60.0))
     filling_factor: float = field(default=0.3, metadata=spec(
         "hapke: volume fraction of grains φ (1 - porosity), giving Hapke's porosity factor "
         "K = -ln(1 - 1.209 φ^(2/3))/(1.209 φ^(2/3)) (0.3: K = 1.44; 0: K = 1)", lo=0.0, hi=0.75))
@@ -106,20 +156,36 @@ class PhotometryConfig:
     cboe_width: float = field(default=1.0, metadata=spec(
         "hapke: coherent-backscatter width h_C (unused while cboe_amplitude is 0)",
         lo=0.0, hi=10.0, lo_open=True))
+    grain: GrainConfig = field(default_factory=GrainConfig)
 
 
 @dataclass(frozen=True)
 class RoughnessConfig:
-    """Fractal regolith roughness (moonbot/terrain/roughness.py; lunar-physics.md §4.4)."""
+    """Regolith relief (moonbot/terrain/roughness.py): a law of 1-D RMS slope against baseline,
+    tan s(Δx) = tan s_b·(Δx/break_m)^(H−1), with H = hurst_coarse above break_m and hurst_fine
+    below, through rms_slope_deg at baseline_m; the mesh carries the octaves it can resolve and
+    terrain.photometry.roughness_deg the rest (Hapke's θ̄, for the law's total at smallest_m)."""
 
-    rms_slope_deg: float = field(default=20.0, metadata=spec(
-        "RMS slope over a 1 cm baseline, degrees (regolith: ~20, 15-35)", lo=0.0, hi=60.0))
-    hurst_fine: float = field(default=0.6, metadata=spec(
-        "Hurst exponent below 1 m (Helfenstein & Shepard 1999: 0.5-0.7)", lo=0.0, hi=1.0, lo_open=True))
+    rms_slope_deg: float = field(default=3.0, metadata=spec(
+        "1-D RMS slope over baseline_m, degrees (LOLA maria: median 2.0° at 17 m, Rosenburg et al. "
+        "2011, i.e. 3.0° RMS; highlands 7.5° median; 0 = no relief)", lo=0.0, hi=60.0))
+    baseline_m: float = field(default=17.0, metadata=spec(
+        "the baseline of rms_slope_deg, metres", lo=0.0, hi=100000.0, lo_open=True))
     hurst_coarse: float = field(default=0.9, metadata=spec(
-        "Hurst exponent above 1 m (LOLA: maria ~0.76, highlands ~0.95)", lo=0.0, hi=1.0, lo_open=True))
+        "Hurst exponent above break_m (LOLA 57 m-2.7 km: maria 0.76, highlands 0.95; 0.9 keeps the "
+        "cm-scale slope at the ~6° that Apollo photos' ~5 % shadow at a 12° Sun allows)",
+        lo=0.0, hi=1.0, lo_open=True))
+    hurst_fine: float = field(default=0.65, metadata=spec(
+        "Hurst exponent below break_m (Helfenstein & Shepard 1999, Apollo stereo: 0.54-0.7)",
+        lo=0.0, hi=1.0, lo_open=True))
+    break_m: float = field(default=0.01, metadata=spec(
+        "where the exponent changes, metres (the top of the stereo measurements' cm range)",
+        lo=0.0, hi=100000.0, lo_open=True))
+    smallest_m: float = field(default=0.0001, metadata=spec(
+        "the smallest relief, metres: the scale that sets Hapke's θ̄ (~100 µm, Hapke 2012 §12.2.4)",
+        lo=0.0, hi=1.0, lo_open=True))
     min_wavelength_m: float = field(default=0.02, metadata=spec(
-        "shortest octave, metres (two cells of a 1 cm mesh)", lo=0.001, hi=10.0))
+        "shortest octave of the mesh's relief, metres (two cells of a 1 cm mesh)", lo=0.001, hi=10.0))
     max_wavelength_m: float = field(default=512.0, metadata=spec(
         "longest octave, metres", lo=0.01, hi=100000.0))
 
@@ -131,24 +197,33 @@ class CratersConfig:
 
     density: float = field(default=0.05, metadata=spec(
         "C in N(>=D) = C·D^-2 per m^2, D in metres (Apollo 15 mare fit 0.0336, up to ~0.08)", lo=0.0, hi=10.0))
-    min_diameter_m: float = field(default=0.5, metadata=spec("smallest crater, metres", lo=0.01, hi=1000.0))
+    min_diameter_m: float = field(default=0.05, metadata=spec(
+        "smallest crater, metres (5 cells of the 1 cm tile; the equilibrium law holds down to 13 cm "
+        "at Surveyor 7, Shoemaker et al. 1969)", lo=0.01, hi=1000.0))
     max_diameter_m: float = field(default=200.0, metadata=spec("largest crater, metres", lo=0.01, hi=10000.0))
-    site_max_diameter_m: float = field(default=5.0, metadata=spec(
+    site_max_diameter_m: float = field(default=1.0, metadata=spec(
         "no crater larger than this has its bowl within the fine tile: the work site was chosen "
         "outside large craters, metres", lo=0.0, hi=10000.0))
 
 
 @dataclass(frozen=True)
 class RocksConfig:
-    """Rocks (moonbot/terrain/rocks.py): Golombek & Rapp (1997) cumulative fractional area
-    F(D) = k·exp(-q(k)·D), q(k) = 1.79 + 0.152/k, irregular instanced meshes."""
+    """Rocks and pebbles (moonbot/terrain/rocks.py): a background cumulative power law
+    N(>=D) = density_per_m2·D^exponent per m² (D in metres; Shoemaker & Morris 1969, Surveyor),
+    and at the crater location Golombek & Rapp's (1997) ejecta population, cumulative fractional
+    area F(D) = k·exp(-q(k)·D), q(k) = 1.79 + 0.152/k; irregular instanced meshes."""
 
-    k_background: float = field(default=0.005, metadata=spec(
-        "rock-covered area fraction away from craters (lunar mare: < 0.01)", lo=0.0, hi=0.5))
+    density_per_m2: float = field(default=2.34e-3, metadata=spec(
+        "background: rocks per m^2 of diameter >= 1 m in N(>=D) = density·D^exponent: 10x Surveyor I's "
+        "5.0e4 per 100 m^2 with D in mm (2.34e-4), as the Apollo 11 photographs' cm-dm rocks show; "
+        "0 = none", lo=0.0, hi=1.0))
+    exponent: float = field(default=-2.11, metadata=spec(
+        "background: cumulative exponent b (Surveyor I -2.11, III -2.56, VI -2.51, VII -1.82)", lo=-6.0, hi=-0.5))
     k_crater: float = field(default=0.1, metadata=spec(
         "crater location: rock-covered fraction on the crater's rim (fresh ejecta: 0.05-0.4), "
         "falling off outside as (r/R)^-3 like the ejecta", lo=0.0, hi=0.5))
-    min_diameter_m: float = field(default=0.03, metadata=spec("smallest rock, metres", lo=0.005, hi=10.0))
+    min_diameter_m: float = field(default=0.01, metadata=spec(
+        "smallest rock, metres (1 cm pebbles: 2 pixels at 3 m)", lo=0.005, hi=10.0))
     max_diameter_m: float = field(default=1.5, metadata=spec("largest rock, metres", lo=0.005, hi=20.0))
     reach_m: float = field(default=60.0, metadata=spec(
         "rocks lie within this distance of the target, metres", lo=0.0, hi=5000.0))
@@ -346,13 +421,23 @@ class FabricConfig:
         "height of a yarn float's crown over the pits between yarns, metres", lo=0.0, hi=0.01))
     contrast: float = field(default=0.04, metadata=spec(
         "albedo modulation between crowns (+) and pits (-), a fraction of the mean", lo=0.0, hi=1.0))
+    sheen: float = field(default=0.1, metadata=spec(
+        "weight s of the polypropylene tapes' glossy lobe: BRDF (1-s)·albedo/π + s·f_tape, an anisotropic "
+        "GGX lobe oriented along each tape (cpp/include/moonbot/fabric.h); 0 = matte", lo=0.0, hi=1.0))
+    sheen_along: float = field(default=0.35, metadata=spec(
+        "GGX roughness of a tape along its length (the over-under waviness)", lo=0.01, hi=1.0))
+    sheen_across: float = field(default=0.12, metadata=spec(
+        "GGX roughness of a tape across its width (flat slit film)", lo=0.01, hi=1.0))
 
 
 @dataclass(frozen=True)
 class StainConfig:
-    """Dirt on the bags (paper 3.4; cpp/include/moonbot/stain.h): per bag a UV mask of
+    """Dirt on the bags. mode stamp (paper 3.4; cpp/include/moonbot/stain.h): per bag a UV mask of
     `resolution`^2 texels accumulates `seeds` splats of side `brush_size` (UV units) and
-    opacity `opacity` at random UV centres; base colour = lerp(clean, M * dirt_colour, M)."""
+    opacity `opacity` at random UV centres; base colour = lerp(clean, M * dirt_colour, M).
+    mode dust (cpp/include/moonbot/soiling.h): `seeds` deposits of regolith dust near the bottom
+    and the top of each bag plus a band along its ground contact, grainy where partial; base
+    colour = lerp(clean, dirt_colour, m)."""
 
     seeds: int = field(default=0, metadata=spec(
         "number of stamps per bag (the paper sweeps 0, 15, 30, 90); 0 = clean, no mask allocated",
@@ -367,6 +452,19 @@ class StainConfig:
         lo=0.0, hi=1.0, length=3))
     resolution: int = field(default=512, metadata=spec(
         "mask texels per side (512: 2 mm texels on the default bag, 1 MiB per bag)", lo=1, hi=8192))
+    mode: Literal["stamp", "dust"] = field(default="stamp", metadata=spec(
+        "stamp: the paper's splat stamps into a UV mask; dust: regolith dust gathered at the ground "
+        "contact and where handled, grainy at its edges (cpp/include/moonbot/soiling.h; seeds deposits "
+        "of opacity `opacity`, colour dirt_colour)"))
+    contact_height_m: float = field(default=0.025, metadata=spec(
+        "dust: e-folding height of the dust band above the bag's lowest point, metres", lo=0.0, hi=1.0,
+        lo_open=True))
+    deposit_radius_m: float = field(default=0.04, metadata=spec(
+        "dust: mean radius of one deposit, metres (radii 0.6-1.4 times it)", lo=0.0, hi=1.0, lo_open=True))
+    handled_share: float = field(default=0.25, metadata=spec(
+        "dust: share of deposits left near the top by handling (the rest near the bottom)", lo=0.0, hi=1.0))
+    speckle: float = field(default=0.8, metadata=spec(
+        "dust: strength of the grainy break-up of partial cover (0 = smooth)", lo=0.0, hi=2.0))
 
 
 @dataclass(frozen=True)
@@ -413,6 +511,23 @@ class RenderConfig:
     adaptive_threshold: float = field(default=0.25, metadata=spec(
         "spread (max - min) of direct luminance over a pixel's base samples, relative to their mean, "
         "above which adaptive_spp refines it", lo=0.0, hi=1000.0))
+    indirect: Literal["path", "cache"] = field(default="path", metadata=spec(
+        "how a pixel's first hit gets its indirect light: path = its own bounce paths (the reference); "
+        "cache = a per-task world-space cache of indirect irradiance per vertex of the static scene, "
+        "filled on first touch and shared by every view (cpp/include/moonbot/light_cache.h); "
+        "no cache is built when bounces is 0"))
+    cache_rays_bags: int = field(default=256, metadata=spec(
+        "indirect: cache: gather rays per bag lattice node or vertex (bags have few vertices and much of the indirect "
+        "light's noise)", lo=1, hi=65536))
+    cache_rays_terrain: int = field(default=64, metadata=spec(
+        "indirect: cache: gather rays per lattice node (or vertex) of the terrain and rocks", lo=1, hi=65536))
+    cache_terrain_cell_m: float = field(default=0.05, metadata=spec(
+        "indirect: cache: spacing of the world-space lattice the terrain's and rocks' indirect light is "
+        "gathered on, metres (it varies far more slowly than the 1 cm terrain grid); 0 = every vertex",
+        lo=0.0, hi=100.0))
+    cache_bag_cell_m: float = field(default=0.02, metadata=spec(
+        "indirect: cache: the same lattice spacing on the bags (cache_rays_bags a node), metres; 0 = every vertex",
+        lo=0.0, hi=100.0))
     embree_isa: Literal["auto", "sse2", "sse4.2", "avx", "avx2", "avx512"] = field(default="auto", metadata=spec(
         "SIMD instruction set of Embree's ray traversal: auto = $MOONBOT_EMBREE_ISA where set, else avx2 "
         "where the CPU runs it (as fast as avx512 in bench/bench_embree_isa.py, and clear of the AVX-512 "

@@ -2,7 +2,9 @@
 dask-distribution.md). Each task runs on a worker process with one Dask thread while the C++
 core uses the cores; the filesystem is the record of what is done, so a rerun (or --resume)
 submits only the tasks without a complete directory, and the dataset's bytes never depend on
-which worker ran what, in which order, or how often a task was retried. A task that stops making
+which worker ran what, in which order, or how often a task was retried. The bags of a scene are
+placed and settled once, by a placement task per layout (moonbot.pipeline.placements) that the
+scene's tasks depend on; a placement that fails fails them, naming the layout. A task that stops making
 progress (moonbot.pipeline.heartbeat) has its worker restarted and runs again; one that hangs
 RETRIES + 1 times is reported failed, and the others go on."""
 
@@ -23,6 +25,8 @@ from distributed import Client, LocalCluster, WorkerPlugin, as_completed, get_wo
 from moonbot.bop.merge import merge_dataset
 from moonbot.config import Config, ConfigError, config_hash, load_config
 from moonbot.pipeline.heartbeat import Beat, Heartbeat, StallLimit, Watchdog, heartbeat_dir
+from moonbot.pipeline.placements import (TASK_PREFIX, layout_id, place_layout, placement_for, placement_path,
+                                         read_record)
 from moonbot.pipeline.stats import collect
 from moonbot.pipeline.tasks import DONE, is_complete, run_task, sweep_temporaries, task_dir
 from moonbot.writer.staging import atomic_write
@@ -37,6 +41,10 @@ RETRIES = 2
 # With no task finishing, the progress line is repeated this often (seconds), with the running
 # task longest without progress: a run never looks frozen.
 STATUS_EVERY_S = 30.0
+# A finished task's small result is read from the worker that ran it, which may meanwhile be stuck
+# in a hung task holding the GIL: after this many seconds the driver reads the task's directory
+# (or placement record) instead, so that it goes on watching and can restart that worker.
+RESULT_WAIT_S = 5.0
 
 
 class TerrainWarmup(WorkerPlugin):
@@ -55,17 +63,38 @@ class TerrainWarmup(WorkerPlugin):
         warm(self.terrains)
 
 
-def _run_on_worker(config: Config, task: Task, out_dir: str, threads: int | None) -> dict:
-    """The function a worker runs: one task, with its heartbeat, reported as a small dict (the
-    images stay on disk)."""
+def _worker_address() -> str:
     try:
-        worker = get_worker().address
+        return get_worker().address
     except ValueError:
-        worker = "local"
+        return "local"
+
+
+def _place_on_worker(config: Config, task: Task, out_dir: str) -> dict:
+    """The function a worker runs for a layout (that of `task`): its bags placed and settled, or
+    read back from an earlier run, with a heartbeat of its own (OUT/running/place-<layout>.json);
+    place_layout's dict plus the longest stage's seconds. Its result feeds the layout's tasks."""
+    worker = _worker_address()
+    heartbeat = Heartbeat(Path(out_dir), TASK_PREFIX + layout_id(task), worker)
+    try:
+        heartbeat.stage("start")
+        outcome = place_layout(config, task, Path(out_dir), worker=worker, on_stage=heartbeat.stage)
+    finally:
+        heartbeat.close()
+    return {**outcome, "longest_stage_s": heartbeat.longest_stage_s}
+
+
+def _run_on_worker(config: Config, task: Task, out_dir: str, threads: int | None, placed: dict | None = None) -> dict:
+    """The function a worker runs: one task, with its heartbeat, reported as a small dict (the
+    images stay on disk). `placed`: its layout's placement (_place_on_worker's result; None: the
+    task places its bags itself)."""
+    worker = _worker_address()
     heartbeat = Heartbeat(Path(out_dir), task.task_id, worker)
     try:
         heartbeat.stage("start")
-        outcome = run_task(config, task, Path(out_dir), threads=threads, worker=worker, on_stage=heartbeat.stage)
+        placement = None if placed is None else placement_for(task_config(config, task), placed["record"])
+        outcome = run_task(config, task, Path(out_dir), threads=threads, worker=worker, on_stage=heartbeat.stage,
+                           placement=placement)
     finally:
         heartbeat.close()
     return {"task_id": outcome.task_id, "skipped": outcome.skipped, "samples": outcome.samples,
@@ -76,13 +105,16 @@ def _run_on_worker(config: Config, task: Task, out_dir: str, threads: int | None
 @dataclass
 class GenerateResult:
     """What a run did: tasks in the sweep, already complete before it, rendered by it, and failed
-    (task_id → error text); `hangs`: every hang detected (a Hang: the task's stage, worker,
+    (task_id → error text); layouts placed (bags placed and settled) by it, or read back from an
+    earlier run's OUT/placements; `hangs`: every hang detected (a Hang: the task's stage, worker,
     host and times), retried or not."""
 
     tasks: int = 0
     complete_before: int = 0
     rendered: int = 0
     samples: int = 0
+    placed: int = 0  # layouts whose bags this run placed and settled (each once)
+    placed_before: int = 0  # layouts whose placement an earlier run had kept
     failed: dict = field(default_factory=dict)
     hangs: list = field(default_factory=list)
     seconds: float = 0.0
@@ -181,11 +213,19 @@ def render_pending(config: Config, out_dir: Path, pending: list[Task], result: G
             by_location = {t.location: t for t in reversed(pending)}
             terrains = list({task_config(config, t).terrain: None for t in by_location.values()})
             client.register_plugin(TerrainWarmup(terrains))
+            # One placement per layout with pending tasks, submitted first (so run first); each
+            # task waits for its own layout's only.
+            layouts = {layout_id(t): t for t in reversed(pending)}
+            kept = {layout for layout in layouts if read_record(placement_path(out_dir, layout)) is not None}
+            placements = {layout: client.submit(_place_on_worker, config, t, str(out_dir), key=TASK_PREFIX + layout,
+                                                pure=False, retries=RETRIES)
+                          for layout, t in sorted(layouts.items(), key=lambda item: item[1].index)}
             futures = client.map(_run_on_worker, [config] * len(pending), pending, [str(out_dir)] * len(pending),
-                                 [threads] * len(pending), key=[f"render-{t.task_id}" for t in pending],
-                                 pure=False, retries=RETRIES)
-            SweepWatch(client, futures, pending, result, Watchdog(out_dir, limit), start, say, out_dir).run()
-            del futures
+                                 [threads] * len(pending), [placements[layout_id(t)] for t in pending],
+                                 key=[f"render-{t.task_id}" for t in pending], pure=False, retries=RETRIES)
+            SweepWatch(client, futures, pending, result, Watchdog(out_dir, limit), start, say, out_dir,
+                       placements, kept).run()
+            del futures, placements
         finally:
             if own_client is not None:
                 own_client.close()
@@ -214,15 +254,25 @@ class SweepWatch:
     """Waits for a sweep's futures: records each outcome in `result` as it comes, and every few
     seconds reads the running tasks' heartbeats, restarting the worker of a task hung beyond the
     limit (RETRIES + 1 hangs: the task is cancelled and reported failed). Prints a progress line
-    per finished task, and a status line when none finished for STATUS_EVERY_S."""
+    per finished task, and a status line when none finished for STATUS_EVERY_S. The layouts'
+    placement futures (`placements`: layout_id → future) are watched the same way, under their
+    heartbeat names place-<layout>; one that fails or hangs for good fails the tasks of its layout
+    (a failure reaches them through Dask, as the placement's error; a hang is reported to them here)."""
 
     def __init__(self, client: Client, futures: list, tasks: list[Task], result: GenerateResult,
-                 watchdog: Watchdog, start: float, say, out_dir: Path) -> None:
+                 watchdog: Watchdog, start: float, say, out_dir: Path, placements: dict | None = None,
+                 kept_before: set[str] = frozenset()) -> None:
         self.client = client
         self.out_dir = Path(out_dir)
         self.tasks = {t.task_id: t for t in tasks}
         self.waiting = {t.task_id: f for f, t in zip(futures, tasks)}  # task_id → its future, until reported
         self.names = {f.key: t.task_id for f, t in zip(futures, tasks)}
+        self.layout_of = {t.task_id: layout_id(t) for t in tasks}
+        # Layouts whose placement an earlier run kept (read before any placement task ran).
+        self.kept_before = set(kept_before)
+        self.placements = {TASK_PREFIX + layout: future for layout, future in (placements or {}).items()}
+        self.waiting.update(self.placements)
+        self.names.update({f.key: name for name, f in self.placements.items()})
         self.result = result
         self.watchdog = watchdog
         self.hangs: dict[str, list[Hang]] = {}
@@ -255,15 +305,19 @@ class SweepWatch:
         task_id = self.names[future.key]
         if self.waiting.get(task_id) is not future:
             return  # cancelled after hanging, and reported then
+        if task_id in self.placements:
+            self.placement_finished(task_id, future)
+            return
         directory = task_dir(self.out_dir, self.tasks[task_id])
-        if future.status == "finished":
-            outcome = future.result()
+        outcome = fetch(future)
+        if outcome is not None:
             self.result.samples += outcome["samples"]
             self.result.rendered += 0 if outcome["skipped"] else 1
             self.watchdog.limit.finished(outcome["longest_stage_s"])
         elif future.status != "error" and is_complete(directory):
             # It finished, but its small result went with a worker that died before the driver
-            # read it (the future is "lost"): the task's directory is the record of what it did.
+            # read it (the future is "lost"), or is held by a worker that does not answer: the
+            # task's directory is the record of what it did.
             self.result.samples += json.loads((directory / DONE).read_text())["samples"]
             self.result.rendered += 1
         elif future.status != "error":
@@ -300,9 +354,49 @@ class SweepWatch:
             self.say(f"{what}; trying it again ({len(tries) + 1} of {RETRIES + 1})")
             return
         self.say(f"{what}; giving up after {len(tries)} tries")
-        self.result.failed[beat.task_id] = (f"hung {len(tries)} times (limit {limit:.0f} s without progress): "
-                                            f"{hang_history(tries)}")
+        reason = f"hung {len(tries)} times (limit {limit:.0f} s without progress): {hang_history(tries)}"
+        if beat.task_id in self.placements:
+            self.placement_lost(beat.task_id, future, reason)
+            return
+        self.result.failed[beat.task_id] = reason
         self.report(beat.task_id, future)
+
+    def placement_finished(self, name: str, future) -> None:
+        """A layout's placement ended: counted when it finished (its tasks go on), said when it
+        failed (its tasks then fail with its error, which names the layout)."""
+        layout = name.removeprefix(TASK_PREFIX)
+        outcome = fetch(future)
+        if outcome is not None:
+            self.watchdog.limit.finished(outcome["longest_stage_s"])
+        elif future.status != "error" and read_record(placement_path(self.out_dir, layout)) is not None:
+            outcome = {"placed": layout not in self.kept_before}  # its result unreadable (see RESULT_WAIT_S)
+        if outcome is not None:
+            if outcome["placed"]:
+                self.result.placed += 1
+            else:
+                self.result.placed_before += 1
+            self.say(f"{name}: " + ("placed" if outcome["placed"] else "placement kept from an earlier run"))
+        else:
+            error = repr(future.exception()) if future.status == "error" else f"its future ended {future.status!r}"
+            self.say(f"{name}: failed: {error}; the tasks of this layout fail with it")
+        self.forget_placement(name, future)
+
+    def placement_lost(self, name: str, future, reason: str) -> None:
+        """A layout's placement given up (cancelled after hanging): its waiting tasks can never
+        run, so they are cancelled and reported failed, naming the layout and why."""
+        self.forget_placement(name, future)
+        layout = name.removeprefix(TASK_PREFIX)
+        for task_id in [t for t in self.waiting if self.layout_of.get(t) == layout]:
+            dependent = self.waiting[task_id]
+            dependent.cancel()
+            self.result.failed[task_id] = f"the placement of its scene layout {layout} {reason}"
+            self.report(task_id, dependent)
+
+    def forget_placement(self, name: str, future) -> None:
+        # Released here, its result stays on the cluster for as long as a task of its layout waits for it.
+        future.release()
+        del self.waiting[name]
+        self.watchdog.forget(name)
 
     def restart(self, worker: str) -> tuple[bool, str]:
         """Has the nanny of `worker` kill its process and start a new one (a worker already gone
@@ -343,6 +437,17 @@ class SweepWatch:
     def line(self, text: str) -> None:
         self.say(f"[{self.done}/{self.total}] {text}")
         self.last_line = time.monotonic()
+
+
+def fetch(future) -> dict | None:
+    """A finished future's result, or None when it did not finish or its result could not be
+    read within RESULT_WAIT_S (its worker hung or gone)."""
+    if future.status != "finished":
+        return None
+    try:
+        return future.result(timeout=RESULT_WAIT_S)
+    except Exception:  # noqa: BLE001 — a timeout, or the worker lost meanwhile: the caller reads the files
+        return None
 
 
 def hang_history(hangs: list[Hang]) -> str:

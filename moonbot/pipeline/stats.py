@@ -28,10 +28,16 @@ CPU c_i, t_i render threads; all times in seconds, rates in samples per second):
   timed stages (the shares sum to 1); `stage_coverage` = Σ_ij stage_ij / Σ_i w_i is the fraction of
   task wall time the stages account for (the remainder: writing task.json and stats.json).
 - CPU use = Σ c_i / Σ w_i·t_i: process CPU seconds per second of the render threads' wall time.
+- placements: a scene layout's bags are placed and settled once, by a task of their own, for all
+  the tasks that show them (moonbot.pipeline.placements); OUT/placements/<layout>.json records
+  its `place` and `settle` seconds, so each layout's are counted once. They join the stage
+  totals (and so the shares and seconds per sample), and their wall time joins the coverage's
+  denominator; the rates, spans and concurrency are the tasks' alone.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import datetime
 import json
 import math
@@ -42,13 +48,14 @@ from pathlib import Path
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from moonbot.pipeline.placements import read_placements
 from moonbot.pipeline.svgchart import COLOURS, bar_panel, svg_close, svg_open
 from moonbot.pipeline.tasks import is_complete
 from moonbot.writer.staging import atomic_write
 
 # The stages a task times (moonbot.pipeline.views, moonbot.writer.sample), in pipeline order;
 # other stage names a worker reports follow these, sorted.
-STAGE_ORDER = ("terrain", "compose", "settle", "build_bvh", "dust", "render", "tonemap", "encode_write")
+STAGE_ORDER = ("terrain", "compose", "place", "settle", "build_bvh", "dust", "render", "tonemap", "encode_write")
 
 _STR, _INT, _NUM = "a string", "an integer", "a number"
 # stats.json's fields: (kind, lower bound or None, unit for messages). stages_s is checked apart.
@@ -78,10 +85,12 @@ class StatsError(ValueError):
 @dataclass(frozen=True)
 class Collected:
     """What `collect` read: the task records, sorted by task_id, and the task directories it left
-    out because they are not complete (no DONE.json, or files that do not match it)."""
+    out because they are not complete (no DONE.json, or files that do not match it); the scene
+    layouts' placement records (OUT/placements), sorted by layout_id."""
 
     records: list[dict]
     incomplete: list[Path]
+    placements: list[dict] = dataclasses.field(default_factory=list)
 
 
 def task_directories(out_dir: Path) -> tuple[list[Path], list[Path]]:
@@ -175,15 +184,51 @@ def read_tasks(out_dir: Path) -> Collected:
 def collect(out_dir: Path) -> Collected:
     """Reads every complete task's stats.json (`read_tasks`) and writes OUT/stats/tasks.jsonl (one
     record a line, keys sorted, lines in task_id order) and OUT/stats/tasks.parquet (`to_table`),
-    each atomically; the same tasks give the same bytes."""
-    collected = read_tasks(out_dir)
+    each atomically; the same tasks give the same bytes. The placement records (OUT/placements),
+    if any, go into OUT/stats/placements.jsonl, without their poses."""
+    collected = dataclasses.replace(read_tasks(out_dir),
+                                    placements=[placement_timing(r) for r in read_placements(out_dir)])
     stats_dir = Path(out_dir) / "stats"
     stats_dir.mkdir(parents=True, exist_ok=True)
     lines = "".join(json.dumps(r, sort_keys=True, separators=(",", ":")) + "\n" for r in collected.records)
     atomic_write(stats_dir / "tasks.jsonl", "w", lambda f: f.write(lines))
     table = to_table(collected.records)
     atomic_write(stats_dir / "tasks.parquet", "wb", lambda f: pq.write_table(table, f, compression="zstd"))
+    if collected.placements:  # a run of `moonbot generate` (one of run_task alone has none)
+        placed = "".join(json.dumps(r, sort_keys=True, separators=(",", ":")) + "\n" for r in collected.placements)
+        atomic_write(stats_dir / "placements.jsonl", "w", lambda f: f.write(placed))
     return collected
+
+
+def placement_timing(record: dict) -> dict:
+    """A placement record's timing fields (layout_id, stages_s, wall_s, cpu_s, started_utc, host,
+    pid, worker), checked like a task's."""
+    where = f"placement {record.get('layout_id')!r}"
+    for name in ("wall_s", "cpu_s"):
+        if not isinstance(record.get(name), (int, float)) or not math.isfinite(record[name]) or record[name] < 0:
+            raise StatsError(f"{where}: {name}: expected non-negative seconds, got {record.get(name)!r}")
+    _check_stages(record.get("stages_s"), where)
+    return {k: record.get(k) for k in ("layout_id", "stages_s", "wall_s", "cpu_s", "started_utc", "host", "pid",
+                                       "worker")}
+
+
+def load_placements(out_dir: Path) -> list[dict]:
+    """A run's placement timings: from OUT/placements when it exists, else from
+    OUT/stats/placements.jsonl (empty when neither: a run from before placements had tasks)."""
+    out_dir = Path(out_dir)
+    if (out_dir / "placements").is_dir():
+        return [placement_timing(r) for r in read_placements(out_dir)]
+    path = out_dir / "stats" / "placements.jsonl"
+    if not path.is_file():
+        return []
+    records = []
+    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        try:
+            record = json.loads(line)
+        except ValueError as e:
+            raise StatsError(f"{path}:{number}: not JSON ({e})") from None
+        records.append(placement_timing(record))
+    return records
 
 
 def load(out_dir: Path) -> list[dict]:
@@ -304,6 +349,8 @@ class Summary:
     hosts: tuple
     reference: Reference | None = None
     scaling_efficiency: float | None = None
+    placements: int = 0             # scene layouts placed (bags placed and settled), each once
+    placement_wall_s: float = 0.0   # Σ their wall seconds
 
 
 def _ratio(a: float, b: float) -> float:
@@ -343,9 +390,10 @@ def _utc(seconds: float) -> str:
     return datetime.datetime.fromtimestamp(seconds, datetime.timezone.utc).isoformat(timespec="milliseconds")
 
 
-def summarize(records: list[dict], reference: Reference | None = None) -> Summary:
+def summarize(records: list[dict], reference: Reference | None = None, placements: Iterable[dict] = ()) -> Summary:
     """Totals, rates and efficiencies of a run's task records (formulas in the module docstring).
-    With a `reference`, also the scaling efficiency against it. Raises ValueError without records."""
+    With a `reference`, also the scaling efficiency against it. `placements`: the run's placement
+    timings (load_placements), their stages counted once each. Raises ValueError without records."""
     if not records:
         raise ValueError("no finished tasks to summarise")
     records = sorted(records, key=lambda r: r["task_id"])
@@ -355,9 +403,11 @@ def summarize(records: list[dict], reference: Reference | None = None) -> Summar
     span = last - first
     samples = sum(r["samples"] for r in records)
     wall = sum(r["wall_s"] for r in records)
-    stages = stage_names(records)
-    stage_totals = {k: sum(r["stages_s"].get(k, 0.0) for r in records) for k in stages}
+    placements = list(placements)
+    stages = stage_names([*records, *placements])
+    stage_totals = {k: sum(r["stages_s"].get(k, 0.0) for r in [*records, *placements]) for k in stages}
     timed = sum(stage_totals.values())
+    placement_wall = sum(p["wall_s"] for p in placements)
 
     hosts = []
     for host in sorted({r["host"] for r in records}):
@@ -393,8 +443,9 @@ def summarize(records: list[dict], reference: Reference | None = None) -> Summar
         parallel_efficiency=_ratio(wall, workers * span),
         stage_share={k: _ratio(v, timed) for k, v in stage_totals.items()},
         stage_seconds_per_sample={k: _ratio(v, samples) for k, v in stage_totals.items()},
-        stage_coverage=_ratio(timed, wall), hosts=tuple(hosts), reference=reference,
+        stage_coverage=_ratio(timed, wall + placement_wall), hosts=tuple(hosts), reference=reference,
         scaling_efficiency=None if reference is None else _ratio(per_worker, reference.samples_per_s_per_worker),
+        placements=len(placements), placement_wall_s=placement_wall,
     )
 
 
@@ -419,7 +470,7 @@ def reference_from_bench(path: Path, threads: int) -> Reference:
 
 def reference_from_run(out_dir: Path) -> Reference:
     """A previous run's samples/s per worker (X_ref / n_ref), as the reference for scaling efficiency."""
-    s = summarize(load(out_dir))
+    s = summarize(load(out_dir), placements=load_placements(out_dir))
     return Reference(s.per_worker, f"{out_dir}: {s.samples_per_s:.4g} samples/s on {s.workers} "
                                    f"worker{'s' if s.workers != 1 else ''}")
 
@@ -454,6 +505,10 @@ def format_summary(s: Summary) -> str:
         f"threads' time)",
         f"efficiency  parallel {_frac(s.parallel_efficiency)} (task wall / workers × span)",
     ]
+    if s.placements:
+        layouts = f"{s.placements} scene layout{'s' if s.placements != 1 else ''}"
+        lines.append(f"placement   {layouts} placed and settled once each, {s.placement_wall_s:.1f} s wall "
+                     f"(in the stage shares below)")
     if s.reference is not None:
         lines.append(f"            scaling {_frac(s.scaling_efficiency)} (per-worker samples/s / "
                      f"{_num(s.reference.samples_per_s_per_worker, 4)} of the reference, {s.reference.source})")
@@ -466,7 +521,8 @@ def format_summary(s: Summary) -> str:
     lines += ["", f"{'stage':<14} {'share':>6} {'s/sample':>9}"]
     for k, share in s.stage_share.items():
         lines.append(f"{k:<14} {100 * share:>5.1f}% {s.stage_seconds_per_sample[k]:>9.4f}")
-    lines.append(f"(the stages cover {_num(100 * s.stage_coverage, 3)} % of the tasks' wall time)")
+    lines.append(f"(the stages cover {_num(100 * s.stage_coverage, 3)} % of the tasks' "
+                 + ("and placements' " if s.placements else "") + "wall time)")
     notes = [f"host {h.host}: {h.workers} workers × {h.threads} threads > {h.cores} cores (oversubscribed)"
              for h in s.hosts if h.workers * h.threads > h.cores]
     return "\n".join(lines + ([""] + notes if notes else []))

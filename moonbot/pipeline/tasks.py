@@ -22,6 +22,7 @@ from moonbot import __version__
 from moonbot.config import Config, config_hash
 from moonbot.host import host_record
 from moonbot.pipeline.views import run_views
+from moonbot.scene.placement import Placement
 from moonbot.sweep import Task, task_config
 from moonbot.writer.checksum import file_sha256
 from moonbot.writer.staging import atomic_write, staged_directory
@@ -89,12 +90,13 @@ def task_record(config: Config, task: Task, views: list[int]) -> dict:
 
 
 def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = None, worker: str = "local",
-             on_stage: Callable[[str], None] | None = None) -> TaskOutcome:
+             on_stage: Callable[[str], None] | None = None, placement: Placement | None = None) -> TaskOutcome:
     """Renders `task` of `config`'s sweep into OUT/tasks/<task_id>/ unless it is complete there
     already. `threads` overrides render.threads (the images do not depend on it); `on_stage(name)`
     is told each stage as it starts (run_views's, then "finish task": task.json, stats.json, the
-    checksums and the rename). Raises on failure (a full disk, an unwritable directory), leaving
-    no partial task behind."""
+    checksums and the rename). `placement`: the task's scene's bags placed and settled already
+    (moonbot.pipeline.placements; None: the task places them itself). Raises on failure (a full
+    disk, an unwritable directory), leaving no partial task behind."""
     final = task_dir(out_dir, task)
     if is_complete(final):
         return TaskOutcome(task.task_id, True, 0, None)
@@ -103,7 +105,7 @@ def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = No
     tconfig = task_config(config, task)
     views = list(range(tconfig.orbit.views))
     with staged_directory(final) as staging:
-        results = run_views(tconfig, views, staging, threads=threads, on_stage=on_stage)
+        results = run_views(tconfig, views, staging, threads=threads, on_stage=on_stage, placement=placement)
         if on_stage is not None:
             on_stage("finish task")
         record = task_record(config, task, views)

@@ -14,10 +14,11 @@ from pathlib import Path
 
 from moonbot import __version__
 from moonbot.config import Config, config_hash
-from moonbot.render import SceneDust, build_scene, render_view, resolve_exposure
+from moonbot.render import SceneDust, build_light_cache, build_scene, render_view, resolve_exposure
 from moonbot.render.amodal import build_amodal_scenes, render_amodal_masks
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
 from moonbot.scene.orbit import orbit_height
+from moonbot.scene.placement import Placement
 from moonbot.writer import staged_directory, write_sample
 
 
@@ -26,7 +27,10 @@ class ViewResult:
     """Where a view was written and what it cost: `timings` in seconds per stage, `rays` counts
     (camera_rays, shadow_rays with bounce_shadow_rays of them, bounce_rays and medium_rays of the
     render, amodal_rays of the amodal masks' instance passes);
-    `dust` is the view's dust record in gt.json (None in a scene without dust)."""
+    `dust` is the view's dust record in gt.json (None in a scene without dust); `light_cache`
+    (None without one) the task's light cache after this view: vertices_filled by this view, the
+    thread-seconds that took within the render stage (fill_thread_s) and the bytes it holds. With a cache, `rays` also counts light_cache_rays and
+    light_cache_shadow_rays, traced to fill this view's new vertices."""
 
     view: int
     out_dir: Path
@@ -34,6 +38,7 @@ class ViewResult:
     rays: dict
     instance_pixels: dict
     dust: dict | None = None
+    light_cache: dict | None = None
 
 
 def view_seed(dataset_seed: int, view: int) -> int:
@@ -46,11 +51,15 @@ def view_seed(dataset_seed: int, view: int) -> int:
 
 
 def run_views(config: Config, views: list[int], out_root: Path, threads: int | None = None,
-              on_stage: Callable[[str], None] | None = None) -> list[ViewResult]:
+              on_stage: Callable[[str], None] | None = None,
+              placement: Placement | None = None) -> list[ViewResult]:
     """Renders `views` (orbit indices) of the config's scene into `out_root/view_NNN/` and returns
-    per-view timings. `threads` overrides render.threads (the images do not depend on it, nor
+    per-view timings. A `placement` given (the scene's bags placed and settled once for all its
+    tasks: moonbot.pipeline.placements) is used as it is, and its cost is not this run's: the
+    views' timings then have no `settle` stage. `threads` overrides render.threads (the images
+    do not depend on it, nor
     does the config hash the samples record). `on_stage(name)` is told each stage as it starts
-    ("compose scene", "build BVH", "dust setup", "amodal scenes", then per view k "dust view k",
+    ("compose scene", "build BVH", "light cache" (render.indirect = cache), "dust setup", "amodal scenes", then per view k "dust view k",
     "render view k", "amodal view k", "encode view k"): a task's heartbeat. Raises ValueError for
     a view outside the orbit."""
     stage = on_stage or (lambda name: None)
@@ -62,15 +71,23 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
         config = dataclasses.replace(config, render=dataclasses.replace(config.render, threads=threads))
     stage("compose scene")
     start = time.perf_counter()
-    spec = compose_scene(config)
-    # Settling is its own stage, present only in scenes that settle (principle 3).
-    settle_s = spec.placement.settle_seconds
+    spec = compose_scene(config, placement)
+    # Settling is its own stage, present only in scenes that settle here (principle 3).
+    settle_s = spec.placement.settle_seconds if placement is None else None
     terrain_s = spec.terrain_seconds  # 0 when this process had the terrain cached
     compose_s = time.perf_counter() - start - (settle_s or 0.0) - terrain_s
     stage("build BVH")
     start = time.perf_counter()
     scene = build_scene(spec, config.render.embree_isa)
     build_s = time.perf_counter() - start
+    # The light cache (render.indirect = cache, bounces > 0) over the static scene, before the
+    # dust adds its moving ejecta; empty here, filled as the views touch it.
+    light_cache = None
+    if config.render.indirect == "cache" and config.render.bounces > 0:
+        stage("light cache")
+        start = time.perf_counter()
+        light_cache = build_light_cache(scene, config)
+        light_cache_s = time.perf_counter() - start
     # Dust only when the scene calls for it: otherwise no simulation, no mesh, no medium, no stage.
     dust = None
     if config.dust.enabled:
@@ -94,9 +111,16 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
             stage(f"dust view {v}")
             view_dust = dust.for_view(v)
         stage(f"render view {v}")
-        rendered = render_view(scene, config, K, pose, seed, view_dust.medium if view_dust else None)
+        cache_before = light_cache.stats() if light_cache is not None else None
+        rendered = render_view(scene, config, K, pose, seed, view_dust.medium if view_dust else None,
+                               light_cache)
         out_dir = out_root / f"view_{v:03d}"
         timings = {"terrain": terrain_s, "compose": compose_s, "build_bvh": build_s}
+        if light_cache is not None:
+            # Its construction, paid by the first view; its filling runs inside the render stage.
+            cache_after = light_cache.stats()
+            timings["light_cache"] = light_cache_s
+            light_cache_s = 0.0
         if view_dust is not None:  # its ejecta simulation, fragment mesh update and cloud
             timings["dust"] = view_dust.seconds
         timings["render"] = rendered.stats["seconds"]
@@ -128,8 +152,15 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
         rays = {k: rendered.stats[k] for k in ("camera_rays", "shadow_rays", "bounce_shadow_rays", "bounce_rays",
                                                 "medium_rays")}
         rays["amodal_rays"] = amodal.rays
+        cache_record = None
+        if light_cache is not None:  # what this view filled (each vertex once: deterministic)
+            rays["light_cache_rays"] = cache_after["gather_rays"] - cache_before["gather_rays"]
+            rays["light_cache_shadow_rays"] = cache_after["shadow_rays"] - cache_before["shadow_rays"]
+            cache_record = {"vertices_filled": cache_after["vertices"] - cache_before["vertices"],
+                            "fill_thread_s": cache_after["fill_seconds"] - cache_before["fill_seconds"],
+                            "bytes": cache_after["bytes"]}
         pixels = {i["instance_id"]: i["px_count_visib"] for i in gt["instances"]}
-        results.append(ViewResult(v, out_dir, gt["timings_s"], rays, pixels, meta.get("dust")))
+        results.append(ViewResult(v, out_dir, gt["timings_s"], rays, pixels, meta.get("dust"), cache_record))
         terrain_s = compose_s = build_s = amodal_build_s = 0.0  # paid once, by the first view
         settle_s = None if settle_s is None else 0.0
     return results

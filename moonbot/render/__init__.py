@@ -6,8 +6,8 @@ from moonbot.render.amodal import (AmodalMask, AmodalMasks, AmodalScenes, build_
                                     render_amodal_masks)
 from moonbot.render.dust import SceneDust, ViewDust
 from moonbot.render.exposure import Exposure, exposure_scale, resolve_exposure
-from moonbot.render.view import RenderedView, build_scene, render_view
+from moonbot.render.view import RenderedView, build_light_cache, build_scene, render_view
 
 __all__ = ["AmodalMask", "AmodalMasks", "AmodalScenes", "Exposure", "RenderedView", "SceneDust", "ViewDust",
-           "build_amodal_scenes", "build_scene", "exposure_scale", "render_amodal_masks", "render_view",
+           "build_amodal_scenes", "build_light_cache", "build_scene", "exposure_scale", "render_amodal_masks", "render_view",
            "resolve_exposure"]

@@ -21,7 +21,7 @@ import numpy as np
 
 from moonbot import _core
 from moonbot.config.schema import Config, DustConfig
-from moonbot.render.view import regolith
+from moonbot.render.view import regolith, regolith_grain
 from moonbot.scene.compose import SceneSpec
 
 # What a dataset user must know about a dust sample's annotations (gt.json "dust").
@@ -95,8 +95,10 @@ class SceneDust:
         self._fragments: dict[int, tuple[int, np.ndarray]] = {}  # view → (count, vertices (12 N, 3))
         self._triangles: np.ndarray | None = None
         self._seconds: dict[int, float] = {}
-        # Regolith like the terrain's rocks, background (label 0).
+        # Regolith like the terrain's rocks, background (label 0): its albedo, photometric function
+        # and granular micro-texture.
         self._photometry, self._albedo = regolith(spec.terrain_photometry, spec.terrain_albedo)
+        self._grain = regolith_grain(spec.terrain_photometry.grain)
         e = config.dust.ejecta
         if e.count == 0:
             return  # no ejecta: nothing simulated, no mesh
@@ -121,7 +123,9 @@ class SceneDust:
             fragments, vertices = self._fragments[view]
             if self._mesh is None:
                 self._mesh = self._scene.add_mesh(vertices, self._triangles)
-                self._scene.add_background(self._mesh, np.eye(4), self._albedo, self._photometry)
+                # Moving: a light cache neither caches the fragments nor lets them shade what it does.
+                self._scene.add_background(self._mesh, np.eye(4), self._albedo, self._photometry, grain=self._grain,
+                                           moving=True)
                 self._scene.commit()
             elif self._current != view:
                 self._scene.update_mesh(self._mesh, vertices)

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from moonbot import _core
-from moonbot.config.schema import Config, PhotometryConfig
+from moonbot.config.schema import Config, GrainConfig, PhotometryConfig
 from moonbot.scene.compose import TERRAIN_MESH, SceneSpec
 from moonbot.scene.orbit import CameraPose
 
@@ -35,27 +35,41 @@ class RenderedView:
 def build_scene(spec: SceneSpec, embree_isa: str = "auto", watertight: bool = True) -> _core.Scene:
     """Builds the Embree scene once: one prototype BVH per mesh (bags of one obj_id share it,
     rocks of one prototype too); the terrain (with its per-vertex albedo factors and smooth
-    normals) and the rocks as regolith background; each bag as a labelled instance of woven
-    cloth on its atlas UVs, its stain painted by the core (none for zero seeds); then commits.
+    normals) and the rocks as regolith background, with its granular micro-texture; each bag as
+    a labelled instance of woven cloth on its atlas UVs, its stain painted (or its dust gathered)
+    by the core (none for zero seeds); then commits.
     `embree_isa` is render.embree_isa: the SIMD kernels Embree traces it with; watertight=False
     only measures what watertight traversal costs (bench/bench_embree_isa.py)."""
     scene = _core.Scene(embree_isa, watertight)
     bag_ids = {bag.obj_id for bag in spec.bags}
     terrain = {"vertex_albedo": spec.terrain_albedo_scale, "vertex_normals": spec.terrain_normals}
+    # A glossy cloth needs a smooth shading normal: its narrow lobe would show every facet of the
+    # mesh, and whichever of two triangles an edge's ray is given (kernels differ in the last bit).
+    sheen = spec.fabric.sheen > 0.0
+
+    def extra(key: int, v: np.ndarray, t: np.ndarray) -> dict:
+        if key == TERRAIN_MESH:
+            return terrain
+        return {"vertex_normals": smooth_normals(v, t)} if key in bag_ids and sheen else {}
+
     mesh_index = {key: scene.add_mesh(v, t, spec.bag_uvs.reshape(len(t), 6) if key in bag_ids else None,
-                                      **(terrain if key == TERRAIN_MESH else {}))
+                                      **extra(key, v, t))
                   for key, (v, t) in spec.meshes.items()}
     photometry, albedo = regolith(spec.terrain_photometry, spec.terrain_albedo)
-    scene.add_background(mesh_index[TERRAIN_MESH], np.eye(4), albedo, photometry)
+    grain = regolith_grain(spec.terrain_photometry.grain)
+    scene.add_background(mesh_index[TERRAIN_MESH], np.eye(4), albedo, photometry, grain=grain)
     for key, pose in spec.rocks:  # rocks are regolith (label 0)
-        scene.add_background(mesh_index[key], pose, albedo, photometry)
+        scene.add_background(mesh_index[key], pose, albedo, photometry, grain=grain)
     f, st = spec.fabric, spec.stain
     for bag in spec.bags:
         # Zero stain seeds: the core paints and allocates no mask (principle 3).
         woven = _core.WovenSurface(pitch_m=f.pitch_m, relief_m=f.relief_m, contrast=f.contrast,
                                    metres_per_uv=spec.bag_metres_per_uv, stamps=st.seeds,
                                    brush_size=st.brush_size, opacity=st.opacity, resolution=st.resolution,
-                                   stain_seed=bag.stain_seed, dirt_colour=st.dirt_colour)
+                                   stain_seed=bag.stain_seed, dirt_colour=st.dirt_colour, sheen=f.sheen,
+                                   sheen_along=f.sheen_along, sheen_across=f.sheen_across, stain_mode=st.mode,
+                                   contact_height_m=st.contact_height_m, deposit_radius_m=st.deposit_radius_m,
+                                   handled_share=st.handled_share, speckle=st.speckle)
         scene.add_instance(mesh_index[bag.obj_id], bag.world_from_model, bag.instance_id, bag.albedo, woven=woven)
     scene.commit()
     return scene
@@ -74,23 +88,69 @@ def regolith(config: PhotometryConfig, normal_albedo: float) -> tuple[_core.Phot
     return photometry, (normal_albedo / photometry.shape(1.0, 1.0, 1.0),) * 3
 
 
-def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraPose,
-                seed: int, medium: _core.Medium | None = None) -> RenderedView:
-    """Renders rgb, depth and instance passes of one view with the config's Sun and quality, and
-    with `medium` (a dust scene's cloud; moonbot.render.dust) attenuating and scattering the
-    sunlight in rgb only."""
-    camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], config.camera.width,
-                          config.camera.height, pose.R, pose.t)
+def smooth_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Unit vertex normals (N, 3) float32 of a mesh (vertices (N, 3) metres, triangles (M, 3)
+    indices, counter-clockwise seen from outside): the area-weighted mean of the normals of the
+    triangles around each vertex."""
+    v = vertices.astype(np.float64)
+    t = np.asarray(triangles, dtype=np.int64)
+    face = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])  # length = 2 × area
+    normals = np.zeros_like(v)
+    for corner in range(3):
+        np.add.at(normals, t[:, corner], face)
+    return (normals / np.linalg.norm(normals, axis=1, keepdims=True)).astype(np.float32)
+
+
+def regolith_grain(config: GrainConfig) -> _core.RegolithGrain | None:
+    """The core's granular micro-texture for regolith surfaces (terrain, rocks, ejecta), or None
+    when the config turns it off (then no texture code runs)."""
+    if not config.enabled:
+        return None
+    return _core.RegolithGrain(albedo_rms=config.albedo_rms, slope_rms_deg=config.slope_rms_deg,
+                               finest_cell_m=config.finest_cell_m, coarsest_cell_m=config.coarsest_cell_m,
+                               hurst=config.hurst, seed=config.seed)
+
+
+def scene_lights(config: Config) -> tuple[_core.Sun, _core.Sun | None]:
+    """The config's Sun, and the Earth as a second light where earthshine is on (else None: no
+    second light, no shadow rays toward it; principle 3)."""
     s = config.sun
     sun = _core.Sun(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
-    # Earthshine only when asked: no second light, no shadow rays toward it (principle 3).
     earth = (_core.Sun(s.earth_azimuth_deg, s.earth_elevation_deg, s.earth_irradiance_w_m2, EARTH_DIAMETER_DEG,
                        s.earth_color) if s.earthshine else None)
+    return sun, earth
+
+
+def build_light_cache(scene: _core.Scene, config: Config) -> _core.LightCache | None:
+    """The task's light cache (render.indirect = cache) over the committed scene's non-moving
+    instances, keyed by the dataset seed so that every view of the task reads the same values;
+    empty until views touch it. None where render.indirect is path or render.bounces is 0: no
+    indirect light is asked of a cache, so none is built (principle 3)."""
+    r = config.render
+    if r.indirect != "cache" or r.bounces == 0:
+        return None
+    sun, earth = scene_lights(config)
+    return _core.LightCache(scene, sun, earth, bounces=r.bounces, rays_objects=r.cache_rays_bags,
+                            rays_background=r.cache_rays_terrain, background_cell_m=r.cache_terrain_cell_m,
+                            object_cell_m=r.cache_bag_cell_m,
+                            seed=config.seed, threads=r.threads)
+
+
+def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraPose,
+                seed: int, medium: _core.Medium | None = None,
+                light_cache: _core.LightCache | None = None) -> RenderedView:
+    """Renders rgb, depth and instance passes of one view with the config's Sun and quality, and
+    with `medium` (a dust scene's cloud; moonbot.render.dust) attenuating and scattering the
+    sunlight in rgb only. `light_cache` (build_light_cache's, for this scene and config) gives
+    the camera hits on the static scene their indirect light in place of per-pixel bounces."""
+    camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], config.camera.width,
+                          config.camera.height, pose.R, pose.t)
+    sun, earth = scene_lights(config)
     start = time.perf_counter()
     out = _core.render(scene, camera, sun, spp=config.render.spp, seed=seed,
                        threads=config.render.threads, exact_depth=config.render.exact_depth,
                        light_samples=config.render.light_samples, bounces=config.render.bounces, earth=earth,
-                       medium=medium, adaptive_spp=config.render.adaptive_spp,
+                       medium=medium, light_cache=light_cache, adaptive_spp=config.render.adaptive_spp,
                        adaptive_threshold=config.render.adaptive_threshold)
     stats = {"camera_rays": out["camera_rays"], "second_look_rays": out["second_look_rays"],
              "shadow_rays": out["shadow_rays"], "bounce_shadow_rays": out["bounce_shadow_rays"],

@@ -90,14 +90,18 @@ def stain_seed(dataset_seed: int, instance_id: int) -> int:
     return int.from_bytes(digest, "little")
 
 
-def compose_scene(config: Config) -> SceneSpec:
+def compose_scene(config: Config, placement: Placement | None = None) -> SceneSpec:
     """`bags.count` bags of the configured mesh variant on the configured ground, placed by
     `bags.layout` and settled (moonbot.scene.placement; deterministic from the dataset seed),
-    instance ids 1..count, bag 1 the orbit target."""
+    instance ids 1..count, bag 1 the orbit target. A `placement` given (the same config's, made
+    once for every task of its scene: moonbot.pipeline.placements) is used as it is."""
     obj_id = OBJ_IDS[config.bags.mesh]
     vertices, triangles = variant_mesh(config.meshes, obj_id)
     terrain, cached = get_terrain(config.terrain)
-    placement = arrange_bags(vertices, triangles, config.bags, terrain.ground, seed=config.seed)
+    if placement is None:
+        placement = arrange_bags(vertices, triangles, config.bags, terrain.ground, seed=config.seed)
+    elif len(placement.poses) != config.bags.count:
+        raise ValueError(f"bags.count: {config.bags.count} bags, but the placement given has {len(placement.poses)}")
     instances = tuple(BagInstance(obj_id=obj_id, instance_id=i + 1, world_from_model=pose,
                                   albedo=config.bags.albedo, stain_seed=stain_seed(config.seed, i + 1))
                       for i, pose in enumerate(placement.poses))

@@ -1,6 +1,12 @@
 """What a sweep will cost before anything is rendered: its scenes, tasks and samples per split,
 and the disk and time they take on this machine, scaled from the recorded generate benchmark
-(bench/bench_generate.py → bench/results/generate-<machine>.json)."""
+(bench/bench_generate.py → bench/results/generate-<machine>.json).
+
+Time scales with what each stage is paid per: rendering, masks, dust and encoding per
+megapixel-sample; composing the scene and building its BVH per task; placing and settling the
+bags per layout (moonbot.pipeline.placements: once for all the tasks of its scenes). The
+benchmark's tasks have fewer views than the sweep's, and share one layout, so scaling its whole
+time by megapixel-samples alone would overstate the per-task and per-layout stages."""
 
 from __future__ import annotations
 
@@ -11,6 +17,11 @@ from pathlib import Path
 from moonbot.config import Config
 from moonbot.sweep.tasks import tasks
 
+# The stages (stats.json's stages_s, and the placements') paid once per layout and once per task;
+# every other stage is paid per sample and scales with megapixel-samples.
+PER_LAYOUT_STAGES = ("place", "settle")
+PER_TASK_STAGES = ("terrain", "compose", "build_bvh")
+
 
 @dataclass(frozen=True)
 class SplitPlan:
@@ -20,6 +31,7 @@ class SplitPlan:
     samples: int
     megapixel_samples: float  # Σ samples × width × height × spp / 1e6: what render time scales with
     megapixels: float         # Σ samples × width × height / 1e6: what disk scales with
+    layouts: int = 0          # bag layouts (split, mesh, location, bag count): placed and settled once each
 
 
 def split_plans(config: Config) -> list[SplitPlan]:
@@ -30,20 +42,22 @@ def split_plans(config: Config) -> list[SplitPlan]:
     for t in tasks(config):
         views = c.orbit.views
         pixels = c.camera.width * c.camera.height * views / 1e6
-        entry = out.setdefault(t.split, [set(), 0, 0, 0.0, 0.0])
+        entry = out.setdefault(t.split, [set(), 0, 0, 0.0, 0.0, set()])
         entry[0].add(t.scene_id)
         entry[1] += 1
         entry[2] += views
         entry[3] += pixels * c.render.spp
         entry[4] += pixels
-    return [SplitPlan(name, len(s), n, k, mps, mp) for name, (s, n, k, mps, mp) in out.items()]
+        entry[5].add((t.mesh, t.location, t.bags))
+    return [SplitPlan(name, len(s), n, k, mps, mp, len(lay)) for name, (s, n, k, mps, mp, lay) in out.items()]
 
 
 @dataclass(frozen=True)
 class Estimate:
     """Disk (bytes) and time (seconds on `workers` workers of this machine) for a sweep, from the
-    benchmark record at `source`: seconds per sample-megapixel-spp and bytes per megapixel as
-    measured there, times the sweep's totals."""
+    benchmark record at `source`: bytes per megapixel as measured there, times the sweep's; its
+    time split by stage into what is paid per megapixel-sample, per task and per layout, each
+    scaled by the sweep's count of it (see the module docstring)."""
 
     bytes: float
     seconds: float
@@ -63,15 +77,25 @@ def default_record() -> Path:
 
 def estimate(plans: list[SplitPlan], record_path: Path) -> Estimate | None:
     """The estimate from a generate benchmark record (None if there is none for this machine).
-    The record's best throughput (the fastest of its runs) is used."""
+    The record's best throughput (the fastest of its runs) is used: its span split by its stage
+    seconds' shares (a record without stages scales by megapixel-samples alone). A record from
+    before placements (no `layouts`) settled once per task."""
     try:
         record = json.loads(Path(record_path).read_text())
         best = max(record["runs"], key=lambda r: r["samples_per_s"])
-        s_per_mps = best["seconds"] / best["megapixel_samples"]
         b_per_mp = best["bytes"] / best["megapixels"]
-    except (OSError, ValueError, KeyError, ZeroDivisionError):
+        stages = best.get("stages_s") or {}
+        timed = sum(stages.values())
+        layout_share = sum(stages.get(k, 0.0) for k in PER_LAYOUT_STAGES) / timed if timed > 0 else 0.0
+        task_share = sum(stages.get(k, 0.0) for k in PER_TASK_STAGES) / timed if timed > 0 else 0.0
+        mps = sum(p.megapixel_samples for p in plans)
+        scale = (1.0 - layout_share - task_share) * mps / best["megapixel_samples"]
+        if task_share:
+            scale += task_share * sum(p.tasks for p in plans) / best["tasks"]
+        if layout_share:
+            scale += layout_share * sum(p.layouts for p in plans) / best.get("layouts", best["tasks"])
+    except (OSError, ValueError, KeyError, TypeError, ZeroDivisionError):
         return None
-    mps = sum(p.megapixel_samples for p in plans)
     mp = sum(p.megapixels for p in plans)
-    return Estimate(bytes=b_per_mp * mp, seconds=s_per_mps * mps, workers=best["workers"],
+    return Estimate(bytes=b_per_mp * mp, seconds=best["seconds"] * scale, workers=best["workers"],
                     threads=best.get("threads_per_worker", 1), source=str(record_path))

@@ -3,11 +3,22 @@ they add to the ground (metres, world East-North-Up), deterministic from a seed.
 
 Sizes follow the empirical equilibrium of small lunar craters, a cumulative density
 N(≥D) = C·D^-2 per m² with D in metres and C ≈ 0.05 (lunar-physics.md §4.2: 0.0336 for an
-Apollo 15 mare fit up to ~0.08; Minton et al. 2019, Xiao & Werner 2015). Centres are uniform
+Apollo 15 mare fit up to ~0.08; Trask 1966's standard equilibrium is 0.079; Minton et al. 2019,
+Xiao & Werner 2015). The D^-2 steady state holds from metres down to the 13 cm craters counted
+at Surveyor 7 (Shoemaker et al. 1969, JGR 74:6081; Moore, Boyce & Hahn 1980 find it for 1–100 m,
+the production population being steeper, D^-2.8), so the locations continue it down to 5 cm,
+the smallest crater five cells of the 1 cm tile can draw. Centres are uniform
 (a Poisson process; craters may overlap, as on the saturated real surface). Each crater has
 the simple-crater profile of `terrain.CraterGround` (depth 0.13·D, rim 0.036·D, ejecta as
-(r/R)^-3), scaled by a degradation factor in [0.3, 1] (old craters are shallower), and its ejecta
-is cut off at 2.5 R so that a crater changes nothing beyond it.
+(r/R)^-3), scaled by a degradation factor, and its ejecta is cut off at 2.5 R so that a crater
+changes nothing beyond it.
+
+**Degradation.** A population in equilibrium is mostly old craters: if a crater's depth decays
+about exponentially with age (diffusive infill) and ages are uniform, depths are log-uniform.
+The factor is log-uniform in [`DEGRADATION_MIN`, `DEGRADATION_MAX`], i.e. depth/diameter from
+0.010 to 0.195: the freshest small craters at Pike's (1974) d/D ≈ 0.2, and a mean of 0.063, the
+mean of the small craters measured in the Chang'E-4 1 cm Pancam DEM (0.061; Wu et al. 2021, EPSL
+553:116666). Fewer than half are steep enough to hold a shadow at a 12° Sun.
 """
 
 from __future__ import annotations
@@ -24,6 +35,7 @@ DEPTH_RATIO = 0.13
 RIM_RATIO = 0.036
 EJECTA_EXPONENT = 3.0
 EJECTA_CUTOFF = 2.5  # in crater radii
+DEGRADATION_MIN, DEGRADATION_MAX = 0.08, 1.5  # log-uniform factor on the fresh profile's heights
 
 
 def crater_profile(s: np.ndarray, diameter: float | np.ndarray, degradation: float | np.ndarray = 1.0) -> np.ndarray:
@@ -47,7 +59,7 @@ def expected_count(half_size_m: float, density: float, lo: float, hi: float) -> 
 @dataclass(frozen=True)
 class CraterField:
     """Craters with centres (K, 2) metres, diameters (K,) metres and degradation (K,) in
-    [0.3, 1]; `height` adds up their profiles."""
+    [DEGRADATION_MIN, DEGRADATION_MAX]; `height` adds up their profiles."""
 
     centres: np.ndarray
     diameters: np.ndarray
@@ -69,7 +81,7 @@ class CraterField:
         u = rng.random(count)
         diameters = (a - u * (a - b)) ** -0.5
         centres = rng.uniform(-half_size_m, half_size_m, size=(count, 2))
-        degradation = rng.uniform(0.3, 1.0, size=count)
+        degradation = DEGRADATION_MIN * (DEGRADATION_MAX / DEGRADATION_MIN) ** rng.random(count)
         return CraterField(centres, diameters, degradation)
 
     def subset(self, keep: np.ndarray) -> "CraterField":

@@ -2,8 +2,9 @@
 terrain's parts, meshed on one graded grid that is 1 cm fine around the bags and reaches the
 horizon, with the Moon's curvature.
 
-- `flat`, a mare plain: fractal regolith roughness (`Roughness`: H 0.6 below 1 m, 0.9 above,
-  20° RMS slope at 1 cm) and small craters from the equilibrium size-frequency distribution.
+- `flat`, a mare plain: fractal regolith relief following a measured law of RMS slope against
+  baseline (`roughness.py`: 3.0° at 17 m, 4.0° at 1 m, 6.3° at 1 cm), small craters from the
+  equilibrium size-frequency distribution down to 5 cm, and rocks down to 1 cm (`rocks.py`).
 - `hilly`: the plain on rolling hills, a second fBm of highland character (H 0.95, Rosenburg
   et al. 2011) with `hills_rms_slope_deg` over a 25 m baseline, so the ground under the bags
   slopes and the skyline changes as the camera orbits.
@@ -42,13 +43,14 @@ from moonbot.config.schema import TerrainConfig
 from moonbot.terrain.craters import CraterField, crater_profile
 from moonbot.terrain.dem import LocalDem
 from moonbot.terrain.ground import GridGround, graded_axis
-from moonbot.terrain.roughness import Roughness
+from moonbot.terrain.roughness import Roughness, SlopeLaw, slope_law
 
 LOCATIONS = ("flat", "hilly", "crater", "dem")
 LUNAR_RADIUS_M = float(_core.LUNAR_RADIUS)
-CRATER_CELLS = 6  # a crater is kept where its diameter spans at least this many grid cells
+CRATER_CELLS = 5  # a crater is kept where its diameter spans at least this many grid cells
 CRATER_REACH = 60.0  # craters of diameter D are sampled within 60·D (~10 pixels across there)
 HILLS_BASELINE_M = 25.0  # the baseline of hills_rms_slope_deg (LOLA's shortest slope maps)
+HILLS_HURST = 0.95  # LOLA highlands median (Rosenburg et al. 2011)
 # A DEM resolves wavelengths down to about two pixels (Nyquist) and craters down to about five
 # pixels across; the dem location adds roughness and craters below those.
 DEM_ROUGHNESS_PIXELS = 2.0
@@ -279,24 +281,26 @@ class Location:
         seed = config.seed
         r = config.roughness
         c = config.craters
-        max_wavelength, max_crater = r.max_wavelength_m, c.max_diameter_m
+        longest, max_crater = math.inf, c.max_diameter_m
         self.dem = None
         if dem is not None:
             self.dem = DemRelief(dem, config.dem_site_m, name=config.dem_file)
             self.dem.require_covers(float(np.max(np.abs(axis))))
             # Detail only below what the DEM resolves: the DEM carries everything larger.
-            max_wavelength = min(max_wavelength, DEM_ROUGHNESS_PIXELS * dem.spacing_m)
+            longest = DEM_ROUGHNESS_PIXELS * dem.spacing_m
             max_crater = min(max_crater, DEM_CRATER_PIXELS * dem.spacing_m)
         self.roughness = None
-        if max_wavelength > r.min_wavelength_m:
-            self.roughness = Roughness(seed=seed, rms_slope_deg=r.rms_slope_deg, hurst_fine=r.hurst_fine,
-                                       hurst_coarse=r.hurst_coarse, min_wavelength_m=r.min_wavelength_m,
-                                       max_wavelength_m=max_wavelength)
+        if longest > r.min_wavelength_m:
+            # The octaves follow the whole law (fitted up to max_wavelength_m); a DEM's location
+            # draws only those below what the DEM resolves, the DEM being the rest.
+            self.roughness = Roughness(seed=seed, law=slope_law(r), min_wavelength_m=r.min_wavelength_m,
+                                       max_wavelength_m=r.max_wavelength_m, longest_drawn_m=longest)
         self.hills = None
         if config.location == "hilly":
-            self.hills = Roughness(seed=seed + 1, rms_slope_deg=config.hills_rms_slope_deg, hurst_fine=0.95,
-                                   hurst_coarse=0.95, min_wavelength_m=4.0,
-                                   max_wavelength_m=config.hills_wavelength_m, slope_baseline_m=HILLS_BASELINE_M)
+            hills = SlopeLaw(rms_slope_deg=config.hills_rms_slope_deg, baseline_m=HILLS_BASELINE_M,
+                             hurst_coarse=HILLS_HURST, hurst_fine=HILLS_HURST, break_m=HILLS_BASELINE_M)
+            self.hills = Roughness(seed=seed + 1, law=hills, min_wavelength_m=4.0,
+                                   max_wavelength_m=config.hills_wavelength_m)
         # Sampled over squares that do not depend on the grid (so changing the grid's knobs
         # changes how the same craters are drawn, not which craters exist), then thinned to the
         # ones the grid can draw where they lie.

@@ -35,6 +35,13 @@ Isa resolve_isa(Isa requested);
 /// Sentinel for "no hit" in RayHit::geom_id / inst_id.
 constexpr uint32_t kInvalidId = 0xFFFFFFFFu;
 
+/// Ray and instance masks (Embree skips an instance when ray.mask & instance mask is 0). Every
+/// instance carries kAllRays unless it moves between views, when it carries kMovingGeometry
+/// only; a ray with mask kStaticGeometry (the light cache's) then passes through what moves.
+constexpr uint32_t kStaticGeometry = 0x1u;
+constexpr uint32_t kMovingGeometry = 0x2u;
+constexpr uint32_t kAllRays = 0xFFFFFFFFu;
+
 /// One ray and its hit record. Laid out exactly like Embree 3's RTCRayHit (checked by static_assert
 /// in accel.cpp), so a stream of them is handed to Embree without copying.
 /// Units: metres; `tfar` is in units of |dir| (the renderer makes the camera-z of dir equal to 1 so
@@ -109,6 +116,10 @@ public:
     /// Adds an instance of `prototype` with a column-major 3x4 world-from-object affine transform.
     /// Instances are numbered 0, 1, 2, ... in the order added; hits report that number in inst_id.
     uint32_t add_instance(uint32_t prototype, const float world_from_object_3x4[12]);
+
+    /// Sets instance `instance`'s mask (kAllRays when added; see kStaticGeometry); takes effect
+    /// at the next commit.
+    void set_instance_mask(uint32_t instance, uint32_t mask);
 
     /// Rebuilds `prototype`'s BVH after its vertex buffer (the one given to add_prototype, same
     /// vertex count) was rewritten in place, and marks its instances for the next commit. Only

@@ -42,14 +42,23 @@ namespace moonbot {
 ///   "low-contrast, near-featureless" fabric of the paper; pits read darker, like the
 ///   ambient-occlusion map baked into its base colour).
 /// - `albedo` the mean linear-RGB albedo, a tan fabric of mean 0.44 (§6: tan sandbag ≈ 0.35–0.5).
+/// - `sheen` s in [0, 1], the weight of the tapes' glossy lobe (see "Sheen" below): the cloth's
+///   BRDF is (1 − s)·albedo/π + s·f_tape. 0 (the default) is the matte weave, bit for bit.
+/// - `sheen_along`, `sheen_across` in [0.01, 1]: the GGX roughness α of a tape along its length
+///   (the over-under waviness of the float spreads its normals that way) and across it (a flat
+///   slit-film tape is nearly smooth across its width).
 struct FabricParams {
     double pitch_m = 1.5e-3;
     double relief_m = 1.0e-4;
     double contrast = 0.04;
     glm::dvec3 albedo{0.55, 0.45, 0.32};
+    double sheen = 0.0;
+    double sheen_along = 0.35;
+    double sheen_across = 0.12;
 
     /// Throws std::invalid_argument naming the field: pitch_m > 0, relief_m ≥ 0,
-    /// contrast in [0, 1], each albedo channel in [0, 1], all finite.
+    /// contrast in [0, 1], each albedo channel in [0, 1], sheen in [0, 1], the two roughnesses
+    /// in [0.01, 1], all finite.
     void validate() const;
 };
 
@@ -57,6 +66,13 @@ struct FabricParams {
 struct FabricSample {
     glm::dvec3 albedo;  ///< linear RGB, within params.albedo·(1 ± contrast)
     glm::dvec3 normal;  ///< unit vector in the (tangent = +x warp, bitangent = +y weft, normal) frame
+    /// The share of the footprint where the warp floats on top, in [0, 1]: ½(1 + sin a sin b)
+    /// prefiltered (½ once the weave's checkerboard is filtered away).
+    double warp_share = 0.5;
+    /// The mean squared slope of the weave's relief that the prefilter removed, per axis (x, y):
+    /// the normals inside the footprint that `normal` no longer shows, which widen the sheen's
+    /// lobe instead (Toksvig 2005; LEAN mapping, Olano & Baker 2010).
+    double lost_slope2_x = 0.0, lost_slope2_y = 0.0;
 };
 
 /// The weave at fabric point (x, y) metres, prefiltered with a Gaussian of σ = footprint_m / 2
@@ -66,6 +82,33 @@ struct FabricSample {
 /// field, which is (0, 0, 1) once the relief is filtered away. About 40 flops, one sin/cos per
 /// axis and one exp. `params` must be valid (validate()); not checked here, per hit.
 FabricSample fabric_eval(const FabricParams& params, double x, double y, double footprint_m);
+
+// Sheen. Woven polypropylene is made of flat slit-film tapes, glossy where they float on top.
+// No measured BRDF of such tape was found; we follow the structure of Irawan & Marschner's woven
+// cloth model (2012: a specular lobe per yarn segment, oriented along the yarn) with a
+// microfacet lobe per tape direction: an anisotropic GGX (Trowbridge-Reitz) distribution with
+// Smith's height-correlated masking-shadowing (Heitz 2014, "Understanding the Masking-Shadowing
+// Function in Microfacet-Based BRDFs", JCGT 3(2), eqs. 85 and 99 for the anisotropic D and Λ):
+//
+//   f_tape(ωi, ωo) = D(h)·G2(ωi, ωo) / (4·μi·μo),  G2 = 1/(1 + Λ(ωi) + Λ(ωo)),
+//   D(h) = 1 / (π·αx·αy·((hx/αx)² + (hy/αy)² + hz²)²),
+//   Λ(ω) = (−1 + √(1 + (αx²ωx² + αy²ωy²)/ωz²))/2,
+//
+// in the (warp, weft, normal) frame, with (αx, αy) = (along, across) where the warp floats and
+// (across, along) where the weft does, mixed by the footprint's warp share. Without Fresnel
+// (a white, perfect-mirror microsurface) its directional albedo ∫f_tape·μi dωi is ≤ 1 at every
+// ωo (Smith's single-scattering energy loss makes it < 1 for rough lobes), so the cloth's
+// (1 − s)·albedo/π + s·f_tape reflects at most (1 − s)·albedo + s ≤ 1.
+
+/// The tape lobe f_tape (sr⁻¹) for unit directions wi, wo in the local (x, y, normal) frame with
+/// roughness (ax, ay); 0 when either lies below the surface.
+double tape_lobe(const glm::dvec3& wi, const glm::dvec3& wo, double ax, double ay);
+
+/// The cloth's sheen f_sheen (sr⁻¹) over one footprint: warp_share·f_tape(along, across) +
+/// (1 − warp_share)·f_tape(across, along), each α² widened by the lost slope variance of that
+/// axis (so a distant, filtered weave keeps its highlight's energy in a broader lobe). Directions
+/// are unit, in the (warp, weft, shading normal) frame.
+double cloth_sheen(const FabricParams& params, const FabricSample& sample, const glm::dvec3& wi, const glm::dvec3& wo);
 
 /// The unfiltered height field h(a, b) in [0, 1] (see the top of this header), a = πx/p,
 /// b = πy/p: exposed so tests and pictures can check the weave itself.

@@ -13,6 +13,8 @@
 
 namespace moonbot {
 
+class LightCache;
+
 /// The most threads a render may ask for: far above any node, far below what breaks TBB.
 constexpr int kMaxThreads = 1024;
 
@@ -94,8 +96,15 @@ struct RenderStats {
 /// ∫ k(s)·ω·p_HG(θ)·E_sun·T(s)·T_sun(s)·V(s) ds, both marched along the centre ray in steps of
 /// voxel_m, sampled at each step's middle. Bounce paths do not see the dust, nor does the Earth's light;
 /// depth and labels stay those of the geometry.
+///
+/// Light cache (`light_cache`, optional; light_cache.h): built for this scene in its present
+/// static state, these lights and settings.bounces (else std::invalid_argument). A camera hit on
+/// a surface it covers takes its indirect light from it, albedo/π · shape(mean direction) · E,
+/// and traces no bounce; hits on moving geometry, or on a cached surface's back, bounce as
+/// without it. The lights stay per pixel with their shadow rays.
 RenderStats render(const Scene& scene, const Camera& camera, const Lights& lights,
-                   const RenderSettings& settings, const FrameView& out, const Medium* medium = nullptr);
+                   const RenderSettings& settings, const FrameView& out, const Medium* medium = nullptr,
+                   const LightCache* light_cache = nullptr);
 /// The same, lit by the Sun alone.
 RenderStats render(const Scene& scene, const Camera& camera, const Sun& sun,
                    const RenderSettings& settings, const FrameView& out);
@@ -108,7 +117,8 @@ struct Frame {
     RenderStats stats;
 };
 Frame render_frame(const Scene& scene, const Camera& camera, const Lights& lights,
-                   const RenderSettings& settings, const Medium* medium = nullptr);
+                   const RenderSettings& settings, const Medium* medium = nullptr,
+                   const LightCache* light_cache = nullptr);
 Frame render_frame(const Scene& scene, const Camera& camera, const Sun& sun,
                    const RenderSettings& settings);
 

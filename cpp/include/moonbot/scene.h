@@ -13,27 +13,44 @@
 #include "moonbot/accel.h"
 #include "moonbot/fabric.h"
 #include "moonbot/photometry.h"
+#include "moonbot/regolith_texture.h"
+#include "moonbot/soiling.h"
 #include "moonbot/stain.h"
 
 namespace moonbot {
 
+/// How a bag's dirt is made.
+enum class StainMode : uint8_t {
+    Stamp,  ///< the paper's splat stamps into a UV mask (stain.h)
+    Dust,   ///< regolith dust gathered at the ground contact and where handled (soiling.h)
+};
+
 /// A bag's cloth: the woven fabric (fabric.h; its mean colour is the material's albedo) laid on
-/// the mesh's corner UVs at `metres_per_uv`, and the paper's dirt stain (stain.h) painted for
-/// this instance from `stain_seed` — with stain.stamps = 0, no mask is painted or allocated.
+/// the mesh's corner UVs at `metres_per_uv`, and its dirt, made for this instance from
+/// `stain_seed` — in Stamp mode the paper's stain (stain.h) painted into a mask, in Dust mode
+/// regolith dust (soiling.h, with stain.stamps deposits and stain.opacity); with stain.stamps = 0
+/// neither is made or allocated.
 struct WovenSurface {
     FabricParams fabric;
     double metres_per_uv = 1.0;  ///< fabric metres per atlas UV unit (bag_mesh.uv_atlas's scale)
     StainParams stain;
     uint64_t stain_seed = 0;
     glm::dvec3 dirt_colour{0.12, 0.11, 0.10};  ///< linear RGB
+    StainMode stain_mode = StainMode::Stamp;
+    SoilingParams soiling;  ///< Dust mode's shape (its deposits and opacity are taken from `stain`)
+    /// Set by Scene::add_instance in Dust mode with stamps > 0: this instance's dust.
+    std::shared_ptr<const Soiling> dust;
 };
 
 /// A surface: `albedo` linear RGB in [0, 1] and the photometric function that shapes it (the
-/// BRDF is albedo/π · photometric_shape(...); Lambertian by default); optionally woven.
+/// BRDF is albedo/π · photometric_shape(...); Lambertian by default); optionally woven; optionally
+/// regolith's granular micro-texture (regolith_texture.h) at camera hits, which multiplies the
+/// albedo and tilts the shading normal (null: none, and none of its code runs).
 struct Material {
     glm::vec3 albedo{0.5f};
     Photometry photometry{};
     std::optional<WovenSurface> woven;
+    std::shared_ptr<const RegolithGrain> grain;
 };
 
 /// A prototype mesh, held by the scene for the lifetime of its BVH.
@@ -61,6 +78,9 @@ struct Instance {
     uint8_t label = 0;                 // instance id in masks; 0 = background (terrain, rocks)
     Material material;
     const StainMask* stain = nullptr;  // this instance's dirt mask (owned by the scene); none if clean
+    /// Moves between views (the dust's ejecta): rays with mask kStaticGeometry (accel.h), the
+    /// light cache's, pass through it.
+    bool moving = false;
 };
 
 class Scene {
@@ -89,8 +109,8 @@ public:
     /// Moves the vertices of mesh `mesh` (one without vertex normals, whose shading would go
     /// stale) to `vertices` (n_vertices×3, the mesh's own count, finite; triangles and UVs stay)
     /// and rebuilds that mesh's BVH alone: per view, the dust's ejecta move while the terrain's
-    /// and the bags' BVHs are kept. Needs a commit before the next render. Throws
-    /// std::invalid_argument naming the argument.
+    /// and the bags' BVHs are kept. Its instances become `moving` (Instance) if they were not.
+    /// Needs a commit before the next render. Throws std::invalid_argument naming the argument.
     void update_mesh(uint32_t mesh, const float* vertices, size_t n_vertices);
 
     /// Adds a labelled object (label 1–255, unique in the scene) with a world-from-object affine
@@ -100,8 +120,9 @@ public:
                           const Material& material);
 
     /// Adds unlabelled geometry (terrain, rocks): it shows in RGB and depth with label 0.
+    /// `moving`: it will move between views (Instance::moving).
     uint32_t add_background(uint32_t mesh, const glm::dmat4& world_from_object,
-                            const Material& material);
+                            const Material& material, bool moving = false);
 
     /// Builds the top-level BVH. Rendering needs a committed scene; adding after a commit
     /// requires another commit.
@@ -117,6 +138,9 @@ public:
     bool has_background() const { return m_has_background; }
     /// The ISA Embree traces this scene's rays in.
     Isa isa() const { return m_accel.isa(); }
+    /// Counts the changes to the geometry that does not move (instances added, meshes moved that
+    /// were not `moving`): a light cache is valid for the revision it was built at.
+    uint64_t static_revision() const { return m_static_revision; }
     /// BVH builds so far (one per mesh plus one per commit).
     uint64_t bvh_builds() const { return m_accel.builds(); }
 
@@ -136,7 +160,7 @@ public:
 
 private:
     uint32_t add(uint32_t mesh, const glm::dmat4& world_from_object, uint8_t label,
-                 const Material& material);
+                 const Material& material, bool moving);
     void require_not_rendering() const;
 
     Accel m_accel;
@@ -147,6 +171,7 @@ private:
     bool m_label_used[256] = {};
     bool m_has_background = false;
     bool m_committed = false;
+    uint64_t m_static_revision = 0;
     mutable std::atomic<int> m_readers{0};
 };
 

@@ -1,0 +1,70 @@
+#include <optional>
+
+#include <pybind11/stl.h>
+
+#include "arrays.h"
+#include "moonbot/light_cache.h"
+
+namespace moonbot::bindings {
+
+void bind_light_cache(py::module_& m) {
+    py::class_<LightCache>(m, "LightCache",
+                           "A world-space cache of indirect light over a committed scene's non-moving instances "
+                           "(cpp/include/moonbot/light_cache.h): filled per vertex on first touch by render(), "
+                           "shared by every view of the scene.")
+        .def(py::init([](const Scene& scene, const Sun& sun, const std::optional<Sun>& earth, int bounces,
+                         int rays_objects, int rays_background, double background_cell_m, double object_cell_m, uint64_t seed,
+                         int threads) {
+                 return std::make_unique<LightCache>(
+                     scene, Lights{sun, earth},
+                     LightCacheSettings{bounces, rays_objects, rays_background, background_cell_m, object_cell_m, seed,
+                                        threads});
+             }),
+             py::arg("scene"), py::arg("sun"), py::arg("earth") = py::none(), py::arg("bounces") = 2,
+             py::arg("rays_objects") = 256, py::arg("rays_background") = 64, py::arg("background_cell_m") = 0.0, py::arg("object_cell_m") = 0.0, py::arg("seed") = 0,
+             py::arg("threads") = 0,
+             py::keep_alive<1, 2>(),  // the cache reads the scene's meshes for its whole life
+             "bounces: path vertices after each gather point (as render's bounces, 1..16); rays_objects / "
+             "rays_background: gather rays per vertex on labelled instances (bags) / per vertex or lattice node on "
+             "background (terrain, rocks); background_cell_m: the background's world-space lattice spacing, metres "
+             "(0 = per vertex); object_cell_m: the same for labelled instances; seed: keys the gather rays; threads: of fill_all (0 = all).")
+        .def("covers", &LightCache::covers, py::arg("instance"),
+             "Whether instance `instance` is cached (it was not moving when the cache was built).")
+        .def(
+            "vertex",
+            [](const LightCache& c, uint32_t instance, uint32_t vertex) {
+                IndirectLight l;
+                {
+                    py::gil_scoped_release release;
+                    l = c.vertex(instance, vertex);
+                }
+                return py::make_tuple(py::make_tuple(l.irradiance.x, l.irradiance.y, l.irradiance.z),
+                                      py::make_tuple(l.direction.x, l.direction.y, l.direction.z));
+            },
+            py::arg("instance"), py::arg("vertex"),
+            "((E_r, E_g, E_b) W/m², (x, y, z) unit mean incident direction, world) at a vertex of a covered "
+            "instance, filled first if it is not yet.")
+        .def("fill_all", &LightCache::fill_all, py::call_guard<py::gil_scoped_release>(),
+             "Fill every vertex of the covered instances (rendering fills only what it touches).")
+        .def(
+            "stats",
+            [](const LightCache& c) {
+                const LightCacheStats s = c.stats();
+                py::dict d;
+                d["vertices"] = s.vertices;
+                d["blocks"] = s.blocks;
+                d["nodes"] = s.nodes;
+                d["probe_rays"] = s.probe_rays;
+                d["gather_rays"] = s.gather_rays;
+                d["shadow_rays"] = s.shadow_rays;
+                d["bytes"] = s.bytes;
+                d["redundant_fills"] = s.redundant_fills;
+                d["fill_seconds"] = s.fill_seconds;
+                return d;
+            },
+            "Cumulative: vertices filled, blocks allocated, background lattice nodes and their probe_rays, gather_rays and shadow_rays they traced (each "
+            "vertex counted once: deterministic), bytes held, redundant_fills (vertices a racing thread "
+            "computed again) and fill_seconds (thread-seconds; these two depend on the threads).");
+}
+
+}  // namespace moonbot::bindings

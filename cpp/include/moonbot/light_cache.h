@@ -1,0 +1,135 @@
+// A world-space cache of indirect light for one static scene, shared by every view of a task.
+//
+// Indirect irradiance at a surface point does not depend on the camera, so the many views of one
+// scene would each re-estimate it per pixel. The cache estimates it once per (instance, vertex)
+// of the scene's non-moving instances, from `rays_*` cosine-distributed gather rays at the vertex
+// each continued as the renderer's path tracer continues a bounce (a shadow ray to every light at
+// every path vertex, then the next bounce, `bounces` in all), and a pixel's first hit reads it
+// interpolated across its triangle, shaded with the hit's own BRDF.
+//
+// A vertex's value is a pure function of (the static scene, the lights, the seed, the vertex):
+// its random numbers are keyed by (seed, instance, vertex, ray), and its rays pass through moving
+// instances (accel.h kStaticGeometry). So images do not depend on the thread count, on which views
+// were rendered before, or on the order vertices are filled. Vertices are filled on first touch,
+// in blocks of kBlockVertices allocated on first touch: memory follows what the views see.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "moonbot/scene.h"
+#include "moonbot/sun.h"
+
+namespace moonbot {
+
+struct LightCacheSettings {
+    /// Path vertices after the gather point, each lit through a shadow ray per light, as
+    /// RenderSettings::bounces counts them; 1..kMaxBounces (a scene without bounces has no cache).
+    int bounces = 2;
+    /// Gather rays per vertex on labelled instances (the bags: few vertices, much of the
+    /// indirect light's variance), 1..kMaxGatherRays.
+    int rays_objects = 256;
+    /// Gather rays per vertex (or lattice node) on background instances (terrain, rocks),
+    /// 1..kMaxGatherRays.
+    int rays_background = 64;
+    /// Background instances' lattice spacing, metres (0 = per vertex). Indirect light varies
+    /// slowly over regolith, far more slowly than a 1 cm terrain grid. With a spacing h, a
+    /// background vertex whose triangle edges are all shorter than h takes its value bilinearly
+    /// from the 2D world-space lattice (multiples of h) across the axis its normal leans to most
+    /// (one of ±x, ±y, ±z); each node's value is the gather at the surface a probe ray meets
+    /// coming along that axis from beyond the instance's bounds, if that surface is the
+    /// instance's own and faces the same way (a bag or rock in front leaves the node empty).
+    /// Other vertices, or those with no valid node around them, gather themselves.
+    double background_cell_m = 0.0;
+    /// The same for labelled instances (the bags), with rays_objects a node; 0 = per vertex.
+    double object_cell_m = 0.0;
+    uint64_t seed = 0;  ///< keys the gather rays' random numbers (with instance, vertex, ray)
+    int threads = 0;    ///< worker threads of fill_all; 0 = all
+};
+
+constexpr int kMaxGatherRays = 65536;
+
+/// Indirect light arriving at a surface point.
+struct IndirectLight {
+    glm::dvec3 irradiance{0.0};  ///< W/m², linear RGB, on the cached side of the surface
+    glm::dvec3 direction{0.0};   ///< irradiance-weighted mean incident direction (unit, world; toward where the light comes from), 0 if dark
+};
+
+/// What the cache has done so far, cumulatively. Counts cover each vertex once (its first fill),
+/// so they are deterministic; `fill_seconds` is thread time and is not.
+struct LightCacheStats {
+    uint64_t vertices = 0;       ///< vertices filled
+    uint64_t blocks = 0;         ///< blocks of kBlockVertices allocated
+    uint64_t nodes = 0;          ///< lattice nodes probed (valid or not)
+    uint64_t probe_rays = 0;     ///< rays finding the surface under a lattice node
+    uint64_t gather_rays = 0;    ///< rays leaving a vertex or node, or a later path vertex
+    uint64_t shadow_rays = 0;    ///< toward the lights, from the path vertices
+    uint64_t bytes = 0;          ///< held now: tables, vertex normals, blocks
+    uint64_t redundant_fills = 0;  ///< vertices computed again by a thread racing the first (thread-dependent)
+    double fill_seconds = 0.0;   ///< thread-seconds spent filling (thread-dependent)
+};
+
+class LightCache {
+public:
+    /// Up to kBlockVertices consecutive vertices of one instance share a block.
+    static constexpr uint32_t kBlockVertices = 64;
+
+    /// A cache over the instances of `scene` that are not moving now (Instance::moving); the
+    /// scene must be committed and must outlive the cache. Throws std::invalid_argument naming
+    /// the setting on bad settings. Computes vertex normals for the meshes without their own
+    /// (area-weighted face normals); fills no vertex.
+    LightCache(const Scene& scene, const Lights& lights, const LightCacheSettings& settings);
+    ~LightCache();
+    LightCache(const LightCache&) = delete;
+    LightCache& operator=(const LightCache&) = delete;
+
+    /// Whether instance `instance`'s surface is cached (it was not moving when the cache was built).
+    bool covers(uint32_t instance) const;
+
+    /// The indirect light at barycentrics (u, v) of triangle `prim` of covered instance
+    /// `instance` (the hit is (1 − u − v)·p0 + u·p1 + v·p2), on the side its vertex normals face:
+    /// the vertices' values interpolated, each filled first if it is not yet. Thread-safe.
+    IndirectLight at(uint32_t instance, uint32_t prim, double u, double v) const;
+
+    /// The unit world normal of the cached side at barycentrics (u, v) of triangle `prim` (the
+    /// vertex normals interpolated): a hit seen from the other side is not served by the cache.
+    glm::dvec3 normal_at(uint32_t instance, uint32_t prim, double u, double v) const;
+
+    /// Fills every vertex of the covered instances (for tests and measurements; rendering fills
+    /// on demand), in parallel on settings.threads. Throws std::invalid_argument if the scene's
+    /// static geometry changed since the cache was built.
+    void fill_all() const;
+
+    /// The value of vertex `vertex` of covered instance `instance`, filling it if needed.
+    IndirectLight vertex(uint32_t instance, uint32_t vertex) const;
+
+    const Scene& scene() const { return m_scene; }
+    const Lights& lights() const { return m_lights; }
+    const LightCacheSettings& settings() const { return m_settings; }
+    /// Scene::static_revision when built: the cache serves that state of the scene only.
+    uint64_t scene_revision() const { return m_revision; }
+    LightCacheStats stats() const;
+
+private:
+    /// Background vertex `vertex`'s value (at `point`, unit `normal`) from the lattice nodes
+    /// around it; none where the vertex is coarse or no node around it is valid.
+    std::optional<IndirectLight> from_lattice(uint32_t instance, uint32_t vertex, const glm::dvec3& point,
+                                              const glm::dvec3& normal) const;
+    /// Lattice node (i, j)·h across the axis of normal bin `bin` on instance `instance`, probed
+    /// and gathered on first touch; none where its probe meets another instance or another bin.
+    std::optional<IndirectLight> lattice_node(uint32_t instance, int64_t i, int64_t j, int bin) const;
+
+    struct Impl;
+    const Scene& m_scene;
+    const Lights m_lights;
+    const LightCacheSettings m_settings;
+    const uint64_t m_revision;
+    std::unique_ptr<Impl> m_impl;
+};
+
+}  // namespace moonbot

@@ -1,0 +1,601 @@
+#include "moonbot/light_cache.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include <tbb/blocked_range.h>
+#include <tbb/concurrent_hash_map.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include "moonbot/render.h"
+#include "moonbot/rng.h"
+#include "moonbot/sampler.h"
+#include "rays.h"
+
+namespace moonbot {
+
+namespace {
+
+using namespace detail;
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kInvPi = 1.0 / kPi;
+// Dimension pairs of one gather ray (sampler.h): path vertex b (1-based) takes
+// kPairsPerBounce·(b − 1) for the direction that reaches it and the pairs after it for its
+// lights. The sequence's index is the ray's number at the vertex, so a vertex's rays are
+// stratified together over the hemisphere.
+constexpr uint32_t kPairsPerBounce = 32;
+// Keeps the cache's random streams apart from the pixels' (rng.h pixel_stream) under one seed.
+constexpr uint64_t kCacheStreamSalt = 0x6C69676874636163ull;  // "lightcac"
+constexpr uint64_t kNodeStreamSalt = 0x6C61747469636521ull;   // "lattice!"
+// Lattice indices are packed 20 bits an axis: ±2^19 cells (±26 km at 5 cm).
+constexpr int64_t kLatticeHalfRange = int64_t(1) << 19;
+
+/// A light as the gather paths use it (render.cpp's LightData, the same sampling).
+struct GatherLight {
+    glm::dvec3 dir, color, a, b;
+    double scale;     // E/π
+    double cos_half;  // the disk is the cone within acos(cos_half) of dir
+    bool point;
+};
+
+std::vector<GatherLight> gather_lights(const Lights& lights) {
+    std::vector<GatherLight> table;
+    auto add = [&](const Sun& l) {
+        if (l.irradiance() <= 0.0) return;  // a dark light adds nothing and traces nothing
+        GatherLight d;
+        d.dir = l.direction();
+        d.color = l.color();
+        orthonormal_basis(d.dir, d.a, d.b);
+        d.scale = kInvPi * l.irradiance();
+        d.cos_half = l.cos_half_angle();
+        d.point = l.half_angle() == 0.0;
+        table.push_back(d);
+    };
+    add(lights.sun);
+    if (lights.earth) add(*lights.earth);
+    return table;
+}
+
+double shape_at(const InstanceData& inst, double mu_i, double mu_o, double cos_g) {
+    if (inst.photometry.model == Photometry::Model::Lambert) return 1.0;
+    return photometric_shape(inst.photometry, mu_i, mu_o, cos_g);
+}
+
+/// Rec. 709 luminance of linear RGB: the weight of a ray in the mean incident direction.
+double luminance(const glm::dvec3& c) { return 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b; }
+
+/// One gather path's current vertex.
+struct GatherPath {
+    glm::dvec3 point, lifted, normal, albedo, wo, throughput;
+    uint32_t instance = 0;
+    bool alive = false;
+};
+
+/// What one vertex's fill traced.
+struct FillCounts {
+    uint64_t gather_rays = 0, shadow_rays = 0;
+};
+
+struct Block {
+    std::atomic<uint8_t> state[LightCache::kBlockVertices];  // kEmpty, kFilling, kReady
+    // Doubles, as computed: a racing thread's own copy then equals the stored one bit for bit
+    // (GCC 12 at -O3 was seen returning a double → float → double round trip unrounded).
+    IndirectLight value[LightCache::kBlockVertices];
+    Block() {
+        for (auto& s : state) s.store(0, std::memory_order_relaxed);
+    }
+};
+constexpr uint8_t kEmpty = 0, kFilling = 1, kReady = 2;
+
+/// Area-weighted vertex normals of `mesh` (object frame, unit xyz per vertex; a vertex of no
+/// triangle gets +z).
+std::vector<float> area_weighted_normals(const Mesh& mesh) {
+    const size_t nv = mesh.vertex_count();
+    std::vector<glm::dvec3> sum(nv, glm::dvec3(0.0));
+    for (size_t t = 0; t < mesh.triangle_count(); ++t) {
+        const uint32_t* c = &mesh.triangles[3 * t];
+        const glm::dvec3 p0 = mesh.vertex(c[0]);
+        // |cross| is twice the area: the area weighting comes for free.
+        const glm::dvec3 n = glm::cross(mesh.vertex(c[1]) - p0, mesh.vertex(c[2]) - p0);
+        for (int k = 0; k < 3; ++k) sum[c[k]] += n;
+    }
+    std::vector<float> out(3 * nv);
+    for (size_t i = 0; i < nv; ++i) {
+        const double len = glm::length(sum[i]);
+        const glm::dvec3 n = len > 0.0 ? sum[i] / len : glm::dvec3(0.0, 0.0, 1.0);
+        for (int k = 0; k < 3; ++k) out[3 * i + k] = static_cast<float>(n[k]);
+    }
+    return out;
+}
+
+/// Key of a lattice node: its integer coordinates (world / cell size) across its bin's axis and
+/// the normal bin of the surface it stands for (normal_bin).
+uint64_t node_key(int64_t i, int64_t j, int bin) {
+    auto field = [](int64_t c) { return static_cast<uint64_t>(c + kLatticeHalfRange) & 0xFFFFFFull; };
+    return field(i) | (field(j) << 24) | (static_cast<uint64_t>(bin) << 48);
+}
+
+/// Which of six directions a unit normal leans toward most: 2·axis + (component < 0). Surfaces
+/// of different bins never share a lattice node (a rock's sides, its top and the ground beside it).
+int normal_bin(const glm::dvec3& n) {
+    const glm::dvec3 a = glm::abs(n);
+    const int axis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
+    return 2 * axis + (n[axis] < 0.0 ? 1 : 0);
+}
+
+/// A background instance's lattice: its world bounds (where probes start), which vertices read
+/// it, and the nodes probed so far.
+struct Lattice {
+    double spacing = 0.0;  // metres
+    int rays = 0;          // gather rays per node
+    glm::dvec3 lo{std::numeric_limits<double>::infinity()}, hi{-std::numeric_limits<double>::infinity()};
+    std::vector<bool> fine;  // per vertex: every triangle edge at it is shorter than the spacing
+    // A node's value: the irradiance at the surface its probe met, or none (see lattice_node).
+    using Nodes = tbb::concurrent_hash_map<uint64_t, std::optional<IndirectLight>>;
+    Nodes nodes;
+};
+
+
+/// Instance `inst`'s lattice of spacing `h` over `mesh`: its world bounds and which vertices
+/// are fine enough to read it.
+std::unique_ptr<Lattice> make_lattice(const InstanceData& inst, const Mesh& mesh, double h, int rays) {
+    auto lattice = std::make_unique<Lattice>();
+    lattice->spacing = h;
+    lattice->rays = rays;
+    const size_t nv = mesh.vertex_count();
+    std::vector<glm::dvec3> world(nv);
+    for (size_t v = 0; v < nv; ++v) {
+        world[v] = inst.linear * mesh.vertex(static_cast<uint32_t>(v)) + inst.translation;
+        lattice->lo = glm::min(lattice->lo, world[v]);
+        lattice->hi = glm::max(lattice->hi, world[v]);
+    }
+    lattice->fine.assign(nv, true);
+    const double h2 = h * h;
+    for (size_t t = 0; t < mesh.triangle_count(); ++t) {
+        const uint32_t* c = &mesh.triangles[3 * t];
+        for (int k = 0; k < 3; ++k) {
+            const glm::dvec3 e = world[c[(k + 1) % 3]] - world[c[k]];
+            if (glm::dot(e, e) < h2) continue;
+            lattice->fine[c[k]] = false;
+            lattice->fine[c[(k + 1) % 3]] = false;
+        }
+    }
+    return lattice;
+}
+
+}  // namespace
+
+struct LightCache::Impl {
+    std::vector<InstanceData> instances;
+    std::vector<std::unique_ptr<Lattice>> lattices;      // per background instance with a lattice, else null
+    std::atomic<uint64_t> n_nodes{0}, probe_rays{0};
+    std::vector<GatherLight> lights;
+    std::vector<bool> covered;                           // per instance
+    std::vector<const float*> normals;                   // per instance: its mesh's vertex normals (object frame)
+    std::vector<std::vector<float>> computed_normals;    // per mesh: area-weighted, where the mesh has none
+    std::vector<uint32_t> vertex_count;                  // per instance
+    std::vector<std::unique_ptr<std::atomic<Block*>[]>> blocks;  // per instance, per block
+    std::vector<size_t> block_count;                     // per instance
+    std::atomic<uint64_t> vertices{0}, n_blocks{0}, gather_rays{0}, shadow_rays{0}, redundant{0};
+    std::atomic<uint64_t> fill_nanoseconds{0};
+    uint64_t table_bytes = 0;
+
+    ~Impl() {
+        for (size_t i = 0; i < blocks.size(); ++i)
+            for (size_t b = 0; b < block_count[i]; ++b) delete blocks[i][b].load();
+    }
+};
+
+LightCache::LightCache(const Scene& scene, const Lights& lights, const LightCacheSettings& settings)
+    : m_scene(scene), m_lights(lights), m_settings(settings), m_revision(scene.static_revision()),
+      m_impl(std::make_unique<Impl>()) {
+    if (settings.bounces < 1 || settings.bounces > kMaxBounces)
+        throw std::invalid_argument("bounces: a light cache needs 1.." + std::to_string(kMaxBounces) + ", got " +
+                                    std::to_string(settings.bounces));
+    if (settings.rays_objects < 1 || settings.rays_objects > kMaxGatherRays)
+        throw std::invalid_argument("rays_objects: must be in 1.." + std::to_string(kMaxGatherRays) + ", got " +
+                                    std::to_string(settings.rays_objects));
+    if (settings.rays_background < 1 || settings.rays_background > kMaxGatherRays)
+        throw std::invalid_argument("rays_background: must be in 1.." + std::to_string(kMaxGatherRays) +
+                                    ", got " + std::to_string(settings.rays_background));
+    if (!(settings.background_cell_m >= 0.0) || !std::isfinite(settings.background_cell_m))
+        throw std::invalid_argument("background_cell_m: must be finite and >= 0, got " +
+                                    std::to_string(settings.background_cell_m));
+    if (!(settings.object_cell_m >= 0.0) || !std::isfinite(settings.object_cell_m))
+        throw std::invalid_argument("object_cell_m: must be finite and >= 0, got " +
+                                    std::to_string(settings.object_cell_m));
+    if (settings.threads < 0 || settings.threads > kMaxThreads)
+        throw std::invalid_argument("threads: must be in 0.." + std::to_string(kMaxThreads) +
+                                    " (0 = all), got " + std::to_string(settings.threads));
+    if (!scene.committed())
+        throw std::invalid_argument("scene: not committed (call commit() after adding geometry)");
+    Impl& m = *m_impl;
+    m.instances = instance_table(scene);
+    m.lights = gather_lights(lights);
+    const size_t n = scene.instance_count();
+    m.covered.assign(n, false);
+    m.normals.assign(n, nullptr);
+    m.vertex_count.assign(n, 0);
+    m.block_count.assign(n, 0);
+    m.blocks.resize(n);
+    m.computed_normals.resize(scene.mesh_count());
+    m.lattices.resize(n);
+    for (uint32_t i = 0; i < n; ++i) {
+        const Instance& inst = scene.instance(i);
+        if (inst.moving) continue;
+        const Mesh& mesh = scene.mesh(inst.mesh);
+        m.covered[i] = true;
+        if (!mesh.vertex_normals.empty()) {
+            m.normals[i] = mesh.vertex_normals.data();
+        } else {
+            std::vector<float>& computed = m.computed_normals[inst.mesh];
+            if (computed.empty()) {
+                computed = area_weighted_normals(mesh);
+                m.table_bytes += computed.size() * sizeof(float);
+            }
+            m.normals[i] = computed.data();
+        }
+        const bool labelled = inst.label != 0;
+        const double spacing = labelled ? settings.object_cell_m : settings.background_cell_m;
+        if (spacing > 0.0) {
+            m.lattices[i] = make_lattice(m.instances[i], mesh, spacing,
+                                         labelled ? settings.rays_objects : settings.rays_background);
+            m.table_bytes += sizeof(Lattice) + mesh.vertex_count() / 8;
+        }
+        m.vertex_count[i] = static_cast<uint32_t>(mesh.vertex_count());
+        m.block_count[i] = (mesh.vertex_count() + kBlockVertices - 1) / kBlockVertices;
+        m.blocks[i] = std::make_unique<std::atomic<Block*>[]>(m.block_count[i]);
+        for (size_t b = 0; b < m.block_count[i]; ++b) m.blocks[i][b].store(nullptr, std::memory_order_relaxed);
+        m.table_bytes += m.block_count[i] * sizeof(std::atomic<Block*>);
+    }
+}
+
+LightCache::~LightCache() = default;
+
+bool LightCache::covers(uint32_t instance) const {
+    return instance < m_impl->covered.size() && m_impl->covered[instance];
+}
+
+namespace {
+
+/// The world position and unit world normal of vertex `vertex` of instance `inst` whose object
+/// normals are `normals`.
+void vertex_frame(const InstanceData& inst, const float* normals, uint32_t vertex, glm::dvec3& point,
+                  glm::dvec3& normal) {
+    const float* p = inst.vertices + 3 * static_cast<size_t>(vertex);
+    point = inst.linear * glm::dvec3(p[0], p[1], p[2]) + inst.translation;
+    const float* q = normals + 3 * static_cast<size_t>(vertex);
+    normal = inst.normal_to_world * glm::dvec3(q[0], q[1], q[2]);
+    const double len = glm::length(normal);
+    normal = len > 0.0 ? normal / len : glm::dvec3(0.0, 0.0, 1.0);
+}
+
+/// The indirect irradiance at `point` (world, metres) on a surface of unit `normal`: `rays`
+/// cosine-distributed gather rays about the normal (sample_pair's stream `stream`), each
+/// continued for `bounces` path vertices as render.cpp's path tracer continues a bounce, all
+/// against the static geometry only.
+IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instances,
+                     const std::vector<GatherLight>& lights, const glm::dvec3& point, const glm::dvec3& normal,
+                     uint64_t stream, int rays, int bounces, FillCounts& counts) {
+    const glm::dvec3 lifted = lift_off(point, normal, largest_coordinate(point));
+
+    const size_t n = static_cast<size_t>(rays);
+    std::vector<GatherPath> paths(n);
+    std::vector<glm::dvec3> radiance(n, glm::dvec3(0.0)), first_dir(n);
+    std::vector<RayHit> traced(n), shadow(n);
+    std::vector<int> of(n), shadow_of(n), visible(n);
+    size_t count = 0;
+    for (size_t k = 0; k < n; ++k) {
+        double mu;
+        const SamplePair q = sample_pair(stream, static_cast<uint32_t>(k), 0);
+        const glm::dvec3 wi = cosine_direction(normal, q.u, q.v, mu);
+        first_dir[k] = wi;
+        GatherPath& p = paths[k];
+        p.throughput = glm::dvec3(1.0);
+        p.point = lifted;
+        p.wo = wi;
+        p.alive = mu > 0.0;
+        if (!p.alive) continue;
+        set_ray(traced[count], lifted, wi);
+        traced[count].mask = kStaticGeometry;
+        of[count++] = static_cast<int>(k);
+    }
+    for (int b = 1; b <= bounces && count > 0; ++b) {
+        const uint32_t pair = kPairsPerBounce * static_cast<uint32_t>(b - 1);
+        accel.intersect(traced.data(), count);
+        counts.gather_rays += count;
+        // The hits: where each path's next vertex is.
+        for (size_t j = 0; j < count; ++j) {
+            GatherPath& p = paths[static_cast<size_t>(of[j])];
+            const RayHit& ray = traced[j];
+            if (ray.geom_id == kInvalidId) {
+                p.alive = false;  // to the black sky
+                continue;
+            }
+            const InstanceData& inst = instances[ray.inst_id];
+            glm::dvec3 n_hit = inst.normal_to_world * glm::dvec3(ray.ng_x, ray.ng_y, ray.ng_z);
+            const double len = glm::length(n_hit);
+            if (!(len > 0.0)) {
+                p.alive = false;
+                continue;
+            }
+            n_hit /= len;
+            const glm::dvec3 wi = p.wo;
+            if (glm::dot(n_hit, wi) > 0.0) n_hit = -n_hit;  // the side the ray arrived from
+            p.point += static_cast<double>(ray.tfar) * wi;
+            p.normal = n_hit;
+            p.lifted = lift_off(p.point, n_hit, triangle_reach(inst, ray.prim_id));
+            // Cloth met by a gather ray shows its mean colour, as a bounce sees it.
+            p.albedo = albedo_at(inst, ray.prim_id, ray.u, ray.v);
+            p.wo = -wi;
+            p.instance = ray.inst_id;
+        }
+        // The lights at those vertices, one shadow ray each (index k of the light's sequence).
+        for (size_t l = 0; l < lights.size(); ++l) {
+            const GatherLight& light = lights[l];
+            size_t shadows = 0;
+            for (size_t j = 0; j < count; ++j) {
+                const size_t k = static_cast<size_t>(of[j]);
+                const GatherPath& p = paths[k];
+                if (!p.alive || glm::dot(p.normal, light.dir) <= 0.0) continue;
+                glm::dvec3 to_light = light.dir;
+                if (!light.point) {
+                    const SamplePair q = sample_pair(stream, static_cast<uint32_t>(k), pair + 1 + static_cast<uint32_t>(l));
+                    double cos_phi, sin_phi;
+                    turn_cos_sin(q.v, cos_phi, sin_phi);
+                    const double c = 1.0 - q.u * (1.0 - light.cos_half);
+                    const double r = std::sqrt(std::max(0.0, 1.0 - c * c));
+                    to_light = c * light.dir + r * (cos_phi * light.a + sin_phi * light.b);
+                    if (glm::dot(p.normal, to_light) <= 0.0) continue;  // below the facet's horizon
+                }
+                set_ray(shadow[shadows], p.lifted, to_light);
+                shadow[shadows].mask = kStaticGeometry;
+                shadow_of[shadows++] = static_cast<int>(k);
+            }
+            if (shadows == 0) continue;
+            accel.occluded(shadow.data(), shadows);
+            counts.shadow_rays += shadows;
+            for (size_t j = 0; j < shadows; ++j) {
+                if (!(shadow[j].tfar >= 0.0f)) continue;
+                const size_t k = static_cast<size_t>(shadow_of[j]);
+                const GatherPath& p = paths[k];
+                const double mu_i = glm::dot(p.normal, light.dir);
+                const double shape = shape_at(instances[p.instance], mu_i, glm::dot(p.normal, p.wo),
+                                              glm::dot(light.dir, p.wo));
+                radiance[k] += (p.albedo * (light.scale * mu_i)) * shape * light.color * p.throughput;
+            }
+        }
+        if (b == bounces) break;
+        // The next bounce: a cosine-distributed direction, the throughput weighted by albedo·shape.
+        size_t next = 0;
+        for (size_t j = 0; j < count; ++j) {
+            const size_t k = static_cast<size_t>(of[j]);
+            GatherPath& p = paths[k];
+            if (!p.alive) continue;
+            double mu_i;
+            const SamplePair q = sample_pair(stream, static_cast<uint32_t>(k), pair + kPairsPerBounce);
+            const glm::dvec3 wi = cosine_direction(p.normal, q.u, q.v, mu_i);
+            const double shape = shape_at(instances[p.instance], mu_i, glm::dot(p.normal, p.wo), glm::dot(wi, p.wo));
+            p.throughput *= p.albedo * shape;
+            if (!(mu_i > 0.0) || p.throughput == glm::dvec3(0.0)) {
+                p.alive = false;
+                continue;
+            }
+            p.point = p.lifted;
+            p.wo = wi;
+            set_ray(traced[next], p.point, wi);
+            traced[next].mask = kStaticGeometry;
+            of[next++] = static_cast<int>(k);
+        }
+        count = next;
+    }
+    // Cosine-weighted sampling (pdf μ/π): E = ∫ L μ dω ≈ π/N · Σ L_k.
+    IndirectLight out;
+    glm::dvec3 direction(0.0);
+    for (size_t k = 0; k < n; ++k) {
+        out.irradiance += radiance[k];
+        direction += luminance(radiance[k]) * first_dir[k];
+    }
+    out.irradiance *= kPi / static_cast<double>(n);
+    const double len = glm::length(direction);
+    out.direction = len > 0.0 ? direction / len : glm::dvec3(0.0);
+    return out;
+}
+
+}  // namespace
+
+IndirectLight LightCache::vertex(uint32_t instance, uint32_t vertex) const {
+    Impl& m = *m_impl;
+    if (!covers(instance))
+        throw std::invalid_argument("instance: " + std::to_string(instance) + " is not covered by the light cache");
+    if (vertex >= m.vertex_count[instance])
+        throw std::invalid_argument("vertex: " + std::to_string(vertex) + " is past instance " +
+                                    std::to_string(instance) + "'s " + std::to_string(m.vertex_count[instance]));
+    std::atomic<Block*>& slot = m.blocks[instance][vertex / kBlockVertices];
+    Block* block = slot.load(std::memory_order_acquire);
+    if (!block) {
+        auto fresh = std::make_unique<Block>();
+        if (slot.compare_exchange_strong(block, fresh.get(), std::memory_order_acq_rel)) {
+            block = fresh.release();
+            m.n_blocks.fetch_add(1, std::memory_order_relaxed);
+        }  // else another thread's block is in `block`, and ours is freed
+    }
+    const uint32_t j = vertex % kBlockVertices;
+    uint8_t state = block->state[j].load(std::memory_order_acquire);
+    if (state == kReady) return block->value[j];
+    const auto start = std::chrono::steady_clock::now();
+    FillCounts counts;
+    glm::dvec3 point, normal;
+    vertex_frame(m.instances[instance], m.normals[instance], vertex, point, normal);
+    std::optional<IndirectLight> value;
+    if (m.lattices[instance]) value = from_lattice(instance, vertex, point, normal);
+    if (!value) {
+        const bool labelled = m.instances[instance].label != 0;
+        const int rays = labelled ? m_settings.rays_objects : m_settings.rays_background;
+        const uint64_t stream =
+            pixel_stream(m_settings.seed ^ kCacheStreamSalt, (static_cast<uint64_t>(instance) << 32) | vertex);
+        value = gather(m_scene.accel(), m.instances, m.lights, point, normal, stream, rays, m_settings.bounces,
+                       counts);
+    }
+    state = kEmpty;
+    if (block->state[j].compare_exchange_strong(state, kFilling, std::memory_order_acq_rel)) {
+        block->value[j] = *value;
+        block->state[j].store(kReady, std::memory_order_release);
+        m.vertices.fetch_add(1, std::memory_order_relaxed);
+        m.gather_rays.fetch_add(counts.gather_rays, std::memory_order_relaxed);
+        m.shadow_rays.fetch_add(counts.shadow_rays, std::memory_order_relaxed);
+    } else {
+        m.redundant.fetch_add(1, std::memory_order_relaxed);  // another thread filled it meanwhile: the same value
+    }
+    const auto elapsed = std::chrono::steady_clock::now() - start;
+    m.fill_nanoseconds.fetch_add(
+        static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(elapsed).count()),
+        std::memory_order_relaxed);
+    return *value;
+}
+
+std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_t vertex, const glm::dvec3& point,
+                                                      const glm::dvec3& normal) const {
+    const Lattice& lattice = *m_impl->lattices[instance];
+    if (!lattice.fine[vertex]) return std::nullopt;  // its triangles are as coarse as the lattice
+    const double h = lattice.spacing;
+    const int bin = normal_bin(normal);
+    const int a = bin / 2, b = (a + 1) % 3, c = (a + 2) % 3;  // the bin's axis and the plane across it
+    const double u = point[b] / h, v = point[c] / h;
+    const double u0 = std::floor(u), v0 = std::floor(v);
+    const double fu = u - u0, fv = v - v0;
+    IndirectLight out;
+    glm::dvec3 direction(0.0);
+    double total = 0.0;
+    for (int corner = 0; corner < 4; ++corner) {
+        const int du = corner & 1, dv = corner >> 1;
+        const double w = (du ? fu : 1.0 - fu) * (dv ? fv : 1.0 - fv);
+        if (!(w > 0.0)) continue;
+        const std::optional<IndirectLight> node =
+            lattice_node(instance, static_cast<int64_t>(u0) + du, static_cast<int64_t>(v0) + dv, bin);
+        if (!node) continue;
+        total += w;
+        out.irradiance += w * node->irradiance;
+        direction += (w * luminance(node->irradiance)) * node->direction;
+    }
+    if (!(total > 0.0)) return std::nullopt;
+    out.irradiance /= total;
+    const double len = glm::length(direction);
+    out.direction = len > 0.0 ? direction / len : glm::dvec3(0.0);
+    return out;
+}
+
+std::optional<IndirectLight> LightCache::lattice_node(uint32_t instance, int64_t i, int64_t j, int bin) const {
+    Impl& m = *m_impl;
+    Lattice& lattice = *m.lattices[instance];
+    const uint64_t key = node_key(i, j, bin);
+    {
+        Lattice::Nodes::const_accessor found;
+        if (lattice.nodes.find(found, key)) return found->second;
+    }
+    Lattice::Nodes::accessor slot;
+    // The first thread to insert computes it while holding the slot; the others wait in find.
+    if (!lattice.nodes.insert(slot, key)) return slot->second;
+    m.n_nodes.fetch_add(1, std::memory_order_relaxed);
+    // The probe comes from beyond the instance's bounds on the bin's side, against the bin.
+    const double h = lattice.spacing;
+    const int a = bin / 2, b = (a + 1) % 3, c = (a + 2) % 3;
+    const double sign = bin % 2 ? -1.0 : 1.0;
+    glm::dvec3 origin, along(0.0);
+    origin[a] = sign > 0.0 ? lattice.hi[a] + h : lattice.lo[a] - h;
+    origin[b] = static_cast<double>(i) * h;
+    origin[c] = static_cast<double>(j) * h;
+    along[a] = -sign;
+    RayHit probe;
+    set_ray(probe, origin, along);
+    probe.tfar = static_cast<float>(lattice.hi[a] - lattice.lo[a] + 2.0 * h);
+    probe.mask = kStaticGeometry;
+    m_scene.accel().intersect(&probe, 1);
+    m.probe_rays.fetch_add(1, std::memory_order_relaxed);
+    // Another instance in front (a bag, a rock on the ground), or a surface facing another bin:
+    // the node stands for nothing, and the vertices around it use their other nodes.
+    if (probe.geom_id == kInvalidId || probe.inst_id != instance) return std::nullopt;
+    const glm::dvec3 normal = normal_at(instance, probe.prim_id, probe.u, probe.v);
+    if (normal_bin(normal) != bin) return std::nullopt;
+    const glm::dvec3 point = origin + static_cast<double>(probe.tfar) * along;
+    FillCounts counts;
+    const uint64_t stream =
+        pixel_stream(m_settings.seed ^ kNodeStreamSalt, mix64(key) ^ (static_cast<uint64_t>(instance) << 32));
+    slot->second = gather(m_scene.accel(), m.instances, m.lights, point, normal, stream, lattice.rays,
+                          m_settings.bounces, counts);
+    m.gather_rays.fetch_add(counts.gather_rays, std::memory_order_relaxed);
+    m.shadow_rays.fetch_add(counts.shadow_rays, std::memory_order_relaxed);
+    return slot->second;
+}
+
+IndirectLight LightCache::at(uint32_t instance, uint32_t prim, double u, double v) const {
+    const InstanceData& inst = m_impl->instances[instance];
+    const uint32_t* c = inst.triangles + 3 * static_cast<size_t>(prim);
+    const double w[3] = {1.0 - u - v, u, v};
+    IndirectLight out;
+    glm::dvec3 direction(0.0);
+    for (int k = 0; k < 3; ++k) {
+        const IndirectLight corner = vertex(instance, c[k]);
+        out.irradiance += w[k] * corner.irradiance;
+        direction += (w[k] * luminance(corner.irradiance)) * corner.direction;
+    }
+    const double len = glm::length(direction);
+    out.direction = len > 0.0 ? direction / len : glm::dvec3(0.0);
+    return out;
+}
+
+glm::dvec3 LightCache::normal_at(uint32_t instance, uint32_t prim, double u, double v) const {
+    const InstanceData& inst = m_impl->instances[instance];
+    const uint32_t* c = inst.triangles + 3 * static_cast<size_t>(prim);
+    const float* normals = m_impl->normals[instance];
+    auto normal = [&](int k) {
+        const float* q = normals + 3 * static_cast<size_t>(c[k]);
+        return glm::dvec3(q[0], q[1], q[2]);
+    };
+    const glm::dvec3 n = inst.normal_to_world * ((1.0 - u - v) * normal(0) + u * normal(1) + v * normal(2));
+    const double len = glm::length(n);
+    return len > 0.0 ? n / len : glm::dvec3(0.0);
+}
+
+void LightCache::fill_all() const {
+    const Scene::ReadLock lock(m_scene);  // no change to the scene while the gathers trace it
+    if (m_scene.static_revision() != m_revision)
+        throw std::invalid_argument("light_cache: the scene's static geometry changed since the cache was built");
+    const Impl& m = *m_impl;
+    tbb::task_arena arena(m_settings.threads > 0 ? m_settings.threads : tbb::task_arena::automatic);
+    for (uint32_t i = 0; i < m.covered.size(); ++i) {
+        if (!m.covered[i]) continue;
+        arena.execute([&] {
+            tbb::parallel_for(tbb::blocked_range<uint32_t>(0, m.vertex_count[i], 64), [&](const auto& range) {
+                for (uint32_t v = range.begin(); v != range.end(); ++v) vertex(i, v);
+            });
+        });
+    }
+}
+
+LightCacheStats LightCache::stats() const {
+    const Impl& m = *m_impl;
+    LightCacheStats s;
+    s.vertices = m.vertices.load();
+    s.blocks = m.n_blocks.load();
+    s.gather_rays = m.gather_rays.load();
+    s.shadow_rays = m.shadow_rays.load();
+    s.redundant_fills = m.redundant.load();
+    s.nodes = m.n_nodes.load();
+    s.probe_rays = m.probe_rays.load();
+    s.bytes = sizeof(LightCache) + sizeof(Impl) + m.table_bytes + m.instances.size() * sizeof(InstanceData) +
+              s.blocks * sizeof(Block) +
+              // A node's entry: key, value and the map's list link and lock, about twice the pair.
+              s.nodes * 2 * sizeof(Lattice::Nodes::value_type);
+    s.fill_seconds = static_cast<double>(m.fill_nanoseconds.load()) * 1e-9;
+    return s;
+}
+
+}  // namespace moonbot
