@@ -28,6 +28,8 @@ thread (core seconds):
                  half the RMS difference of its halves (also relative to the mean).
                  `--direct-only`: the same with bounces 0 everywhere, reference included: what
                  anti-aliasing does to the direct light, apart from the indirect light's noise.
+                 `--indirect cache`: the levels take their indirect light from the light cache
+                 (one per scene, filled by an untimed render first: a task's steady state).
 
 With --light-cache, the indirect light instead (render.indirect; light_cache.h), against a
 `--reference-spp` (1024) path-traced reference of today's per-pixel bounces (render.bounces of the
@@ -117,14 +119,14 @@ def view_pose(config, spec):
     return orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, config.orbit.start_azimuth_deg)
 
 
-def render(config, scene, spec, repeats: int, seed: int = 7, full: bool = False):
+def render(config, scene, spec, repeats: int, seed: int = 7, full: bool = False, light_cache=None):
     """The view's linear RGB (H, W, 3) float64 and the median core seconds of `repeats` renders
     (the same seed each time, so the same image); `full`: the last RenderedView in place of the RGB."""
     pose = view_pose(config, spec)
     K = intrinsics(config.camera)
     seconds, out = [], None
     for _ in range(repeats):
-        out = render_view(scene, config, K, pose, seed=seed)
+        out = render_view(scene, config, K, pose, seed=seed, light_cache=light_cache)
         seconds.append(out.stats["core_seconds"])
     return (out if full else out.rgb.astype(np.float64)), statistics.median(seconds)
 
@@ -222,7 +224,8 @@ def region_errors(rgb: np.ndarray, ref: dict, masks: dict[str, np.ndarray]) -> d
     return out
 
 
-def adaptive_rows(config, scene, spec, exposure: float, repeats: int, fresh_reference: bool) -> list[dict]:
+def adaptive_rows(config, scene, spec, exposure: float, repeats: int, fresh_reference: bool,
+                  indirect: str = "path") -> list[dict]:
     """The adaptive curve of one scene against its converged reference (module docstring)."""
     location, elevation = config.terrain.location, config.sun.elevation_deg
     start = time.perf_counter()
@@ -233,10 +236,13 @@ def adaptive_rows(config, scene, spec, exposure: float, repeats: int, fresh_refe
              "level": f"reference {CONVERGED['spp']}", "seconds": time.perf_counter() - start,
              "reference_rel_noise": reference_noise}]
     masks = region_masks(ref)
-    one_thread = with_render(config, threads=1)
+    one_thread = with_render(config, threads=1, indirect=indirect)
+    cache = build_light_cache(scene, one_thread)
+    if cache is not None:
+        render(one_thread, scene, spec, 1, light_cache=cache)  # fills what view 0 touches
     for spp, cap, threshold in ADAPTIVE_LEVELS:
         level = with_render(one_thread, spp=spp, adaptive_spp=cap, adaptive_threshold=threshold)
-        out, seconds = render(level, scene, spec, repeats, full=True)
+        out, seconds = render(level, scene, spec, repeats, full=True, light_cache=cache)
         rgb = out.rgb.astype(np.float64)
         e = errors(rgb, ref["rgb"].astype(np.float64), exposure)
         rays = sum(out.stats[k] for k in ("camera_rays", "second_look_rays", "shadow_rays", "bounce_rays"))
@@ -256,7 +262,7 @@ def adaptive_label(spp: int, cap: int, threshold: float) -> str:
 
 
 def scene_rows(location: str, elevation: float, width: int, repeats: int, knobs: list[str],
-               fresh_reference: bool, direct_only: bool = False) -> list[dict]:
+               fresh_reference: bool, direct_only: bool = False, indirect: str = "path") -> list[dict]:
     overrides = {"terrain.location": location, "sun.elevation_deg": elevation,
                  "camera.width": width, "camera.height": width * 3 // 4}
     config = load_config(None, overrides)
@@ -272,7 +278,7 @@ def scene_rows(location: str, elevation: float, width: int, repeats: int, knobs:
     rows = []
     if "adaptive" in knobs:
         direct = with_render(config, bounces=0) if direct_only else config
-        rows += adaptive_rows(direct, scene, spec, exposure, repeats, fresh_reference)
+        rows += adaptive_rows(direct, scene, spec, exposure, repeats, fresh_reference, indirect)
     for knob, levels in KNOBS.items():
         if knob not in knobs:
             continue
@@ -530,6 +536,10 @@ def main() -> int:
                         help="render the adaptive curve's converged references again, not from build/")
     parser.add_argument("--direct-only", action="store_true",
                         help="the adaptive curve with bounces 0, its reference too (direct light alone)")
+    parser.add_argument("--indirect", choices=["path", "cache"], default="path",
+                        help="the adaptive curve's levels: indirect light from bounce paths or the light cache")
+    parser.add_argument("--elevations", type=float, nargs="+", default=list(ELEVATIONS),
+                        help="Sun elevations, degrees (default: 5 22)")
     parser.add_argument("--light-cache", action="store_true",
                         help="the indirect-light study (per-pixel paths vs the light cache) instead of the knobs")
     parser.add_argument("--reference-spp", type=int, default=1024, help="--light-cache: the path reference's spp")
@@ -540,16 +550,16 @@ def main() -> int:
         return light_cache_main(args)
     defaults = load_config(None).render
     result = {"schema_version": SCHEMA_VERSION, "machine": machine(), "width": args.width, "knobs": args.knobs,
-              "direct_only": args.direct_only,
+              "direct_only": args.direct_only, "indirect": args.indirect, "elevations": args.elevations,
               "reference": REFERENCE, "converged_reference": CONVERGED,
               "defaults": {"spp": defaults.spp, "light_samples": defaults.light_samples,
                            "bounces": defaults.bounces, "earthshine": False},
               "rows": []}
     start = time.perf_counter()
     for location in LOCATIONS:
-        for elevation in ELEVATIONS:
+        for elevation in args.elevations:
             rows = scene_rows(location, elevation, args.width, args.repeats, args.knobs, args.fresh_reference,
-                              args.direct_only)
+                              args.direct_only, args.indirect)
             result["rows"] += rows
             print(f"\n{location}, Sun {elevation:g}°")
             print_rows(rows)
@@ -567,6 +577,7 @@ def main() -> int:
     RESULTS.mkdir(exist_ok=True)
     subset = "" if set(args.knobs) == {*KNOBS, "adaptive"} else "-".join(args.knobs) + "-"
     subset += "direct-" if args.direct_only else ""
+    subset += "cache-" if args.indirect == "cache" else ""
     out = RESULTS / f"accuracy-{subset}{machine_slug(result['machine'])}.json"
     out.write_text(json.dumps(result, indent=2, default=str) + "\n")
     commit = result["machine"]["git_commit"][:7]
@@ -577,8 +588,9 @@ def main() -> int:
                         "median of 6 scenes)", curves, "core render seconds per view", "RMSE / mean vs reference")
     if "adaptive" in args.knobs:
         written.append(out.with_name(out.stem + "-adaptive.svg"))
+        scenes = len(LOCATIONS) * len(args.elevations)
         time_error_plot(written[-1], f"Adaptive anti-aliasing against brute force ({commit}, {args.width} px, "
-                        f"one thread, median of 6 scenes)", adaptive_curves(result["rows"]),
+                        f"one thread, median of {scenes} scenes)", adaptive_curves(result["rows"]),
                         "core seconds per view", f"RMSE / mean vs {CONVERGED['spp']} spp")
     print("\nmedian over scenes:")
     for s in summary:
