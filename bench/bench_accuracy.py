@@ -12,6 +12,25 @@ defaults, against a high-sample reference of that knob with the others at their 
   bounces        diffuse inter-reflections (0 = direct sunlight only: shadows black); reference 6
   earthshine     the faint sunlit Earth as a second light; reference: on
 
+and one curve against a converged reference of the default path tracer (spp 1024 at the default
+light_samples and bounces, two independent 512-sample halves of seeds 1 and 2 averaged; cached
+under build/accuracy-reference/, `--fresh-reference` renders it again), each level rendered on one
+thread (core seconds):
+
+  adaptive       (base spp, adaptive_spp, adaptive_threshold): brute force (adaptive_spp 0) at
+                 growing spp, and adaptive anti-aliasing of direct light at several caps and
+                 thresholds. Besides the whole image's error, the error per region of the
+                 reference's pixel-centre buffers: sunlit and shadowed ground and bag faces
+                 (instance label, and the Sun's visibility V from the centre hit: 1 sunlit,
+                 0 shadowed) and the penumbra (0 < V < 1), each as bias (the region's mean error)
+                 and noise (its standard deviation), both relative to the image's mean, so that
+                 rel_rmse² = Σ_region fraction·(bias² + noise²). The reference's own noise is
+                 half the RMS difference of its halves (also relative to the mean).
+                 `--direct-only`: the same with bounces 0 everywhere, reference included: what
+                 anti-aliasing does to the direct light, apart from the indirect light's noise.
+                 `--indirect cache`: the levels take their indirect light from the light cache
+                 (one per scene, filled by an untimed render first: a task's steady state).
+
 With --light-cache, the indirect light instead (render.indirect; light_cache.h), against a
 `--reference-spp` (1024) path-traced reference of today's per-pixel bounces (render.bounces of the
 config, cached under build/bench_accuracy/), at the default spp and light_samples:
@@ -35,8 +54,9 @@ error: RMSE of linear RGB relative to the reference's mean, PSNR of linear RGB (
 reference's 99.9th percentile), and PSNR of the tone-mapped 8-bit images.
 
 Writes bench/results/accuracy-<machine>.json and .svg (time against relative RMSE, one curve per
-knob, all scenes pooled by median) and prints tables. Run:
-  .venv/bin/python bench/bench_accuracy.py [--width 320] [--repeats 3]
+knob, all scenes pooled by median; `--knobs` naming some knobs only: accuracy-<knobs>-<machine>)
+and prints tables. Run:
+  .venv/bin/python bench/bench_accuracy.py [--width 320] [--repeats 3] [--knobs adaptive] [--direct-only]
   .venv/bin/python bench/bench_accuracy.py --light-cache [--reference-spp 1024] [--orbit-views 36]
 """
 
@@ -53,16 +73,17 @@ from pathlib import Path
 import numpy as np
 
 from moonbot import _core
-from moonbot.config import load_config
+from moonbot.config import config_hash, load_config
 from moonbot.render import build_light_cache, build_scene, exposure_scale, render_view
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
-from moonbot.scene.orbit import orbit_height
+from moonbot.scene.orbit import orbit_height, pixel_directions
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
 from svgplot import time_error_plot
 
 RESULTS = Path(__file__).resolve().parent / "results"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2  # 2: the adaptive curve (rows with knob "adaptive" carry regions)
+REFERENCE_CACHE = Path(__file__).resolve().parent.parent / "build" / "accuracy-reference"
 LOCATIONS = ("flat", "hilly", "crater")
 ELEVATIONS = (5.0, 22.0)
 REFERENCE = {"spp": 64, "light_samples": 64, "bounces": 6, "earthshine": True}
@@ -72,6 +93,18 @@ KNOBS = {
     "bounces": [0, 1, 2, 3],
     "earthshine": [False, True],
 }
+# The adaptive curve's reference: the default path tracer converged (two halves, seeds 1 and 2).
+CONVERGED = {"spp": 1024, "halves_seeds": (1, 2)}
+# (spp, adaptive_spp, adaptive_threshold); adaptive_spp 0: brute force, today's path tracer.
+ADAPTIVE_LEVELS = [
+    (4, 0, 0.25), (8, 0, 0.25), (16, 0, 0.25), (32, 0, 0.25), (64, 0, 0.25),
+    (4, 16, 0.25), (4, 32, 0.25), (4, 64, 0.25),
+    (4, 32, 0.1), (4, 32, 0.5), (4, 32, 1.0),
+    (2, 16, 0.25), (2, 32, 0.25), (8, 64, 0.25),
+]
+# Sample points on the Sun's disk for the visibility V that defines the region masks.
+SUN_DISK_POINTS = 64
+REGIONS = ("sunlit_ground", "shadowed_ground", "sunlit_bag", "shadowed_bag", "penumbra")
 
 
 def with_render(config, **changes):
@@ -82,17 +115,20 @@ def with_sun(config, **changes):
     return dataclasses.replace(config, sun=dataclasses.replace(config.sun, **changes))
 
 
-def render(config, scene, spec, repeats: int):
+def view_pose(config, spec):
+    return orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, config.orbit.start_azimuth_deg)
+
+
+def render(config, scene, spec, repeats: int, seed: int = 7, full: bool = False, light_cache=None):
     """The view's linear RGB (H, W, 3) float64 and the median core seconds of `repeats` renders
-    (the same seed each time, so the same image)."""
-    pose = orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, config.orbit.start_azimuth_deg)
+    (the same seed each time, so the same image); `full`: the last RenderedView in place of the RGB."""
+    pose = view_pose(config, spec)
     K = intrinsics(config.camera)
-    seconds, rgb = [], None
+    seconds, out = [], None
     for _ in range(repeats):
-        out = render_view(scene, config, K, pose, seed=7)
+        out = render_view(scene, config, K, pose, seed=seed, light_cache=light_cache)
         seconds.append(out.stats["core_seconds"])
-        rgb = out.rgb.astype(np.float64)
-    return rgb, statistics.median(seconds)
+    return (out if full else out.rgb.astype(np.float64)), statistics.median(seconds)
 
 
 def errors(rgb: np.ndarray, reference: np.ndarray, exposure: float) -> dict:
@@ -108,7 +144,125 @@ def errors(rgb: np.ndarray, reference: np.ndarray, exposure: float) -> dict:
             "psnr_8bit_db": 20 * np.log10(255.0 / rmse8) if rmse8 > 0 else float("inf")}
 
 
-def scene_rows(location: str, elevation: float, width: int, repeats: int) -> list[dict]:
+def sun_visibility(config, scene, spec, depth: np.ndarray) -> np.ndarray:
+    """The fraction V (H, W) float64 of SUN_DISK_POINTS directions spread evenly over the Sun's
+    disk (Vogel's spiral) along which the pixel-centre hit sees the sky; NaN where the centre ray
+    hits nothing. The shadow rays leave from the hit moved back toward the camera by 1e-4 of its
+    distance (plus 0.1 mm): off the surface, on its visible side."""
+    K = intrinsics(config.camera)
+    pose = view_pose(config, spec)
+    dirs = pixel_directions(K, pose, config.camera.width, config.camera.height)
+    hit = depth > 0
+    points = pose.center + depth[hit][:, None] * dirs[hit]
+    back = -dirs[hit] / np.linalg.norm(dirs[hit], axis=1, keepdims=True)
+    distance = depth[hit] * np.linalg.norm(dirs[hit], axis=1)
+    origins = points + back * (1e-4 * distance + 1e-4)[:, None]
+    s = config.sun
+    to_sun = np.asarray(_core.Sun(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2,
+                                  s.angular_diameter_deg).direction, dtype=np.float64)
+    a = np.cross(to_sun, [0.0, 0.0, 1.0] if abs(to_sun[2]) < 0.9 else [1.0, 0.0, 0.0])
+    a /= np.linalg.norm(a)
+    b = np.cross(to_sun, a)
+    k = np.arange(SUN_DISK_POINTS) + 0.5
+    radius = np.tan(np.radians(s.angular_diameter_deg / 2)) * np.sqrt(k / SUN_DISK_POINTS)
+    angle = k * np.pi * (3.0 - np.sqrt(5.0))  # the golden angle
+    seen = np.zeros(len(origins))
+    for r, phi in zip(radius, angle):
+        d = to_sun + r * (np.cos(phi) * a + np.sin(phi) * b)
+        t, _, _ = scene.intersect(origins, np.broadcast_to(d / np.linalg.norm(d), origins.shape))
+        seen += np.isinf(t)
+    v = np.full(depth.shape, np.nan)
+    v[hit] = seen / SUN_DISK_POINTS
+    return v
+
+
+def converged_reference(config, scene, spec, fresh: bool) -> dict:
+    """The default path tracer at CONVERGED spp (two halves of different seeds, averaged) with the
+    pixel-centre depth, instance labels and Sun visibility: float32/uint8 arrays under the keys
+    rgb (H, W, 3), half_difference (H, W, 3: the halves' difference), depth, instance, visibility.
+    Cached in build/ under the config's hash."""
+    half = with_render(config, spp=CONVERGED["spp"] // 2, adaptive_spp=0, threads=0)
+    key = config_hash(with_render(half, threads=0))[:16]
+    path = REFERENCE_CACHE / f"{config.terrain.location}-{config.sun.elevation_deg:g}-{config.camera.width}-{key}.npz"
+    if path.exists() and not fresh:
+        with np.load(path) as f:
+            return dict(f)
+    halves = [render(half, scene, spec, 1, seed=seed, full=True)[0] for seed in CONVERGED["halves_seeds"]]
+    a, b = (h.rgb.astype(np.float64) for h in halves)
+    ref = {"rgb": ((a + b) / 2).astype(np.float32), "half_difference": (a - b).astype(np.float32),
+           "depth": halves[0].depth, "instance": halves[0].instance}
+    ref["visibility"] = sun_visibility(config, scene, spec, ref["depth"]).astype(np.float32)
+    REFERENCE_CACHE.mkdir(parents=True, exist_ok=True)
+    partial = path.with_suffix(".partial.npz")
+    np.savez_compressed(partial, **ref)
+    partial.replace(path)  # whole or not at all
+    return ref
+
+
+def region_masks(ref: dict) -> dict[str, np.ndarray]:
+    """REGIONS as (H, W) bool masks of the reference's pixel-centre buffers."""
+    v, bag, hit = ref["visibility"], ref["instance"] > 0, ref["depth"] > 0
+    lit, dark, penumbra = hit & (v == 1), hit & (v == 0), hit & (v > 0) & (v < 1)
+    return {"sunlit_ground": lit & ~bag, "shadowed_ground": dark & ~bag, "sunlit_bag": lit & bag,
+            "shadowed_bag": dark & bag, "penumbra": penumbra}
+
+
+def region_errors(rgb: np.ndarray, ref: dict, masks: dict[str, np.ndarray]) -> dict:
+    """Per region: its fraction of the pixels, bias and noise of rgb − reference relative to the
+    reference image's mean, and its share of the image's squared error."""
+    error = rgb - ref["rgb"].astype(np.float64)
+    mean = float(ref["rgb"].mean())
+    total = float(np.sum(error ** 2))
+    out = {}
+    for name, mask in masks.items():
+        e = error[mask]
+        if e.size == 0:
+            out[name] = {"fraction": 0.0}
+            continue
+        out[name] = {"fraction": float(mask.mean()), "bias": float(e.mean()) / mean, "noise": float(e.std()) / mean,
+                     "share_of_squared_error": float(np.sum(e ** 2)) / total if total > 0 else 0.0}
+    return out
+
+
+def adaptive_rows(config, scene, spec, exposure: float, repeats: int, fresh_reference: bool,
+                  indirect: str = "path") -> list[dict]:
+    """The adaptive curve of one scene against its converged reference (module docstring)."""
+    location, elevation = config.terrain.location, config.sun.elevation_deg
+    start = time.perf_counter()
+    ref = converged_reference(config, scene, spec, fresh_reference)
+    mean = float(ref["rgb"].mean())
+    reference_noise = float(np.sqrt(np.mean(ref["half_difference"].astype(np.float64) ** 2)) / 2) / mean
+    rows = [{"location": location, "sun_elevation_deg": elevation, "knob": "adaptive",
+             "level": f"reference {CONVERGED['spp']}", "seconds": time.perf_counter() - start,
+             "reference_rel_noise": reference_noise}]
+    masks = region_masks(ref)
+    one_thread = with_render(config, threads=1, indirect=indirect)
+    cache = build_light_cache(scene, one_thread)
+    if cache is not None:
+        render(one_thread, scene, spec, 1, light_cache=cache)  # fills what view 0 touches
+    for spp, cap, threshold in ADAPTIVE_LEVELS:
+        level = with_render(one_thread, spp=spp, adaptive_spp=cap, adaptive_threshold=threshold)
+        out, seconds = render(level, scene, spec, repeats, full=True, light_cache=cache)
+        rgb = out.rgb.astype(np.float64)
+        e = errors(rgb, ref["rgb"].astype(np.float64), exposure)
+        rays = sum(out.stats[k] for k in ("camera_rays", "second_look_rays", "shadow_rays", "bounce_rays"))
+        rows.append({"location": location, "sun_elevation_deg": elevation, "knob": "adaptive",
+                     "level": adaptive_label(spp, cap, threshold), "spp": spp, "adaptive_spp": cap,
+                     "adaptive_threshold": threshold, "seconds": seconds, **e,
+                     # the error left once the reference's own noise is taken out (they add in squares)
+                     "rel_rmse_vs_truth": float(np.sqrt(max(e["rel_rmse"] ** 2 - reference_noise ** 2, 0.0))),
+                     "rays": int(rays), "refined_pixels": int(out.stats["refined_pixels"]),
+                     "refinement_rays": int(out.stats["refinement_rays"]),
+                     "regions": region_errors(rgb, ref, masks)})
+    return rows
+
+
+def adaptive_label(spp: int, cap: int, threshold: float) -> str:
+    return f"spp {spp}" if cap == 0 else f"{spp}/{cap}/{threshold:g}"
+
+
+def scene_rows(location: str, elevation: float, width: int, repeats: int, knobs: list[str],
+               fresh_reference: bool, direct_only: bool = False, indirect: str = "path") -> list[dict]:
     overrides = {"terrain.location": location, "sun.elevation_deg": elevation,
                  "camera.width": width, "camera.height": width * 3 // 4}
     config = load_config(None, overrides)
@@ -122,7 +276,12 @@ def scene_rows(location: str, elevation: float, width: int, repeats: int) -> lis
         return with_render(config, **{knob: level})
 
     rows = []
+    if "adaptive" in knobs:
+        direct = with_render(config, bounces=0) if direct_only else config
+        rows += adaptive_rows(direct, scene, spec, exposure, repeats, fresh_reference, indirect)
     for knob, levels in KNOBS.items():
+        if knob not in knobs:
+            continue
         reference, ref_s = render(knob_config(knob, REFERENCE[knob]), scene, spec, 1)
         rows.append({"location": location, "sun_elevation_deg": elevation, "knob": knob,
                      "level": f"reference {REFERENCE[knob]}", "seconds": ref_s})
@@ -133,6 +292,58 @@ def scene_rows(location: str, elevation: float, width: int, repeats: int) -> lis
     return rows
 
 
+def print_rows(rows: list[dict]) -> None:
+    print(f"{'knob':<14} {'level':>12} {'ms':>8} {'rel RMSE':>9} {'PSNR lin':>9} {'PSNR 8-bit':>10} {'refined':>8}")
+    for r in rows:
+        if "rel_rmse" not in r:
+            noise = f"  reference noise {r['reference_rel_noise']:.4f}" if "reference_rel_noise" in r else ""
+            print(f"{r['knob']:<14} {r['level']:>12} {1e3 * r['seconds']:>8.0f}{noise}")
+            continue
+        refined = f"{r['refined_pixels']:>8}" if "refined_pixels" in r else ""
+        print(f"{r['knob']:<14} {str(r['level']):>12} {1e3 * r['seconds']:>8.1f} {r['rel_rmse']:>9.4f} "
+              f"{r['psnr_linear_db']:>8.1f}  {r['psnr_8bit_db']:>9.1f} {refined}")
+
+
+def knob_summary(rows: list[dict], knob: str, levels: list) -> tuple[list, list]:
+    """Medians over the scenes of time, relative RMSE and 8-bit PSNR per level (and for the
+    adaptive curve: rays, refined pixels, the error net of the reference's noise, and per region
+    bias and noise): the summary rows and the curve's points."""
+    summary, curve = [], []
+    for level in levels:
+        at = [r for r in rows if r["knob"] == knob and r["level"] == level]
+        t = statistics.median(r["seconds"] for r in at)
+        e = statistics.median(r["rel_rmse"] for r in at)
+        row = {"knob": knob, "level": level, "median_seconds": t, "median_rel_rmse": e,
+               "median_psnr_8bit_db": statistics.median(r["psnr_8bit_db"] for r in at)}
+        if knob == "adaptive":
+            row["median_rel_rmse_vs_truth"] = statistics.median(r["rel_rmse_vs_truth"] for r in at)
+            row["max_rel_rmse"] = max(r["rel_rmse"] for r in at)
+            row["median_rays"] = statistics.median(r["rays"] for r in at)
+            row["median_refined_pixels"] = statistics.median(r["refined_pixels"] for r in at)
+            row["regions"] = {name: {q: statistics.median(r["regions"][name][q] for r in at
+                                                          if q in r["regions"][name])
+                                     for q in ("bias", "noise", "share_of_squared_error")
+                                     if any(q in r["regions"][name] for r in at)}
+                              for name in REGIONS}
+        summary.append(row)
+        curve.append((t, e, str(level)))
+    return summary, curve
+
+
+def adaptive_curves(rows: list[dict]) -> dict[str, list]:
+    """The adaptive levels grouped into the plot's curves: brute force, then the adaptive levels
+    by base spp and threshold (growing cap along each), then by threshold at base 4 cap 32."""
+    groups: dict[str, list] = {}
+    for spp, cap, threshold in ADAPTIVE_LEVELS:
+        name = "brute force spp" if cap == 0 else f"adaptive base {spp}, threshold {threshold:g}"
+        groups.setdefault(name, []).append(adaptive_label(spp, cap, threshold))
+    groups["adaptive 4/32, threshold"] = [adaptive_label(4, 32, t) for s, c, t in ADAPTIVE_LEVELS if (s, c) == (4, 32)]
+    curves = {}
+    for name, labels in groups.items():
+        points = [p for p in knob_summary(rows, "adaptive", labels)[1]]
+        if len(points) > 1:
+            curves[name] = points
+    return curves
 REFERENCE_CACHE = Path(__file__).resolve().parent.parent / "build" / "bench_accuracy"
 CACHE_KNOBS = {"path_spp": [1, 2, 4, 8, 16], "cache_rays": [8, 16, 32, 64, 128]}
 
@@ -319,6 +530,16 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--width", type=int, default=320, help="image width, pixels (height = 3/4 of it)")
     parser.add_argument("--repeats", type=int, default=3, help="renders per level, timed by their median")
+    parser.add_argument("--knobs", nargs="+", choices=[*KNOBS, "adaptive"], default=[*KNOBS, "adaptive"],
+                        help="the curves to measure (default: all)")
+    parser.add_argument("--fresh-reference", action="store_true",
+                        help="render the adaptive curve's converged references again, not from build/")
+    parser.add_argument("--direct-only", action="store_true",
+                        help="the adaptive curve with bounces 0, its reference too (direct light alone)")
+    parser.add_argument("--indirect", choices=["path", "cache"], default="path",
+                        help="the adaptive curve's levels: indirect light from bounce paths or the light cache")
+    parser.add_argument("--elevations", type=float, nargs="+", default=list(ELEVATIONS),
+                        help="Sun elevations, degrees (default: 5 22)")
     parser.add_argument("--light-cache", action="store_true",
                         help="the indirect-light study (per-pixel paths vs the light cache) instead of the knobs")
     parser.add_argument("--reference-spp", type=int, default=1024, help="--light-cache: the path reference's spp")
@@ -328,50 +549,58 @@ def main() -> int:
     if args.light_cache:
         return light_cache_main(args)
     defaults = load_config(None).render
-    result = {"schema_version": SCHEMA_VERSION, "machine": machine(), "width": args.width,
-              "reference": REFERENCE, "defaults": {"spp": defaults.spp, "light_samples": defaults.light_samples,
-                                                   "bounces": defaults.bounces, "earthshine": False},
+    result = {"schema_version": SCHEMA_VERSION, "machine": machine(), "width": args.width, "knobs": args.knobs,
+              "direct_only": args.direct_only, "indirect": args.indirect, "elevations": args.elevations,
+              "reference": REFERENCE, "converged_reference": CONVERGED,
+              "defaults": {"spp": defaults.spp, "light_samples": defaults.light_samples,
+                           "bounces": defaults.bounces, "earthshine": False},
               "rows": []}
     start = time.perf_counter()
     for location in LOCATIONS:
-        for elevation in ELEVATIONS:
-            rows = scene_rows(location, elevation, args.width, args.repeats)
+        for elevation in args.elevations:
+            rows = scene_rows(location, elevation, args.width, args.repeats, args.knobs, args.fresh_reference,
+                              args.direct_only, args.indirect)
             result["rows"] += rows
             print(f"\n{location}, Sun {elevation:g}°")
-            print(f"{'knob':<14} {'level':>6} {'ms':>8} {'rel RMSE':>9} {'PSNR lin':>9} {'PSNR 8-bit':>10}")
-            for r in rows:
-                if "rel_rmse" not in r:
-                    print(f"{r['knob']:<14} {r['level']:>6} {1e3 * r['seconds']:>8.0f}")
-                    continue
-                print(f"{r['knob']:<14} {str(r['level']):>6} {1e3 * r['seconds']:>8.1f} {r['rel_rmse']:>9.4f} "
-                      f"{r['psnr_linear_db']:>8.1f}  {r['psnr_8bit_db']:>9.1f}")
+            print_rows(rows)
     # One curve per knob: medians over the six scenes of time and of relative RMSE.
     curves = {}
     summary = []
     for knob, levels in KNOBS.items():
-        curve = []
-        for level in levels:
-            rows = [r for r in result["rows"] if r["knob"] == knob and r["level"] == level]
-            t = statistics.median(r["seconds"] for r in rows)
-            e = statistics.median(r["rel_rmse"] for r in rows)
-            p8 = statistics.median(r["psnr_8bit_db"] for r in rows)
-            curve.append((t, e, str(level)))
-            summary.append({"knob": knob, "level": level, "median_seconds": t, "median_rel_rmse": e,
-                            "median_psnr_8bit_db": p8})
-        curves[knob] = curve
+        if knob in args.knobs:
+            summary_rows, curves[knob] = knob_summary(result["rows"], knob, levels)
+            summary += summary_rows
+    if "adaptive" in args.knobs:
+        summary += knob_summary(result["rows"], "adaptive", [adaptive_label(*level) for level in ADAPTIVE_LEVELS])[0]
     result["summary"] = summary
     result["seconds_total"] = time.perf_counter() - start
     RESULTS.mkdir(exist_ok=True)
-    out = RESULTS / f"accuracy-{machine_slug(result['machine'])}.json"
+    subset = "" if set(args.knobs) == {*KNOBS, "adaptive"} else "-".join(args.knobs) + "-"
+    subset += "direct-" if args.direct_only else ""
+    subset += "cache-" if args.indirect == "cache" else ""
+    out = RESULTS / f"accuracy-{subset}{machine_slug(result['machine'])}.json"
     out.write_text(json.dumps(result, indent=2, default=str) + "\n")
-    time_error_plot(out.with_suffix(".svg"), f"Lighting quality: render time against error "
-                    f"({result['machine']['git_commit'][:7]}, {args.width} px, median of 6 scenes)", curves,
-                    "core render seconds per view", "RMSE / mean vs reference")
+    commit = result["machine"]["git_commit"][:7]
+    written = [out]
+    if curves:
+        written.append(out.with_suffix(".svg"))
+        time_error_plot(written[-1], f"Lighting quality: render time against error ({commit}, {args.width} px, "
+                        "median of 6 scenes)", curves, "core render seconds per view", "RMSE / mean vs reference")
+    if "adaptive" in args.knobs:
+        written.append(out.with_name(out.stem + "-adaptive.svg"))
+        scenes = len(LOCATIONS) * len(args.elevations)
+        time_error_plot(written[-1], f"Adaptive anti-aliasing against brute force ({commit}, {args.width} px, "
+                        f"one thread, median of {scenes} scenes)", adaptive_curves(result["rows"]),
+                        "core seconds per view", f"RMSE / mean vs {CONVERGED['spp']} spp")
     print("\nmedian over scenes:")
     for s in summary:
-        print(f"{s['knob']:<14} {str(s['level']):>6} {1e3 * s['median_seconds']:>8.1f} ms "
+        print(f"{s['knob']:<14} {str(s['level']):>12} {1e3 * s['median_seconds']:>8.1f} ms "
               f"{s['median_rel_rmse']:>8.4f} {s['median_psnr_8bit_db']:>6.1f} dB")
-    print(f"\nwritten {out} and {out.with_suffix('.svg').name} in {result['seconds_total']:.0f} s")
+        for name, q in s.get("regions", {}).items():
+            if q:
+                print(f"{'':>30} {name:<16} bias {q['bias']:+.4f} noise {q['noise']:.4f} "
+                      f"share {q['share_of_squared_error']:.2f}")
+    print(f"\nwritten {', '.join(p.name for p in written)} in {result['seconds_total']:.0f} s")
     return 0
 
 

@@ -106,13 +106,16 @@ class RenderOutput(TypedDict, total=False):
     bounce_shadow_rays: int
     bounce_rays: int
     medium_rays: int
+    refined_pixels: int
+    refinement_rays: int
     seconds: float
 
 def render(scene: Scene, camera: Camera, sun: Sun, spp: int = 1, seed: int = 0, threads: int = 0,
            passes: Sequence[str] = ("rgb", "depth", "instance"),
            exact_depth: bool = True, light_samples: int = 1, bounces: int = 0,
            earth: Sun | None = None, medium: Medium | None = None,
-           light_cache: LightCache | None = None) -> RenderOutput: ...
+           light_cache: LightCache | None = None, adaptive_spp: int = 0,
+           adaptive_threshold: float = 0.25) -> RenderOutput: ...
 def tonemap_reinhard(rgb: ArrayLike, exposure: float) -> tuple[NDArray[np.uint8], int]: ...
 def write_image(path: str, pixels: ArrayLike, png_compression: int = 1,
                 attributes: dict[str, str | float] = ...) -> None: ...

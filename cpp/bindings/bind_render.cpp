@@ -13,7 +13,8 @@ void bind_render(py::module_& m) {
         "render",
         [](const Scene& scene, const Camera& camera, const Sun& sun, int spp, uint64_t seed,
            int threads, const std::vector<std::string>& passes, bool exact_depth, int light_samples,
-           int bounces, const std::optional<Sun>& earth, const Medium* medium, const LightCache* light_cache) {
+           int bounces, const std::optional<Sun>& earth, const Medium* medium, const LightCache* light_cache,
+           int adaptive_spp, double adaptive_threshold) {
             bool rgb = false, depth = false, instance = false;
             for (const std::string& p : passes) {
                 if (p == "rgb") rgb = true;
@@ -47,9 +48,9 @@ void bind_render(py::module_& m) {
                 // The buffers are owned by `out`, which outlives this block; the scene guards
                 // itself against modification while the render runs.
                 py::gil_scoped_release release;
-                stats = render(scene, camera, Lights{sun, earth},
-                               RenderSettings{spp, seed, threads, exact_depth, light_samples, bounces}, view,
-                               medium, light_cache);
+                const RenderSettings settings{spp,           seed,    threads,      exact_depth,
+                                              light_samples, bounces, adaptive_spp, adaptive_threshold};
+                stats = render(scene, camera, Lights{sun, earth}, settings, view, medium, light_cache);
             }
             out["camera_rays"] = stats.camera_rays;
             out["second_look_rays"] = stats.second_look_rays;
@@ -57,6 +58,8 @@ void bind_render(py::module_& m) {
             out["bounce_shadow_rays"] = stats.bounce_shadow_rays;
             out["bounce_rays"] = stats.bounce_rays;
             out["medium_rays"] = stats.medium_rays;
+            out["refined_pixels"] = stats.refined_pixels;
+            out["refinement_rays"] = stats.refinement_rays;
             out["seconds"] = stats.seconds;
             return out;
         },
@@ -65,6 +68,7 @@ void bind_render(py::module_& m) {
         py::arg("passes") = std::vector<std::string>{"rgb", "depth", "instance"},
         py::arg("exact_depth") = true, py::arg("light_samples") = 1, py::arg("bounces") = 0,
         py::arg("earth") = py::none(), py::arg("medium") = nullptr, py::arg("light_cache") = nullptr,
+        py::arg("adaptive_spp") = 0, py::arg("adaptive_threshold") = 0.25,
         "Render one view. Returns a dict with the requested passes — rgb (H, W, 3) float32 "
         "W/(m²·sr), depth (H, W) float32 z-depth in metres (0 = no hit), instance (H, W) uint8 "
         "(0 = background) — and camera_rays, second_look_rays (camera rays traced again where one may have "
@@ -75,7 +79,11 @@ void bind_render(py::module_& m) {
         "diffuse inter-reflections (0 = direct light only); earth: a second light (Earthshine); "
         "medium: dust (a Medium) attenuating and scattering sunlight in rgb only (medium_rays: its "
         "shadow rays toward the Sun); light_cache: a LightCache built for this scene, these lights and "
-        "bounces, from which camera hits on the surfaces it covers take their indirect light (no bounce rays).");
+        "bounces, from which camera hits on the surfaces it covers take their indirect light (no bounce rays); "
+        "adaptive_spp: 0 = off, else the samples (direct light only past spp) "
+        "a pixel whose spp base samples (or a neighbour's) disagree in hit instance, Sun visibility or direct luminance "
+        "(relative spread > adaptive_threshold) is brought up to (refined_pixels: how many; refinement_rays: "
+        "their extra camera, second-look and shadow rays).");
 }
 
 }  // namespace moonbot::bindings

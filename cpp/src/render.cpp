@@ -67,6 +67,35 @@ struct PathVertex {
     glm::dvec3 warp, weft;    // unit, with `shading` the frame the lobes are oriented in
 };
 
+/// What a pixel's base samples say about whether they agree (adaptive anti-aliasing).
+struct SampleAgreement {
+    static constexpr uint32_t kSky = std::numeric_limits<uint32_t>::max();  // a camera ray that hit nothing
+    uint32_t first_hit = 0;   // the instance the first sample hit, or kSky
+    bool hits_differ = false;  // some sample hit another instance (or the sky instead)
+    int sun_escaped = 0;       // Sun shadow rays from the camera hits that escaped
+    int sun_hidden = 0;        // those blocked, or below the hit facet's horizon
+    double luminance_min = INFINITY, luminance_max = 0.0, luminance_sum = 0.0;  // of direct light, W/(m²·sr)
+
+    void add(int sample, uint32_t hit, int escaped, int hidden, double luminance) {
+        if (sample == 0) first_hit = hit;
+        hits_differ = hits_differ || hit != first_hit;
+        sun_escaped += escaped;
+        sun_hidden += hidden;
+        luminance_min = std::min(luminance_min, luminance);
+        luminance_max = std::max(luminance_max, luminance);
+        luminance_sum += luminance;
+    }
+
+    /// Whether the `samples` added disagree enough for more: render.h's three criteria.
+    bool disagree(int samples, double threshold) const {
+        if (hits_differ || (sun_escaped > 0 && sun_hidden > 0)) return true;
+        return luminance_max - luminance_min > threshold * (luminance_sum / samples);
+    }
+};
+
+/// Rec. 709 luminance of linear RGB.
+double luminance(const glm::dvec3& rgb) { return 0.2126 * rgb.r + 0.7152 * rgb.g + 0.0722 * rgb.b; }
+
 /// One marched ray of a strided dust march (Medium::march_stride_px): where it crosses the grid
 /// and DustGrid::march_profile's sums along it.
 struct DustProfile {
@@ -96,15 +125,39 @@ struct TileScratch {
     std::array<glm::dvec3, kTilePixels> dirs;
     TileHits hits;
     std::array<int, kTilePixels> shadow_of;     // which pixel of the tile a shadow ray belongs to
-    std::array<uint64_t, kTilePixels> streams;  // pixel_stream of each pixel, for random samples
-    std::array<glm::dvec3, kTilePixels> radiance;
+    // pixel_stream of each camera ray's pixel, for random samples: the tile's pixels in order,
+    // or, for the refinement samples, the refined pixels' (TileRenderer::refine_tile).
+    std::array<uint64_t, kTilePixels> streams;
+    std::array<glm::dvec3, kTilePixels> radiance;  // of one sample: direct, then indirect added
     std::array<PathVertex, kTilePixels> path;
     std::array<int, kTilePixels> visible;       // shadow rays of one light that escaped, per pixel
+    // Adaptive anti-aliasing, used only when adaptive_spp > 0:
+    std::array<glm::dvec3, kTilePixels> direct;  // of one sample: the lights at the camera hit
+    std::array<int, kTilePixels> sun_escaped;    // of one sample: its Sun shadow rays that escaped
+    std::array<int, kTilePixels> sun_hidden;     // ... and those blocked or below the facet's horizon
+    std::array<SampleAgreement, kTilePixels> agreement;
+    std::array<int, kTilePixels> refined;        // the tile's pixels that get more samples
     // Dust, used only when the render has a medium:
     std::array<double, kTilePixels> sun_dust;       // transmittance toward the Sun at each first hit
     std::array<double, kTilePixels> dust_through;   // transmittance from the camera to the hit
     std::array<glm::dvec3, kTilePixels> dust_glow;  // sunlight the dust scatters toward the camera
     std::array<DustProfile, (kTile + 1) * (kTile + 1)> lattice;  // the marched rays of a strided march
+};
+
+/// Adaptive anti-aliasing's record of every pixel's base samples, written by the first pass over
+/// the tiles and read by the second, which refines a pixel where it or one of its eight
+/// neighbours disagrees: a sliver of a pixel that all of its own base samples miss is mostly
+/// caught by a neighbour's along the same edge. Complete before the second pass starts, so the
+/// decisions are the same whatever tile a thread took.
+struct AdaptiveFrame {
+    std::vector<glm::dvec3> sum, direct_sum;  // over the base samples: radiance, and its direct part
+    std::vector<uint8_t> disagree;            // SampleAgreement::disagree, 0 or 1
+    std::vector<double> dust_through;         // with dust only: the pixel's transmittance ...
+    std::vector<glm::dvec3> dust_glow;        // ... and glow (TileScratch), applied after refining
+
+    AdaptiveFrame(size_t pixels, bool dust)
+        : sum(pixels), direct_sum(pixels), disagree(pixels), dust_through(dust ? pixels : 0),
+          dust_glow(dust ? pixels : 0) {}
 };
 
 /// The photometric shape of an instance's surface (photometry.h). Lambert's is 1 outright: no
@@ -136,10 +189,10 @@ class TileRenderer {
 public:
     TileRenderer(const Scene& scene, const Camera& camera, const Lights& lights,
                  const RenderSettings& settings, const FrameView& out, const DustGrid* medium,
-                 const LightCache* light_cache)
+                 const LightCache* light_cache, AdaptiveFrame* adaptive)
         : m_scene(scene), m_camera(camera), m_settings(settings), m_out(out),
           m_instances(instance_table(scene)), m_lights(light_table(lights)), m_medium(medium),
-          m_light_cache(light_cache) {
+          m_light_cache(light_cache), m_adaptive(adaptive) {
         for (const LightData& l : m_lights) m_random = m_random || !l.point;
         m_random = m_random || settings.bounces > 0;
         // Light 0 is the Sun unless the Sun is dark (light_table leaves dark lights out).
@@ -178,16 +231,41 @@ public:
 
         if (m_medium) march_dust(x0, y0, tw, n, s);
         if (m_settings.spp == 1) {
-            shade(n, s, stats, 0);
+            shade(n, s, stats, 0, /*indirect=*/true);
         } else {
-            std::array<glm::dvec3, kTilePixels> sum;
+            const bool adaptive = m_adaptive != nullptr;
+            std::array<glm::dvec3, kTilePixels> sum, direct_sum;
             sum.fill(glm::dvec3(0.0));
+            if (adaptive) {
+                direct_sum.fill(glm::dvec3(0.0));
+                std::fill_n(s.agreement.begin(), n, SampleAgreement{});
+            }
             for (int sample = 0; sample < m_settings.spp; ++sample) {
                 trace(x0, y0, tw, n, s, stats, sample);
-                shade(n, s, stats, static_cast<uint32_t>(sample));
+                shade(n, s, stats, static_cast<uint32_t>(sample), /*indirect=*/true);
                 for (int i = 0; i < n; ++i) sum[i] += s.radiance[i];
+                if (!adaptive) continue;
+                for (int i = 0; i < n; ++i) {
+                    const PixelHit& h = s.hits.pixel(i);
+                    direct_sum[i] += s.direct[i];
+                    s.agreement[i].add(sample, h.hit ? s.hits.record(h).instance : SampleAgreement::kSky,
+                                       s.sun_escaped[i], s.sun_hidden[i], luminance(s.direct[i]));
+                }
             }
             for (int i = 0; i < n; ++i) s.radiance[i] = sum[i] / double(m_settings.spp);
+            if (adaptive) {
+                AdaptiveFrame& a = *m_adaptive;
+                for (int y = y0, i = 0; y < y1; ++y)
+                    for (int x = x0; x < x1; ++x, ++i) {
+                        const size_t k = index(x, y);
+                        a.sum[k] = sum[i];
+                        a.direct_sum[k] = direct_sum[i];
+                        a.disagree[k] = s.agreement[i].disagree(m_settings.spp, m_settings.adaptive_threshold);
+                        if (!m_medium) continue;
+                        a.dust_through[k] = s.dust_through[i];
+                        a.dust_glow[k] = s.dust_glow[i];
+                    }
+            }
         }
         if (m_medium)
             for (int i = 0; i < n; ++i) s.radiance[i] = s.radiance[i] * s.dust_through[i] + s.dust_glow[i];
@@ -198,23 +276,65 @@ public:
         }
     }
 
+    /// Adaptive anti-aliasing's second pass over the tile [x0, x1) × [y0, y1), once every tile's
+    /// base samples are in (AdaptiveFrame): each pixel where it or a neighbour disagrees gets
+    /// samples spp .. adaptive_spp − 1 of direct light alone, and its rgb becomes the split
+    /// estimator (render.h). The other pixels keep what the first pass wrote.
+    void refine_tile(int x0, int y0, int x1, int y1, TileScratch& s, RenderStats& stats) const {
+        const AdaptiveFrame& a = *m_adaptive;
+        const int tw = x1 - x0, w = m_camera.width(), h = m_camera.height();
+        int count = 0;
+        for (int y = y0, i = 0; y < y1; ++y)
+            for (int x = x0; x < x1; ++x, ++i) {
+                bool refine = false;
+                for (int ny = std::max(y - 1, 0); ny <= std::min(y + 1, h - 1) && !refine; ++ny)
+                    for (int nx = std::max(x - 1, 0); nx <= std::min(x + 1, w - 1) && !refine; ++nx)
+                        refine = a.disagree[index(nx, ny)] != 0;
+                if (!refine) continue;
+                s.refined[count] = i;
+                s.streams[count++] = pixel_stream(m_settings.seed, index(x, y));
+            }
+        if (count == 0) return;
+        const int base = m_settings.spp, total = m_settings.adaptive_spp;
+        const uint64_t rays_before = stats.camera_rays + stats.second_look_rays + stats.shadow_rays;
+        std::array<glm::dvec3, kTilePixels> extra;
+        std::fill_n(extra.begin(), count, glm::dvec3(0.0));
+        for (int sample = base; sample < total; ++sample) {
+            trace(x0, y0, tw, count, s, stats, sample, s.refined.data());
+            shade(count, s, stats, static_cast<uint32_t>(sample), /*indirect=*/false);
+            for (int j = 0; j < count; ++j) extra[j] += s.direct[j];
+        }
+        for (int j = 0; j < count; ++j) {
+            const int i = s.refined[j];
+            const size_t k = index(x0 + i % tw, y0 + i / tw);
+            glm::dvec3 radiance =
+                (a.sum[k] - a.direct_sum[k]) / double(base) + (a.direct_sum[k] + extra[j]) / double(total);
+            if (m_medium) radiance = radiance * a.dust_through[k] + a.dust_glow[k];
+            for (int c = 0; c < 3; ++c) m_out.rgb[3 * k + c] = static_cast<float>(radiance[c]);
+        }
+        stats.refined_pixels += static_cast<uint64_t>(count);
+        stats.refinement_rays += stats.camera_rays + stats.second_look_rays + stats.shadow_rays - rays_before;
+    }
+
 private:
     size_t index(int x, int y) const { return static_cast<size_t>(y) * m_camera.width() + x; }
 
-    /// Traces one camera ray per tile pixel: through the centre (sample < 0) or jittered by the
-    /// counter-based generator, and resolves the hits.
-    void trace(int x0, int y0, int tw, int n, TileScratch& s, RenderStats& stats, int sample) const {
+    /// Traces n camera rays and resolves their hits: one per tile pixel through its centre
+    /// (sample < 0), or jittered by the sample sequence; with `pixels`, ray j goes through the
+    /// tile's pixel pixels[j] (row-major in the tile, tw wide), else through pixel j.
+    void trace(int x0, int y0, int tw, int n, TileScratch& s, RenderStats& stats, int sample,
+               const int* pixels = nullptr) const {
         const glm::dvec3& origin = m_camera.center();
         if (sample < 0) {
             centre_rays(m_camera, x0, y0, x0 + tw, y0 + n / tw, s.dirs.data(), s.rays.data());
         } else {
             const auto k = static_cast<uint32_t>(sample);
-            for (int y = y0, i = 0; y < y0 + n / tw; ++y)
-                for (int x = x0; x < x0 + tw; ++x, ++i) {
-                    const SamplePair j = sample_pair(s.streams[i], k, 0);
-                    s.dirs[i] = m_camera.direction(x + double(j.u), y + double(j.v));
-                    set_ray(s.rays[i], origin, s.dirs[i]);
-                }
+            for (int i = 0; i < n; ++i) {
+                const int p = pixels ? pixels[i] : i;
+                const SamplePair j = sample_pair(s.streams[i], k, 0);
+                s.dirs[i] = m_camera.direction(x0 + p % tw + double(j.u), y0 + p / tw + double(j.v));
+                set_ray(s.rays[i], origin, s.dirs[i]);
+            }
         }
         // Depth and masks are ground truth: no camera ray may slip through a shared vertex.
         stats.second_look_rays += m_scene.accel().intersect_watertight(s.rays.data(), n, m_scene.has_background());
@@ -223,10 +343,16 @@ private:
                        m_settings.exact_depth);
     }
 
-    /// The radiance of the tile's resolved camera hits for one sample: the lights at the hit,
-    /// then at each bounce's vertex.
-    void shade(int n, TileScratch& s, RenderStats& stats, uint32_t sample) const {
+    /// The radiance of the n resolved camera hits for one sample: the lights at the hit (also
+    /// kept apart in `direct` when adaptive_spp > 0), then, with `indirect`, the indirect light (add_indirect).
+    void shade(int n, TileScratch& s, RenderStats& stats, uint32_t sample, bool indirect) const {
         std::fill_n(s.radiance.begin(), n, glm::dvec3(0.0));
+        if (m_settings.adaptive_spp > 0) {
+            // Where no light shines (or not the Sun), nothing below writes them.
+            std::fill_n(s.direct.begin(), n, glm::dvec3(0.0));
+            std::fill_n(s.sun_escaped.begin(), n, 0);
+            std::fill_n(s.sun_hidden.begin(), n, 0);
+        }
         if (m_lights.empty()) return;
         const glm::dvec3& origin = m_camera.center();
         for (int i = 0; i < n; ++i) {
@@ -258,6 +384,13 @@ private:
         }
         light_vertices(n, s, stats, sample, m_settings.light_samples, kPairLight,
                        m_medium && m_sun ? s.sun_dust.data() : nullptr, /*camera_hits=*/true);
+        if (m_settings.adaptive_spp > 0) std::copy_n(s.radiance.begin(), n, s.direct.begin());
+        if (indirect) add_indirect(n, s, stats, sample);
+    }
+
+    /// Adds the indirect light at the camera hits (the paths set up by shade) to the radiance of
+    /// one sample: the light cache's, where it serves the hit, else that of the diffuse bounces.
+    void add_indirect(int n, TileScratch& s, RenderStats& stats, uint32_t sample) const {
         if (m_light_cache)
             for (int i = 0; i < n; ++i) {
                 PathVertex& v = s.path[i];
@@ -502,6 +635,15 @@ private:
                 for (int j = 0; j < count; ++j)
                     if (s.shadow[j].tfar >= 0.0f) ++s.visible[s.shadow_of[j]];
             }
+            if (camera_hits && &light == m_sun && m_settings.adaptive_spp > 0) {
+                // What the Sun's visibility says to adaptive anti-aliasing: rays below the facet's
+                // horizon count as hidden, as they do in the shading.
+                for (int i = 0; i < n; ++i) {
+                    const bool faces = s.path[i].alive && s.path[i].cos_light[l] > 0.0;
+                    s.sun_escaped[i] = faces ? s.visible[i] : 0;
+                    s.sun_hidden[i] = faces ? rays_per_vertex - s.visible[i] : 0;
+                }
+            }
             for (int i = 0; i < n; ++i) {
                 if (s.visible[i] == 0) continue;
                 const PathVertex& v = s.path[i];
@@ -616,6 +758,7 @@ private:
     const std::vector<LightData> m_lights;
     const DustGrid* m_medium;           // null: no dust, and none of its code runs
     const LightCache* m_light_cache;    // null: every path bounces
+    AdaptiveFrame* m_adaptive;          // null: adaptive anti-aliasing is off (or no rgb)
     const LightData* m_sun = nullptr;   // the Sun's entry in m_lights, if it shines
     bool m_random = false;  // some shading draws random numbers (disk samples, bounces)
 };
@@ -663,6 +806,18 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     if (settings.spp < 1 || settings.spp > kMaxSpp)
         throw std::invalid_argument("spp: must be in 1.." + std::to_string(kMaxSpp) + ", got " +
                                     std::to_string(settings.spp));
+    if (settings.adaptive_spp != 0) {
+        if (settings.adaptive_spp <= settings.spp || settings.adaptive_spp > kMaxSpp)
+            throw std::invalid_argument("adaptive_spp: must be 0 (off) or in spp + 1.." + std::to_string(kMaxSpp) +
+                                        " = " + std::to_string(settings.spp + 1) + ".." + std::to_string(kMaxSpp) +
+                                        ", got " + std::to_string(settings.adaptive_spp));
+        if (settings.spp < 2)
+            throw std::invalid_argument("adaptive_spp: needs spp >= 2 base samples to compare, got spp " +
+                                        std::to_string(settings.spp));
+    }
+    if (!(settings.adaptive_threshold >= 0.0) || !std::isfinite(settings.adaptive_threshold))
+        throw std::invalid_argument("adaptive_threshold: must be a finite number >= 0, got " +
+                                    std::to_string(settings.adaptive_threshold));
     if (settings.threads < 0 || settings.threads > kMaxThreads)
         throw std::invalid_argument("threads: must be in 0.." + std::to_string(kMaxThreads) +
                                     " (0 = all), got " + std::to_string(settings.threads));
@@ -681,24 +836,38 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     tbb::task_arena arena(settings.threads > 0 ? settings.threads : tbb::task_arena::automatic);
     if (medium && !medium->puffs.empty() && out.rgb)
         arena.execute([&] { dust.emplace(*medium, scene, lights.sun.direction()); });
-    const TileRenderer tiles(scene, camera, lights, settings, out, dust ? &*dust : nullptr, light_cache);
-    std::atomic<uint64_t> camera_rays{0}, second_look_rays{0}, shadow_rays{0}, bounce_shadow_rays{0}, bounce_rays{0};
+    // Adaptive anti-aliasing (rgb only, spp >= 2 checked above): a second pass refines.
+    std::optional<AdaptiveFrame> adaptive;
+    if (settings.adaptive_spp > 0 && out.rgb) adaptive.emplace(static_cast<size_t>(w) * h, dust.has_value());
+    const TileRenderer tiles(scene, camera, lights, settings, out, dust ? &*dust : nullptr, light_cache,
+                             adaptive ? &*adaptive : nullptr);
+    std::atomic<uint64_t> camera_rays{0}, second_look_rays{0}, shadow_rays{0}, bounce_shadow_rays{0}, bounce_rays{0},
+        refined_pixels{0}, refinement_rays{0};
 
-    arena.execute([&] {
+    auto each_tile = [&](bool refining) {
         tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y), [&](const auto& range) {
             TileScratch scratch;
             RenderStats local;
             for (int t = range.begin(); t != range.end(); ++t) {
                 const int x0 = (t % tiles_x) * kTile, y0 = (t / tiles_x) * kTile;
-                tiles.render_tile(x0, y0, std::min(x0 + kTile, w), std::min(y0 + kTile, h), scratch,
-                                  local);
+                const int x1 = std::min(x0 + kTile, w), y1 = std::min(y0 + kTile, h);
+                if (refining)
+                    tiles.refine_tile(x0, y0, x1, y1, scratch, local);
+                else
+                    tiles.render_tile(x0, y0, x1, y1, scratch, local);
             }
             camera_rays += local.camera_rays;
             second_look_rays += local.second_look_rays;
             shadow_rays += local.shadow_rays;
             bounce_shadow_rays += local.bounce_shadow_rays;
             bounce_rays += local.bounce_rays;
+            refined_pixels += local.refined_pixels;
+            refinement_rays += local.refinement_rays;
         });
+    };
+    arena.execute([&] {
+        each_tile(false);
+        if (adaptive) each_tile(true);
     });
 
     RenderStats stats;
@@ -707,6 +876,8 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     stats.shadow_rays = shadow_rays;
     stats.bounce_shadow_rays = bounce_shadow_rays;
     stats.bounce_rays = bounce_rays;
+    stats.refined_pixels = refined_pixels;
+    stats.refinement_rays = refinement_rays;
     stats.medium_rays = dust ? dust->shadow_rays() : 0;
     stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return stats;

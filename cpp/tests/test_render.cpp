@@ -1,6 +1,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "check.h"
@@ -253,4 +255,57 @@ TEST_CASE(tile_records_change_no_bit_against_a_per_pixel_reference) {
         for (size_t i = 0; i < label.size(); ++i) boxes += label[i] != 0, lit += rgb[3 * i] > 0.0f;
         CHECK(boxes > 200 && lit > 1000 && lit < label.size());  // the boxes show; some shade
     }
+}
+
+TEST_CASE(adaptive_refines_edges_only_and_leaves_other_pixels_bit_identical) {
+    Scene scene;
+    scene.add_background(fixtures::add_plane_mesh(scene, 50.0f), identity(), Material{});
+    scene.add_instance(fixtures::add_box_mesh(scene, 0.3f, 0.2f, 0.1f), identity(), 1, Material{glm::vec3(0.5f)});
+    scene.commit();
+    const Camera cam = fixtures::look_at({0.8, 0.5, 0.6}, {0, 0, 0.05}, 67, 45, 40.0);
+    const Sun sun(200, 12, 1361, 0.533);
+    RenderSettings off{4, 11, 1};
+    off.light_samples = 2;
+    off.bounces = 1;
+    RenderSettings on = off;
+    on.adaptive_spp = 16;
+    const Frame a = render_frame(scene, cam, sun, off);
+    const Frame b = render_frame(scene, cam, sun, on);
+    on.threads = 2;
+    const Frame c = render_frame(scene, cam, sun, on);
+    CHECK(a.stats.refined_pixels == 0 && a.stats.refinement_rays == 0);
+    CHECK(b.stats.refined_pixels > 0 && b.stats.refined_pixels < a.depth.size() / 4);
+    CHECK(b.stats.refined_pixels == c.stats.refined_pixels);
+    CHECK(std::memcmp(b.rgb.data(), c.rgb.data(), b.rgb.size() * sizeof(float)) == 0);
+    CHECK(b.stats.bounce_rays == a.stats.bounce_rays);  // refinement samples carry direct light only
+    // Every refined pixel traces 12 more camera rays (and a second look now and then).
+    CHECK(b.stats.camera_rays - a.stats.camera_rays == 12 * b.stats.refined_pixels);
+    size_t changed = 0;
+    for (size_t i = 0; i < a.depth.size(); ++i)
+        changed += std::memcmp(&a.rgb[3 * i], &b.rgb[3 * i], 3 * sizeof(float)) != 0;
+    CHECK(changed > 0 && changed <= b.stats.refined_pixels);
+    CHECK(a.depth == b.depth && a.instance == b.instance);
+}
+
+TEST_CASE(adaptive_settings_are_checked) {
+    Scene scene;
+    scene.add_background(fixtures::add_plane_mesh(scene, 50.0f), identity(), Material{});
+    scene.commit();
+    const Camera cam = fixtures::look_at({0, 0, 1.0}, {0, 0, 0}, 8, 8, 20.0);
+    auto message = [&](int spp, int adaptive_spp, double threshold) {
+        RenderSettings s{spp};
+        s.adaptive_spp = adaptive_spp;
+        s.adaptive_threshold = threshold;
+        try {
+            render_frame(scene, cam, Sun(0, 30, 1361), s);
+        } catch (const std::invalid_argument& e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    CHECK(message(4, 4, 0.25).rfind("adaptive_spp: must be 0 (off) or in spp + 1..65536", 0) == 0);
+    CHECK(message(1, 8, 0.25).rfind("adaptive_spp: needs spp >= 2", 0) == 0);
+    CHECK(message(4, 8, -1.0).rfind("adaptive_threshold:", 0) == 0);
+    CHECK(message(4, 8, 0.0).empty());
+    CHECK(message(4, 0, 0.25).empty());
 }

@@ -22,7 +22,8 @@ class RenderedView:
     """One rendered view. rgb (H, W, 3) float32 linear radiance W/(m²·sr); depth (H, W) float32
     z-depth in metres, 0 where nothing is hit; instance (H, W) uint8 labels, 0 = background.
     `stats` holds camera_rays (second_look_rays: those traced again at a shared vertex), shadow_rays (bounce_shadow_rays of them leave bounce vertices),
-    bounce_rays, medium_rays (the dust medium's shadow rays toward the Sun, 0 without dust) and the
+    bounce_rays, medium_rays (the dust medium's shadow rays toward the Sun, 0 without dust),
+    refined_pixels and refinement_rays (adaptive anti-aliasing's pixels and their extra rays) and the
     core's render seconds."""
 
     rgb: np.ndarray
@@ -138,9 +139,12 @@ def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraP
     out = _core.render(scene, camera, sun, spp=config.render.spp, seed=seed,
                        threads=config.render.threads, exact_depth=config.render.exact_depth,
                        light_samples=config.render.light_samples, bounces=config.render.bounces, earth=earth,
-                       medium=medium, light_cache=light_cache)
+                       medium=medium, light_cache=light_cache, adaptive_spp=config.render.adaptive_spp,
+                       adaptive_threshold=config.render.adaptive_threshold)
     stats = {"camera_rays": out["camera_rays"], "second_look_rays": out["second_look_rays"],
              "shadow_rays": out["shadow_rays"], "bounce_shadow_rays": out["bounce_shadow_rays"],
-             "bounce_rays": out["bounce_rays"], "medium_rays": out["medium_rays"], "core_seconds": out["seconds"],
+             "bounce_rays": out["bounce_rays"], "medium_rays": out["medium_rays"],
+             "refined_pixels": out["refined_pixels"], "refinement_rays": out["refinement_rays"],
+             "core_seconds": out["seconds"],
              "seconds": time.perf_counter() - start}
     return RenderedView(rgb=out["rgb"], depth=out["depth"], instance=out["instance"], stats=stats)

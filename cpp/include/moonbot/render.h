@@ -32,6 +32,19 @@ struct RenderSettings {
     /// Diffuse inter-reflection: path vertices after the first hit, each lit by the lights
     /// through a shadow ray (next-event estimation); 0 = direct light only, at most kMaxBounces.
     int bounces = 0;
+    /// Adaptive anti-aliasing of direct light; 0 = off (every pixel gets `spp` samples). Else the
+    /// samples a pixel is brought up to, spp < adaptive_spp ≤ 65536 (needs spp ≥ 2), when its
+    /// own `spp` base samples or those of one of its eight neighbours disagree: they hit
+    /// different instances (or some the sky), some of their Sun shadow rays escape and some do
+    /// not, or the luminance of their direct light spreads (max − min) beyond
+    /// `adaptive_threshold` times its mean. (The neighbours catch the slivers of an edge that all
+    /// of a pixel's own base samples miss.) The extra samples carry direct light only (a camera
+    /// ray and its shadow rays); the pixel's indirect light stays the mean of its base samples
+    /// (render()'s split estimator). The decisions follow from the base samples of every pixel,
+    /// all taken before any refinement: images stay identical whatever the thread count.
+    int adaptive_spp = 0;
+    /// The relative spread of direct luminance over a pixel's base samples that refines it; ≥ 0.
+    double adaptive_threshold = 0.25;
 };
 
 constexpr int kMaxLightSamples = 1024;
@@ -54,6 +67,8 @@ struct RenderStats {
     uint64_t bounce_shadow_rays = 0;  ///< of shadow_rays, those from bounce vertices (scattered origins)
     uint64_t bounce_rays = 0;
     uint64_t medium_rays = 0;  ///< shadow rays toward the Sun from the dust's grid nodes
+    uint64_t refined_pixels = 0;   ///< pixels given adaptive_spp samples (RenderSettings::adaptive_spp)
+    uint64_t refinement_rays = 0;  ///< of camera_rays, second_look_rays and shadow_rays, those of the refinement samples
     double seconds = 0.0;
 };
 
@@ -67,6 +82,11 @@ struct RenderStats {
 /// over it err by O(half-angle²) ≈ 2e-5 for the Sun; where the disk straddles a facet's own
 /// horizon, the part below it counts as hidden.) With `bounces` > 0 each path continues in a
 /// cosine-distributed direction, weighted by π·f, and is lit again at every vertex.
+///
+/// Adaptive anti-aliasing (`adaptive_spp` N > 0, over B = `spp` base samples): a refined pixel's
+/// radiance is the split estimator (1/N)·Σ_N L_direct + (1/B)·Σ_B L_indirect, L_direct the lights
+/// at the camera ray's hit, L_indirect what the bounce paths add; a pixel not refined keeps
+/// (1/B)·Σ_B L, bit for bit what adaptive_spp 0 gives.
 ///
 /// Dust (`medium`, optional; null or puff-free costs nothing): baked per render on a grid of
 /// spacing voxel_m (DustGrid: extinction k, optical depth toward the Sun, the geometry's shade

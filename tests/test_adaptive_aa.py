@@ -1,0 +1,192 @@
+"""Adaptive anti-aliasing of direct light (RenderSettings.adaptive_spp): only pixels whose base
+samples disagree get more samples, a pixel left alone keeps its bytes, the image comes closer to
+a high-sample render than the base samples alone, and the images stay deterministic."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from moonbot import _core
+from moonbot.config import ConfigError, load_config
+
+from scenes import box
+
+E = 1361.0
+W, H, F = 48, 36, 60.0
+
+
+def floating_box() -> _core.Scene:
+    """A 1 m box (label 1) alone against the black sky."""
+    scene = _core.Scene()
+    scene.add_instance(scene.add_mesh(*box((1.0, 1.0, 1.0))), np.eye(4), 1, (0.5, 0.4, 0.3))
+    scene.commit()
+    return scene
+
+
+def corner_camera(scale: int = 1) -> _core.Camera:
+    """Looking at the box's corner (+x, −y, +z) from 3.5 m: three faces, each under another
+    cosine to the Sun, and the silhouette against the sky. `scale` multiplies the resolution
+    (the same view, each pixel split into scale × scale)."""
+    centre = np.array([2.0, -2.2, 1.8])
+    z = -centre / np.linalg.norm(centre)
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    R = np.stack([x, np.cross(z, x), z])
+    f = F * scale
+    return _core.Camera(f, f, W * scale / 2, H * scale / 2, W * scale, H * scale, R, -R @ centre)
+
+
+# A point Sun: a face's direct light is one value, so a pixel is mixed only where faces meet.
+SUN = _core.Sun(-35.0, 40.0, E, 0.0)
+
+
+def test_refines_the_edges_and_leaves_the_faces_alone():
+    """The refined pixels whose bytes change (those where the box's silhouette or an edge between
+    its faces crosses lit faces; a face turned from the Sun against the sky is refined too, black
+    on black) are none of the faces' interior pixels that a 16 × 16 grid of centre rays finds
+    uniform, and all but a few of those it finds well mixed; all refined pixels lie within two
+    pixels of a mixed one (a pixel is refined where it or a neighbour disagrees)."""
+    scene = floating_box()
+    base = _core.render(scene, corner_camera(), SUN, spp=4, seed=3, passes=["rgb"])
+    adaptive = _core.render(scene, corner_camera(), SUN, spp=4, seed=3, passes=["rgb"], adaptive_spp=32,
+                            adaptive_threshold=0.1)
+    refined = np.any(base["rgb"] != adaptive["rgb"], axis=-1)
+    assert 0 < refined.sum() <= adaptive["refined_pixels"]
+    # 28 extra samples, each a camera ray and (on a face toward the Sun) one shadow ray.
+    assert 28 * adaptive["refined_pixels"] <= adaptive["camera_rays"] - base["camera_rays"]
+    assert adaptive["refinement_rays"] == (adaptive["camera_rays"] - base["camera_rays"] + adaptive["shadow_rays"]
+                                           - base["shadow_rays"] + adaptive["second_look_rays"]
+                                           - base["second_look_rays"])
+    # What each pixel holds: 16 × 16 centre rays over it, their radiance (one value per face, 0 for the sky).
+    fine = _core.render(scene, corner_camera(16), SUN, spp=1, passes=["rgb"])["rgb"][..., 1]
+    blocks = fine.reshape(H, 16, W, 16).transpose(0, 2, 1, 3).reshape(H, W, 256)
+    uniform = np.all(blocks == blocks[..., :1], axis=-1)
+    # Interior: the pixel and its eight neighbours all of one value (a pixel the grid finds
+    # uniform may still hold a sliver thinner than its spacing).
+    value = np.where(uniform, blocks[..., 0], np.nan)
+    padded = np.pad(value, 1, constant_values=np.nan)
+    interior = np.all([padded[1 + dy:1 + dy + H, 1 + dx:1 + dx + W] == value
+                       for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0)
+    # The minority's share of the pixel: at least 30 % is a well mixed pixel.
+    values = [np.unique(b, return_counts=True)[1] for b in blocks.reshape(-1, 256)]
+    minority = np.array([1.0 - c.max() / 256 for c in values]).reshape(H, W)
+    mixed = minority >= 0.3
+    assert interior.sum() > H * W // 2
+    assert not np.any(refined & interior)
+    grown = np.pad(~interior, 1)  # refined: a disagreeing pixel's neighbours too
+    near_edge = np.any([grown[1 + dy:1 + dy + H, 1 + dx:1 + dx + W] for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0)
+    assert adaptive["refined_pixels"] <= near_edge.sum()
+    assert mixed.sum() > 20
+    assert refined[mixed].mean() >= 0.9
+
+
+def test_adaptive_image_comes_close_to_a_high_sample_render():
+    """Against 1024 samples the base samples' error (relative RMSE, 0.27 here: the box is small
+    on a black sky) is aliasing on the edges. Refining to 64 samples where 4 base samples
+    disagree (a pixel's own or a neighbour's) leaves the error of 64 samples everywhere (0.039)
+    for a fifth of their camera rays."""
+    scene = floating_box()
+    reference = _core.render(scene, corner_camera(), SUN, spp=1024, seed=11, passes=["rgb"])["rgb"]
+    base = _core.render(scene, corner_camera(), SUN, spp=4, seed=3, passes=["rgb"])
+    adaptive = _core.render(scene, corner_camera(), SUN, spp=4, seed=3, passes=["rgb"], adaptive_spp=64,
+                            adaptive_threshold=0.1)
+
+    def rel_rmse(out):
+        return np.sqrt(np.mean((out["rgb"].astype(np.float64) - reference) ** 2)) / reference.mean()
+
+    brute_force = _core.render(scene, corner_camera(), SUN, spp=64, seed=3, passes=["rgb"])
+    assert rel_rmse(base) > 0.25
+    assert rel_rmse(adaptive) < 0.05
+    assert rel_rmse(adaptive) < 1.05 * rel_rmse(brute_force)
+    assert adaptive["camera_rays"] - base["camera_rays"] < 0.25 * (brute_force["camera_rays"] - base["camera_rays"])
+
+
+def lunar_test_scene() -> _core.Scene:
+    """The box on a ground plane: bounces and the Sun's disk have something to do."""
+    from scenes import ground_and_box
+    return ground_and_box((0.4, 0.4, 0.4))[0]
+
+
+def ground_camera() -> _core.Camera:
+    centre = np.array([1.2, -1.0, 0.7])
+    z = (np.array([0.0, 0.0, 0.15]) - centre)
+    z /= np.linalg.norm(z)
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    R = np.stack([x, np.cross(z, x), z])
+    return _core.Camera(F, F, W / 2, H / 2, W, H, R, -R @ centre)
+
+
+DISK_SUN = _core.Sun(-60.0, 12.0, E, 0.533)
+QUALITY = {"spp": 4, "light_samples": 2, "bounces": 2}
+
+
+def test_same_bytes_for_any_thread_count_and_the_seed_matters():
+    scene = lunar_test_scene()
+    images = [_core.render(scene, ground_camera(), DISK_SUN, seed=seed, threads=threads, adaptive_spp=16,
+                           **QUALITY) for seed, threads in ((5, 1), (5, 2), (6, 2))]
+    assert images[0]["refined_pixels"] == images[1]["refined_pixels"] > 0
+    assert images[0]["rgb"].tobytes() == images[1]["rgb"].tobytes()
+    assert images[0]["rgb"].tobytes() != images[2]["rgb"].tobytes()
+    # Depth and labels come from the pixel-centre ray: adaptive sampling leaves them alone.
+    plain = _core.render(scene, ground_camera(), DISK_SUN, seed=5, **QUALITY)
+    for key in ("depth", "instance"):
+        assert plain[key].tobytes() == images[0][key].tobytes()
+
+
+def test_off_is_the_brute_force_path_bit_for_bit():
+    """adaptive_spp 0 is today's renderer (the default arguments); with it on, a pixel not refined
+    keeps those bytes and a refined one changes."""
+    scene = lunar_test_scene()
+    default = _core.render(scene, ground_camera(), DISK_SUN, seed=5, **QUALITY)
+    off = _core.render(scene, ground_camera(), DISK_SUN, seed=5, adaptive_spp=0, adaptive_threshold=0.7, **QUALITY)
+    on = _core.render(scene, ground_camera(), DISK_SUN, seed=5, adaptive_spp=16, **QUALITY)
+    assert default["rgb"].tobytes() == off["rgb"].tobytes()
+    assert off["refined_pixels"] == off["refinement_rays"] == 0
+    changed = np.any(on["rgb"] != off["rgb"], axis=-1)
+    assert 0 < changed.sum() <= on["refined_pixels"] < changed.size // 2
+    # The base samples' bounce paths are the same in both: the refinement traces no bounce rays.
+    assert on["bounce_rays"] == off["bounce_rays"]
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"spp": 4, "adaptive_spp": 4}, "adaptive_spp: must be 0 (off) or in spp + 1..65536"),
+    ({"spp": 4, "adaptive_spp": -1}, "adaptive_spp: must be 0"),
+    ({"spp": 4, "adaptive_spp": 70000}, "adaptive_spp: must be 0"),
+    ({"spp": 1, "adaptive_spp": 8}, "adaptive_spp: needs spp >= 2"),
+    ({"spp": 4, "adaptive_spp": 8, "adaptive_threshold": -0.5}, "adaptive_threshold: must be a finite number >= 0"),
+    ({"spp": 4, "adaptive_spp": 8, "adaptive_threshold": float("nan")}, "adaptive_threshold: must be a finite"),
+])
+def test_bad_settings_name_the_field(kwargs, message):
+    with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)").replace("+", r"\+")):
+        _core.render(floating_box(), corner_camera(), SUN, **kwargs)
+
+
+@pytest.mark.parametrize(("overrides", "message"), [
+    ({"render.adaptive_spp": 4}, "render.adaptive_spp: must be 0 (off) or above spp = 4, got 4"),
+    ({"render.spp": 1, "render.adaptive_spp": 8}, "render.adaptive_spp: needs spp >= 2 base samples"),
+    ({"render.adaptive_spp": -2}, "render.adaptive_spp: must be >= 0"),
+    ({"render.adaptive_threshold": -0.1}, "render.adaptive_threshold: must be >= 0"),
+])
+def test_bad_config_names_the_field(overrides, message):
+    with pytest.raises(ConfigError) as caught:
+        load_config(None, overrides)
+    assert message in str(caught.value)
+
+
+def test_with_the_light_cache_refinement_reads_no_cache_and_traces_no_bounces():
+    """With the light cache the base samples take their indirect light from it; the refinement
+    samples are direct light only, so adaptive sampling adds camera and shadow rays alone, and a
+    pixel not refined keeps the bytes of the render without it."""
+    scene = lunar_test_scene()
+    cache = _core.LightCache(scene, DISK_SUN, bounces=2, rays_background=64, seed=1)
+    off = _core.render(scene, ground_camera(), DISK_SUN, seed=5, light_cache=cache, **QUALITY)
+    on = _core.render(scene, ground_camera(), DISK_SUN, seed=5, light_cache=cache, adaptive_spp=16, **QUALITY)
+    assert on["refined_pixels"] > 0
+    assert on["bounce_rays"] == off["bounce_rays"]
+    added = (on["camera_rays"] - off["camera_rays"]) + (on["shadow_rays"] - off["shadow_rays"]) + (
+        on["second_look_rays"] - off["second_look_rays"])
+    assert added == on["refinement_rays"]
+    changed = np.any(on["rgb"] != off["rgb"], axis=-1)
+    assert 0 < changed.sum() <= on["refined_pixels"]
