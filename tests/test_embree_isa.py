@@ -95,9 +95,11 @@ def test_view_amodal_view_finishes(isa, tmp_path):
 
 
 def test_images_do_not_depend_on_the_isa(tmp_path):
-    """The default scene's view at 160×120 under every ISA: the same rgb and masks byte for byte;
-    depth the same to a float32 ulp (kernels with and without FMA may pick the other of two
-    triangles sharing the edge a pixel's ray passes through)."""
+    """The default scene's view at 160×120 under every ISA: the same masks byte for byte; depth
+    the same to a float32 ulp (kernels with and without FMA may pick the other of two triangles
+    sharing the edge a pixel's ray passes through); rgb the same but for a few pixels in a
+    thousand, by a few levels: a shadow ray that grazes a rock's or a pebble's edge may be
+    decided the other way by a kernel without FMA."""
     outputs = {}
     for isa in ISAS:
         out = tmp_path / isa
@@ -110,8 +112,11 @@ def test_images_do_not_depend_on_the_isa(tmp_path):
     reference = outputs[ISAS[-1]]  # the widest
     depth = np.load(reference / "depth.npy")
     for isa, out in outputs.items():
-        for name in ("rgb.png", "mask.png", "amodal_001.png"):
+        for name in ("mask.png", "amodal_001.png"):
             assert (out / name).read_bytes() == (reference / name).read_bytes(), (isa, name)
+        rgb, rgb_reference = (_core.read_image(str(o / "rgb.png")).astype(int) for o in (out, reference))
+        differ = np.abs(rgb - rgb_reference).max(axis=2)
+        assert np.count_nonzero(differ) <= 0.002 * differ.size and differ.max() <= 16, (isa, np.count_nonzero(differ))
         other = np.load(out / "depth.npy")
         assert np.array_equal(other > 0, depth > 0)
         assert np.all(np.abs(other - depth) <= np.spacing(depth)), isa
