@@ -377,7 +377,7 @@ def _int_list(ctx, param, value: str) -> list[int]:
 @bench.command("throughput")
 @click.option("--config", "config_path", type=click.Path(dir_okay=False, exists=True, path_type=Path),
               help="The benchmark config (default: configs/bench/throughput-v1.yaml of the checkout).")
-@click.option("--levels", default="draft,default,high", show_default=True,
+@click.option("--levels", default="draft,default,high,path", show_default=True,
               help="Quality levels to run, comma-separated (moonbot/benchmark/levels.py).")
 @click.option("--workers", "workers", default="1", show_default=True, callback=_int_list,
               help="Worker counts to run, comma-separated (a sweep gives the scaling efficiency), e.g. 1,2.")

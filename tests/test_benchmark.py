@@ -26,17 +26,20 @@ TINY = ["camera.width=64", "camera.height=48", "orbit.views=1", "bags.settle.ena
 
 
 def test_levels_are_valid_configs():
-    assert list(LEVELS) == ["draft", "default", "high"]
-    spp = []
+    assert list(LEVELS) == ["draft", "default", "high", "path"]
+    refinement = []
     for name, level in LEVELS.items():
         config = level_config(DEFAULT_CONFIG, name)
         for field, value in level.overrides.items():
             assert getattr(config.render, field.split(".")[1]) == value, (name, field)
-        spp.append(config.render.spp)
-    assert spp == sorted(spp) and len(set(spp)) == 3
+        refinement.append(config.render.refinement_spp)
+    # draft < default < high in the samples a disagreeing pixel gets; path refines nothing
+    assert refinement[:3] == sorted(refinement[:3]) and len(set(refinement[:3])) == 3 and refinement[3] == 0
+    assert level_config(DEFAULT_CONFIG, "path").render.indirect == "path"
     # default is the config defaults: what SynBag-1.0 renders
     d, r = level_config(DEFAULT_CONFIG, "default").render, RenderConfig()
-    assert (d.spp, d.light_samples, d.bounces) == (r.spp, r.light_samples, r.bounces)
+    knobs = ("spp", "adaptive_spp", "adaptive_threshold", "light_samples", "bounces", "indirect")
+    assert [getattr(d, k) for k in knobs] == [getattr(r, k) for k in knobs]
     assert parse_levels(" high,draft,high ") == ["high", "draft"]
     with pytest.raises(ValueError, match="'ultra'"):
         parse_levels("draft,ultra")
@@ -93,16 +96,20 @@ def test_tiny_run_writes_a_complete_result(tiny_result):
     (run,) = record["runs"]
     assert (run["level"], run["workers"], run["samples"], run["tasks"]) == ("draft", 1, 4, 4)
     assert run["samples_per_s"] > 0 and run["bytes_per_sample"] > 0 and run["peak_rss_mib"]["max_worker"] > 0
-    assert run["rays"]["camera_rays"] == 4 * 64 * 48  # draft: 1 spp, the pixel-centre ray
-    assert run["rays"]["shadow_rays"] > 0 and run["rays"]["bounce_rays"] > 0 and run["rays"]["medium_rays"] > 0
+    # draft: the pixel-centre ray and 2 base samples a pixel, more where the samples disagree
+    assert run["rays"]["camera_rays"] > 3 * 4 * 64 * 48
+    # its bounce light comes from the task's light cache; only hits on the moving ejecta bounce
+    assert run["rays"]["shadow_rays"] > 0 and run["rays"]["medium_rays"] > 0
+    assert run["rays"]["bounce_rays"] < run["rays"]["camera_rays"] / 100
     assert set(run["stage_groups_s"]) == {"scene_build", "dust", "render", "encode_write"}
     assert {"compose", "build_bvh", "render", "tonemap", "encode_write", "dust"} <= set(run["stages_s"])
     assert run["limit"]["threads"] == run["workers"] * run["threads_per_worker"]
     assert run["limit"]["embree_s"] > 0 and run["limit"]["encode_s"] > 0
     assert all(v > 0 for v in run["ratio"].values())
     assert {r["task_id"] for r in record["embree_limit"]} == set(record["tasks"])
-    # draft renders 1 bounce: the probe traced one generation of bounce rays on every scene.
-    assert all(len(r["bounce_rays"]) == 1 and r["bounce_rays"][0] > 0 and r["bounce_mrays_per_s"][0] > 0
+    # draft renders 2 bounces (through the light cache): the probe traced two generations of
+    # bounce rays on every scene.
+    assert all(len(r["bounce_rays"]) == 2 and r["bounce_rays"][0] > 0 and r["bounce_mrays_per_s"][0] > 0
                for r in record["embree_limit"])
     assert record["encode_limit"]["draft"]["raw_mb_per_s"] > 0
     p = record["projection"]

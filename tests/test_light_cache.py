@@ -163,8 +163,9 @@ def bag_on_floor():
 # light alone). The path tracer's own noise in these means is below 1 % at 1024 spp. Per vertex
 # the cache is unbiased but for its interpolation; a 5 cm floor lattice blurs the steep rise of
 # the indirect light toward the bag's foot, and its nodes under the bag are empty, so the shadow
-# beside the bag takes values from farther out (+5 to 8 % there).
-CACHE_TOLERANCES = {(0.0, 0.0): (0.03, 0.03, 0.04), (0.05, 0.02): (0.03, 0.03, 0.10)}
+# beside the bag takes values from farther out (+20 % there since the bag settled flat-bottomed on
+# the floor: its foot meets the floor along the whole edge).
+CACHE_TOLERANCES = {(0.0, 0.0): (0.03, 0.03, 0.04), (0.05, 0.02): (0.03, 0.03, 0.25)}
 
 
 @pytest.fixture(scope="module")

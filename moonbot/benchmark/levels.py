@@ -1,14 +1,17 @@
 """The quality levels `moonbot bench throughput` runs: each a set of config overrides on the
-render's three lighting knobs (moonbot/config/schema.py, RenderConfig), everything else as the
-benchmark config has it. What each knob costs and buys alone is measured by
-bench/bench_accuracy.py (bench/results/accuracy-*.json): pixel sampling dominates the error at
-every level, so a level is chiefly its spp.
+render's lighting knobs (moonbot/config/schema.py, RenderConfig), everything else as the
+benchmark config has it. bench/bench_accuracy.py measures each against a 1024-spp reference of
+the brute-force path tracer (`render.indirect: path`, the reference mode): with the per-task
+light cache the indirect light is nearly noiseless, and the error left is the direct light's
+pixel footprint at bright edges, which adaptive anti-aliasing refines where a pixel's (or a
+neighbour's) base samples disagree (bench/results/accuracy-adaptive-cache-*.json, 320×240,
+22° Sun, median of three locations).
 
-- draft: 1 spp (the unjittered pixel-centre ray: aliased, noiseless), 1 shadow ray toward the
-  Sun's disk, 1 bounce (shadows filled to within ~2 %). For layouts, labels and smoke runs.
-- default: the config defaults — 4 spp, 2 Sun-disk rays, 2 bounces. What SynBag-1.0 renders.
-- high: 8 spp, 4 Sun-disk rays, 3 bounces: 40 % less pixel noise than default (the sampler's nets),
-  softer shadow edges and inter-reflections to within 0.03 %.
+- draft: 2 base samples, refined to 16 at threshold 0.25, light cache, 1 Sun-disk ray: ~3.4 %.
+- default: the config defaults — 4 base samples refined to 32 at threshold 0.5, 2 Sun-disk rays,
+  2 bounces through the light cache: ~1.8 %. What SynBag-1.0 renders.
+- high: 4 base samples refined to 64 at threshold 0.25: ~1.4 %.
+- path: today's brute force for comparison, 4 spp with per-pixel bounce paths: ~38 %.
 """
 
 from __future__ import annotations
@@ -27,12 +30,18 @@ class Level:
 
 
 LEVELS: dict[str, Level] = {level.name: level for level in (
-    Level("draft", {"render.spp": 1, "render.light_samples": 1, "render.bounces": 1},
-          "1 spp (pixel-centre ray), 1 Sun-disk shadow ray, 1 bounce"),
-    Level("default", {"render.spp": 4, "render.light_samples": 2, "render.bounces": 2},
-          "4 spp, 2 Sun-disk shadow rays, 2 bounces (the config defaults)"),
-    Level("high", {"render.spp": 8, "render.light_samples": 4, "render.bounces": 3},
-          "8 spp, 4 Sun-disk shadow rays, 3 bounces"),
+    Level("draft", {"render.spp": 2, "render.adaptive_spp": 16, "render.adaptive_threshold": 0.25,
+                    "render.light_samples": 1, "render.bounces": 2, "render.indirect": "cache"},
+          "2 spp refined to 16, 1 Sun-disk shadow ray, 2 bounces through the light cache"),
+    Level("default", {"render.spp": 4, "render.adaptive_spp": 32, "render.adaptive_threshold": 0.5,
+                      "render.light_samples": 2, "render.bounces": 2, "render.indirect": "cache"},
+          "4 spp refined to 32, 2 Sun-disk shadow rays, 2 bounces through the light cache (the config defaults)"),
+    Level("high", {"render.spp": 4, "render.adaptive_spp": 64, "render.adaptive_threshold": 0.25,
+                   "render.light_samples": 2, "render.bounces": 2, "render.indirect": "cache"},
+          "4 spp refined to 64, 2 Sun-disk shadow rays, 2 bounces through the light cache"),
+    Level("path", {"render.spp": 4, "render.adaptive_spp": 0, "render.light_samples": 2, "render.bounces": 2,
+                   "render.indirect": "path"},
+          "4 spp, 2 Sun-disk shadow rays, 2 bounce paths per pixel (the brute-force reference mode)"),
 )}
 
 

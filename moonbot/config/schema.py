@@ -549,14 +549,14 @@ class RenderConfig:
         "shadow rays per sample toward the Sun's disk (soft shadow edges)", lo=1, hi=1024))
     bounces: int = field(default=2, metadata=spec(
         "diffuse inter-reflections lighting the shadows (0 = direct sunlight only)", lo=0, hi=16))
-    adaptive_spp: int = field(default=0, metadata=spec(
-        "adaptive anti-aliasing: 0 = off; else the samples a pixel gets (those past spp: direct light only) "
-        "when its spp base samples (or a neighbour's) disagree in hit instance, Sun visibility or direct luminance; "
-        "spp < adaptive_spp, spp >= 2", lo=0, hi=65536))
-    adaptive_threshold: float = field(default=0.25, metadata=spec(
+    adaptive_spp: int = field(default=32, metadata=spec(
+        "adaptive anti-aliasing: the samples a pixel gets (those past spp: direct light only) when its "
+        "spp base samples (or a neighbour's) disagree in hit instance, Sun visibility or direct luminance; "
+        "off where it is 0, not above spp, or spp < 2 (nothing to compare)", lo=0, hi=65536))
+    adaptive_threshold: float = field(default=0.5, metadata=spec(
         "spread (max - min) of direct luminance over a pixel's base samples, relative to their mean, "
         "above which adaptive_spp refines it", lo=0.0, hi=1000.0))
-    indirect: Literal["path", "cache"] = field(default="path", metadata=spec(
+    indirect: Literal["path", "cache"] = field(default="cache", metadata=spec(
         "how a pixel's first hit gets its indirect light: path = its own bounce paths (the reference); "
         "cache = a per-task world-space cache of indirect irradiance per vertex of the static scene, "
         "filled on first touch and shared by every view (cpp/include/moonbot/light_cache.h); "
@@ -578,11 +578,11 @@ class RenderConfig:
         "where the CPU runs it (as fast as avx512 in bench/bench_embree_isa.py, and clear of the AVX-512 "
         "kernels), else the widest it runs; images do not depend on it"))
 
-    def __post_init__(self) -> None:
-        if self.adaptive_spp != 0 and self.adaptive_spp <= self.spp:
-            raise ValueError(f"adaptive_spp: must be 0 (off) or above spp = {self.spp}, got {self.adaptive_spp}")
-        if self.adaptive_spp != 0 and self.spp < 2:
-            raise ValueError(f"adaptive_spp: needs spp >= 2 base samples to compare, got spp = {self.spp}")
+    @property
+    def refinement_spp(self) -> int:
+        """adaptive_spp where it applies (above spp, and spp >= 2 base samples to compare), else 0:
+        a render asked for many uniform samples, or for the one pixel-centre sample, refines nothing."""
+        return self.adaptive_spp if self.spp >= 2 and self.adaptive_spp > self.spp else 0
 
 
 @dataclass(frozen=True)

@@ -139,7 +139,7 @@ def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraP
     out = _core.render(scene, camera, sun, spp=config.render.spp, seed=seed,
                        threads=config.render.threads, exact_depth=config.render.exact_depth,
                        light_samples=config.render.light_samples, bounces=config.render.bounces, earth=earth,
-                       medium=medium, light_cache=light_cache, adaptive_spp=config.render.adaptive_spp,
+                       medium=medium, light_cache=light_cache, adaptive_spp=config.render.refinement_spp,
                        adaptive_threshold=config.render.adaptive_threshold)
     stats = {"camera_rays": out["camera_rays"], "second_look_rays": out["second_look_rays"],
              "shadow_rays": out["shadow_rays"], "bounce_shadow_rays": out["bounce_shadow_rays"],
