@@ -36,15 +36,21 @@ def render(overrides: dict, seed: int = 3, azimuth_deg: float = 30.0):
 
 # --- the paper's look is kept ---------------------------------------------------------------------
 
-# sha256 of the rgb bytes of render({**CLOSE, "bags.stain.seeds": 90}) on main before the grain,
-# sheen and dust mode existed (Embree's avx2 kernels).
-PAPER_STAMP_90_SHA256 = "98e9e5946857b77ad8de5bc81211e26940d092afc76b665f4618fbd85798ff56"
+# sha256 of the rgb bytes of render({**CLOSE, **OFF, **PATH, "bags.stain.seeds": 90}) (Embree's
+# avx2 kernels). Recorded when the grain, the sheen and the dust mode were added, with them off
+# (the same bytes as before them); re-recorded when the bags settled into their wrinkled shape and
+# the small craters were worn, which moved the geometry under the same stamps. The stamp
+# algorithm itself (cpp/src/stain.cpp) is unchanged since the paper's mode was written.
+PAPER_STAMP_90_SHA256 = "a9e775b0315ec63d9498b3129a6e466b217f2fded53d697a547fdfcaf729b5ed"
+# The brute-force renderer, so the pin follows the stain and the geometry, not the light cache's
+# or adaptive sampling's tuning.
+PATH = {"render.indirect": "path", "render.adaptive_spp": 0}
 
 
-def test_paper_stamp_stain_with_the_new_looks_off_is_the_same_bytes_as_before():
+def test_paper_stamp_stain_with_the_new_looks_off_keeps_its_bytes():
     if _core.resolve_embree_isa("auto") != "avx2":
         pytest.skip("the reference bytes were recorded with Embree's avx2 kernels")
-    rgb, _ = render({**CLOSE, **OFF, "bags.stain.seeds": 90})
+    rgb, _ = render({**CLOSE, **OFF, **PATH, "bags.stain.seeds": 90})
     assert hashlib.sha256(rgb.tobytes()).hexdigest() == PAPER_STAMP_90_SHA256
 
 

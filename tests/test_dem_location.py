@@ -373,6 +373,7 @@ orbit: {{views: 1, radius_m: 0.8}}
 render: {{spp: 1, bounces: 0, light_samples: 1}}
 terrain: {{location: dem, dem_file: {dem}, dem_site_m: [5000.0, 0.0], extent_m: 40.0, detail_m: 0.1,
            detail_extent_m: 1.0, growth: 1.2}}
+bags: {{settle: {{enabled: false}}}}  # the records are the point; a coarse bag on 10 cm relief may slide
 meshes:
   sandbag_01: {{edge_length_m: 0.03, edge_steps: 2}}
 sweep:

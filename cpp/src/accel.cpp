@@ -392,25 +392,17 @@ size_t Accel::intersect_watertight(RayHit* rays, size_t n, bool ground) const {
 }
 
 void Accel::occluded(RayHit* rays, size_t n) const {
-    // Eight-wide packets (rtcOccluded8): an any-hit answer is a yes or no, the same whichever
-    // kernel gives it, and the packet kernels trace incoherent shadow rays faster than the
-    // stream's one-ray kernels (bench/bench_embree_isa.py).
+    // Ray streams, not 8-wide packets: rtcOccluded8 was faster, but Debian's Embree asserts in the
+    // SSE2 packet kernel (bvh_intersector_hybrid.cpp, `all(valid, ray.valid())`) on this renderer's
+    // shadow rays, and a render must not depend on the ISA.
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
-    constexpr int W = 8;
-    RayHitPacket<W> packet;
-    const ValidMask<W> full(W);
-    for (size_t begin = 0; begin < n; begin += W) {
-        const int active = static_cast<int>(std::min<size_t>(W, n - begin));
-        for (int lane = 0; lane < active; ++lane) pack_lane(rays[begin + lane], packet, lane);
-        auto* ray8 = reinterpret_cast<RTCRay8*>(&packet);
-        if (active == W) {
-            rtcOccluded8(full.lanes, m_impl->top, &context, ray8);
-        } else {
-            const ValidMask<W> partial(static_cast<size_t>(active));
-            rtcOccluded8(partial.lanes, m_impl->top, &context, ray8);
-        }
-        for (int lane = 0; lane < active; ++lane) rays[begin + lane].tfar = packet.tfar[lane];
+    for (size_t begin = 0; begin < n; begin += kStream) {
+        const size_t count = std::min(kStream, n - begin);
+        // RTCRay is the leading member of RTCRayHit, so the same buffer with the RayHit stride
+        // is a valid ray stream.
+        rtcOccluded1M(m_impl->top, &context, reinterpret_cast<RTCRay*>(rays + begin),
+                      static_cast<unsigned>(count), sizeof(RayHit));
     }
 }
 

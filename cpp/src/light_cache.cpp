@@ -34,7 +34,7 @@ constexpr uint32_t kPairsPerBounce = 32;
 // Keeps the cache's random streams apart from the pixels' (rng.h pixel_stream) under one seed.
 constexpr uint64_t kCacheStreamSalt = 0x6C69676874636163ull;  // "lightcac"
 constexpr uint64_t kNodeStreamSalt = 0x6C61747469636521ull;   // "lattice!"
-// Lattice indices are packed 20 bits an axis: ±2^19 cells (±26 km at 5 cm).
+// Lattice indices are packed in 24-bit fields, offset by 2^19: ±2^19 cells an axis (±26 km at 5 cm).
 constexpr int64_t kLatticeHalfRange = int64_t(1) << 19;
 
 /// A light as the gather paths use it (render.cpp's LightData, the same sampling).
@@ -218,6 +218,10 @@ LightCache::LightCache(const Scene& scene, const Lights& lights, const LightCach
         throw std::invalid_argument("scene: not committed (call commit() after adding geometry)");
     Impl& m = *m_impl;
     m.instances = instance_table(scene);
+    // The cache outlives renders that add instances (a dust task's ejecta, after it is built), which
+    // may move the scene's materials: it keeps the mesh pointers alone, as a bounce reads only the
+    // mean albedo and photometry.
+    for (InstanceData& inst : m.instances) inst.woven = nullptr, inst.stain = nullptr;
     m.lights = gather_lights(lights);
     const size_t n = scene.instance_count();
     m.covered.assign(n, false);
@@ -290,7 +294,7 @@ IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instan
     std::vector<GatherPath> paths(n);
     std::vector<glm::dvec3> radiance(n, glm::dvec3(0.0)), first_dir(n);
     std::vector<RayHit> traced(n), shadow(n);
-    std::vector<int> of(n), shadow_of(n), visible(n);
+    std::vector<int> of(n), shadow_of(n);
     size_t count = 0;
     for (size_t k = 0; k < n; ++k) {
         double mu;

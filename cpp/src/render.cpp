@@ -669,8 +669,9 @@ private:
 
     /// The indirect radiance toward the camera at camera hit `v` (on triangle `prim`, at Embree's
     /// barycentrics u, w) from the light cache, W/(m²·sr): the cached irradiance E shaded with
-    /// the hit's BRDF, albedo/π · shape · E, the shape taken with the irradiance's mean incident
-    /// direction (about the geometric normal, as a bounce's weight is). None where the cache does
+    /// the hit's BRDF, albedo/π · shape · E (on glossy cloth (1 − s)·albedo/π·shape + s·f_sheen,
+    /// as light_vertices weighs it), the shape and the sheen taken with the irradiance's mean
+    /// incident direction (about the geometric normal, as a bounce's weight is). None where the cache does
     /// not serve the hit (moving geometry, or its surface seen from the back): that path bounces.
     std::optional<glm::dvec3> cached_indirect(const PathVertex& v, uint32_t prim, double u, double w) const {
         if (!m_light_cache->covers(v.instance)) return std::nullopt;
@@ -683,7 +684,13 @@ private:
             const double mu_i = std::max(glm::dot(v.normal, in.direction), 1e-3);
             shape = photometric_shape(inst.photometry, mu_i, glm::dot(v.normal, v.wo), glm::dot(in.direction, v.wo));
         }
-        return v.albedo * (kInvPi * shape) * in.irradiance * v.throughput;
+        glm::dvec3 brdf = v.albedo * shape;  // π·f
+        if (v.sheen > 0.0) {
+            brdf *= 1.0 - v.sheen;
+            const double length = glm::length(in.direction);
+            if (length > 0.0) brdf += glm::dvec3(v.sheen * sheen_weight(v, in.direction / length));
+        }
+        return brdf * kInvPi * in.irradiance * v.throughput;
     }
 
     /// Continues every live path by one bounce: a cosine-distributed direction about the normal

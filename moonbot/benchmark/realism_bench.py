@@ -150,6 +150,7 @@ def render_all(plans: list[RenderPlan], options: Options, say: Callable[[str], N
     """Renders every plan, building each location's scene once (the Sun only changes lights)."""
     from moonbot.config import load_config
     from moonbot.render import build_scene, render_view
+    from moonbot.render.view import build_light_cache
     from moonbot.render.exposure import resolve_exposure, tonemap
     from moonbot.scene import compose_scene, intrinsics
 
@@ -171,7 +172,8 @@ def render_all(plans: list[RenderPlan], options: Options, say: Callable[[str], N
             xy = spec.target[:2] + (-options.standoff_m if plan.bag_in_frame else options.away_standoff_m) * ahead
             ground = float(spec.ground.height(np.array([xy[0]]), np.array([xy[1]]))[0])
             pose = look_pose(np.array([xy[0], xy[1], ground + options.camera_height_m]), azimuth, options.pitch_deg)
-            view = render_view(scene, view_config, K, pose, plan.seed)
+            # The product's indirect light: a light cache for this Sun (None where render.indirect is path).
+            view = render_view(scene, view_config, K, pose, plan.seed, light_cache=build_light_cache(scene, view_config))
             exposure = resolve_exposure(view_config)
             rgb8, _ = tonemap(view.rgb, exposure)
             out.append(Rendered(plan, np.asarray(rgb8), exposure.ev100, view.stats))

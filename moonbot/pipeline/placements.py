@@ -86,10 +86,10 @@ def place_layout(config: Config, task: Task, out_dir: Path, worker: str = "local
     started = datetime.datetime.now(datetime.timezone.utc)
     wall, cpu = time.perf_counter(), time.process_time()
     stage("place bags")
-    terrain, _ = get_terrain(tconfig.terrain)  # built already on a warmed worker
     try:
+        terrain, _ = get_terrain(tconfig.terrain)  # built already on a warmed worker
         placement = place_bags(tconfig, terrain.ground)
-    except ValueError as e:
+    except Exception as e:  # a bad field, MuJoCo, the terrain: every dependent task is told which layout
         raise PlacementError(f"scene layout {layout} (seed {tconfig.seed}): {e}") from e
     wall_s = time.perf_counter() - wall
     settle_s = placement.settle_seconds or 0.0

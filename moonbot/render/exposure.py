@@ -123,7 +123,9 @@ def add_veiling_glare(rgb: np.ndarray, glare_index: float) -> np.ndarray:
     if not sound.any():
         return rgb.copy()
     veil = (glare_index * rgb[sound].astype(np.float64).mean(axis=0)).astype(np.float32)
-    return rgb + veil
+    out = rgb.copy()
+    out[sound] += veil
+    return out
 
 
 def tonemap(rgb: np.ndarray, exposure: Exposure) -> tuple[np.ndarray, int]:
