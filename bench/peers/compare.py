@@ -51,6 +51,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
 from export_scene import export_scene, parity_config, parity_spec, view_camera  # noqa: E402
+from ladder_errors import at_error, rel_errors  # noqa: E402
 from fingerprint import machine, machine_slug  # noqa: E402
 from svgplot import time_error_plot  # noqa: E402
 
@@ -107,27 +108,6 @@ def render_moonbot(config, spec, ladder: list[int], threads: int, repeats: int, 
 def run(cmd: list[str], env: dict | None = None) -> None:
     print("$ " + " ".join(cmd), flush=True)
     subprocess.run(cmd, check=True, env={**os.environ, **(env or {})})
-
-
-def rel_errors(img: np.ndarray, ref: np.ndarray, var_ref: float) -> dict:
-    d = img.astype(np.float64) - ref
-    mse = float(np.mean(d * d))
-    rms = float(np.sqrt(np.mean(ref * ref)))
-    return {"rel_rmse": math.sqrt(max(0.0, mse - var_ref)) / rms, "rel_rmse_raw": math.sqrt(mse) / rms,
-            "mean_ratio": float(img.mean() / ref.mean())}
-
-
-def at_error(rows: list[dict], target: float) -> dict | None:
-    """spp and seconds at `target` relative RMSE: log-log interpolation between the first pair of
-    ladder points that brackets it (errors falling with spp)."""
-    for a, b in zip(rows, rows[1:]):
-        ea, eb = a["rel_rmse"], b["rel_rmse"]
-        if ea >= target >= eb and ea > 0 and eb > 0 and ea != eb:
-            f = math.log(ea / target) / math.log(ea / eb)
-            spp = math.exp(math.log(a["spp"]) + f * math.log(b["spp"] / a["spp"]))
-            seconds = math.exp(math.log(a["render_s"]) + f * math.log(b["render_s"] / a["render_s"]))
-            return {"spp": spp, "seconds_per_frame": seconds, "seconds_per_sample": seconds / spp}
-    return None
 
 
 def time_fit(rows: list[dict]) -> dict:

@@ -23,7 +23,7 @@ import numpy as np
 
 
 def rel_errors(img: np.ndarray, ref: np.ndarray, var_ref: float) -> dict:
-    """Relative RMSE of `img` against `ref` (both (H, W, 3) linear radiance), noise-corrected."""
+    """(compare.py's too.) Relative RMSE of `img` against `ref` (both (H, W, 3) linear radiance), noise-corrected."""
     d = img.astype(np.float64) - ref
     mse = float(np.mean(d * d))
     rms = float(np.sqrt(np.mean(ref * ref)))
@@ -32,7 +32,7 @@ def rel_errors(img: np.ndarray, ref: np.ndarray, var_ref: float) -> dict:
 
 
 def at_error(rows: list[dict], target: float) -> dict | None:
-    """spp and seconds a frame at `target` relative RMSE, interpolated log-log between the first
+    """spp, seconds a frame and seconds a sample at `target` relative RMSE, interpolated log-log between the first
     pair of rows that brackets it; None where the ladder does not reach it."""
     for a, b in zip(rows, rows[1:]):
         ea, eb = a["rel_rmse"], b["rel_rmse"]
@@ -40,7 +40,7 @@ def at_error(rows: list[dict], target: float) -> dict | None:
             f = math.log(ea / target) / math.log(ea / eb)
             spp = math.exp(math.log(a["spp"]) + f * math.log(b["spp"] / a["spp"]))
             seconds = math.exp(math.log(a["render_s"]) + f * math.log(b["render_s"] / a["render_s"]))
-            return {"spp": spp, "seconds_per_frame": seconds}
+            return {"spp": spp, "seconds_per_frame": seconds, "seconds_per_sample": seconds / spp}
     return None
 
 

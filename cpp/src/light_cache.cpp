@@ -24,8 +24,6 @@ namespace {
 
 using namespace detail;
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kInvPi = 1.0 / kPi;
 // Dimension pairs of one gather ray (sampler.h): path vertex b (1-based) takes
 // kPairsPerBounce·(b − 1) for the direction that reaches it and the pairs after it for its
 // lights. The sequence's index is the ray's number at the vertex, so a vertex's rays are
@@ -36,37 +34,6 @@ constexpr uint64_t kCacheStreamSalt = 0x6C69676874636163ull;  // "lightcac"
 constexpr uint64_t kNodeStreamSalt = 0x6C61747469636521ull;   // "lattice!"
 // Lattice indices are packed in 24-bit fields, offset by 2^19: ±2^19 cells an axis (±26 km at 5 cm).
 constexpr int64_t kLatticeHalfRange = int64_t(1) << 19;
-
-/// A light as the gather paths use it (render.cpp's LightData, the same sampling).
-struct GatherLight {
-    glm::dvec3 dir, color, a, b;
-    double scale;     // E/π
-    double cos_half;  // the disk is the cone within acos(cos_half) of dir
-    bool point;
-};
-
-std::vector<GatherLight> gather_lights(const Lights& lights) {
-    std::vector<GatherLight> table;
-    auto add = [&](const Sun& l) {
-        if (l.irradiance() <= 0.0) return;  // a dark light adds nothing and traces nothing
-        GatherLight d;
-        d.dir = l.direction();
-        d.color = l.color();
-        orthonormal_basis(d.dir, d.a, d.b);
-        d.scale = kInvPi * l.irradiance();
-        d.cos_half = l.cos_half_angle();
-        d.point = l.half_angle() == 0.0;
-        table.push_back(d);
-    };
-    add(lights.sun);
-    if (lights.earth) add(*lights.earth);
-    return table;
-}
-
-double shape_at(const InstanceData& inst, double mu_i, double mu_o, double cos_g) {
-    if (inst.photometry.model == Photometry::Model::Lambert) return 1.0;
-    return photometric_shape(inst.photometry, mu_i, mu_o, cos_g);
-}
 
 /// Rec. 709 luminance of linear RGB: the weight of a ray in the mean incident direction.
 double luminance(const glm::dvec3& c) { return 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b; }
@@ -176,7 +143,7 @@ struct LightCache::Impl {
     std::vector<InstanceData> instances;
     std::vector<std::unique_ptr<Lattice>> lattices;      // per background instance with a lattice, else null
     std::atomic<uint64_t> n_nodes{0}, probe_rays{0};
-    std::vector<GatherLight> lights;
+    std::vector<LightData> lights;
     std::vector<bool> covered;                           // per instance
     std::vector<const float*> normals;                   // per instance: its mesh's vertex normals (object frame)
     std::vector<std::vector<float>> computed_normals;    // per mesh: area-weighted, where the mesh has none
@@ -222,7 +189,7 @@ LightCache::LightCache(const Scene& scene, const Lights& lights, const LightCach
     // may move the scene's materials: it keeps the mesh pointers alone, as a bounce reads only the
     // mean albedo and photometry.
     for (InstanceData& inst : m.instances) inst.woven = nullptr, inst.stain = nullptr;
-    m.lights = gather_lights(lights);
+    m.lights = light_table(lights);
     const size_t n = scene.instance_count();
     m.covered.assign(n, false);
     m.normals.assign(n, nullptr);
@@ -286,7 +253,7 @@ void vertex_frame(const InstanceData& inst, const float* normals, uint32_t verte
 /// continued for `bounces` path vertices as render.cpp's path tracer continues a bounce, all
 /// against the static geometry only.
 IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instances,
-                     const std::vector<GatherLight>& lights, const glm::dvec3& point, const glm::dvec3& normal,
+                     const std::vector<LightData>& lights, const glm::dvec3& point, const glm::dvec3& normal,
                      uint64_t stream, int rays, int bounces, FillCounts& counts) {
     const glm::dvec3 lifted = lift_off(point, normal, largest_coordinate(point));
 
@@ -324,15 +291,12 @@ IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instan
                 continue;
             }
             const InstanceData& inst = instances[ray.inst_id];
-            glm::dvec3 n_hit = inst.normal_to_world * glm::dvec3(ray.ng_x, ray.ng_y, ray.ng_z);
-            const double len = glm::length(n_hit);
-            if (!(len > 0.0)) {
+            const glm::dvec3 wi = p.wo;
+            glm::dvec3 n_hit;
+            if (!arrival_normal(inst, ray, wi, n_hit)) {
                 p.alive = false;
                 continue;
             }
-            n_hit /= len;
-            const glm::dvec3 wi = p.wo;
-            if (glm::dot(n_hit, wi) > 0.0) n_hit = -n_hit;  // the side the ray arrived from
             p.point += static_cast<double>(ray.tfar) * wi;
             p.normal = n_hit;
             p.lifted = lift_off(p.point, n_hit, triangle_reach(inst, ray.prim_id));
@@ -343,7 +307,7 @@ IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instan
         }
         // The lights at those vertices, one shadow ray each (index k of the light's sequence).
         for (size_t l = 0; l < lights.size(); ++l) {
-            const GatherLight& light = lights[l];
+            const LightData& light = lights[l];
             size_t shadows = 0;
             for (size_t j = 0; j < count; ++j) {
                 const size_t k = static_cast<size_t>(of[j]);
@@ -351,12 +315,7 @@ IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instan
                 if (!p.alive || glm::dot(p.normal, light.dir) <= 0.0) continue;
                 glm::dvec3 to_light = light.dir;
                 if (!light.point) {
-                    const SamplePair q = sample_pair(stream, static_cast<uint32_t>(k), pair + 1 + static_cast<uint32_t>(l));
-                    double cos_phi, sin_phi;
-                    turn_cos_sin(q.v, cos_phi, sin_phi);
-                    const double c = 1.0 - q.u * (1.0 - light.cos_half);
-                    const double r = std::sqrt(std::max(0.0, 1.0 - c * c));
-                    to_light = c * light.dir + r * (cos_phi * light.a + sin_phi * light.b);
+                    to_light = light.toward(sample_pair(stream, static_cast<uint32_t>(k), pair + 1 + static_cast<uint32_t>(l)));
                     if (glm::dot(p.normal, to_light) <= 0.0) continue;  // below the facet's horizon
                 }
                 set_ray(shadow[shadows], p.lifted, to_light);

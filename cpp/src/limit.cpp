@@ -136,13 +136,7 @@ double wall_seconds_from_memory(tbb::task_arena& arena, const Tiled<RayHit>& pri
 /// the ray arrived from, as the renderer's bounce vertices take it; false if it missed or the
 /// normal is degenerate.
 bool hit_normal(const InstanceData* instances, const RayHit& ray, const glm::dvec3& dir, glm::dvec3& normal) {
-    if (ray.geom_id == kInvalidId) return false;
-    normal = instances[ray.inst_id].normal_to_world * glm::dvec3(ray.ng_x, ray.ng_y, ray.ng_z);
-    const double len = glm::length(normal);
-    if (!(len > 0.0)) return false;
-    normal /= len;
-    if (glm::dot(normal, dir) > 0.0) normal = -normal;
-    return true;
+    return ray.geom_id != kInvalidId && arrival_normal(instances[ray.inst_id], ray, dir, normal);
 }
 
 /// Bounce rays for the `n` traced rays `from` (ray k leaving along dirs[k], of pixel pixel_of[k];

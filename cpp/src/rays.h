@@ -16,6 +16,7 @@
 #include "moonbot/camera.h"
 #include "moonbot/sampler.h"
 #include "moonbot/scene.h"
+#include "moonbot/sun.h"
 
 namespace moonbot::detail {
 
@@ -116,6 +117,24 @@ inline glm::dvec3 albedo_at(const InstanceData& inst, uint32_t prim, double u, d
     return inst.albedo * f;
 }
 
+/// The photometric shape of an instance's surface (photometry.h). Lambert's is 1 outright: no
+/// call, and a Lambertian seen past its smooth shading normal's horizon still takes its light.
+inline double shape_at(const InstanceData& inst, double mu_i, double mu_o, double cos_g) {
+    if (inst.photometry.model == Photometry::Model::Lambert) return 1.0;
+    return photometric_shape(inst.photometry, mu_i, mu_o, cos_g);
+}
+
+/// The unit world normal of the triangle `ray` hit on instance `inst`, turned to the side the
+/// ray arrived from (`wi`, its direction); false where the triangle is degenerate (no normal).
+inline bool arrival_normal(const InstanceData& inst, const RayHit& ray, const glm::dvec3& wi, glm::dvec3& normal) {
+    normal = inst.normal_to_world * glm::dvec3(ray.ng_x, ray.ng_y, ray.ng_z);
+    const double len = glm::length(normal);
+    if (!(len > 0.0)) return false;
+    normal /= len;
+    if (glm::dot(normal, wi) > 0.0) normal = -normal;
+    return true;
+}
+
 /// Triangle `prim`'s vertex `k` (0–2) of instance `inst`, in the world, metres.
 inline glm::dvec3 world_vertex(const InstanceData& inst, uint32_t prim, int k) {
     const float* v = inst.vertices + 3 * static_cast<size_t>(inst.triangles[3 * static_cast<size_t>(prim) + k]);
@@ -143,6 +162,50 @@ inline std::vector<InstanceData> instance_table(const Scene& scene) {
                     mesh.vertex_normals.empty() ? nullptr : mesh.vertex_normals.data(),
                     inst.material.grain.get()};
     }
+    return table;
+}
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kInvPi = 1.0 / kPi;  // the double nearest 1/π
+
+/// A light as the renderer's shading and the light cache's gather paths use it.
+struct LightData {
+    glm::dvec3 dir;       // unit vector to the disk's centre
+    glm::dvec3 color;     // linear RGB tint of the irradiance
+    glm::dvec3 a, b;      // with dir, an orthonormal basis for sampling the disk
+    double scale;         // E/π: radiance of a white Lambertian facing the light, W/(m²·sr)
+    double cos_half;      // the disk is the cone of directions within acos(cos_half) of dir
+    bool point;           // no disk to sample: every shadow ray would be the same
+
+    /// A unit direction to a point of the disk, uniform over its solid angle, from the sample
+    /// pair `q` (a point light: `dir` itself).
+    glm::dvec3 toward(const SamplePair& q) const {
+        if (point) return dir;
+        double cos_phi, sin_phi;
+        turn_cos_sin(q.v, cos_phi, sin_phi);
+        const double c = 1.0 - q.u * (1.0 - cos_half);
+        const double r = std::sqrt(std::max(0.0, 1.0 - c * c));
+        return c * dir + r * (cos_phi * a + sin_phi * b);
+    }
+};
+
+/// The lights that shine (a dark one adds nothing and traces nothing): the Sun first, if it
+/// shines, then the Earth, if present.
+inline std::vector<LightData> light_table(const Lights& lights) {
+    std::vector<LightData> table;
+    auto add = [&](const Sun& l) {
+        if (l.irradiance() <= 0.0) return;
+        LightData d;
+        d.dir = l.direction();
+        d.color = l.color();
+        orthonormal_basis(d.dir, d.a, d.b);
+        d.scale = kInvPi * l.irradiance();
+        d.cos_half = l.cos_half_angle();
+        d.point = l.half_angle() == 0.0;
+        table.push_back(d);
+    };
+    add(lights.sun);
+    if (lights.earth) add(*lights.earth);
     return table;
 }
 

@@ -26,8 +26,6 @@ namespace {
 using namespace detail;
 
 constexpr int kMaxSpp = 65536;
-constexpr double kInvPi = 0.31830988618379067154;
-constexpr double kPi = 3.14159265358979323846;
 // Dimension pairs of one camera sample (sampler.h): pair 0 jitters the pixel; kPairLight + l
 // samples light l's disk at the camera hit (the sequence's index runs over the samples and, within
 // each, its shadow rays, so all of a pixel's rays toward the Sun are stratified together); bounce b
@@ -36,16 +34,6 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr uint32_t kPairLight = 8, kPairBounce = 4096, kPairsPerBounce = 32;
 // A march stops once the dust's optical depth passes this: nothing behind shows (e^-20 ≈ 2e-9).
 constexpr double kOpaqueDepth = 20.0;
-
-/// A light as the shading loop uses it.
-struct LightData {
-    glm::dvec3 dir;       // unit vector to the disk's centre
-    glm::dvec3 color;     // linear RGB tint of the irradiance
-    glm::dvec3 a, b;      // with dir, an orthonormal basis for sampling the disk
-    double scale;         // E/π: radiance of a white Lambertian facing the light, W/(m²·sr)
-    double cos_half;      // the disk is the cone of directions within acos(cos_half) of dir
-    bool point;           // no disk to sample: every shadow ray would be the same
-};
 
 /// The end of one pixel's path: where it is, which way it left, what it carries.
 struct PathVertex {
@@ -159,31 +147,6 @@ struct AdaptiveFrame {
         : sum(pixels), direct_sum(pixels), disagree(pixels), dust_through(dust ? pixels : 0),
           dust_glow(dust ? pixels : 0) {}
 };
-
-/// The photometric shape of an instance's surface (photometry.h). Lambert's is 1 outright: no
-/// call, and a Lambertian seen past its smooth shading normal's horizon still takes its light.
-double shape_at(const InstanceData& inst, double mu_i, double mu_o, double cos_g) {
-    if (inst.photometry.model == Photometry::Model::Lambert) return 1.0;
-    return photometric_shape(inst.photometry, mu_i, mu_o, cos_g);
-}
-
-std::vector<LightData> light_table(const Lights& lights) {
-    std::vector<LightData> table;
-    auto add = [&](const Sun& l) {
-        if (l.irradiance() <= 0.0) return;  // a dark light adds nothing and traces nothing
-        LightData d;
-        d.dir = l.direction();
-        d.color = l.color();
-        orthonormal_basis(d.dir, d.a, d.b);
-        d.scale = kInvPi * l.irradiance();
-        d.cos_half = l.cos_half_angle();
-        d.point = l.half_angle() == 0.0;
-        table.push_back(d);
-    };
-    add(lights.sun);
-    if (lights.earth) add(*lights.earth);
-    return table;
-}
 
 class TileRenderer {
 public:
@@ -615,14 +578,7 @@ private:
                     if (!v.alive || v.cos_light[l] <= 0.0) continue;
                     glm::dvec3 to_light = light.dir;
                     if (!light.point) {
-                        // Uniform over the disk's solid angle.
-                        const SamplePair q = sample_pair(s.streams[i], point, pair + static_cast<uint32_t>(l));
-                        const double u = q.u;
-                        double cos_phi, sin_phi;
-                        turn_cos_sin(q.v, cos_phi, sin_phi);
-                        const double c = 1.0 - u * (1.0 - light.cos_half);
-                        const double r = std::sqrt(std::max(0.0, 1.0 - c * c));
-                        to_light = c * light.dir + r * (cos_phi * light.a + sin_phi * light.b);
+                        to_light = light.toward(sample_pair(s.streams[i], point, pair + static_cast<uint32_t>(l)));
                         if (glm::dot(v.normal, to_light) <= 0.0) continue;  // below the facet's horizon
                     }
                     set_ray(s.shadow[count], v.lifted, to_light);
@@ -732,15 +688,12 @@ private:
                 continue;
             }
             const InstanceData& inst = m_instances[ray.inst_id];
-            glm::dvec3 normal = inst.normal_to_world * glm::dvec3(ray.ng_x, ray.ng_y, ray.ng_z);
-            const double len = glm::length(normal);
-            if (!(len > 0.0)) {
+            const glm::dvec3 wi = v.wo;
+            glm::dvec3 normal;
+            if (!arrival_normal(inst, ray, wi, normal)) {
                 v.alive = false;
                 continue;
             }
-            normal /= len;
-            const glm::dvec3 wi = v.wo;
-            if (glm::dot(normal, wi) > 0.0) normal = -normal;  // the side the ray arrived from
             v.point += static_cast<double>(ray.tfar) * wi;
             v.normal = normal;
             v.lifted = lift_off(v.point, normal, triangle_reach(inst, ray.prim_id));
