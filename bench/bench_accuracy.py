@@ -95,12 +95,15 @@ KNOBS = {
 }
 # The adaptive curve's reference: the default path tracer converged (two halves, seeds 1 and 2).
 CONVERGED = {"spp": 1024, "halves_seeds": (1, 2)}
-# (spp, adaptive_spp, adaptive_threshold); adaptive_spp 0: brute force, today's path tracer.
+# (spp, adaptive_spp, adaptive_threshold, light_samples); adaptive_spp 0: brute force, today's
+# path tracer. Base spp 1 is the pixel-centre sample, refined where its 3×3 neighbourhood disagrees.
 ADAPTIVE_LEVELS = [
-    (4, 0, 0.25), (8, 0, 0.25), (16, 0, 0.25), (32, 0, 0.25), (64, 0, 0.25),
-    (4, 16, 0.25), (4, 32, 0.25), (4, 64, 0.25),
-    (4, 32, 0.1), (4, 32, 0.5), (4, 32, 1.0),
-    (2, 16, 0.25), (2, 32, 0.25), (8, 64, 0.25),
+    (4, 0, 0.25, 2), (8, 0, 0.25, 2), (16, 0, 0.25, 2), (32, 0, 0.25, 2), (64, 0, 0.25, 2),
+    (4, 16, 0.25, 2), (4, 32, 0.25, 2), (4, 64, 0.25, 2),
+    (4, 32, 0.1, 2), (4, 32, 0.5, 2), (4, 32, 1.0, 2),
+    (2, 16, 0.25, 2), (2, 32, 0.25, 2), (8, 64, 0.25, 2),
+    (2, 16, 0.5, 1),
+    (1, 16, 1.0, 1), (1, 32, 1.0, 1), (1, 16, 0.5, 1), (1, 32, 0.5, 1), (1, 64, 0.5, 1), (1, 32, 0.25, 1),
 ]
 # Sample points on the Sun's disk for the visibility V that defines the region masks.
 SUN_DISK_POINTS = 64
@@ -181,7 +184,9 @@ def converged_reference(config, scene, spec, fresh: bool) -> dict:
     pixel-centre depth, instance labels and Sun visibility: float32/uint8 arrays under the keys
     rgb (H, W, 3), half_difference (H, W, 3: the halves' difference), depth, instance, visibility.
     Cached in build/ under the config's hash."""
-    half = with_render(config, spp=CONVERGED["spp"] // 2, adaptive_spp=0, threads=0)
+    # Pinned, not the config's: the quality knobs' defaults may move without the reference's key.
+    half = with_render(config, spp=CONVERGED["spp"] // 2, adaptive_spp=0, threads=0, adaptive_threshold=0.5,
+                       light_samples=2, indirect="cache")
     key = config_hash(with_render(half, threads=0))[:16]
     path = REFERENCE_CACHE / f"{config.terrain.location}-{config.sun.elevation_deg:g}-{config.camera.width}-{key}.npz"
     if path.exists() and not fresh:
@@ -225,7 +230,7 @@ def region_errors(rgb: np.ndarray, ref: dict, masks: dict[str, np.ndarray]) -> d
 
 
 def adaptive_rows(config, scene, spec, exposure: float, repeats: int, fresh_reference: bool,
-                  indirect: str = "path") -> list[dict]:
+                  indirect: str = "path", levels: list[tuple] = ADAPTIVE_LEVELS) -> list[dict]:
     """The adaptive curve of one scene against its converged reference (module docstring)."""
     location, elevation = config.terrain.location, config.sun.elevation_deg
     start = time.perf_counter()
@@ -240,15 +245,16 @@ def adaptive_rows(config, scene, spec, exposure: float, repeats: int, fresh_refe
     cache = build_light_cache(scene, one_thread)
     if cache is not None:
         render(one_thread, scene, spec, 1, light_cache=cache)  # fills what view 0 touches
-    for spp, cap, threshold in ADAPTIVE_LEVELS:
-        level = with_render(one_thread, spp=spp, adaptive_spp=cap, adaptive_threshold=threshold)
+    for spp, cap, threshold, light_samples in levels:
+        level = with_render(one_thread, spp=spp, adaptive_spp=cap, adaptive_threshold=threshold,
+                            light_samples=light_samples)
         out, seconds = render(level, scene, spec, repeats, full=True, light_cache=cache)
         rgb = out.rgb.astype(np.float64)
         e = errors(rgb, ref["rgb"].astype(np.float64), exposure)
         rays = sum(out.stats[k] for k in ("camera_rays", "second_look_rays", "shadow_rays", "bounce_rays"))
         rows.append({"location": location, "sun_elevation_deg": elevation, "knob": "adaptive",
-                     "level": adaptive_label(spp, cap, threshold), "spp": spp, "adaptive_spp": cap,
-                     "adaptive_threshold": threshold, "seconds": seconds, **e,
+                     "level": adaptive_label(spp, cap, threshold, light_samples), "spp": spp, "adaptive_spp": cap,
+                     "adaptive_threshold": threshold, "light_samples": light_samples, "seconds": seconds, **e,
                      # the error left once the reference's own noise is taken out (they add in squares)
                      "rel_rmse_vs_truth": float(np.sqrt(max(e["rel_rmse"] ** 2 - reference_noise ** 2, 0.0))),
                      "rays": int(rays), "refined_pixels": int(out.stats["refined_pixels"]),
@@ -257,8 +263,9 @@ def adaptive_rows(config, scene, spec, exposure: float, repeats: int, fresh_refe
     return rows
 
 
-def adaptive_label(spp: int, cap: int, threshold: float) -> str:
-    return f"spp {spp}" if cap == 0 else f"{spp}/{cap}/{threshold:g}"
+def adaptive_label(spp: int, cap: int, threshold: float, light_samples: int = 2) -> str:
+    label = f"spp {spp}" if cap == 0 else f"{spp}/{cap}/{threshold:g}"
+    return label if light_samples == 2 else f"{label} ls{light_samples}"
 
 
 def scene_rows(location: str, elevation: float, width: int, repeats: int, knobs: list[str],
@@ -334,10 +341,10 @@ def adaptive_curves(rows: list[dict]) -> dict[str, list]:
     """The adaptive levels grouped into the plot's curves: brute force, then the adaptive levels
     by base spp and threshold (growing cap along each), then by threshold at base 4 cap 32."""
     groups: dict[str, list] = {}
-    for spp, cap, threshold in ADAPTIVE_LEVELS:
+    for spp, cap, threshold, light_samples in ADAPTIVE_LEVELS:
         name = "brute force spp" if cap == 0 else f"adaptive base {spp}, threshold {threshold:g}"
-        groups.setdefault(name, []).append(adaptive_label(spp, cap, threshold))
-    groups["adaptive 4/32, threshold"] = [adaptive_label(4, 32, t) for s, c, t in ADAPTIVE_LEVELS if (s, c) == (4, 32)]
+        groups.setdefault(name, []).append(adaptive_label(spp, cap, threshold, light_samples))
+    groups["adaptive 4/32, threshold"] = [adaptive_label(4, 32, t) for s, c, t, _ in ADAPTIVE_LEVELS if (s, c) == (4, 32)]
     curves = {}
     for name, labels in groups.items():
         points = [p for p in knob_summary(rows, "adaptive", labels)[1]]

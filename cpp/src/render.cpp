@@ -136,16 +136,26 @@ struct TileScratch {
 /// the tiles and read by the second, which refines a pixel where it or one of its eight
 /// neighbours disagrees: a sliver of a pixel that all of its own base samples miss is mostly
 /// caught by a neighbour's along the same edge. Complete before the second pass starts, so the
-/// decisions are the same whatever tile a thread took.
+/// decisions are the same whatever tile a thread took. With one base sample (the pixel-centre
+/// ray) a pixel has nothing of its own to compare: its 3×3 neighbourhood's centre samples are
+/// compared instead, from the `centre` record.
 struct AdaptiveFrame {
-    std::vector<glm::dvec3> sum, direct_sum;  // over the base samples: radiance, and its direct part
-    std::vector<uint8_t> disagree;            // SampleAgreement::disagree, 0 or 1
+    /// One pixel's centre sample, as SampleAgreement::add takes it (spp 1 only).
+    struct CentreSample {
+        uint32_t hit;           // the instance hit, or SampleAgreement::kSky
+        uint16_t sun_escaped;   // its Sun shadow rays that escaped ...
+        uint16_t sun_hidden;    // ... and those blocked or below the facet's horizon
+        double luminance;       // of its direct light, W/(m²·sr)
+    };
+    std::vector<glm::dvec3> sum, direct_sum;  // over the base samples (spp >= 2): radiance, and its direct part
+    std::vector<uint8_t> disagree;            // SampleAgreement::disagree, 0 or 1 (spp >= 2)
+    std::vector<CentreSample> centre;         // spp 1 only
     std::vector<double> dust_through;         // with dust only: the pixel's transmittance ...
     std::vector<glm::dvec3> dust_glow;        // ... and glow (TileScratch), applied after refining
 
-    AdaptiveFrame(size_t pixels, bool dust)
-        : sum(pixels), direct_sum(pixels), disagree(pixels), dust_through(dust ? pixels : 0),
-          dust_glow(dust ? pixels : 0) {}
+    AdaptiveFrame(size_t pixels, bool centre_only, bool dust)
+        : sum(centre_only ? 0 : pixels), direct_sum(centre_only ? 0 : pixels), disagree(centre_only ? 0 : pixels),
+          centre(centre_only ? pixels : 0), dust_through(dust ? pixels : 0), dust_glow(dust ? pixels : 0) {}
 };
 
 class TileRenderer {
@@ -195,6 +205,20 @@ public:
         if (m_medium) march_dust(x0, y0, tw, n, s);
         if (m_settings.spp == 1) {
             shade(n, s, stats, 0, /*indirect=*/true);
+            if (m_adaptive) {
+                AdaptiveFrame& a = *m_adaptive;
+                for (int y = y0, i = 0; y < y1; ++y)
+                    for (int x = x0; x < x1; ++x, ++i) {
+                        const size_t k = index(x, y);
+                        const PixelHit& h = s.hits.pixel(i);
+                        a.centre[k] = {h.hit ? s.hits.record(h).instance : SampleAgreement::kSky,
+                                       static_cast<uint16_t>(s.sun_escaped[i]), static_cast<uint16_t>(s.sun_hidden[i]),
+                                       luminance(s.direct[i])};
+                        if (!m_medium) continue;
+                        a.dust_through[k] = s.dust_through[i];
+                        a.dust_glow[k] = s.dust_glow[i];
+                    }
+            }
         } else {
             const bool adaptive = m_adaptive != nullptr;
             std::array<glm::dvec3, kTilePixels> sum, direct_sum;
@@ -240,38 +264,53 @@ public:
     }
 
     /// Adaptive anti-aliasing's second pass over the tile [x0, x1) × [y0, y1), once every tile's
-    /// base samples are in (AdaptiveFrame): each pixel where it or a neighbour disagrees gets
-    /// samples spp .. adaptive_spp − 1 of direct light alone, and its rgb becomes the split
-    /// estimator (render.h). The other pixels keep what the first pass wrote.
+    /// base samples are in (AdaptiveFrame). With spp ≥ 2 base samples, each pixel where it or a
+    /// neighbour disagrees gets samples spp .. adaptive_spp − 1 of direct light alone, and its rgb
+    /// becomes the split estimator (render.h). With one (the centre sample), each pixel whose 3×3
+    /// neighbourhood's centre samples disagree gets adaptive_spp jittered samples of its whole
+    /// radiance in place of the centre's. The other pixels keep what the first pass wrote.
     void refine_tile(int x0, int y0, int x1, int y1, TileScratch& s, RenderStats& stats) const {
         const AdaptiveFrame& a = *m_adaptive;
         const int tw = x1 - x0, w = m_camera.width(), h = m_camera.height();
+        const int base = m_settings.spp, total = m_settings.adaptive_spp;
         int count = 0;
         for (int y = y0, i = 0; y < y1; ++y)
             for (int x = x0; x < x1; ++x, ++i) {
                 bool refine = false;
+                SampleAgreement neighbourhood;
+                int samples = 0;
                 for (int ny = std::max(y - 1, 0); ny <= std::min(y + 1, h - 1) && !refine; ++ny)
-                    for (int nx = std::max(x - 1, 0); nx <= std::min(x + 1, w - 1) && !refine; ++nx)
-                        refine = a.disagree[index(nx, ny)] != 0;
+                    for (int nx = std::max(x - 1, 0); nx <= std::min(x + 1, w - 1) && !refine; ++nx) {
+                        if (base >= 2) {
+                            refine = a.disagree[index(nx, ny)] != 0;
+                            continue;
+                        }
+                        const AdaptiveFrame::CentreSample& c = a.centre[index(nx, ny)];
+                        neighbourhood.add(samples++, c.hit, c.sun_escaped, c.sun_hidden, c.luminance);
+                    }
+                if (base == 1) refine = neighbourhood.disagree(samples, m_settings.adaptive_threshold);
                 if (!refine) continue;
                 s.refined[count] = i;
                 s.streams[count++] = pixel_stream(m_settings.seed, index(x, y));
             }
         if (count == 0) return;
-        const int base = m_settings.spp, total = m_settings.adaptive_spp;
         const uint64_t rays_before = stats.camera_rays + stats.second_look_rays + stats.shadow_rays;
         std::array<glm::dvec3, kTilePixels> extra;
         std::fill_n(extra.begin(), count, glm::dvec3(0.0));
-        for (int sample = base; sample < total; ++sample) {
+        // Over one centre sample: all of the pixel's samples anew, indirect light included (the
+        // cache's costs no ray); over more: the samples past them, direct light alone.
+        const bool whole = base == 1;
+        for (int sample = whole ? 0 : base; sample < total; ++sample) {
             trace(x0, y0, tw, count, s, stats, sample, s.refined.data());
-            shade(count, s, stats, static_cast<uint32_t>(sample), /*indirect=*/false);
-            for (int j = 0; j < count; ++j) extra[j] += s.direct[j];
+            shade(count, s, stats, static_cast<uint32_t>(sample), /*indirect=*/whole);
+            for (int j = 0; j < count; ++j) extra[j] += whole ? s.radiance[j] : s.direct[j];
         }
         for (int j = 0; j < count; ++j) {
             const int i = s.refined[j];
             const size_t k = index(x0 + i % tw, y0 + i / tw);
-            glm::dvec3 radiance =
-                (a.sum[k] - a.direct_sum[k]) / double(base) + (a.direct_sum[k] + extra[j]) / double(total);
+            glm::dvec3 radiance = whole ? extra[j] / double(total)
+                                        : (a.sum[k] - a.direct_sum[k]) / double(base) +
+                                              (a.direct_sum[k] + extra[j]) / double(total);
             if (m_medium) radiance = radiance * a.dust_through[k] + a.dust_glow[k];
             for (int c = 0; c < 3; ++c) m_out.rgb[3 * k + c] = static_cast<float>(radiance[c]);
         }
@@ -771,9 +810,6 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
             throw std::invalid_argument("adaptive_spp: must be 0 (off) or in spp + 1.." + std::to_string(kMaxSpp) +
                                         " = " + std::to_string(settings.spp + 1) + ".." + std::to_string(kMaxSpp) +
                                         ", got " + std::to_string(settings.adaptive_spp));
-        if (settings.spp < 2)
-            throw std::invalid_argument("adaptive_spp: needs spp >= 2 base samples to compare, got spp " +
-                                        std::to_string(settings.spp));
     }
     if (!(settings.adaptive_threshold >= 0.0) || !std::isfinite(settings.adaptive_threshold))
         throw std::invalid_argument("adaptive_threshold: must be a finite number >= 0, got " +
@@ -796,9 +832,9 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     tbb::task_arena arena(settings.threads > 0 ? settings.threads : tbb::task_arena::automatic);
     if (medium && !medium->puffs.empty() && out.rgb)
         arena.execute([&] { dust.emplace(*medium, scene, lights.sun.direction()); });
-    // Adaptive anti-aliasing (rgb only, spp >= 2 checked above): a second pass refines.
+    // Adaptive anti-aliasing (rgb only): a second pass refines.
     std::optional<AdaptiveFrame> adaptive;
-    if (settings.adaptive_spp > 0 && out.rgb) adaptive.emplace(static_cast<size_t>(w) * h, dust.has_value());
+    if (settings.adaptive_spp > 0 && out.rgb) adaptive.emplace(static_cast<size_t>(w) * h, settings.spp == 1, dust.has_value());
     const TileRenderer tiles(scene, camera, lights, settings, out, dust ? &*dust : nullptr, light_cache,
                              adaptive ? &*adaptive : nullptr);
     std::atomic<uint64_t> camera_rays{0}, second_look_rays{0}, shadow_rays{0}, bounce_shadow_rays{0}, bounce_rays{0},

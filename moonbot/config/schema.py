@@ -550,12 +550,13 @@ class RenderConfig:
     bounces: int = field(default=2, metadata=spec(
         "diffuse inter-reflections lighting the shadows (0 = direct sunlight only)", lo=0, hi=16))
     adaptive_spp: int = field(default=32, metadata=spec(
-        "adaptive anti-aliasing: the samples a pixel gets (those past spp: direct light only) when its "
-        "spp base samples (or a neighbour's) disagree in hit instance, Sun visibility or direct luminance; "
-        "off where it is 0, not above spp, or spp < 2 (nothing to compare)", lo=0, hi=65536))
+        "adaptive anti-aliasing: the samples a pixel gets when its spp base samples (or a neighbour's; with "
+        "spp 1 the pixel-centre samples of its 3x3 neighbourhood) disagree in hit instance, Sun visibility "
+        "or direct luminance; past spp >= 2 they carry direct light only, over spp 1 the whole radiance; "
+        "off where it is 0 or not above spp", lo=0, hi=65536))
     adaptive_threshold: float = field(default=0.5, metadata=spec(
-        "spread (max - min) of direct luminance over a pixel's base samples, relative to their mean, "
-        "above which adaptive_spp refines it", lo=0.0, hi=1000.0))
+        "spread (max - min) of direct luminance over the samples compared (adaptive_spp), relative to "
+        "their mean, above which adaptive_spp refines a pixel", lo=0.0, hi=1000.0))
     indirect: Literal["path", "cache"] = field(default="cache", metadata=spec(
         "how a pixel's first hit gets its indirect light: path = its own bounce paths (the reference); "
         "cache = a per-task world-space cache of indirect irradiance per vertex of the static scene, "
@@ -580,9 +581,9 @@ class RenderConfig:
 
     @property
     def refinement_spp(self) -> int:
-        """adaptive_spp where it applies (above spp, and spp >= 2 base samples to compare), else 0:
-        a render asked for many uniform samples, or for the one pixel-centre sample, refines nothing."""
-        return self.adaptive_spp if self.spp >= 2 and self.adaptive_spp > self.spp else 0
+        """adaptive_spp where it applies (above spp), else 0: a render asked for at least as many
+        uniform samples refines nothing."""
+        return self.adaptive_spp if self.adaptive_spp > self.spp else 0
 
 
 @dataclass(frozen=True)
