@@ -302,7 +302,7 @@ public:
         const bool whole = base == 1;
         for (int sample = whole ? 0 : base; sample < total; ++sample) {
             trace(x0, y0, tw, count, s, stats, sample, s.refined.data());
-            shade(count, s, stats, static_cast<uint32_t>(sample), /*indirect=*/whole);
+            shade(count, s, stats, static_cast<uint32_t>(sample), /*indirect=*/whole, /*refining=*/!whole);
             for (int j = 0; j < count; ++j) extra[j] += whole ? s.radiance[j] : s.direct[j];
         }
         for (int j = 0; j < count; ++j) {
@@ -346,8 +346,12 @@ private:
     }
 
     /// The radiance of the n resolved camera hits for one sample: the lights at the hit (also
-    /// kept apart in `direct` when adaptive_spp > 0), then, with `indirect`, the indirect light (add_indirect).
-    void shade(int n, TileScratch& s, RenderStats& stats, uint32_t sample, bool indirect) const {
+    /// kept apart in `direct` when adaptive_spp > 0), then, with `indirect`, the indirect light
+    /// (add_indirect). `refining`: a refinement sample past spp ≥ 2 base samples, which casts one
+    /// Sun-disk ray (the many samples of a refined pixel spread over the disk among them), at the
+    /// points of the disk's sequence after the base samples' spp·light_samples.
+    void shade(int n, TileScratch& s, RenderStats& stats, uint32_t sample, bool indirect,
+               bool refining = false) const {
         std::fill_n(s.radiance.begin(), n, glm::dvec3(0.0));
         if (m_settings.adaptive_spp > 0) {
             // Where no light shines (or not the Sun), nothing below writes them.
@@ -384,7 +388,10 @@ private:
             for (size_t l = 1; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(v.normal, m_lights[l].dir);
             if (m_medium && m_sun) s.sun_dust[i] = m_medium->sun_transmittance(v.point);
         }
-        light_vertices(n, s, stats, sample, m_settings.light_samples, kPairLight,
+        const uint32_t base = static_cast<uint32_t>(m_settings.spp);
+        light_vertices(n, s, stats,
+                       refining ? base * static_cast<uint32_t>(m_settings.light_samples) + sample - base : sample,
+                       refining ? 1 : m_settings.light_samples, kPairLight,
                        m_medium && m_sun ? s.sun_dust.data() : nullptr, /*camera_hits=*/true);
         if (m_settings.adaptive_spp > 0) std::copy_n(s.radiance.begin(), n, s.direct.begin());
         if (indirect) add_indirect(n, s, stats, sample);
