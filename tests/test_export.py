@@ -162,6 +162,48 @@ def test_scene_gt_coco_loads_in_pycocotools_and_matches_the_masks(dataset):
     assert occluded and cut  # the smoke scenes exercise occlusion and the image border
 
 
+def test_scene_coco_on_a_hand_made_scene(tmp_path):
+    """calc_gt_coco's rules where the smoke scenes do not reach them: an instance under 10 %
+    visible is `ignore`, one with no visible pixel has no annotation and takes no id, a mask with
+    its first pixel set starts its RLE with a 0 run, a JPEG rgb is named as it is."""
+    from moonbot.export import scene_coco
+
+    scene = tmp_path / "000007"
+    for sub in ("rgb", "mask", "mask_visib"):
+        (scene / sub).mkdir(parents=True)
+    visible = np.zeros((4, 5), np.uint8)
+    visible[0:2, 0] = 255  # column 0, rows 0-1: RLE 0, 2, 18
+    amodal = visible.copy()
+    amodal[0:3, 0:4] = 255  # x 0-3, y 0-2: bbox [0, 0, 4, 3]
+    Image.fromarray(visible).save(scene / "mask_visib" / "000000_000000.png")
+    Image.fromarray(amodal).save(scene / "mask" / "000000_000000.png")
+    Image.fromarray(np.zeros((4, 5), np.uint8)).save(scene / "mask_visib" / "000000_000001.png")
+    Image.fromarray(amodal).save(scene / "mask" / "000000_000001.png")
+    Image.fromarray(amodal).save(scene / "mask_visib" / "000003_000000.png")
+    Image.fromarray(amodal).save(scene / "mask" / "000003_000000.png")
+    (scene / "rgb" / "000000.png").write_bytes(b"")
+    (scene / "rgb" / "000003.jpg").write_bytes(b"")
+    pose = {"cam_R_m2c": [1, 0, 0, 0, 1, 0, 0, 0, 1], "cam_t_m2c": [0, 0, 500]}
+    (scene / "scene_gt.json").write_text(json.dumps({"0": [{"obj_id": 2, **pose}, {"obj_id": 1, **pose}],
+                                                     "3": [{"obj_id": 1, **pose}]}))
+    (scene / "scene_gt_info.json").write_text(json.dumps({"0": [{"visib_fract": 0.05}, {"visib_fract": 0.0}],
+                                                          "3": [{"visib_fract": 1.0}]}))
+    coco = scene_coco(scene, "lunar", "train_pbr", [1, 2], (5, 4))
+    assert coco["info"]["description"] == "lunar_train" and coco["categories"][1]["supercategory"] == "lunar"
+    assert [(i["id"], i["file_name"]) for i in coco["images"]] == [(0, "rgb/000000.png"), (3, "rgb/000003.jpg")]
+    first, second = coco["annotations"]
+    assert first == {"id": 1, "image_id": 0, "category_id": 2, "iscrowd": 0, "area": 2, "bbox": [0, 0, 4, 3],
+                     "segmentation": {"counts": [0, 2, 18], "size": [4, 5]}, "width": 5, "height": 4,
+                     "ignore": True}
+    assert (second["id"], second["image_id"], second["category_id"], second["area"], second["ignore"]) == \
+        (2, 3, 1, 12, False)
+    (scene / "mask" / "000003_000000.png").unlink()
+    with pytest.raises(ExportError, match="000003_000000.png: missing"):
+        scene_coco(scene, "lunar", "train_pbr", [1, 2], (5, 4))
+    with pytest.raises(ExportError, match="4, 5"):
+        scene_coco(scene, "lunar", "train_pbr", [1, 2], (6, 4))
+
+
 # ---------------------------------------------------------------------------------------------
 # One COCO file per split
 
@@ -335,3 +377,19 @@ def test_scene_gt_coco_is_what_bop_toolkit_computes(dataset, tmp_path):
         path = tmp_path / f"{scene.split}_{scene.scene_id}.json"
         inout.save_json(str(path), output)
         assert path.read_bytes() == (scene.path / SCENE_COCO).read_bytes()
+
+
+def test_shards_load_with_bop_toolkits_reader(dataset, tmp_path):
+    bop_webdataset = pytest.importorskip("bop_toolkit_lib.dataset.bop_webdataset")
+    write_shards(dataset, tmp_path, shard_size=4)
+    for scene in dataset_scenes(dataset):
+        folder = tmp_path / f"{scene.split}_web"
+        key_to_shard = load(folder / "key_to_shard.json")
+        for im, k, obj_id, _, visible, amodal in instances(scene.path):
+            key = f"{scene.scene_id:06d}_{im:06d}"
+            data = bop_webdataset.load_image_data(folder / f"shard-{key_to_shard[key]:06d}.tar", key, load_mask=True,
+                                                  load_gt=True, load_gt_info=True, rgb_suffix=".png")
+            assert np.array_equal(data["im_rgb"], png(scene.path / "rgb" / f"{im:06d}.png"))
+            assert data["gt"][k]["obj_id"] == obj_id
+            assert np.array_equal(data["mask_visib"][k].astype(bool), visible)
+            assert np.array_equal(data["mask"][k].astype(bool), amodal)
