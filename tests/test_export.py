@@ -11,6 +11,8 @@ import gc
 import hashlib
 import json
 import shutil
+import subprocess
+import sys
 import tarfile
 import warnings
 from pathlib import Path
@@ -85,6 +87,13 @@ def instances(scene: Path):
 
 # ---------------------------------------------------------------------------------------------
 # RLE and the toolkit's JSON layout
+
+
+def test_the_package_imports_first_or_after_moonbot_bop():
+    for first in ("moonbot.export", "moonbot.bop"):
+        run = subprocess.run([sys.executable, "-c", f"import {first}, moonbot.export, moonbot.bop"],
+                             capture_output=True, text=True)
+        assert run.returncode == 0, run.stderr
 
 
 def test_rle_of_a_small_mask_by_hand():
