@@ -233,6 +233,9 @@ def split_coco(dataset: Path, split: str, facts: DatasetFacts | None = None,
     for scene in found:
         prefix = scene.path.relative_to(dataset).as_posix()
         for im_id, annotations in _scene_annotations(scene.path, facts.width, facts.height):
+            if not 0 <= im_id < IMAGE_ID_STRIDE:
+                raise ExportError(f"{scene.path / 'scene_gt.json'}: image id {im_id} is not a BOP image id "
+                                  f"(0 to {IMAGE_ID_STRIDE - 1})")
             image_id = scene.scene_id * IMAGE_ID_STRIDE + im_id
             image = _image_info(image_id, f"{prefix}/{rgb_name(scene.path, im_id)}", facts.width, facts.height)
             coco["images"].append({**image, "scene_id": scene.scene_id, "im_id": im_id})
