@@ -333,6 +333,52 @@ def merge(out_dir: Path, dataset_dir: Path | None, config_path: Path | None, lin
         click.get_current_context().exit(EXIT_INCOMPLETE)
 
 
+@main.group("export")
+def export() -> None:
+    """A merged dataset in other tools' formats: COCO files per split, BOP-webdataset shards."""
+
+
+@export.command("coco")
+@click.argument("dataset", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), required=True,
+              help="Folder for instances_<split>.json (file names in them are relative to DATASET).")
+def export_coco(dataset: Path, out_dir: Path) -> None:
+    """One COCO instance-segmentation file per split of DATASET (visible masks as RLE, amodal
+    boxes, categories = obj_ids), for detectron2 or mmdetection with DATASET as image root."""
+    from moonbot.bop.reader import DatasetError
+    from moonbot.export.coco import ExportError, write_split_cocos
+
+    try:
+        written = write_split_cocos(dataset, out_dir)
+    except (DatasetError, ExportError, OSError) as e:
+        raise click.ClickException(str(e)) from None
+    for split, path in written.items():
+        click.echo(f"{split}: {path}")
+
+
+@export.command("shards")
+@click.argument("dataset", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), required=True,
+              help="Folder for <split>_web/ (shard-NNNNNN.tar and key_to_shard.json), each replaced whole.")
+@click.option("--shard-size", type=click.IntRange(min=1), default=1000, show_default=True,
+              help="Images per shard.")
+@click.option("--shuffle-seed", type=click.IntRange(min=0, max=2**32 - 1), default=None,
+              help="Shuffle the images across shards with this seed (default: dataset order).")
+def export_shards(dataset: Path, out_dir: Path, shard_size: int, shuffle_seed: int | None) -> None:
+    """BOP-webdataset shards of every split of DATASET, as bop_toolkit's bop_webdataset reads them
+    (rgb.png: pass rgb_suffix=".png")."""
+    from moonbot.bop.reader import DatasetError
+    from moonbot.export.coco import ExportError
+    from moonbot.export.webdataset import write_shards
+
+    try:
+        written = write_shards(dataset, out_dir, shard_size, shuffle_seed)
+    except (DatasetError, ExportError, OSError) as e:
+        raise click.ClickException(str(e)) from None
+    for split in written:
+        click.echo(f"{split.split}: {split.images} images in {split.shards} shards -> {split.folder}")
+
+
 @main.command("baseline")
 @click.argument("dataset", type=click.Path(file_okay=False, exists=True, path_type=Path))
 @click.option("--split", default="test", show_default=True, help="The split whose instances to estimate.")

@@ -132,7 +132,8 @@ def test_tree_is_complete_and_nothing_else(dataset):
                 "models/models_info.json", "models_eval/models_info.json"}
     expected |= {f"{d}/obj_{k:06d}.ply" for d in ("models", "models_eval") for k in (1, 2, 3)}
     for scene, images, bags in ((TRAIN, 4, 2), (TEST, 2, 1)):
-        expected |= {f"{scene}/{name}.json" for name in ("scene_gt", "scene_camera", "scene_gt_info", "scene_meta")}
+        expected |= {f"{scene}/{name}.json" for name in ("scene_gt", "scene_camera", "scene_gt_info", "scene_meta",
+                                                         "scene_gt_coco")}
         for im in range(images):
             expected |= {f"{scene}/rgb/{im:06d}.png", f"{scene}/rgb_exr/{im:06d}.exr",
                          f"{scene}/depth/{im:06d}.png", f"{scene}/depth_npy/{im:06d}.npy",

@@ -12,6 +12,7 @@ interrupted merge leaves the previous dataset (or nothing) and never half of one
         mask/IIIIII_KKKKKK.png        the instance alone (amodal), 0/255
         mask_visib/IIIIII_KKKKKK.png  its visible part, 0/255
         scene_gt.json  scene_camera.json  scene_gt_info.json  scene_meta.json
+        scene_gt_coco.json            bop_toolkit calc_gt_coco's COCO annotations (moonbot.export.coco)
       yolo/detect/  data.yaml  images/<split>/<name>.png  labels/<split>/<name>.txt   (boxes)
       yolo/segment/ data.yaml  images/<split>/<name>.png  labels/<split>/<name>.txt   (polygons)
 
@@ -56,6 +57,7 @@ from moonbot.bop.models import write_models
 from moonbot.config import Config, config_hash
 from moonbot.config.load import from_mapping
 from moonbot.config.schema import MeshesConfig
+from moonbot.export.coco import SCENE_COCO, scene_gt_coco_bytes
 from moonbot.scene.bag_mesh import VARIANTS, variant_meshes
 from moonbot.writer.checksum import file_sha256
 from moonbot.writer.sheet import colour_mask
@@ -390,6 +392,9 @@ def _build_scene(job: _SceneJob) -> _SceneOutput:
     _put_bytes(root, f"{job.rel}/scene_gt_info.json", dumps_scene_json(scene_gt_info), entries)
     _put_bytes(root, f"{job.rel}/scene_camera.json", dumps_scene_json(scene_camera), entries)
     _put_bytes(root, f"{job.rel}/scene_meta.json", dumps_json(meta), entries)
+    coco = scene_gt_coco_bytes(scene_root, "moonbot", shared["split"], sorted(VARIANTS),
+                               (camera["width"], camera["height"]))
+    _put_bytes(root, f"{job.rel}/{SCENE_COCO}", coco, entries)
     return _SceneOutput(job.rel, entries, yolo, len(scene_gt), instances_total, outside_total, camera or {},
                         shared["split"], [t.task_id for t in job.scene.tasks],
                         [str(t.record.get("moonbot_version", "unknown")) for t in job.scene.tasks])
