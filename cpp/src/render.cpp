@@ -125,6 +125,7 @@ struct TileScratch {
     std::array<int, kTilePixels> sun_hidden;     // ... and those blocked or below the facet's horizon
     std::array<SampleAgreement, kTilePixels> agreement;
     std::array<int, kTilePixels> refined;        // the tile's pixels that get more samples
+    std::array<int, kTilePixels> sun_rays;       // of a refinement sample: its Sun-disk rays, per refined pixel
     // Dust, used only when the render has a medium:
     std::array<double, kTilePixels> sun_dust;       // transmittance toward the Sun at each first hit
     std::array<double, kTilePixels> dust_through;   // transmittance from the camera to the hit
@@ -148,7 +149,7 @@ struct AdaptiveFrame {
         double luminance;       // of its direct light, W/(m²·sr)
     };
     std::vector<glm::dvec3> sum, direct_sum;  // over the base samples (spp >= 2): radiance, and its direct part
-    std::vector<uint8_t> disagree;            // SampleAgreement::disagree, 0 or 1 (spp >= 2)
+    std::vector<uint8_t> disagree;            // spp >= 2: bit 0 SampleAgreement::disagree, bit 1 its Sun rays partly escape
     std::vector<CentreSample> centre;         // spp 1 only
     std::vector<double> dust_through;         // with dust only: the pixel's transmittance ...
     std::vector<glm::dvec3> dust_glow;        // ... and glow (TileScratch), applied after refining
@@ -247,7 +248,10 @@ public:
                         const size_t k = index(x, y);
                         a.sum[k] = sum[i];
                         a.direct_sum[k] = direct_sum[i];
-                        a.disagree[k] = s.agreement[i].disagree(m_settings.spp, m_settings.adaptive_threshold);
+                        const SampleAgreement& agreement = s.agreement[i];
+                        a.disagree[k] = static_cast<uint8_t>(
+                            (agreement.disagree(m_settings.spp, m_settings.adaptive_threshold) ? 1 : 0) |
+                            (agreement.sun_escaped > 0 && agreement.sun_hidden > 0 ? 2 : 0));
                         if (!m_medium) continue;
                         a.dust_through[k] = s.dust_through[i];
                         a.dust_glow[k] = s.dust_glow[i];
@@ -276,13 +280,14 @@ public:
         int count = 0;
         for (int y = y0, i = 0; y < y1; ++y)
             for (int x = x0; x < x1; ++x, ++i) {
-                bool refine = false;
+                bool refine = false, penumbra = false;
                 SampleAgreement neighbourhood;
                 int samples = 0;
-                for (int ny = std::max(y - 1, 0); ny <= std::min(y + 1, h - 1) && !refine; ++ny)
-                    for (int nx = std::max(x - 1, 0); nx <= std::min(x + 1, w - 1) && !refine; ++nx) {
+                for (int ny = std::max(y - 1, 0); ny <= std::min(y + 1, h - 1); ++ny)
+                    for (int nx = std::max(x - 1, 0); nx <= std::min(x + 1, w - 1); ++nx) {
                         if (base >= 2) {
-                            refine = a.disagree[index(nx, ny)] != 0;
+                            refine = refine || (a.disagree[index(nx, ny)] & 1) != 0;
+                            penumbra = penumbra || (a.disagree[index(nx, ny)] & 2) != 0;
                             continue;
                         }
                         const AdaptiveFrame::CentreSample& c = a.centre[index(nx, ny)];
@@ -290,6 +295,10 @@ public:
                     }
                 if (base == 1) refine = neighbourhood.disagree(samples, m_settings.adaptive_threshold);
                 if (!refine) continue;
+                // In a penumbra (its own or a neighbour's base samples' Sun rays partly escape) a
+                // refinement sample keeps light_samples rays: there the disk's visibility is what
+                // varies. Elsewhere the many samples spread one ray each over the disk.
+                s.sun_rays[count] = penumbra ? m_settings.light_samples : 1;
                 s.refined[count] = i;
                 s.streams[count++] = pixel_stream(m_settings.seed, index(x, y));
             }
@@ -347,9 +356,8 @@ private:
 
     /// The radiance of the n resolved camera hits for one sample: the lights at the hit (also
     /// kept apart in `direct` when adaptive_spp > 0), then, with `indirect`, the indirect light
-    /// (add_indirect). `refining`: a refinement sample past spp ≥ 2 base samples, which casts one
-    /// Sun-disk ray (the many samples of a refined pixel spread over the disk among them), at the
-    /// points of the disk's sequence after the base samples' spp·light_samples.
+    /// (add_indirect). `refining`: a refinement sample past spp ≥ 2 base samples, which casts
+    /// TileScratch::sun_rays Sun-disk rays per pixel (light_vertices).
     void shade(int n, TileScratch& s, RenderStats& stats, uint32_t sample, bool indirect,
                bool refining = false) const {
         std::fill_n(s.radiance.begin(), n, glm::dvec3(0.0));
@@ -388,11 +396,9 @@ private:
             for (size_t l = 1; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(v.normal, m_lights[l].dir);
             if (m_medium && m_sun) s.sun_dust[i] = m_medium->sun_transmittance(v.point);
         }
-        const uint32_t base = static_cast<uint32_t>(m_settings.spp);
-        light_vertices(n, s, stats,
-                       refining ? base * static_cast<uint32_t>(m_settings.light_samples) + sample - base : sample,
-                       refining ? 1 : m_settings.light_samples, kPairLight,
-                       m_medium && m_sun ? s.sun_dust.data() : nullptr, /*camera_hits=*/true);
+        light_vertices(n, s, stats, sample, m_settings.light_samples, kPairLight,
+                       m_medium && m_sun ? s.sun_dust.data() : nullptr, /*camera_hits=*/true,
+                       refining ? s.sun_rays.data() : nullptr);
         if (m_settings.adaptive_spp > 0) std::copy_n(s.radiance.begin(), n, s.direct.begin());
         if (indirect) add_indirect(n, s, stats, sample);
     }
@@ -606,24 +612,34 @@ private:
     /// vertex weighted by its path throughput (and the Sun's by `sun_dust`, the dust's
     /// transmittance toward it, per pixel, where given). `camera_hits`: the vertices are the
     /// camera rays' hits; else a bounce's, scattered over the scene, whose shadow rays are
-    /// counted apart (bounce_shadow_rays).
+    /// counted apart (bounce_shadow_rays). `sun_rays` (refinement samples past the spp base
+    /// samples only): the Sun's rays per vertex, R_i ≤ `samples`, at points
+    /// spp·samples + (sample − spp)·R_i + k of its sequence, past the base samples' (with R_i =
+    /// `samples` the points sample·R_i + k as above).
     void light_vertices(int n, TileScratch& s, RenderStats& stats, uint32_t sample, int samples,
-                        uint32_t pair, const double* sun_dust, bool camera_hits) const {
+                        uint32_t pair, const double* sun_dust, bool camera_hits,
+                        const int* sun_rays = nullptr) const {
+        const auto base = static_cast<uint32_t>(m_settings.spp);
         for (size_t l = 0; l < m_lights.size(); ++l) {
             const LightData& light = m_lights[l];
             // The Earth's light is ~1e-4 of the Sun's: one shadow ray toward its disk leaves noise
             // far below the Sun's, so only the Sun gets `samples`.
-            const int rays_per_vertex = light.point || l > 0 ? 1 : samples;
+            const int most = light.point || l > 0 ? 1 : samples;
+            const bool per_pixel = sun_rays != nullptr && most > 1;
+            auto rays_of = [&](int i) { return per_pixel ? sun_rays[i] : most; };
             std::fill_n(s.visible.begin(), n, 0);
-            for (int k = 0; k < rays_per_vertex; ++k) {
-                // Consecutive points of the light's sequence: stratified over all the pixel's rays to it.
-                const uint32_t point = sample * static_cast<uint32_t>(rays_per_vertex) + static_cast<uint32_t>(k);
+            for (int k = 0; k < most; ++k) {
                 int count = 0;
                 for (int i = 0; i < n; ++i) {
                     const PathVertex& v = s.path[i];
-                    if (!v.alive || v.cos_light[l] <= 0.0) continue;
+                    if (!v.alive || v.cos_light[l] <= 0.0 || k >= rays_of(i)) continue;
                     glm::dvec3 to_light = light.dir;
                     if (!light.point) {
+                        // Consecutive points of the light's sequence: stratified over all the pixel's rays to it.
+                        const auto rays = static_cast<uint32_t>(rays_of(i));
+                        const uint32_t point = per_pixel ? base * static_cast<uint32_t>(most) + (sample - base) * rays +
+                                                               static_cast<uint32_t>(k)
+                                                         : sample * rays + static_cast<uint32_t>(k);
                         to_light = light.toward(sample_pair(s.streams[i], point, pair + static_cast<uint32_t>(l)));
                         if (glm::dot(v.normal, to_light) <= 0.0) continue;  // below the facet's horizon
                     }
@@ -643,7 +659,7 @@ private:
                 for (int i = 0; i < n; ++i) {
                     const bool faces = s.path[i].alive && s.path[i].cos_light[l] > 0.0;
                     s.sun_escaped[i] = faces ? s.visible[i] : 0;
-                    s.sun_hidden[i] = faces ? rays_per_vertex - s.visible[i] : 0;
+                    s.sun_hidden[i] = faces ? rays_of(i) - s.visible[i] : 0;
                 }
             }
             for (int i = 0; i < n; ++i) {
@@ -660,11 +676,11 @@ private:
                     // The cloth's (1 − s)·albedo/π·shape + s·f_sheen.
                     const glm::dvec3 brdf = (1.0 - v.sheen) * v.albedo * shape + glm::dvec3(v.sheen * sheen_weight(v, light.dir));
                     s.radiance[i] += (brdf * (light.scale * mu_i)) *
-                                     ((double(s.visible[i]) / rays_per_vertex) * dust) * light.color * v.throughput;
+                                     ((double(s.visible[i]) / rays_of(i)) * dust) * light.color * v.throughput;
                     continue;
                 }
                 s.radiance[i] += (v.albedo * (light.scale * mu_i)) *
-                                 (shape * (double(s.visible[i]) / rays_per_vertex) * dust) * light.color * v.throughput;
+                                 (shape * (double(s.visible[i]) / rays_of(i)) * dust) * light.color * v.throughput;
             }
         }
     }
