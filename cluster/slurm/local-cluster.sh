@@ -14,9 +14,9 @@
 # The node is this machine as `slurmd -C` sees it (CPUs, RealMemory), in partition `local`.
 # Processes are tracked by their parent-child links (proctrack/linuxproc) and not bound to CPUs
 # (task/none), so a job sees every CPU of the machine whatever it booked. The daemons run as the
-# user who starts them: root runs jobs for anyone; another user runs only their own jobs (where
-# their slurmstepd can set its own uid). Bounds: START_LIMIT_S (default 60) for the node to come
-# up; STOP_LIMIT_S (default 60) for the jobs to end before they are killed.
+# user who starts them (SlurmUser): root's cluster runs anyone's jobs, another user's only their
+# own. Bounds: START_LIMIT_S (default 60) for the node to come up; STOP_LIMIT_S (default 60) for
+# the jobs to end before they are killed.
 set -euo pipefail
 
 START_LIMIT_S=${START_LIMIT_S:-60}
