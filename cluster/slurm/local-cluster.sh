@@ -42,9 +42,13 @@ install() {
         slurmctld slurmd slurm-client munge
 }
 
-# free_port: a TCP port nothing listens on now (the kernel's choice for port 0).
-free_port() {
-    python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'
+# free_ports N: N distinct TCP ports nothing listens on now (the kernel's choices for port 0, all
+# held at once so that none is chosen twice).
+free_ports() {
+    python3 -c 'import socket, sys
+held = [socket.socket() for _ in range(int(sys.argv[1]))]
+for s in held: s.bind(("127.0.0.1", 0))
+print(*(s.getsockname()[1] for s in held))' "$1"
 }
 
 # parent PID: its parent's pid (0 once past init, or when PID is gone).
@@ -86,8 +90,7 @@ start() {
     # The node as slurmd detects it, so that slurmd does not drain it for a mismatch; `slurmd -C`
     # prints `NodeName=<host> CPUs=… RealMemory=…` and a second line with the uptime.
     node_line=$(slurmd -C | head -n 1 | sed -E 's/^NodeName=[^ ]+ //')
-    ctld_port=$(free_port)
-    slurmd_port=$(free_port)
+    read -r ctld_port slurmd_port < <(free_ports 2)
     cat > "$dir/slurm.conf" <<EOF
 # Written by cluster/slurm/local-cluster.sh: a one-node cluster on $(hostname -s).
 ClusterName=moonbot-local
