@@ -637,7 +637,7 @@ private:
                     if (!light.point) {
                         // Consecutive points of the light's sequence: stratified over all the pixel's rays to it.
                         const auto rays = static_cast<uint32_t>(rays_of(i));
-                        const uint32_t point = per_pixel ? base * static_cast<uint32_t>(most) + (sample - base) * rays +
+                        const uint32_t point = per_pixel ? base * static_cast<uint32_t>(samples) + (sample - base) * rays +
                                                                static_cast<uint32_t>(k)
                                                          : sample * rays + static_cast<uint32_t>(k);
                         to_light = light.toward(sample_pair(s.streams[i], point, pair + static_cast<uint32_t>(l)));
