@@ -14,7 +14,7 @@ defaults, against a high-sample reference of that knob with the others at their 
 
 and one curve against a converged reference of the default path tracer (spp 1024 at the default
 light_samples and bounces, two independent 512-sample halves of seeds 1 and 2 averaged; cached
-under build/accuracy-reference/, `--fresh-reference` renders it again), each level rendered on one
+under build/bench_accuracy/, `--fresh-reference` renders it again), each level rendered on one
 thread (core seconds):
 
   adaptive       (base spp, adaptive_spp, adaptive_threshold): brute force (adaptive_spp 0) at
@@ -83,7 +83,7 @@ from svgplot import time_error_plot
 
 RESULTS = Path(__file__).resolve().parent / "results"
 SCHEMA_VERSION = 2  # 2: the adaptive curve (rows with knob "adaptive" carry regions)
-REFERENCE_CACHE = Path(__file__).resolve().parent.parent / "build" / "accuracy-reference"
+REFERENCE_CACHE = Path(__file__).resolve().parent.parent / "build" / "bench_accuracy"  # both kinds of reference
 LOCATIONS = ("flat", "hilly", "crater")
 ELEVATIONS = (5.0, 22.0)
 REFERENCE = {"spp": 64, "light_samples": 64, "bounces": 6, "earthshine": True}
@@ -351,7 +351,6 @@ def adaptive_curves(rows: list[dict]) -> dict[str, list]:
         if len(points) > 1:
             curves[name] = points
     return curves
-REFERENCE_CACHE = Path(__file__).resolve().parent.parent / "build" / "bench_accuracy"
 CACHE_KNOBS = {"path_spp": [1, 2, 4, 8, 16], "cache_rays": [8, 16, 32, 64, 128]}
 
 
