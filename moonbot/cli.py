@@ -47,11 +47,13 @@ def render_one(config_path: Path | None, views: tuple[int, ...], all_views: bool
 
     CONFIG defaults to the embedded default config. Writes rgb.png (Reinhard, 8-bit sRGB),
     depth.npy (float32 metres), depth.png (uint16 millimetres, 0 = invalid), depth_preview.png,
-    mask.png (instance ids, 0 = background) and gt.json (K, poses in mm, timings) per view, and
-    a contact sheet, then prints a summary.
+    mask.png (instance ids, 0 = background), amodal_NNN.png (each bag alone) and gt.json (K,
+    poses in mm, timings) per view, and a contact sheet; says each stage as it starts (on
+    stderr, with the seconds since the start), then prints a summary.
     """
     from moonbot.config import ConfigError, load_config, parse_overrides
     from moonbot.pipeline import run_views
+    from moonbot.pipeline.progress import StageClock
     from moonbot.pipeline.summary import format_summary
     from moonbot.writer import write_sheet
 
@@ -67,10 +69,12 @@ def render_one(config_path: Path | None, views: tuple[int, ...], all_views: bool
     except ConfigError as e:
         raise click.ClickException(str(e)) from None
     chosen = list(range(config.orbit.views)) if all_views else list(views or (0,))
+    stage = StageClock(lambda text: click.echo(text, err=True))
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
-        results = run_views(config, chosen, out_dir)
+        results = run_views(config, chosen, out_dir, on_stage=stage)
         if sheet:
+            stage("contact sheet")
             write_sheet([r.out_dir for r in results], out_dir / "sheet.png",
                         config.output.png_compression)
     except (ValueError, OSError) as e:
