@@ -484,17 +484,42 @@ def bench_compare(results: tuple[Path, ...], plot: Path) -> None:
     click.echo(f"\nwritten {plot}")
 
 
+# What one item of each `moonbot validate` check is (moonbot/eval/validate.py), printed beside its count.
+VALIDATE_ITEMS = {
+    "manifest": "files listed in manifest.json: size and SHA-256",
+    "scenes": "scene folders",
+    "depth": "images: depth PNG against the metric .npy, no holes below the horizon",
+    "masks": "instances: amodal and visible masks against scene_gt_info.json",
+    "pose": "instances with visible pixels: the model at its pose against depth "
+            "(fully occluded ones have no pixel to compare)",
+}
+
+
 @main.command("validate")
 @click.argument("dataset", type=click.Path(file_okay=False, exists=True, path_type=Path))
 def validate(dataset: Path) -> None:
     """Check a merged BOP DATASET against itself: manifest checksums, JSON fields, depth PNG against
-    the metric .npy, masks against scene_gt_info.json. Exits 1 naming each failing file."""
-    from moonbot.eval.validate import validate_dataset
+    the metric .npy, masks against scene_gt_info.json, the models at their poses against depth.
+    Exits 1 naming each failing file. The folder of a `moonbot generate --out OUT` run stands for
+    its merged dataset, OUT/dataset."""
+    import shlex
 
+    from moonbot.eval.validate import validate_dataset
+    from moonbot.pipeline.tasks import run_dataset
+
+    merged = run_dataset(dataset)
+    if merged is not None:
+        if not (merged / "manifest.json").is_file():
+            raise click.ClickException(
+                f"{dataset} is the folder of a `moonbot generate` run whose tasks are not merged into "
+                f"{merged}: run `moonbot merge {shlex.quote(str(dataset))}`, then "
+                f"`moonbot validate {shlex.quote(str(merged))}`")
+        click.echo(f"{dataset} is the folder of a `moonbot generate` run: validating its dataset {merged}", err=True)
+        dataset = merged
     report = validate_dataset(dataset)
     for check, n in sorted(report.checked.items()):
         failed = sum(1 for _, c, _ in report.failures if c == check)
-        click.echo(f"{check:<10} {n:>8} checked  {failed:>6} failed")
+        click.echo(f"{check:<10} {n:>8} checked  {failed:>6} failed   {VALIDATE_ITEMS.get(check, '')}".rstrip())
     for path, check, message in report.failures:
         click.echo(f"FAIL {check}: {path}: {message}", err=True)
     if not report.ok:
