@@ -468,13 +468,15 @@ def bench_realism(photos: Path, regions: Path | None, width: int, height: int, s
 
 @bench.command("compare")
 @click.argument("results", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=Path("bench-compare.svg"),
-              show_default=True, help="The SVG to write.")
-def bench_compare(results: tuple[Path, ...], plot: Path) -> None:
+@click.option("--plot", type=click.Path(dir_okay=False, path_type=Path),
+              help="The SVG to write. Default: compare-A-vs-B.svg (the RESULTS' stems) beside the first RESULTS file.")
+def bench_compare(results: tuple[Path, ...], plot: Path | None) -> None:
     """Print the runs of throughput RESULTS files side by side (different machines or runs) and
     plot samples/s, seconds a sample per stage and the ratio to the limit."""
     from moonbot.benchmark.compare import ResultError, format_comparison, load_result, names_for, write_svg
 
+    if plot is None:
+        plot = results[0].parent / ("compare-" + "-vs-".join(p.stem for p in results) + ".svg")
     try:
         named = list(zip(names_for(list(results)), [load_result(p) for p in results]))
         write_svg(named, plot)
