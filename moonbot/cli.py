@@ -214,12 +214,14 @@ def stats(out_dir: Path, reference_path: Path | None, reference_rate: float | No
 @main.command("plan")
 @click.argument("config_path", metavar="CONFIG", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--bench-record", type=click.Path(dir_okay=False, path_type=Path),
-              help="A generate benchmark record to estimate from (default: this machine's, in bench/results/).")
+              help="A generate benchmark record to estimate from (default: the one in bench/results/ of a "
+                   "machine with this CPU and core count, else another machine's).")
 def plan(config_path: Path, bench_record: Path | None) -> None:
     """Print CONFIG's sweep — scenes, tasks and samples per split — and the disk and time it will
-    take on this machine, without rendering anything."""
+    take, without rendering anything. The time is scaled from a generate benchmark record, whose
+    machine is named beside this one's."""
     from moonbot.config import ConfigError, load_config
-    from moonbot.sweep.plan import default_record, estimate, split_plans
+    from moonbot.sweep.plan import default_record, estimate, provenance, split_plans
 
     try:
         config = load_config(config_path)
@@ -231,9 +233,10 @@ def plan(config_path: Path, bench_record: Path | None) -> None:
         click.echo(f"{p.name:<10} {p.scenes:>7} {p.tasks:>7} {p.samples:>9}")
     click.echo(f"{'total':<10} {sum(p.scenes for p in plans):>7} {sum(p.tasks for p in plans):>7} "
                f"{sum(p.samples for p in plans):>9}")
-    found = estimate(plans, bench_record or default_record())
+    record = bench_record or default_record()
+    found = estimate(plans, record)
     if found is None:
-        click.echo("no generate benchmark recorded for this machine: run bench/bench_generate.py for estimates")
+        click.echo(f"no generate benchmark record ({record} unreadable): run bench/bench_generate.py for estimates")
         return
     size = found.bytes
     click.echo("disk    ~" + (f"{size / 1e9:.1f} GB" if size >= 1e9 else f"{size / 1e6:.1f} MB")
@@ -241,8 +244,10 @@ def plan(config_path: Path, bench_record: Path | None) -> None:
     hours = found.seconds / 3600
     click.echo("time    ~" + (f"{hours:.1f} h" if hours >= 1 else f"{found.seconds / 60:.1f} min"
                                 if found.seconds >= 60 else f"{found.seconds:.1f} s")
-               + f" on this machine, rendering only ({found.workers} worker × {found.threads} render threads, "
-                 f"the fastest layout measured; from {found.source})")
+               + f" rendering only, on the recorded machine ({found.workers} worker × {found.threads} render "
+                 "threads, the fastest layout it measured)")
+    for line in provenance(found):
+        click.echo(line)
 
 
 @main.command("generate")
