@@ -270,7 +270,12 @@ def plan(config_path: Path, bench_record: Path | None) -> None:
                    "stage of the tasks finished so far; 0: never.")
 def generate(config_path: Path, out_dir: Path, workers: int | None, threads: int | None, scheduler: str | None,
              scheduler_file: str | None, resume: bool, merge: bool, task_timeout: float | None) -> None:
-    """Render CONFIG's sweep into --out on a Dask cluster (a local one unless told otherwise)."""
+    """Render CONFIG's sweep into --out on a Dask cluster (a local one unless told otherwise).
+
+    A progress line per finished task, and every 30 s without one, names the running tasks with
+    their ages and stages. Ctrl-C or SIGTERM stops the run cleanly (the cluster closed, its scratch
+    space and unfinished tasks' temporaries removed) and prints the `moonbot merge` command that
+    makes a dataset of the complete tasks; exit status 130 or 143."""
     from moonbot.bop.merge import MergeError
     from moonbot.config import ConfigError, load_config
     from moonbot.pipeline.generate import generate as run
@@ -285,6 +290,18 @@ def generate(config_path: Path, out_dir: Path, workers: int | None, threads: int
                      scheduler_file=scheduler_file, merge=merge, task_timeout=task_timeout)
     except (OSError, MergeError) as e:
         raise click.ClickException(str(e)) from None
+    if result.interrupted:
+        import shlex
+        import signal
+
+        out, missing = shlex.quote(str(out_dir)), result.tasks - result.complete
+        click.echo(f"interrupted by {result.interrupted} after {result.seconds:.1f} s: {result.complete} of "
+                   f"{result.tasks} tasks complete in {out_dir / 'tasks'}, nothing merged; the cluster's scratch "
+                   "space and the unfinished tasks' temporaries are removed\n"
+                   f"  moonbot merge {out}    # a BOP dataset of the complete tasks, in {out_dir / 'dataset'}\n"
+                   f"  moonbot generate {shlex.quote(str(config_path))} --out {out}    # renders the {missing} "
+                   "others (complete tasks are never redone)", err=True)
+        raise SystemExit(128 + signal.Signals[result.interrupted].value)
     click.echo(f"{result.rendered} tasks rendered ({result.samples} samples) in {result.seconds:.1f} s; "
                f"{result.complete_before} were complete already; {result.placed} scene layouts placed "
                f"and settled, {result.placed_before} kept from an earlier run")
