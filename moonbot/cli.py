@@ -529,9 +529,9 @@ def validate(dataset: Path) -> None:
     import shlex
 
     from moonbot.eval.validate import validate_dataset
-    from moonbot.pipeline.tasks import run_dataset
+    from moonbot.pipeline.tasks import generate_folder_dataset
 
-    merged = run_dataset(dataset)
+    merged = generate_folder_dataset(dataset)
     if merged is not None:
         if not (merged / "manifest.json").is_file():
             raise click.ClickException(

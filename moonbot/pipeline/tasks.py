@@ -73,7 +73,7 @@ def sweep_temporaries(out_dir: Path) -> list[Path]:
     return stray
 
 
-def run_dataset(path: Path) -> Path | None:
+def generate_folder_dataset(path: Path) -> Path | None:
     """When `path` is the folder of a `moonbot generate --out` run (its config.json and tasks/, and
     no manifest.json of a dataset of its own): where merge puts its dataset by default,
     path/dataset, merged or not yet. None for any other folder."""
