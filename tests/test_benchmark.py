@@ -8,6 +8,7 @@ and the field. No timing is asserted."""
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import pytest
@@ -132,6 +133,18 @@ def test_compare_reads_an_old_and_a_new_result(tiny_result, tmp_path):
     svg = plot.read_text()
     assert svg.startswith("<svg") and svg.rstrip().endswith("</svg>")
     assert f"{OLD_RESULT.stem}: draft" in svg and f"{tiny_result.stem}: draft" in svg
+
+
+def test_compare_plots_beside_its_inputs_not_into_the_working_folder(tmp_path, monkeypatch):
+    for name in ("a.json", "b.json"):
+        shutil.copy(OLD_RESULT, tmp_path / name)
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    result = CliRunner().invoke(main, ["bench", "compare", str(tmp_path / "a.json"), str(tmp_path / "b.json")])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "compare-a-vs-b.svg").read_text().startswith("<svg")
+    assert f"written {tmp_path / 'compare-a-vs-b.svg'}" in result.output and list(work.iterdir()) == []
 
 
 @pytest.mark.parametrize("edit, field", [

@@ -101,3 +101,33 @@ def test_a_shifted_pose_fails(dataset, tmp_path):
     path.write_text(json.dumps(gt))
     found = [f for f in failures(d) if f[1] == "pose"]
     assert any(f[0] == str(path) and f"image 0 instance {k}" in f[2] for f in found), found
+
+
+def test_the_counts_say_what_they_count(dataset):
+    """pose counts the instances with visible pixels, masks every instance: the output says so."""
+    report = validate_dataset(dataset)
+    result = CliRunner().invoke(main, ["validate", str(dataset)])
+    rows = {line.split()[0]: line for line in result.output.splitlines() if " checked " in line}
+    assert report.checked["pose"] <= report.checked["masks"]
+    assert f"{report.checked['pose']} checked" in rows["pose"] and "instances with visible pixels" in rows["pose"]
+    assert "instances:" in rows["masks"] and "images:" in rows["depth"]
+
+
+def test_a_generate_folder_validates_its_dataset(dataset):
+    result = CliRunner().invoke(main, ["validate", str(dataset.parent)])
+    assert result.exit_code == 0, result.output
+    assert f"validating its dataset {dataset}" in result.stderr
+    assert "manifest" in result.stdout
+
+
+def test_an_unmerged_generate_folder_names_the_commands(dataset, tmp_path):
+    out = tmp_path / "run"
+    out.mkdir()
+    shutil.copy(dataset.parent / "config.json", out / "config.json")
+    shutil.copytree(dataset.parent / "tasks", out / "tasks")
+    result = CliRunner().invoke(main, ["validate", str(out)])
+    assert result.exit_code == 1
+    assert f"run `moonbot merge {out}`, then `moonbot validate {out / 'dataset'}`" in result.output
+    merged = CliRunner().invoke(main, ["merge", str(out)])
+    assert merged.exit_code == 0, merged.output
+    assert CliRunner().invoke(main, ["validate", str(out)]).exit_code == 0
