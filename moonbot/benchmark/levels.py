@@ -30,9 +30,10 @@ class Level:
 
 
 LEVELS: dict[str, Level] = {level.name: level for level in (
-    Level("draft", {"render.spp": 2, "render.adaptive_spp": 16, "render.adaptive_threshold": 0.25,
+    Level("draft", {"render.spp": 1, "render.adaptive_spp": 16, "render.adaptive_threshold": 0.5,
                     "render.light_samples": 1, "render.bounces": 2, "render.indirect": "cache"},
-          "2 spp refined to 16, 1 Sun-disk shadow ray, 2 bounces through the light cache"),
+          "the pixel-centre sample, refined to 16 where its 3x3 neighbourhood disagrees, 1 Sun-disk shadow ray, "
+          "2 bounces through the light cache"),
     Level("default", {"render.spp": 4, "render.adaptive_spp": 32, "render.adaptive_threshold": 0.5,
                       "render.light_samples": 2, "render.bounces": 2, "render.indirect": "cache"},
           "4 spp refined to 32, 2 Sun-disk shadow rays, 2 bounces through the light cache (the config defaults)"),
