@@ -170,5 +170,5 @@ def test_the_cli_writes_into_eval_and_names_a_missing_model(smoke, tmp_path):
     result = CliRunner().invoke(main, ["baseline", str(copy), "--workers", "1", "--out", str(tmp_path / "x.csv")])
     assert result.exit_code != 0 and "obj_000002.ply" in result.output
     assert not (tmp_path / "x.csv").exists()
-    with pytest.raises(DatasetError, match="no train/"):
+    with pytest.raises(DatasetError, match="train_pbr: no scene directory"):
         run_baseline(copy, "train", tmp_path / "y.csv")
