@@ -23,12 +23,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import pyarrow.parquet as pq
 
 from moonbot import _core
 from moonbot.bop.gt_info import bbox_of
 from moonbot.bop.layout import (SCENE_INDEX_JSON, SCENE_INDEX_PARQUET, SCENE_META, VIEW_ROOT, scene_dirs, scene_rel,
                                 view_rel)
 from moonbot.bop.models import read_ply
+from moonbot.bop.scene_index import COLUMNS, index_rows
 from moonbot.writer.checksum import file_sha256
 
 EVAL_DIR = "eval"  # moonbot eval's default output folder inside the dataset, not in the manifest
@@ -293,10 +295,6 @@ def check_layout(dataset: Path, scene: Path, report: ValidationReport) -> dict |
 def check_index(dataset: Path, metas: list[dict], report: ValidationReport) -> None:
     """scene_index.json and scene_index.parquet hold exactly the rows the scene_meta.json files
     give (moonbot.bop.scene_index), in dataset order."""
-    import pyarrow.parquet as pq
-
-    from moonbot.bop.scene_index import COLUMNS, index_rows
-
     try:
         want = {(r["bop_split"], r["scene_id"], r["task_in_scene"]): r for r in index_rows(metas)}
     except (KeyError, TypeError, ValueError) as e:
