@@ -196,9 +196,9 @@ def test_a_bad_config_runs_no_task(tmp_path):
     assert result.exit_code != 0 and str(blocker) in result.output
 
 
-def test_the_smoke_sweep_has_both_splits_meshes_and_dust():
+def test_the_smoke_sweep_has_every_split_mesh_and_dust():
     ts = tasks(load_config(CONFIGS / "smoke.yaml"))
-    assert {t.split for t in ts} == {"train", "test"}
+    assert {t.split for t in ts} == {"train", "val", "test"}
     assert {t.mesh for t in ts} == {"sandbag-01", "sandbag-02", "sandbag-03"} and {t.dust for t in ts} == {False, True}
 
 

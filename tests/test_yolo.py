@@ -80,3 +80,8 @@ def test_rows_and_yaml():
     assert data["train"] == data["val"] == "images/default" and "test" not in data and data["nc"] == 3
     data = yaml.safe_load(data_yaml(["train", "val", "test"], "segment"))
     assert (data["train"], data["val"], data["test"]) == ("images/train", "images/val", "images/test")
+    # Without a val split the model is selected on training images, never on the test images.
+    data = yaml.safe_load(data_yaml(["train", "test"], "detect"))
+    assert (data["train"], data["val"], data["test"]) == ("images/train", "images/train", "images/test")
+    data = yaml.safe_load(data_yaml(["test"], "detect"))
+    assert data["train"] == data["val"] == data["test"] == "images/test"

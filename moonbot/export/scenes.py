@@ -9,8 +9,9 @@ from pathlib import Path
 
 @dataclass(frozen=True)
 class SceneDir:
-    """One scene of a dataset: its split (the directory name under the dataset root), its BOP
-    scene_id (unique within the split) and its directory."""
+    """One scene of a dataset: its split (the sweep's name, train, val or test; its directory
+    under the dataset root is moonbot.bop.layout.bop_split of it), its BOP scene_id (unique
+    within the split) and its directory."""
 
     split: str
     scene_id: int
