@@ -56,7 +56,7 @@ from moonbot.bop.models import write_models
 from moonbot.config import Config, config_hash
 from moonbot.config.load import from_mapping
 from moonbot.config.schema import MeshesConfig
-from moonbot.scene.bag_mesh import VARIANTS, variant_meshes
+from moonbot.scene.bag_mesh import dataset_meshes
 from moonbot.writer.checksum import file_sha256
 from moonbot.writer.sheet import colour_mask
 from moonbot.writer.staging import staged_directory
@@ -485,7 +485,7 @@ def _models(stage: Path, previous: Path, meshes: MeshesConfig, entries: dict) ->
         pass
     for sub in ("models", "models_eval"):
         shutil.rmtree(stage / sub, ignore_errors=True)
-    write_models(stage, variant_meshes(meshes))
+    write_models(stage, dataset_meshes(meshes))
     return False
 
 
@@ -566,7 +566,7 @@ def merge_dataset(out_dir: Path, dataset_dir: Path | None = None, config: Config
                     entries[image_rel] = entries[rgb_rel]
                     _put_bytes(stage, label_rel, text.encode("ascii"), entries)
         for kind in YOLO_TASKS:
-            _put_bytes(stage, f"yolo/{kind}/data.yaml", data_yaml(splits, kind).encode("utf-8"), entries)
+            _put_bytes(stage, f"yolo/{kind}/data.yaml", data_yaml(splits, kind, meshes.objects()).encode("utf-8"), entries)
 
         models_reused = _models(stage, dataset_dir, meshes, entries)
         _put_bytes(stage, "camera.json", dumps_json(camera), entries)
@@ -591,7 +591,7 @@ def merge_dataset(out_dir: Path, dataset_dir: Path | None = None, config: Config
             "config_hash": config_hash(config) if config is not None else None,
             "seed": config.seed if config is not None else None,
             "meshes_hash": config_hash(meshes),
-            "objects": {str(obj_id): name for obj_id, (name, _) in sorted(VARIANTS.items())},
+            "objects": {str(obj_id): name for obj_id, name in meshes.objects().items()},
             "splits": [{"name": s, **per_split[s]} for s in splits],
             "tasks_merged": len(merged_tasks),
             "images": sum(o.images for o in outputs),
