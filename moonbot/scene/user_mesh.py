@@ -131,9 +131,11 @@ def _load(entry: UserMeshConfig) -> UserMesh:
     diagonal = float(np.linalg.norm(hi - lo))
     low, high = DIAGONAL_RANGE_M
     if not low <= diagonal <= high:
-        hint = {True: "a smaller unit", False: "a larger unit"}[diagonal > high]
+        raw = diagonal / _UNITS_M[entry.unit]
+        fits = [f"unit {u!r} gives {raw * f:.4g} m" for u, f in _UNITS_M.items() if low <= raw * f <= high]
         raise ValueError(f"{path}: its bounding box's diagonal is {diagonal:.4g} m in unit {entry.unit!r}, outside "
-                         f"{low}..{high} m (is the unit right? {hint} would scale it)")
+                         f"the {low}..{high} m a bag may span" + (f" ({'; '.join(fits)}: set meshes.user's unit)"
+                                                                 if fits else ""))
     vertices = vertices - (lo + hi) / 2.0
     volume = signed_volume(vertices, triangles)
     hull = ConvexHull(vertices)
@@ -172,7 +174,7 @@ def _read(path: str, texture: str, warnings: list[str]) -> tuple[np.ndarray, np.
         logger.propagate = propagate
     warnings += [f"trimesh: {text}" for text in complaints.texts]
     if not isinstance(mesh, trimesh.Trimesh):
-        raise ValueError(f"{path}: holds no triangle mesh")
+        raise ValueError(f"{path}: no triangles (it holds a {type(mesh).__name__})")
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     triangles = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
     visual = mesh.visual
@@ -487,3 +489,26 @@ def user_convex_parts(entry: UserMeshConfig):
 
     mesh = load_user_mesh(entry)
     return convex_parts(mesh.vertices, mesh.triangles, mesh.report.volume_m3)
+
+
+def describe(entry: UserMeshConfig) -> list[str]:
+    """Lines telling what reading `entry` repaired and found, and how settling will collide it
+    (its hull, or its convex parts with their fit), for `moonbot meshes`."""
+    from moonbot.scene.bag_mesh import DECOMPOSE_ABOVE_HULL_FIT
+
+    r = load_user_mesh(entry).report
+    lines = [f"{entry.name}: {r.path} ({entry.unit}, up {entry.up_axis}): {r.vertices_read} vertices, "
+             f"{r.triangles_read} triangles read",
+             f"  repaired: {r.merged_vertices} vertices merged (within {MERGE_TOLERANCE:g} of the diagonal), "
+             f"{r.dropped_triangles} degenerate or repeated triangles dropped, {r.filled_holes} holes closed "
+             f"(up to {100 * HOLE_TOLERANCE:g} % of the diagonal), {r.flipped_triangles} triangles turned outward",
+             f"  {r.pieces} piece(s), diagonal {1000 * r.diagonal_m:.1f} mm, volume {1e6 * r.volume_m3:.4g} cm³, "
+             f"convex hull {r.hull_fit:.3f} × the volume"]
+    if r.hull_fit > DECOMPOSE_ABOVE_HULL_FIT:
+        parts = user_convex_parts(entry)
+        lines.append(f"  settles as {len(parts.parts)} convex parts, {parts.parts_fit:.3f} × the volume "
+                     f"(the hull is above {DECOMPOSE_ABOVE_HULL_FIT})")
+    else:
+        lines.append("  settles as its convex hull")
+    lines += [f"  warning: {w}" for w in r.warnings]
+    return lines
