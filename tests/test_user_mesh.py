@@ -239,6 +239,11 @@ def test_a_base_colour_texture_colours_the_bag(tmp_path):
     np.testing.assert_allclose(grey.albedo, srgb_to_linear(np.full(3, 30 / 255.0)), rtol=1e-9)
     model = bag_model(load_config(None, {"bags.mesh": str(path)}).meshes, "tan")
     assert model.obj_id == 4 and model.albedo == bag.albedo
+    from moonbot.scene import compose_scene  # the scene the renderer builds: the texture's colour, not bags.albedo
+
+    spec = compose_scene(load_config(None, {"bags.mesh": str(path), "terrain.location": "plane",
+                                            "bags.settle.enabled": False}))
+    assert spec.bags[0].albedo == bag.albedo and spec.bag_vertex_albedo is bag.vertex_albedo
     assert model.corner_uvs.shape == (len(model.triangles), 3, 2) and 0 <= model.corner_uvs.min() <= model.corner_uvs.max() <= 1
 
 
