@@ -198,6 +198,18 @@ def test_a_small_hole_is_closed_and_a_large_one_refused(tmp_path):
         load_user_mesh(entry(write_obj(tmp_path / "open-box.obj", box.vertices, open_box)))
 
 
+def test_non_manifold_edges_are_reported_not_refused(tmp_path):
+    """Two cubes touching along one edge (shared by four triangles): closed, two pieces, the
+    volume of both, the edge reported."""
+    cells = np.zeros((2, 1, 2), dtype=bool)
+    cells[0, 0, 0] = cells[1, 0, 1] = True
+    v, t = voxel_mesh(cells, 0.1)
+    mesh = load_user_mesh(entry(write_obj(tmp_path / "pair.obj", v, t)))
+    r = mesh.report
+    assert (r.non_manifold_edges, r.pieces) == (1, 2) and r.volume_m3 == pytest.approx(0.002, rel=1e-9)
+    assert any("1 non-manifold edges" in w for w in r.warnings)
+
+
 def test_broken_files_give_clear_errors(tmp_path):
     v, t = u_block()
     nan = v.copy()
@@ -245,6 +257,31 @@ def test_a_base_colour_texture_colours_the_bag(tmp_path):
                                             "bags.settle.enabled": False}))
     assert spec.bags[0].albedo == bag.albedo and spec.bag_vertex_albedo is bag.vertex_albedo
     assert model.corner_uvs.shape == (len(model.triangles), 3, 2) and 0 <= model.corner_uvs.min() <= model.corner_uvs.max() <= 1
+
+
+def test_the_core_scales_each_channel_by_a_vertex_colour():
+    """A per-vertex factor per RGB channel (a texture's colours) multiplies each channel of the
+    radiance by its own factor; a factor with two columns is refused."""
+    from moonbot import _core
+    from scenes import K_for, camera, plane
+    from moonbot.scene.orbit import CameraPose
+
+    v, t = plane(5.0)
+    R = np.diag([1.0, -1.0, -1.0])  # looking straight down
+    view = camera(K_for(16, 12, 20.0), 16, 12, CameraPose(R=R, t=-R @ np.array([0.0, 0.0, 2.0])))
+    sun = _core.Sun(30.0, 40.0, 1361.0, 0.533)
+    colour = np.array([0.25, 0.5, 1.0], np.float32)
+    images = []
+    for factor in (None, np.tile(colour, (len(v), 1))):
+        scene = _core.Scene()
+        mesh = scene.add_mesh(v, t, vertex_albedo=factor)
+        scene.add_instance(mesh, np.eye(4), 1, (0.6, 0.6, 0.6))
+        scene.commit()
+        images.append(_core.render(scene, view, sun, spp=1, light_samples=1, seed=1)["rgb"])
+    assert images[0].min() > 0
+    np.testing.assert_allclose(images[1], images[0] * colour, rtol=1e-5)
+    with pytest.raises(ValueError, match="vertex_albedo"):
+        _core.Scene().add_mesh(v, t, vertex_albedo=np.ones((len(v), 2), np.float32))
 
 
 # --- collision shapes ----------------------------------------------------------------------------
@@ -373,6 +410,10 @@ def test_render_one_and_a_mixed_sweep_validate(tmp_path):
     info = json.loads((dataset / "models" / "models_info.json").read_text())
     assert sorted(info) == ["1", "2", "3", "4"]
     assert json.loads((dataset / "dataset_info.json").read_text())["objects"]["4"] == "u"
+    import yaml
+
+    yolo = yaml.safe_load((dataset / "yolo" / "detect" / "data.yaml").read_text())
+    assert yolo["nc"] == 4 and yolo["names"][3] == "u"
 
 
 @pytest.mark.skipif(not (PUBLIC / "ycbv-obj_000001.ply").is_file(), reason="public meshes not fetched "
@@ -389,6 +430,20 @@ def test_a_bop_model_from_ycb_video():
     info = model_info(bag.vertices.astype(np.float64) * 1000.0, bag.triangles)
     assert info.diameter == pytest.approx(172.06, abs=0.01)
     assert not info.symmetries and not info.continuous
+
+
+@pytest.mark.skipif(not (PUBLIC / "ycbv-obj_000001.ply").is_file(), reason="public meshes not fetched "
+                    "(tests/data/meshes/README.md)")
+def test_a_bop_model_from_ycb_video_renders(tmp_path):
+    """The can, declared in mm, through `moonbot render-one`: upright on the ground, in view."""
+    path = PUBLIC / "ycbv-obj_000001.ply"
+    result = CliRunner().invoke(main, ["render-one", "--out", str(tmp_path), "--set", "camera.width=64", "--set",
+                                       "camera.height=48", "--set", "render.spp=1", "--set", "terrain.location=plane",
+                                       "--set", f"meshes.user=[{{path: {path}, unit: mm, name: can}}]", "--set",
+                                       "bags.mesh=can", "--no-sheet"])
+    assert result.exit_code == 0, result.output
+    gt = json.loads((tmp_path / "view_000" / "gt.json").read_text())
+    assert [i["obj_id"] for i in gt["instances"]] == [4] and gt["instances"][0]["px_count_visib"] > 10
 
 
 @pytest.mark.skipif(not (PUBLIC / "BoxTextured-draco.glb").is_file(), reason="public meshes not fetched "

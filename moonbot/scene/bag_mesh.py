@@ -454,8 +454,9 @@ class BagModel:
     """What a scene needs of one bag mesh, built in or a user's: its BOP `obj_id` and `name`,
     `vertices` (N, 3) float32 metres in the model frame (z up), `triangles` (M, 3) int32, the
     cloth's atlas `corner_uvs` (M, 3, 2) float32 at `metres_per_uv`, and the mesh's own colour
-    where it has one (a user mesh's texture: mean linear RGB `albedo` and the per-vertex factor
-    `vertex_albedo` (N,) float32; None: the bags' configured albedo, uniform)."""
+    where it has one (a user mesh's texture: mean linear RGB `albedo` and the per-vertex,
+    per-channel factor `vertex_albedo` (N, 3) float32; None: the bags' configured albedo,
+    uniform)."""
 
     obj_id: int
     name: str

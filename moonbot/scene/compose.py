@@ -41,7 +41,7 @@ class SceneSpec:
     ((N, 3) float32 or None) and shaped by `terrain_photometry`; `bag_uvs`
     (M, 3, 2) float32 are the bag mesh's corner UVs (its cloth's atlas, `bag_metres_per_uv`
     metres per unit), woven and stained as `fabric` and `stain` say, its albedo varied per vertex
-    by `bag_vertex_albedo` ((N,) float32, a user mesh's texture; None: uniform);
+    and channel by `bag_vertex_albedo` ((N, 3) float32, a user mesh's texture; None: uniform);
     `ground` is the terrain's height field (the camera keeps clear of it); `rocks` are
     (mesh key, world-from-model (4, 4) float64) background instances, scaled by diameter;
     `terrain_seconds` is what building the terrain cost this scene (0 when this process had it

@@ -22,8 +22,9 @@ woven fabric on an atlas of six box-projection charts (each triangle on the char
 normal's dominant axis, all at one scale, so the weave's metres hold within a factor of
 1/cos 54.7° = 1.73 on oblique triangles). A base-colour texture (the material's, or `texture`)
 gives the bag its colour: the instance's albedo is the texture's mean linear colour over the
-surface and each vertex's brightness a factor on it (the core's per-vertex albedo is one
-factor), so detail finer than the vertex spacing is averaged away. Normal, roughness and
+surface, and each vertex's colour (the texture at its UV) a factor per channel on it,
+interpolated across triangles by the core, so detail finer than the vertex spacing is averaged
+away. Normal, roughness and
 metallic textures are ignored, with a warning in the report: the fabric brings its own relief
 and sheen.
 """
@@ -80,8 +81,8 @@ class UserMesh:
     """A user mesh ready for a scene: `vertices` (N, 3) float32 metres in the model frame (z up,
     origin at the bounding box's centre), outward `triangles` (M, 3) int32, `corner_uvs`
     (M, 3, 2) float32 on the box-projection atlas (`metres_per_uv` metres of surface per UV
-    unit), and from a base-colour texture its mean linear RGB `albedo` and per-vertex factor
-    `vertex_albedo` (N,) float32 (both None without a texture)."""
+    unit), and from a base-colour texture its mean linear RGB `albedo` and per-vertex, per-channel
+    factor `vertex_albedo` (N, 3) float32 (both None without a texture)."""
 
     name: str
     vertices: np.ndarray
@@ -465,8 +466,9 @@ def box_atlas(vertices: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, 
 def _albedo(vertices: np.ndarray, triangles: np.ndarray,
             colours: np.ndarray | None) -> tuple[tuple[float, float, float] | None, np.ndarray | None]:
     """From per-vertex linear colours (N, 3): their area-weighted mean over the surface (each
-    vertex weighs a third of its triangles' area) and each vertex's luminance over the mean's,
-    clipped so no channel of the product exceeds 1. (None, None) without colours."""
+    vertex weighs a third of its triangles' area) and each vertex's colour over that mean, per
+    channel (N, 3), so that mean × factor is the vertex's colour (at most 1). (None, None)
+    without colours."""
     if colours is None:
         return None, None
     v = vertices[triangles]
@@ -475,9 +477,7 @@ def _albedo(vertices: np.ndarray, triangles: np.ndarray,
     for k in range(3):
         np.add.at(weight, triangles[:, k], area / 3.0)
     mean = np.clip((colours * weight[:, None]).sum(axis=0) / weight.sum(), 1e-4, 1.0)
-    luminance = np.array([0.2126, 0.7152, 0.0722])
-    factor = (colours @ luminance) / float(mean @ luminance)
-    factor = np.minimum(factor, 1.0 / float(mean.max()))
+    factor = np.clip(colours, 0.0, 1.0) / mean
     return tuple(float(c) for c in mean), factor.astype(np.float32)
 
 
