@@ -259,14 +259,17 @@ def test_a_base_colour_texture_colours_the_bag(tmp_path):
     assert model.corner_uvs.shape == (len(model.triangles), 3, 2) and 0 <= model.corner_uvs.min() <= model.corner_uvs.max() <= 1
 
 
-def test_the_core_scales_each_channel_by_a_vertex_colour():
+@pytest.mark.parametrize("woven", [False, True])
+def test_the_core_scales_each_channel_by_a_vertex_colour(woven):
     """A per-vertex factor per RGB channel (a texture's colours) multiplies each channel of the
-    radiance by its own factor; a factor with two columns is refused."""
+    radiance by its own factor, on a plain material and on the bags' woven cloth (matte: no
+    sheen, whose gloss is not the cloth's colour); a factor with two columns is refused."""
     from moonbot import _core
     from scenes import K_for, camera, plane
     from moonbot.scene.orbit import CameraPose
 
     v, t = plane(5.0)
+    uv = np.tile(np.array([0.0, 0.0, 1.0, 0.0, 1.0, 1.0], np.float32), (len(t), 1))
     R = np.diag([1.0, -1.0, -1.0])  # looking straight down
     view = camera(K_for(16, 12, 20.0), 16, 12, CameraPose(R=R, t=-R @ np.array([0.0, 0.0, 2.0])))
     sun = _core.Sun(30.0, 40.0, 1361.0, 0.533)
@@ -274,10 +277,11 @@ def test_the_core_scales_each_channel_by_a_vertex_colour():
     images = []
     for factor in (None, np.tile(colour, (len(v), 1))):
         scene = _core.Scene()
-        mesh = scene.add_mesh(v, t, vertex_albedo=factor)
-        scene.add_instance(mesh, np.eye(4), 1, (0.6, 0.6, 0.6))
+        mesh = scene.add_mesh(v, t, uv if woven else None, vertex_albedo=factor)
+        scene.add_instance(mesh, np.eye(4), 1, (0.6, 0.6, 0.6),
+                           woven=_core.WovenSurface(metres_per_uv=10.0) if woven else None)
         scene.commit()
-        images.append(_core.render(scene, view, sun, spp=1, light_samples=1, seed=1)["rgb"])
+        images.append(_core.render(scene, view, sun, spp=1, light_samples=1, seed=1, bounces=0)["rgb"])
     assert images[0].min() > 0
     np.testing.assert_allclose(images[1], images[0] * colour, rtol=1e-5)
     with pytest.raises(ValueError, match="vertex_albedo"):
