@@ -9,8 +9,9 @@ hull of the surface's triangles clipped to the box (their corners within it, the
 their edges cross its faces and where its edges cross them) and of the box's own corners inside
 the solid. So the parts hold the whole solid, and no part reaches beyond its box, so parts never
 overlap. Each cut is the one, among planes at 1/12 … 11/12 of a box's extent along each axis, that
-shrinks the sum of hull volumes most; cutting stops when that sum is within `target_fit` of the
-mesh's volume, at `max_parts`, or when no cut gains `min_gain` of the volume. (MuJoCo decomposes
+shrinks the sum of hull volumes most (where no single cut gains, as in a ring whose halves keep
+its hull, the one whose halves' best cuts then gain most); cutting stops when that sum is within
+`target_fit` of the mesh's volume, at `max_parts`, or when no cut gains `min_gain` of the volume. (MuJoCo decomposes
 nothing itself, and trimesh's `convex_decomposition` needs the VHACD binaries.)
 """
 
@@ -38,7 +39,7 @@ class ConvexParts:
     parts_fit: float
 
 
-@dataclass
+@dataclass(eq=False)
 class _Part:
     lo: np.ndarray
     hi: np.ndarray
@@ -46,7 +47,8 @@ class _Part:
     faces: np.ndarray
     points: np.ndarray
     hull_volume: float
-    best: tuple[float, "_Part", "_Part"] | None = None  # (gain, lower, upper)
+    best: tuple[float, "_Part", "_Part"] | None = None  # its best cut: (gain, lower, upper)
+    ahead: tuple[float, "_Part", "_Part"] | None = None  # its best cut looking two deep
 
 
 def hull_volume(points: np.ndarray) -> float:
@@ -68,8 +70,14 @@ def convex_parts(vertices: np.ndarray, triangles: np.ndarray, volume: float, tar
     v = np.asarray(vertices, dtype=np.float64)
     t = np.asarray(triangles, dtype=np.int64)
 
+    known: dict[tuple[float, float, float], bool] = {}  # box corners recur across candidate cuts
+
     def inside(points: np.ndarray) -> np.ndarray:
-        return winding_number(points, v, t) > 0.5
+        keys = [tuple(p) for p in points.tolist()]
+        new = [k for k in dict.fromkeys(keys) if k not in known]
+        if new:
+            known.update(zip(new, (winding_number(np.array(new), v, t) > 0.5).tolist()))
+        return np.array([known[k] for k in keys], dtype=bool)
 
     def make(lo: np.ndarray, hi: np.ndarray, pv: np.ndarray, pf: np.ndarray) -> _Part:
         corners = np.array(np.meshgrid(*zip(lo, hi), indexing="ij")).reshape(3, -1).T
@@ -84,36 +92,48 @@ def convex_parts(vertices: np.ndarray, triangles: np.ndarray, volume: float, tar
         out = slice_faces_plane(pv, pf, normal, origin)
         return out[0], out[1]
 
-    def best_split(part: _Part) -> tuple[float, _Part, _Part] | None:
-        best = None
+    def candidate_cuts(part: _Part) -> list[tuple[float, _Part, _Part]]:
+        """(gain, lower, upper) of every cut of `part` that leaves no sliver."""
+        cuts = []
         for axis in range(3):
             normal = np.eye(3)[axis]
             for f in _FRACTIONS:
                 cut = part.lo[axis] + f * (part.hi[axis] - part.lo[axis])
                 origin = normal * cut
-                upper_hi, lower_lo = part.hi.copy(), part.lo.copy()
                 lower_hi, upper_lo = part.hi.copy(), part.lo.copy()
                 lower_hi[axis] = upper_lo[axis] = cut
-                lower = make(lower_lo, lower_hi, *clip(part.vertices, part.faces, -normal, origin))
-                upper = make(upper_lo, upper_hi, *clip(part.vertices, part.faces, normal, origin))
+                lower = make(part.lo, lower_hi, *clip(part.vertices, part.faces, -normal, origin))
+                upper = make(upper_lo, part.hi, *clip(part.vertices, part.faces, normal, origin))
                 if min(lower.hull_volume, upper.hull_volume) < min_gain * volume:
                     continue  # a sliver: too thin to matter, and a degenerate body for MuJoCo
-                gain = part.hull_volume - lower.hull_volume - upper.hull_volume
-                if best is None or gain > best[0]:
-                    best = (gain, lower, upper)
-        return best
+                cuts.append((part.hull_volume - lower.hull_volume - upper.hull_volume, lower, upper))
+        return cuts
+
+    def best_cut(part: _Part) -> tuple[float, _Part, _Part]:
+        """The cut of `part` that shrinks its hull volume most (the first of equals); a zero
+        gain and the part itself where none is possible."""
+        if part.best is None:
+            part.best = max(candidate_cuts(part), key=lambda c: c[0], default=(0.0, part, part))
+        return part.best
+
+    def best_two_cuts(part: _Part) -> tuple[float, _Part, _Part]:
+        """The cut of `part` whose halves' own best cuts then shrink the hull volume most, with
+        that total gain: for a ring, whose halves (two C's) have the hulls it had."""
+        if part.ahead is None:
+            part.ahead = max(((gain + best_cut(lower)[0] + best_cut(upper)[0], lower, upper)
+                              for gain, lower, upper in candidate_cuts(part)),
+                             key=lambda c: c[0], default=(0.0, part, part))
+        return part.ahead
 
     root = make(v.min(axis=0), v.max(axis=0), v, t)
     hull_fit = root.hull_volume / volume
     parts = [root]
     while len(parts) < max_parts and sum(p.hull_volume for p in parts) > target_fit * volume:
-        for p in parts:
-            if p.best is None:
-                p.best = best_split(p) or (0.0, p, p)
-        k = max(range(len(parts)), key=lambda i: parts[i].best[0])
-        gain, lower, upper = parts[k].best
-        if gain < min_gain * volume:
-            break
+        k, (gain, lower, upper) = max(enumerate(best_cut(p) for p in parts), key=lambda c: c[1][0])
+        if gain < min_gain * volume:  # no single cut pays: look two cuts deep
+            k, (gain, lower, upper) = max(enumerate(best_two_cuts(p) for p in parts), key=lambda c: c[1][0])
+            if gain < min_gain * volume:
+                break
         parts[k:k + 1] = [lower, upper]
     return ConvexParts(parts=tuple(p.points for p in parts), hull_fit=hull_fit,
                        parts_fit=sum(p.hull_volume for p in parts) / volume)
