@@ -14,16 +14,20 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 
-# openimageio-tools is not used directly, but Debian's OpenImageIO CMake targets file checks that
-# its programs (/usr/bin/oiiotool, iconvert, ...) exist, so find_package(OpenImageIO) fails without it.
+# pkg-config finds OpenImageIO (cpp/CMakeLists.txt says why not its CMake config). What these bring
+# onto a bare Debian 12: bench/results/install-weight-debian12.md.
 APT_PACKAGES=(build-essential pkg-config python3 python3-dev python3-venv
-              libembree-dev libopenimageio-dev openimageio-tools libglm-dev
+              libembree-dev libopenimageio-dev libglm-dev
               libgeographiclib-dev libtbb-dev zlib1g-dev)
 VENV=.venv
 # The tests that trace rays, re-run under every Embree ISA the CPU offers (`./dev.sh test`).
 ISA_TESTS=(tests/test_render_geometry.py tests/test_lighting.py tests/test_watertight.py tests/test_amodal.py
            tests/test_embree_isa.py)
 PY="$VENV/bin/python"
+# What the first compile of the core (./dev.sh setup) and of each C++ test build (./dev.sh test) takes
+# on a 2-core machine, minutes, said before they start (README "Set up and run" has the timings).
+FIRST_BUILD_MIN=4
+FIRST_TEST_BUILD_MIN=2
 # Bounds on `./dev.sh test`, so that a hang fails CI with a stack instead of eating its 90 minutes:
 # ctest's limit for each test; the whole pytest run (each test has its own 300 s limit, set in
 # pyproject.toml); each re-run of the ray-tracing tests under another Embree ISA; each moonbot
@@ -34,7 +38,10 @@ PYTEST_LIMIT_S=3600
 ISA_TESTS_LIMIT_S=900
 SMOKE_STEP_LIMIT_S=600
 
-log() { printf '\033[1m[dev]\033[0m %s\n' "$*"; }
+# Every line says how long dev.sh has been running (m:ss), so no stage is a silent stretch.
+log() { printf '\033[1m[dev %d:%02d]\033[0m %s\n' $((SECONDS / 60)) $((SECONDS % 60)) "$*"; }
+# took START: "m:ss" since START (a value of $SECONDS).
+took() { local s=$((SECONDS - $1)); printf '%d:%02d' $((s / 60)) $((s % 60)); }
 
 # bounded SECONDS COMMAND...: runs COMMAND (and its children: timeout signals its process group),
 # ending it with every Python thread's stack after SECONDS.
@@ -54,10 +61,12 @@ apt_deps() {
     [ ${#missing[@]} -eq 0 ] && return
     local sudo=""
     [ "$(id -u)" -eq 0 ] || sudo=sudo
-    log "installing Debian packages: ${missing[*]}"
+    local start=$SECONDS
+    log "installing Debian packages (about 270 MB to download on a bare Debian 12): ${missing[*]}"
     $sudo apt-get update -qq
     # `env` after sudo: sudo's env_reset would drop a DEBIAN_FRONTEND set in front of it.
     $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}"
+    log "Debian packages installed in $(took "$start")"
 }
 
 # A fingerprint of everything that changes the compiled module, and of the *names* of the Python
@@ -76,15 +85,29 @@ python_env() {
     local stamp="$VENV/.moonbot-build" want
     want=$(build_fingerprint)
     if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
-        log "building moonbot into $VENV (incremental in build/)"
+        local start=$SECONDS
+        log "installing the build tools into $VENV (pip, scikit-build-core, pybind11, cmake, ninja)"
         "$PY" -m pip install -q --upgrade pip
         "$PY" -m pip install -q "scikit-build-core>=0.10" "pybind11>=2.12" "cmake>=3.25" ninja
+        if compgen -G "build/cp*-*" >/dev/null; then  # scikit-build-core's build/{wheel_tag}
+            log "building moonbot into $VENV: compiling what changed in cpp/ (incremental in build/)"
+        else
+            log "building moonbot into $VENV: compiling the C++ core, the first time about $FIRST_BUILD_MIN min" \
+                "on 2 cores, then its Python dependencies (about 700 MB in $VENV)"
+        fi
         "$PY" -m pip install -q --no-build-isolation -e ".[test]"
         echo "$want" > "$stamp"
+        log "moonbot built and installed in $(took "$start")"
     fi
 }
 
 setup() { apt_deps; python_env; }
+
+# The README's examples call `moonbot` as a command: say how this shell gets it.
+path_hint() {
+    log "moonbot is $VENV/bin/moonbot: \`source $VENV/bin/activate\` puts it on this shell's PATH," \
+        "as the README's examples assume"
+}
 
 cpp_tests() {
     local cmake="$VENV/bin/cmake" ctest="$VENV/bin/ctest"
@@ -93,20 +116,28 @@ cpp_tests() {
     for variant in release asan; do
         local flags=(-DCMAKE_BUILD_TYPE=Release)
         [ "$variant" = asan ] && flags=(-DCMAKE_BUILD_TYPE=Debug -DMOONBOT_SANITIZE=ON)
-        log "C++ tests ($variant)"
+        local start=$SECONDS
+        if [ -f "build/ctest-$variant/build.ninja" ]; then
+            log "C++ tests ($variant): compiling what changed (build/ctest-$variant)"
+        else
+            log "C++ tests ($variant): compiling the core and its tests into build/ctest-$variant," \
+                "the first time about $FIRST_TEST_BUILD_MIN min on 2 cores"
+        fi
         "$cmake" -S . -B "build/ctest-$variant" -G Ninja -DMOONBOT_BUILD_PYTHON=OFF "${flags[@]}" >/dev/null
         "$cmake" --build "build/ctest-$variant"
+        log "C++ tests ($variant): compiled in $(took "$start"); running them"
         "$ctest" --test-dir "build/ctest-$variant" --output-on-failure --timeout "$CTEST_TEST_LIMIT_S"
     done
 }
 
 case "${1:-}" in
-    setup) setup ;;
+    setup) setup; path_hint ;;
     demo)
         setup
         log "moonbot render-one (embedded default config)"
         "$VENV/bin/moonbot" render-one --out out/demo "${@:2}"
         log "pictures: out/demo/view_000/rgb.png, depth_preview.png, mask.png"
+        path_hint
         ;;
     test)
         setup
@@ -127,6 +158,7 @@ case "${1:-}" in
         bounded "$SMOKE_STEP_LIMIT_S" "$VENV/bin/moonbot" baseline build/smoke/dataset
         bounded "$SMOKE_STEP_LIMIT_S" "$VENV/bin/moonbot" eval build/smoke/dataset \
             --results build/smoke/dataset/eval/baseline_test.csv
+        log "every test stage passed"
         ;;
     bench)  # ./dev.sh bench [render_one|settle|terrain|tonemap_exr ...]: those benchmarks, or all of them
         setup

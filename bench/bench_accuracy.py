@@ -14,7 +14,7 @@ defaults, against a high-sample reference of that knob with the others at their 
 
 and one curve against a converged reference of the default path tracer (spp 1024 at the default
 light_samples and bounces, two independent 512-sample halves of seeds 1 and 2 averaged; cached
-under build/accuracy-reference/, `--fresh-reference` renders it again), each level rendered on one
+under build/bench_accuracy/, `--fresh-reference` renders it again), each level rendered on one
 thread (core seconds):
 
   adaptive       (base spp, adaptive_spp, adaptive_threshold): brute force (adaptive_spp 0) at
@@ -30,6 +30,8 @@ thread (core seconds):
                  anti-aliasing does to the direct light, apart from the indirect light's noise.
                  `--indirect cache`: the levels take their indirect light from the light cache
                  (one per scene, filled by an untimed render first: a task's steady state).
+                 `--dust`: the same scenes with dust stirred up beside the target (view 0's
+                 ejecta fragments and fine-dust cloud), reference included.
 
 With --light-cache, the indirect light instead (render.indirect; light_cache.h), against a
 `--reference-spp` (1024) path-traced reference of today's per-pixel bounces (render.bounces of the
@@ -74,7 +76,7 @@ import numpy as np
 
 from moonbot import _core
 from moonbot.config import config_hash, load_config
-from moonbot.render import build_light_cache, build_scene, exposure_scale, render_view
+from moonbot.render import SceneDust, build_light_cache, build_scene, exposure_scale, render_view
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
 from moonbot.scene.orbit import orbit_height, pixel_directions
 
@@ -83,7 +85,7 @@ from svgplot import time_error_plot
 
 RESULTS = Path(__file__).resolve().parent / "results"
 SCHEMA_VERSION = 2  # 2: the adaptive curve (rows with knob "adaptive" carry regions)
-REFERENCE_CACHE = Path(__file__).resolve().parent.parent / "build" / "accuracy-reference"
+REFERENCE_CACHE = Path(__file__).resolve().parent.parent / "build" / "bench_accuracy"  # both kinds of reference
 LOCATIONS = ("flat", "hilly", "crater")
 ELEVATIONS = (5.0, 22.0)
 REFERENCE = {"spp": 64, "light_samples": 64, "bounces": 6, "earthshine": True}
@@ -95,12 +97,15 @@ KNOBS = {
 }
 # The adaptive curve's reference: the default path tracer converged (two halves, seeds 1 and 2).
 CONVERGED = {"spp": 1024, "halves_seeds": (1, 2)}
-# (spp, adaptive_spp, adaptive_threshold); adaptive_spp 0: brute force, today's path tracer.
+# (spp, adaptive_spp, adaptive_threshold, light_samples); adaptive_spp 0: brute force, today's
+# path tracer. Base spp 1 is the pixel-centre sample, refined where its 3×3 neighbourhood disagrees.
 ADAPTIVE_LEVELS = [
-    (4, 0, 0.25), (8, 0, 0.25), (16, 0, 0.25), (32, 0, 0.25), (64, 0, 0.25),
-    (4, 16, 0.25), (4, 32, 0.25), (4, 64, 0.25),
-    (4, 32, 0.1), (4, 32, 0.5), (4, 32, 1.0),
-    (2, 16, 0.25), (2, 32, 0.25), (8, 64, 0.25),
+    (4, 0, 0.25, 2), (8, 0, 0.25, 2), (16, 0, 0.25, 2), (32, 0, 0.25, 2), (64, 0, 0.25, 2),
+    (4, 16, 0.25, 2), (4, 32, 0.25, 2), (4, 64, 0.25, 2),
+    (4, 32, 0.1, 2), (4, 32, 0.5, 2), (4, 32, 1.0, 2),
+    (2, 16, 0.25, 2), (2, 32, 0.25, 2), (8, 64, 0.25, 2),
+    (2, 16, 0.5, 1),
+    (1, 16, 1.0, 1), (1, 32, 1.0, 1), (1, 16, 0.5, 1), (1, 32, 0.5, 1), (1, 64, 0.5, 1), (1, 32, 0.25, 1),
 ]
 # Sample points on the Sun's disk for the visibility V that defines the region masks.
 SUN_DISK_POINTS = 64
@@ -119,14 +124,14 @@ def view_pose(config, spec):
     return orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, config.orbit.start_azimuth_deg)
 
 
-def render(config, scene, spec, repeats: int, seed: int = 7, full: bool = False, light_cache=None):
+def render(config, scene, spec, repeats: int, seed: int = 7, full: bool = False, light_cache=None, medium=None):
     """The view's linear RGB (H, W, 3) float64 and the median core seconds of `repeats` renders
     (the same seed each time, so the same image); `full`: the last RenderedView in place of the RGB."""
     pose = view_pose(config, spec)
     K = intrinsics(config.camera)
     seconds, out = [], None
     for _ in range(repeats):
-        out = render_view(scene, config, K, pose, seed=seed, light_cache=light_cache)
+        out = render_view(scene, config, K, pose, seed=seed, medium=medium, light_cache=light_cache)
         seconds.append(out.stats["core_seconds"])
     return (out if full else out.rgb.astype(np.float64)), statistics.median(seconds)
 
@@ -176,18 +181,20 @@ def sun_visibility(config, scene, spec, depth: np.ndarray) -> np.ndarray:
     return v
 
 
-def converged_reference(config, scene, spec, fresh: bool) -> dict:
+def converged_reference(config, scene, spec, fresh: bool, medium=None) -> dict:
     """The default path tracer at CONVERGED spp (two halves of different seeds, averaged) with the
     pixel-centre depth, instance labels and Sun visibility: float32/uint8 arrays under the keys
     rgb (H, W, 3), half_difference (H, W, 3: the halves' difference), depth, instance, visibility.
     Cached in build/ under the config's hash."""
-    half = with_render(config, spp=CONVERGED["spp"] // 2, adaptive_spp=0, threads=0)
+    # Pinned, not the config's: the quality knobs' defaults may move without the reference's key.
+    half = with_render(config, spp=CONVERGED["spp"] // 2, adaptive_spp=0, threads=0, adaptive_threshold=0.5,
+                       light_samples=2, indirect="cache")
     key = config_hash(with_render(half, threads=0))[:16]
     path = REFERENCE_CACHE / f"{config.terrain.location}-{config.sun.elevation_deg:g}-{config.camera.width}-{key}.npz"
     if path.exists() and not fresh:
         with np.load(path) as f:
             return dict(f)
-    halves = [render(half, scene, spec, 1, seed=seed, full=True)[0] for seed in CONVERGED["halves_seeds"]]
+    halves = [render(half, scene, spec, 1, seed=seed, full=True, medium=medium)[0] for seed in CONVERGED["halves_seeds"]]
     a, b = (h.rgb.astype(np.float64) for h in halves)
     ref = {"rgb": ((a + b) / 2).astype(np.float32), "half_difference": (a - b).astype(np.float32),
            "depth": halves[0].depth, "instance": halves[0].instance}
@@ -225,11 +232,11 @@ def region_errors(rgb: np.ndarray, ref: dict, masks: dict[str, np.ndarray]) -> d
 
 
 def adaptive_rows(config, scene, spec, exposure: float, repeats: int, fresh_reference: bool,
-                  indirect: str = "path") -> list[dict]:
+                  indirect: str = "path", levels: list[tuple] = ADAPTIVE_LEVELS, medium=None) -> list[dict]:
     """The adaptive curve of one scene against its converged reference (module docstring)."""
     location, elevation = config.terrain.location, config.sun.elevation_deg
     start = time.perf_counter()
-    ref = converged_reference(config, scene, spec, fresh_reference)
+    ref = converged_reference(config, scene, spec, fresh_reference, medium)
     mean = float(ref["rgb"].mean())
     reference_noise = float(np.sqrt(np.mean(ref["half_difference"].astype(np.float64) ** 2)) / 2) / mean
     rows = [{"location": location, "sun_elevation_deg": elevation, "knob": "adaptive",
@@ -239,16 +246,17 @@ def adaptive_rows(config, scene, spec, exposure: float, repeats: int, fresh_refe
     one_thread = with_render(config, threads=1, indirect=indirect)
     cache = build_light_cache(scene, one_thread)
     if cache is not None:
-        render(one_thread, scene, spec, 1, light_cache=cache)  # fills what view 0 touches
-    for spp, cap, threshold in ADAPTIVE_LEVELS:
-        level = with_render(one_thread, spp=spp, adaptive_spp=cap, adaptive_threshold=threshold)
-        out, seconds = render(level, scene, spec, repeats, full=True, light_cache=cache)
+        render(one_thread, scene, spec, 1, light_cache=cache, medium=medium)  # fills what view 0 touches
+    for spp, cap, threshold, light_samples in levels:
+        level = with_render(one_thread, spp=spp, adaptive_spp=cap, adaptive_threshold=threshold,
+                            light_samples=light_samples)
+        out, seconds = render(level, scene, spec, repeats, full=True, light_cache=cache, medium=medium)
         rgb = out.rgb.astype(np.float64)
         e = errors(rgb, ref["rgb"].astype(np.float64), exposure)
         rays = sum(out.stats[k] for k in ("camera_rays", "second_look_rays", "shadow_rays", "bounce_rays"))
         rows.append({"location": location, "sun_elevation_deg": elevation, "knob": "adaptive",
-                     "level": adaptive_label(spp, cap, threshold), "spp": spp, "adaptive_spp": cap,
-                     "adaptive_threshold": threshold, "seconds": seconds, **e,
+                     "level": adaptive_label(spp, cap, threshold, light_samples), "spp": spp, "adaptive_spp": cap,
+                     "adaptive_threshold": threshold, "light_samples": light_samples, "seconds": seconds, **e,
                      # the error left once the reference's own noise is taken out (they add in squares)
                      "rel_rmse_vs_truth": float(np.sqrt(max(e["rel_rmse"] ** 2 - reference_noise ** 2, 0.0))),
                      "rays": int(rays), "refined_pixels": int(out.stats["refined_pixels"]),
@@ -257,18 +265,23 @@ def adaptive_rows(config, scene, spec, exposure: float, repeats: int, fresh_refe
     return rows
 
 
-def adaptive_label(spp: int, cap: int, threshold: float) -> str:
-    return f"spp {spp}" if cap == 0 else f"{spp}/{cap}/{threshold:g}"
+def adaptive_label(spp: int, cap: int, threshold: float, light_samples: int = 2) -> str:
+    label = f"spp {spp}" if cap == 0 else f"{spp}/{cap}/{threshold:g}"
+    return label if light_samples == 2 else f"{label} ls{light_samples}"
 
 
 def scene_rows(location: str, elevation: float, width: int, repeats: int, knobs: list[str],
-               fresh_reference: bool, direct_only: bool = False, indirect: str = "path") -> list[dict]:
+               fresh_reference: bool, direct_only: bool = False, indirect: str = "path",
+               dust: bool = False) -> list[dict]:
     overrides = {"terrain.location": location, "sun.elevation_deg": elevation,
-                 "camera.width": width, "camera.height": width * 3 // 4}
+                 "camera.width": width, "camera.height": width * 3 // 4, "dust.enabled": dust}
     config = load_config(None, overrides)
     spec = compose_scene(config)
     scene = build_scene(spec)
     exposure = exposure_scale(config)
+    # A dusty scene: view 0's ejecta fragments in the scene (moving: no light cache serves or
+    # sees them) and its cloud as the render's medium, for the reference and every level alike.
+    medium = SceneDust(scene, spec, config, [0]).for_view(0).medium if dust else None
 
     def knob_config(knob, level):
         if knob == "earthshine":
@@ -278,7 +291,7 @@ def scene_rows(location: str, elevation: float, width: int, repeats: int, knobs:
     rows = []
     if "adaptive" in knobs:
         direct = with_render(config, bounces=0) if direct_only else config
-        rows += adaptive_rows(direct, scene, spec, exposure, repeats, fresh_reference, indirect)
+        rows += adaptive_rows(direct, scene, spec, exposure, repeats, fresh_reference, indirect, medium=medium)
     for knob, levels in KNOBS.items():
         if knob not in knobs:
             continue
@@ -334,17 +347,16 @@ def adaptive_curves(rows: list[dict]) -> dict[str, list]:
     """The adaptive levels grouped into the plot's curves: brute force, then the adaptive levels
     by base spp and threshold (growing cap along each), then by threshold at base 4 cap 32."""
     groups: dict[str, list] = {}
-    for spp, cap, threshold in ADAPTIVE_LEVELS:
+    for spp, cap, threshold, light_samples in ADAPTIVE_LEVELS:
         name = "brute force spp" if cap == 0 else f"adaptive base {spp}, threshold {threshold:g}"
-        groups.setdefault(name, []).append(adaptive_label(spp, cap, threshold))
-    groups["adaptive 4/32, threshold"] = [adaptive_label(4, 32, t) for s, c, t in ADAPTIVE_LEVELS if (s, c) == (4, 32)]
+        groups.setdefault(name, []).append(adaptive_label(spp, cap, threshold, light_samples))
+    groups["adaptive 4/32, threshold"] = [adaptive_label(4, 32, t) for s, c, t, _ in ADAPTIVE_LEVELS if (s, c) == (4, 32)]
     curves = {}
     for name, labels in groups.items():
         points = [p for p in knob_summary(rows, "adaptive", labels)[1]]
         if len(points) > 1:
             curves[name] = points
     return curves
-REFERENCE_CACHE = Path(__file__).resolve().parent.parent / "build" / "bench_accuracy"
 CACHE_KNOBS = {"path_spp": [1, 2, 4, 8, 16], "cache_rays": [8, 16, 32, 64, 128]}
 
 
@@ -538,6 +550,8 @@ def main() -> int:
                         help="the adaptive curve with bounces 0, its reference too (direct light alone)")
     parser.add_argument("--indirect", choices=["path", "cache"], default="path",
                         help="the adaptive curve's levels: indirect light from bounce paths or the light cache")
+    parser.add_argument("--dust", action="store_true",
+                        help="the scenes with dust stirred up (ejecta fragments and the fine-dust cloud of view 0)")
     parser.add_argument("--elevations", type=float, nargs="+", default=list(ELEVATIONS),
                         help="Sun elevations, degrees (default: 5 22)")
     parser.add_argument("--light-cache", action="store_true",
@@ -550,7 +564,7 @@ def main() -> int:
         return light_cache_main(args)
     defaults = load_config(None).render
     result = {"schema_version": SCHEMA_VERSION, "machine": machine(), "width": args.width, "knobs": args.knobs,
-              "direct_only": args.direct_only, "indirect": args.indirect, "elevations": args.elevations,
+              "direct_only": args.direct_only, "indirect": args.indirect, "dust": args.dust, "elevations": args.elevations,
               "reference": REFERENCE, "converged_reference": CONVERGED,
               "defaults": {"spp": defaults.spp, "light_samples": defaults.light_samples,
                            "bounces": defaults.bounces, "earthshine": False},
@@ -559,7 +573,7 @@ def main() -> int:
     for location in LOCATIONS:
         for elevation in args.elevations:
             rows = scene_rows(location, elevation, args.width, args.repeats, args.knobs, args.fresh_reference,
-                              args.direct_only, args.indirect)
+                              args.direct_only, args.indirect, args.dust)
             result["rows"] += rows
             print(f"\n{location}, Sun {elevation:g}°")
             print_rows(rows)
@@ -578,6 +592,7 @@ def main() -> int:
     subset = "" if set(args.knobs) == {*KNOBS, "adaptive"} else "-".join(args.knobs) + "-"
     subset += "direct-" if args.direct_only else ""
     subset += "cache-" if args.indirect == "cache" else ""
+    subset += "dust-" if args.dust else ""
     out = RESULTS / f"accuracy-{subset}{machine_slug(result['machine'])}.json"
     out.write_text(json.dumps(result, indent=2, default=str) + "\n")
     commit = result["machine"]["git_commit"][:7]

@@ -47,11 +47,13 @@ def render_one(config_path: Path | None, views: tuple[int, ...], all_views: bool
 
     CONFIG defaults to the embedded default config. Writes rgb.png (Reinhard, 8-bit sRGB),
     depth.npy (float32 metres), depth.png (uint16 millimetres, 0 = invalid), depth_preview.png,
-    mask.png (instance ids, 0 = background) and gt.json (K, poses in mm, timings) per view, and
-    a contact sheet, then prints a summary.
+    mask.png (instance ids, 0 = background), amodal_NNN.png (each bag alone) and gt.json (K,
+    poses in mm, timings) per view, and a contact sheet; says each stage as it starts (on
+    stderr, with the seconds since the start), then prints a summary.
     """
     from moonbot.config import ConfigError, load_config, parse_overrides
     from moonbot.pipeline import run_views
+    from moonbot.pipeline.progress import StageClock
     from moonbot.pipeline.summary import format_summary
     from moonbot.writer import write_sheet
 
@@ -67,10 +69,12 @@ def render_one(config_path: Path | None, views: tuple[int, ...], all_views: bool
     except ConfigError as e:
         raise click.ClickException(str(e)) from None
     chosen = list(range(config.orbit.views)) if all_views else list(views or (0,))
+    stage = StageClock(lambda text: click.echo(text, err=True))
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
-        results = run_views(config, chosen, out_dir)
+        results = run_views(config, chosen, out_dir, on_stage=stage)
         if sheet:
+            stage("contact sheet")
             write_sheet([r.out_dir for r in results], out_dir / "sheet.png",
                         config.output.png_compression)
     except (ValueError, OSError) as e:
@@ -222,12 +226,14 @@ def stats(out_dir: Path, reference_path: Path | None, reference_rate: float | No
 @main.command("plan")
 @click.argument("config_path", metavar="CONFIG", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--bench-record", type=click.Path(dir_okay=False, path_type=Path),
-              help="A generate benchmark record to estimate from (default: this machine's, in bench/results/).")
+              help="A generate benchmark record to estimate from (default: the one in bench/results/ of a "
+                   "machine with this CPU and core count, else another machine's).")
 def plan(config_path: Path, bench_record: Path | None) -> None:
     """Print CONFIG's sweep — scenes, tasks and samples per split — and the disk and time it will
-    take on this machine, without rendering anything."""
+    take, without rendering anything. The time is scaled from a generate benchmark record, whose
+    machine is named beside this one's."""
     from moonbot.config import ConfigError, load_config
-    from moonbot.sweep.plan import default_record, estimate, split_plans
+    from moonbot.sweep.plan import default_record, estimate, provenance, split_plans
 
     try:
         config = load_config(config_path)
@@ -239,9 +245,10 @@ def plan(config_path: Path, bench_record: Path | None) -> None:
         click.echo(f"{p.name:<10} {p.scenes:>7} {p.tasks:>7} {p.samples:>9}")
     click.echo(f"{'total':<10} {sum(p.scenes for p in plans):>7} {sum(p.tasks for p in plans):>7} "
                f"{sum(p.samples for p in plans):>9}")
-    found = estimate(plans, bench_record or default_record())
+    record = bench_record or default_record()
+    found = estimate(plans, record)
     if found is None:
-        click.echo("no generate benchmark recorded for this machine: run bench/bench_generate.py for estimates")
+        click.echo(f"no generate benchmark record ({record} unreadable): run bench/bench_generate.py for estimates")
         return
     size = found.bytes
     click.echo("disk    ~" + (f"{size / 1e9:.1f} GB" if size >= 1e9 else f"{size / 1e6:.1f} MB")
@@ -249,8 +256,10 @@ def plan(config_path: Path, bench_record: Path | None) -> None:
     hours = found.seconds / 3600
     click.echo("time    ~" + (f"{hours:.1f} h" if hours >= 1 else f"{found.seconds / 60:.1f} min"
                                 if found.seconds >= 60 else f"{found.seconds:.1f} s")
-               + f" on this machine, rendering only ({found.workers} worker × {found.threads} render threads, "
-                 f"the fastest layout measured; from {found.source})")
+               + f" rendering only, on the recorded machine ({found.workers} worker × {found.threads} render "
+                 "threads, the fastest layout it measured)")
+    for line in provenance(found):
+        click.echo(line)
 
 
 @main.command("generate")
@@ -273,7 +282,12 @@ def plan(config_path: Path, bench_record: Path | None) -> None:
                    "stage of the tasks finished so far; 0: never.")
 def generate(config_path: Path, out_dir: Path, workers: int | None, threads: int | None, scheduler: str | None,
              scheduler_file: str | None, resume: bool, merge: bool, task_timeout: float | None) -> None:
-    """Render CONFIG's sweep into --out on a Dask cluster (a local one unless told otherwise)."""
+    """Render CONFIG's sweep into --out on a Dask cluster (a local one unless told otherwise).
+
+    A progress line per finished task, and every 30 s without one, names the running tasks with
+    their ages and stages. Ctrl-C or SIGTERM stops the run cleanly (the cluster closed, its scratch
+    space and unfinished tasks' temporaries removed) and prints the `moonbot merge` command that
+    makes a dataset of the complete tasks; exit status 130 or 143."""
     from moonbot.bop.merge import MergeError
     from moonbot.config import ConfigError, load_config
     from moonbot.pipeline.generate import generate as run
@@ -288,6 +302,18 @@ def generate(config_path: Path, out_dir: Path, workers: int | None, threads: int
                      scheduler_file=scheduler_file, merge=merge, task_timeout=task_timeout)
     except (OSError, MergeError) as e:
         raise click.ClickException(str(e)) from None
+    if result.interrupted:
+        import shlex
+        import signal
+
+        out, missing = shlex.quote(str(out_dir)), result.tasks - result.complete
+        click.echo(f"interrupted by {result.interrupted} after {result.seconds:.1f} s: {result.complete} of "
+                   f"{result.tasks} tasks complete in {out_dir / 'tasks'}, nothing merged; the cluster's scratch "
+                   "space and the unfinished tasks' temporaries are removed\n"
+                   f"  moonbot merge {out}    # a BOP dataset of the complete tasks, in {out_dir / 'dataset'}\n"
+                   f"  moonbot generate {shlex.quote(str(config_path))} --out {out}    # renders the {missing} "
+                   "others (complete tasks are never redone)", err=True)
+        raise SystemExit(128 + signal.Signals[result.interrupted].value)
     click.echo(f"{result.rendered} tasks rendered ({result.samples} samples) in {result.seconds:.1f} s; "
                f"{result.complete_before} were complete already; {result.placed} scene layouts placed "
                f"and settled, {result.placed_before} kept from an earlier run")
@@ -343,6 +369,52 @@ def merge(out_dir: Path, dataset_dir: Path | None, config_path: Path | None, lin
         click.echo(f"incomplete: {len(report.missing)} tasks missing, {len(report.invalid)} unusable; "
                    "generate again and re-run merge", err=True)
         click.get_current_context().exit(EXIT_INCOMPLETE)
+
+
+@main.group("export")
+def export() -> None:
+    """A merged dataset in other tools' formats: COCO files per split, BOP-webdataset shards."""
+
+
+@export.command("coco")
+@click.argument("dataset", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), required=True,
+              help="Folder for instances_<split>.json (file names in them are relative to DATASET).")
+def export_coco(dataset: Path, out_dir: Path) -> None:
+    """One COCO instance-segmentation file per split of DATASET (visible masks as RLE, amodal
+    boxes, categories = obj_ids), for detectron2 or mmdetection with DATASET as image root."""
+    from moonbot.bop.reader import DatasetError
+    from moonbot.export.coco import ExportError, write_split_cocos
+
+    try:
+        written = write_split_cocos(dataset, out_dir)
+    except (DatasetError, ExportError, OSError) as e:
+        raise click.ClickException(str(e)) from None
+    for split, path in written.items():
+        click.echo(f"{split}: {path}")
+
+
+@export.command("shards")
+@click.argument("dataset", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), required=True,
+              help="Folder for <split>_web/ (shard-NNNNNN.tar and key_to_shard.json), each replaced whole.")
+@click.option("--shard-size", type=click.IntRange(min=1), default=1000, show_default=True,
+              help="Images per shard.")
+@click.option("--shuffle-seed", type=click.IntRange(min=0, max=2**32 - 1), default=None,
+              help="Shuffle the images across shards with this seed (default: dataset order).")
+def export_shards(dataset: Path, out_dir: Path, shard_size: int, shuffle_seed: int | None) -> None:
+    """BOP-webdataset shards of every split of DATASET, as bop_toolkit's bop_webdataset reads them
+    (rgb.png: pass rgb_suffix=".png")."""
+    from moonbot.bop.reader import DatasetError
+    from moonbot.export.coco import ExportError
+    from moonbot.export.webdataset import write_shards
+
+    try:
+        written = write_shards(dataset, out_dir, shard_size, shuffle_seed)
+    except (DatasetError, ExportError, OSError) as e:
+        raise click.ClickException(str(e)) from None
+    for split in written:
+        click.echo(f"{split.split}: {split.images} images in {split.shards} shards -> {split.folder}")
 
 
 @main.command("baseline")
@@ -476,13 +548,15 @@ def bench_realism(photos: Path, regions: Path | None, width: int, height: int, s
 
 @bench.command("compare")
 @click.argument("results", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=Path("bench-compare.svg"),
-              show_default=True, help="The SVG to write.")
-def bench_compare(results: tuple[Path, ...], plot: Path) -> None:
+@click.option("--plot", type=click.Path(dir_okay=False, path_type=Path),
+              help="The SVG to write. Default: compare-A-vs-B.svg (the RESULTS' stems) beside the first RESULTS file.")
+def bench_compare(results: tuple[Path, ...], plot: Path | None) -> None:
     """Print the runs of throughput RESULTS files side by side (different machines or runs) and
     plot samples/s, seconds a sample per stage and the ratio to the limit."""
     from moonbot.benchmark.compare import ResultError, format_comparison, load_result, names_for, write_svg
 
+    if plot is None:
+        plot = results[0].parent / ("compare-" + "-vs-".join(p.stem for p in results) + ".svg")
     try:
         named = list(zip(names_for(list(results)), [load_result(p) for p in results]))
         write_svg(named, plot)
@@ -492,17 +566,42 @@ def bench_compare(results: tuple[Path, ...], plot: Path) -> None:
     click.echo(f"\nwritten {plot}")
 
 
+# What one item of each `moonbot validate` check is (moonbot/eval/validate.py), printed beside its count.
+VALIDATE_ITEMS = {
+    "manifest": "files listed in manifest.json: size and SHA-256",
+    "scenes": "scene folders",
+    "depth": "images: depth PNG against the metric .npy, no holes below the horizon",
+    "masks": "instances: amodal and visible masks against scene_gt_info.json",
+    "pose": "instances with visible pixels: the model at its pose against depth "
+            "(fully occluded ones have no pixel to compare)",
+}
+
+
 @main.command("validate")
 @click.argument("dataset", type=click.Path(file_okay=False, exists=True, path_type=Path))
 def validate(dataset: Path) -> None:
     """Check a merged BOP DATASET against itself: manifest checksums, JSON fields, depth PNG against
-    the metric .npy, masks against scene_gt_info.json. Exits 1 naming each failing file."""
-    from moonbot.eval.validate import validate_dataset
+    the metric .npy, masks against scene_gt_info.json, the models at their poses against depth.
+    Exits 1 naming each failing file. The folder of a `moonbot generate --out OUT` run stands for
+    its merged dataset, OUT/dataset."""
+    import shlex
 
+    from moonbot.eval.validate import validate_dataset
+    from moonbot.pipeline.tasks import generate_folder_dataset
+
+    merged = generate_folder_dataset(dataset)
+    if merged is not None:
+        if not (merged / "manifest.json").is_file():
+            raise click.ClickException(
+                f"{dataset} is the folder of a `moonbot generate` run whose tasks are not merged into "
+                f"{merged}: run `moonbot merge {shlex.quote(str(dataset))}`, then "
+                f"`moonbot validate {shlex.quote(str(merged))}`")
+        click.echo(f"{dataset} is the folder of a `moonbot generate` run: validating its dataset {merged}", err=True)
+        dataset = merged
     report = validate_dataset(dataset)
     for check, n in sorted(report.checked.items()):
         failed = sum(1 for _, c, _ in report.failures if c == check)
-        click.echo(f"{check:<10} {n:>8} checked  {failed:>6} failed")
+        click.echo(f"{check:<10} {n:>8} checked  {failed:>6} failed   {VALIDATE_ITEMS.get(check, '')}".rstrip())
     for path, check, message in report.failures:
         click.echo(f"FAIL {check}: {path}: {message}", err=True)
     if not report.ok:

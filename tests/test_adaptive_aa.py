@@ -154,7 +154,7 @@ def test_off_is_the_brute_force_path_bit_for_bit():
     ({"spp": 4, "adaptive_spp": 4}, "adaptive_spp: must be 0 (off) or in spp + 1..65536"),
     ({"spp": 4, "adaptive_spp": -1}, "adaptive_spp: must be 0"),
     ({"spp": 4, "adaptive_spp": 70000}, "adaptive_spp: must be 0"),
-    ({"spp": 1, "adaptive_spp": 8}, "adaptive_spp: needs spp >= 2"),
+    ({"spp": 1, "adaptive_spp": 1}, "adaptive_spp: must be 0 (off) or in spp + 1..65536"),
     ({"spp": 4, "adaptive_spp": 8, "adaptive_threshold": -0.5}, "adaptive_threshold: must be a finite number >= 0"),
     ({"spp": 4, "adaptive_spp": 8, "adaptive_threshold": float("nan")}, "adaptive_threshold: must be a finite"),
 ])
@@ -173,14 +173,65 @@ def test_bad_config_names_the_field(overrides, message):
     assert message in str(caught.value)
 
 
-def test_refinement_applies_only_above_spp_with_two_base_samples():
-    """The config's adaptive_spp refines only where it can: above spp, with at least two base
-    samples to compare; a render asked for many uniform samples or for the pixel centre alone
-    refines nothing (no error: the default's 32 must not forbid render.spp 64)."""
-    assert load_config(None, {}).render.refinement_spp == 32
-    assert load_config(None, {"render.spp": 64}).render.refinement_spp == 0
-    assert load_config(None, {"render.spp": 1}).render.refinement_spp == 0
+def test_refinement_applies_only_above_spp():
+    """The config's adaptive_spp refines only above spp: a render asked for as many uniform
+    samples or more refines nothing (no error: the default's cap must not forbid render.spp 64).
+    Over the one pixel-centre sample it applies."""
+    default = load_config(None, {}).render
+    assert default.refinement_spp == default.adaptive_spp > default.spp
+    assert load_config(None, {"render.spp": 64, "render.adaptive_spp": 32}).render.refinement_spp == 0
+    assert load_config(None, {"render.spp": 1, "render.adaptive_spp": 16}).render.refinement_spp == 16
     assert load_config(None, {"render.adaptive_spp": 0}).render.refinement_spp == 0
+
+
+def test_over_the_centre_sample_only_the_edges_are_refined_to_the_error_of_brute_force():
+    """spp 1: the pixel-centre ray the depth and labels trace is the base sample, and a pixel is
+    refined where the centre samples of its 3×3 neighbourhood disagree. None of the box's
+    interior pixels (the pixel and its neighbours of one value under a 16 × 16 grid of centre
+    rays) is refined, and each keeps the bytes of the plain one-sample render; the refined pixels
+    get 64 jittered samples of their whole radiance, which leaves the error of 64 samples
+    everywhere for a small share of their rays."""
+    scene = floating_box()
+    reference = _core.render(scene, corner_camera(), SUN, spp=1024, seed=11, passes=["rgb"])["rgb"]
+    plain = _core.render(scene, corner_camera(), SUN, spp=1, seed=3)
+    adaptive = _core.render(scene, corner_camera(), SUN, spp=1, seed=3, adaptive_spp=64, adaptive_threshold=0.1)
+    brute_force = _core.render(scene, corner_camera(), SUN, spp=64, seed=3, passes=["rgb"])
+
+    def rel_rmse(out):
+        return np.sqrt(np.mean((out["rgb"].astype(np.float64) - reference) ** 2)) / reference.mean()
+
+    fine = _core.render(scene, corner_camera(16), SUN, spp=1, passes=["rgb"])["rgb"][..., 1]
+    blocks = fine.reshape(H, 16, W, 16).transpose(0, 2, 1, 3).reshape(H, W, 256)
+    value = np.where(np.all(blocks == blocks[..., :1], axis=-1), blocks[..., 0], np.nan)
+    padded = np.pad(value, 1, constant_values=np.nan)
+    interior = np.all([padded[1 + dy:1 + dy + H, 1 + dx:1 + dx + W] == value
+                       for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0)
+    changed = np.any(plain["rgb"] != adaptive["rgb"], axis=-1)
+    assert interior.sum() > H * W // 2
+    assert not np.any(changed & interior)
+    assert 0 < changed.sum() <= adaptive["refined_pixels"] <= (~interior).sum()
+    # Depth and labels are the centre rays' in both.
+    for key in ("depth", "instance"):
+        assert plain[key].tobytes() == adaptive[key].tobytes()
+    # 64 samples a refined pixel, each a camera ray (and a shadow ray on a face toward the Sun).
+    assert adaptive["camera_rays"] - plain["camera_rays"] == 64 * adaptive["refined_pixels"]
+    assert rel_rmse(plain) > 0.25
+    assert rel_rmse(adaptive) < 1.1 * rel_rmse(brute_force) < 0.05
+    assert adaptive["camera_rays"] < 0.2 * brute_force["camera_rays"]
+
+
+def test_over_the_centre_sample_the_same_bytes_for_any_thread_count():
+    """spp 1 with a disk Sun, bounces through a light cache and refinement: the same bytes on 1
+    and 2 threads, and the refinement reads the cache (it traces no bounce ray on this static
+    scene)."""
+    scene = lunar_test_scene()
+    cache = _core.LightCache(scene, DISK_SUN, bounces=2, rays_background=64, seed=1)
+    images = [_core.render(scene, ground_camera(), DISK_SUN, seed=5, threads=threads, spp=1, light_samples=1,
+                           bounces=2, light_cache=cache, adaptive_spp=16, adaptive_threshold=0.5)
+              for threads in (1, 2)]
+    assert images[0]["refined_pixels"] == images[1]["refined_pixels"] > 0
+    assert images[0]["rgb"].tobytes() == images[1]["rgb"].tobytes()
+    assert images[0]["bounce_rays"] == 0
 
 
 def test_with_the_light_cache_refinement_reads_no_cache_and_traces_no_bounces():

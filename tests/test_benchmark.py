@@ -8,6 +8,7 @@ and the field. No timing is asserted."""
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import pytest
@@ -96,7 +97,7 @@ def test_tiny_run_writes_a_complete_result(tiny_result):
     (run,) = record["runs"]
     assert (run["level"], run["workers"], run["samples"], run["tasks"]) == ("draft", 1, 4, 4)
     assert run["samples_per_s"] > 0 and run["bytes_per_sample"] > 0 and run["peak_rss_mib"]["max_worker"] > 0
-    # draft: the pixel-centre ray and 2 base samples a pixel, more where the samples disagree
+    # draft: the pixel-centre ray a pixel, 16 more where its neighbourhood disagrees
     assert run["rays"]["camera_rays"] > 3 * 4 * 64 * 48
     # its bounce light comes from the task's light cache; only hits on the moving ejecta bounce
     assert run["rays"]["shadow_rays"] > 0 and run["rays"]["medium_rays"] > 0
@@ -132,6 +133,18 @@ def test_compare_reads_an_old_and_a_new_result(tiny_result, tmp_path):
     svg = plot.read_text()
     assert svg.startswith("<svg") and svg.rstrip().endswith("</svg>")
     assert f"{OLD_RESULT.stem}: draft" in svg and f"{tiny_result.stem}: draft" in svg
+
+
+def test_compare_plots_beside_its_inputs_not_into_the_working_folder(tmp_path, monkeypatch):
+    for name in ("a.json", "b.json"):
+        shutil.copy(OLD_RESULT, tmp_path / name)
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    result = CliRunner().invoke(main, ["bench", "compare", str(tmp_path / "a.json"), str(tmp_path / "b.json")])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "compare-a-vs-b.svg").read_text().startswith("<svg")
+    assert f"written {tmp_path / 'compare-a-vs-b.svg'}" in result.output and list(work.iterdir()) == []
 
 
 @pytest.mark.parametrize("edit, field", [

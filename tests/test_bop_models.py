@@ -94,14 +94,22 @@ def test_symmetry_search_reports_every_candidate():
 
 @pytest.mark.parametrize("obj_id", VARIANTS)
 def test_eval_model_covers_the_surface_evenly(models, obj_id):
-    """models_eval holds points on the surface, about one per EVAL_SPACING_MM² of area."""
-    points = trimesh.load(models / "models_eval" / f"obj_{obj_id:06d}.ply", process=False).vertices
+    """models_eval is the surface remeshed (bop_toolkit renders it for VSD and its pose
+    visualisations): the same area and volume, vertices about one per EVAL_SPACING_MM² of area
+    (n² sub-triangles of each triangle, n rounded), all on the surface, none far from any point
+    of it."""
+    remeshed = trimesh.load(models / "models_eval" / f"obj_{obj_id:06d}.ply", process=False)
     v, t = VARIANTS[obj_id][1]()
     mesh = trimesh.Trimesh(v.astype(np.float64) * 1000.0, t, process=False)
-    assert len(points) == pytest.approx(mesh.area / EVAL_SPACING_MM**2, rel=0.02)
+    assert remeshed.area == pytest.approx(mesh.area, rel=1e-5) and remeshed.volume == pytest.approx(mesh.volume, rel=1e-5)
+    assert 0.8 < len(remeshed.vertices) / (mesh.area / EVAL_SPACING_MM**2) < 1.2
+    points = remeshed.vertices
     sample = points[:: max(1, len(points) // 2000)]
     _, distance, _ = trimesh.proximity.closest_point(mesh, sample)
     assert distance.max() < 1e-3  # millimetres: on the surface up to float32 rounding
+    surface = trimesh.sample.sample_surface(mesh, 2000, seed=1)[0]
+    gap = cKDTree(points).query(surface)[0]
+    assert gap.max() < 2 * EVAL_SPACING_MM
 
 
 def test_meshes_leaves_no_temporaries(models):

@@ -391,6 +391,6 @@ sweep:
     (gt_path,) = (tmp_path / "out").rglob("gt.json")
     assert json.loads(gt_path.read_text())["site"] == site
     report = merge_dataset(tmp_path / "out", config=config, workers=1, progress=None)
-    scene = report.dataset / "train" / "sandbag-01" / "dem" / "scene_000000"
+    scene = report.dataset / "by_condition" / "train" / "sandbag-01" / "dem" / "scene_000000"  # the view of train_pbr/000000
     assert json.loads((scene / "scene_camera.json").read_text())["0"]["site"] == site
     assert json.loads((scene / "scene_meta.json").read_text())["images"]["0"]["site"] == site

@@ -6,11 +6,13 @@ uninterrupted run (images, depth, masks, ground truth; only the measured timings
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -22,8 +24,8 @@ from distributed import Client, LocalCluster
 
 from moonbot.cli import main
 from moonbot.config import load_config
-from moonbot.pipeline.generate import RETRIES, generate
-from moonbot.pipeline.heartbeat import DEBUG_HANG_ENV, HEARTBEAT_DIR
+from moonbot.pipeline.generate import RETRIES, generate, running_tasks
+from moonbot.pipeline.heartbeat import DEBUG_HANG_ENV, HEARTBEAT_DIR, Heartbeat, StallLimit, Watchdog
 from moonbot.pipeline.tasks import DONE, is_complete, verify_task
 from moonbot.sweep import tasks
 
@@ -194,9 +196,9 @@ def test_a_bad_config_runs_no_task(tmp_path):
     assert result.exit_code != 0 and str(blocker) in result.output
 
 
-def test_the_smoke_sweep_has_both_splits_meshes_and_dust():
+def test_the_smoke_sweep_has_every_split_mesh_and_dust():
     ts = tasks(load_config(CONFIGS / "smoke.yaml"))
-    assert {t.split for t in ts} == {"train", "test"}
+    assert {t.split for t in ts} == {"train", "val", "test"}
     assert {t.mesh for t in ts} == {"sandbag-01", "sandbag-02", "sandbag-03"} and {t.dust for t in ts} == {False, True}
 
 
@@ -222,6 +224,81 @@ def test_a_failed_write_leaves_no_task_and_loses_nothing(config_file, tmp_path):
     assert sweep_temporaries(tmp_path) == []  # the failed task cleaned up after itself
     assert {p.name: p.read_bytes() for p in task_dir(tmp_path, first).rglob("*") if p.is_file()} == before
     assert verify_task(task_dir(tmp_path, first)) == []
+
+
+def test_the_progress_line_names_running_tasks_with_their_ages(tmp_path):
+    """Each running task with its age and its stage's, oldest first, on the driver's clock; three
+    at most, then how many more."""
+    watchdog = Watchdog(tmp_path, StallLimit(load_config(), fixed_s=0.0))
+    for task_id, stage in (("train-000001", "render view 2"), ("train-000002", "compose scene"),
+                           ("train-000003", "encode view 0"), ("train-000004", "build BVH")):
+        Heartbeat(tmp_path, task_id, "tcp://127.0.0.1:1").stage(stage)
+    ids = {f"train-00000{i}" for i in range(1, 5)}
+    watchdog.poll({"train-000001"}, 1000.0)  # seen first: the oldest
+    watchdog.poll(ids, 1030.0)
+    text = running_tasks(list(watchdog.beats.values()), 1041.0)
+    assert text == ("4 running: train-000001 for 41 s (in 'render view 2' for 41 s), "
+                    "train-000002 for 11 s (in 'compose scene' for 11 s), "
+                    "train-000003 for 11 s (in 'encode view 0' for 11 s), and 1 more")
+    assert running_tasks([], 1041.0) == ""
+
+
+class InterruptAfterTheFirstTask(io.StringIO):
+    """generate's progress stream, which sends this process `signum` as the first task is reported
+    finished: a Ctrl-C (SIGINT) or a `kill` (SIGTERM) at a known point of the run."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__()
+        self.signum = signum
+
+    def write(self, text: str) -> int:
+        written = super().write(text)
+        if text.startswith("[1/"):
+            os.kill(os.getpid(), self.signum)
+        return written
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_an_interrupted_run_leaves_no_temporaries(config_file, tmp_path, monkeypatch, signum):
+    """Interrupted as its first task finishes, a run on a real LocalCluster stops: the cluster
+    closed, no Dask scratch space, staging folder or heartbeat left, the complete tasks intact and
+    nothing merged; `moonbot merge` then makes a dataset of what is complete."""
+    scratch_root = tmp_path / "tmp"
+    scratch_root.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch_root))  # where the local cluster's scratch goes
+    out = tmp_path / "out"
+    handler = signal.getsignal(signal.SIGTERM)
+    result = generate(load_config(config_file), out, workers=2, progress=InterruptAfterTheFirstTask(signum))
+    assert result.interrupted == signal.Signals(signum).name and result.merge is None
+    assert list(scratch_root.iterdir()) == []
+    assert not (out / HEARTBEAT_DIR).exists() and not (out / "dataset").exists()
+    assert all(not p.name.startswith(".") for p in (out / "tasks").iterdir())
+    complete = [p for p in (out / "tasks").iterdir() if is_complete(p)]
+    assert 1 <= result.complete == len(complete) < 8
+    assert all(verify_task(p) == [] for p in complete)
+    assert signal.getsignal(signal.SIGTERM) == handler  # the run's own handler is gone with it
+    merged = CliRunner().invoke(main, ["merge", str(out)])
+    assert merged.exit_code == 3 and f"merged {len(complete)} tasks" in merged.output
+
+
+def test_ctrl_c_prints_the_merge_command(config_file, tmp_path):
+    """The command line, interrupted by SIGINT once a task is complete, exits 130 and prints the
+    exact commands that merge what is complete and render the rest; no scratch space is left."""
+    scratch_root = tmp_path / "tmp"
+    scratch_root.mkdir()
+    out = tmp_path / "out"
+    driver = subprocess.Popen([sys.executable, "-m", "moonbot.cli", "generate", str(config_file), "--out", str(out),
+                               "--workers", "2", "--no-merge"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True, env={**os.environ, "TMPDIR": str(scratch_root)})
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not any((out / "tasks").glob(f"*/{DONE}")):
+        time.sleep(0.05)
+    driver.send_signal(signal.SIGINT)
+    _, stderr = driver.communicate(timeout=120)
+    assert driver.returncode == 130, stderr
+    assert f"\n  moonbot merge {out}    # a BOP dataset of the complete tasks" in stderr
+    assert f"\n  moonbot generate {config_file} --out {out}    # renders the " in stderr
+    assert list(scratch_root.iterdir()) == []
 
 
 @pytest.mark.timeout(420)

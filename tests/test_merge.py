@@ -59,8 +59,9 @@ sweep:
       bag_counts: [1]
       dust: [true]
 """
-TRAIN = "train/sandbag-01/plane/scene_000000"
-TEST = "test/sandbag-02/plane/scene_000000"  # with dust
+TRAIN = "train_pbr/000000"
+TEST = "test/000000"  # with dust
+VIEWS = {TRAIN: "by_condition/train/sandbag-01/plane/scene_000000", TEST: "by_condition/test/sandbag-02/plane/scene_000000"}
 W, H = 64, 48
 
 
@@ -129,20 +130,28 @@ def test_tree_is_complete_and_nothing_else(dataset):
     files = sorted(p.relative_to(dataset).as_posix() for p in dataset.rglob("*") if p.is_file())
     assert not [f for f in files if "/." in f or f.startswith(".") or f.endswith(".tmp")]
     expected = {"camera.json", "dataset_info.json", "manifest.json", "yolo/detect/data.yaml", "yolo/segment/data.yaml",
-                "models/models_info.json", "models_eval/models_info.json"}
+                "models/models_info.json", "models_eval/models_info.json", "scene_index.json", "scene_index.parquet",
+                "test_targets_bop19.json"}
     expected |= {f"{d}/obj_{k:06d}.ply" for d in ("models", "models_eval") for k in (1, 2, 3)}
     for scene, images, bags in ((TRAIN, 4, 2), (TEST, 2, 1)):
-        expected |= {f"{scene}/{name}.json" for name in ("scene_gt", "scene_camera", "scene_gt_info", "scene_meta")}
+        expected |= {f"{scene}/{name}.json" for name in ("scene_gt", "scene_camera", "scene_gt_info", "scene_meta",
+                                                         "scene_gt_coco")}
         for im in range(images):
             expected |= {f"{scene}/rgb/{im:06d}.png", f"{scene}/rgb_exr/{im:06d}.exr",
                          f"{scene}/depth/{im:06d}.png", f"{scene}/depth_npy/{im:06d}.npy",
                          f"{scene}/depth_preview/{im:06d}.png", f"{scene}/mask_color/{im:06d}.png"}
             expected |= {f"{scene}/{kind}/{im:06d}_{k:06d}.png" for kind in ("mask", "mask_visib") for k in range(bags)}
-            split, mesh, location, _ = scene.split("/")
+            split, mesh, location, _ = VIEWS[scene].split("/")[1:]
             name = f"{mesh}_{location}_000000_{im:06d}"
             expected |= {f"yolo/{kind}/{sub}/{split}/{name}.{ext}" for kind in ("detect", "segment")
                          for sub, ext in (("images", "png"), ("labels", "txt"))}
     assert set(files) == expected
+    # The paper's hierarchy: relative links to the scenes, and nothing else under by_condition/.
+    links = sorted(p.relative_to(dataset).as_posix() for p in dataset.rglob("*") if p.is_symlink())
+    assert links == sorted(VIEWS.values())
+    for scene, view in VIEWS.items():
+        assert os.readlink(dataset / view) == "../../../../" + scene
+        assert (dataset / view).resolve() == (dataset / scene).resolve()
 
 
 def test_manifest_lists_every_file_with_its_sha256(dataset):
@@ -156,6 +165,7 @@ def test_manifest_lists_every_file_with_its_sha256(dataset):
         data = (dataset / rel).read_bytes()
         assert entry == {"bytes": len(data), "sha256": hashlib.sha256(data).hexdigest()}, rel
     assert manifest["total_bytes"] == sum(e["bytes"] for e in manifest["files"].values())
+    assert manifest["links"] == {view: "../../../../" + scene for scene, view in sorted(VIEWS.items())}
 
 
 def test_images_are_the_task_files_in_sweep_order(sweep, dataset):
@@ -240,9 +250,10 @@ def test_gt_info_fields_and_scene_meta(dataset):
                 assert len(e["bbox_obj"]) == len(e["bbox_visib"]) == 4
     meta = load(dataset / TRAIN / "scene_meta.json")
     assert {k: meta[k] for k in ("split", "scene_id", "mesh", "obj_id", "location", "bags", "stain_seeds", "dust",
-                                 "tasks_per_scene", "views_per_task")} == {
+                                 "tasks_per_scene", "views_per_task", "bop_split", "scene_dir", "view")} == {
         "split": "train", "scene_id": 0, "mesh": "sandbag-01", "obj_id": 1, "location": "plane", "bags": 2,
-        "stain_seeds": 0, "dust": False, "tasks_per_scene": 2, "views_per_task": 2}
+        "stain_seeds": 0, "dust": False, "tasks_per_scene": 2, "views_per_task": 2, "bop_split": "train_pbr",
+        "scene_dir": TRAIN, "view": VIEWS[TRAIN]}
     assert isinstance(meta["seed"], int)
     assert meta["instances"] == [{"instance_id": 1, "obj_id": 1}, {"instance_id": 2, "obj_id": 1}]
     assert [(t["task_in_scene"], t["sun_elevation_deg"], t["sun_azimuth_deg"], t["camera_height_m"], t["image_ids"])
@@ -360,13 +371,14 @@ def test_yolo_labels_parse_and_match_the_visible_masks(dataset):
     for kind in ("detect", "segment"):
         data = yaml.safe_load((dataset / "yolo" / kind / "data.yaml").read_text())
         assert "path" not in data  # root = the YAML's directory
-        assert data["train"] == "images/train" and data["val"] == "images/test" and data["test"] == "images/test"
+        # No val split in this sweep: val is the training images, never the test images.
+        assert data["train"] == "images/train" and data["val"] == "images/train" and data["test"] == "images/test"
         assert data["nc"] == len(data["names"]) == 3 and data["names"] == {0: "sandbag-01", 1: "sandbag-02",
                                                                            2: "sandbag-03"}
         for split in ("train", "test"):
             assert (dataset / "yolo" / kind / data["train" if split == "train" else "test"]).is_dir()
     for scene in (TRAIN, TEST):
-        split, mesh, location, _ = scene.split("/")
+        split, mesh, location, _ = VIEWS[scene].split("/")[1:]
         info = load(dataset / scene / "scene_gt_info.json")
         gt = load(dataset / scene / "scene_gt.json")
         for im, entries in info.items():

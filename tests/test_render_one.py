@@ -5,6 +5,7 @@ count, and bad input gives a clear error naming the field or file."""
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -117,18 +118,48 @@ def test_bytes_identical_for_one_and_two_threads(tmp_path):
 
 
 def test_sheet_shows_the_written_files(view0):
-    """sheet.png is rgb | depth preview | coloured mask, decoded from the files as written."""
+    """sheet.png is a label strip over rgb | depth preview | coloured mask, decoded from the files
+    as written."""
     from moonbot.writer import colour_mask
+    from moonbot.writer.sheet import LABEL_PX
 
     sheet = np.array(Image.open(view0.parent / "sheet.png"))
+    labels, sheet = sheet[:LABEL_PX], sheet[LABEL_PX:]
     w = 160 + 2  # tile and gap
     assert sheet.shape == (120, 3 * 160 + 2 * 2, 3)
+    for tile in range(3):  # each tile has its label, drawn inside its own width
+        assert (labels[:, tile * w:tile * w + 160] != labels[0, 0]).any()
     np.testing.assert_array_equal(sheet[:, :160], np.array(Image.open(view0 / "rgb.png")))
     preview = np.array(Image.open(view0 / "depth_preview.png"))
     np.testing.assert_array_equal(sheet[:, w:w + 160], np.repeat(preview[..., None], 3, axis=2))
     mask = np.array(Image.open(view0 / "mask.png"))
     np.testing.assert_array_equal(sheet[:, 2 * w:], colour_mask(mask))
     assert (sheet[:, 2 * w:][mask == 1] > 0).any() and (sheet[:, 2 * w:][mask == 0] == 0).all()
+
+
+def test_sheet_labels_stay_over_their_tiles():
+    """A label longer than its tile is clipped to it: the next tile's label strip stays clear."""
+    from moonbot.writer.sheet import LABEL_PX, label_strip
+
+    strip = label_strip(["view 035, az 350°, rgb, and more words than fit", "", ""], 40, 2)
+    assert strip.shape == (LABEL_PX, 3 * 40 + 2 * 2, 3)
+    assert (strip[:, :40] != strip[0, -1]).any() and (strip[:, 40:] == strip[0, -1]).all()
+
+
+def test_the_summary_lists_every_file_written_and_says_each_stage(tmp_path):
+    """render-one's file list names every file a view folder holds (amodal masks included), and it
+    prints a line per stage with the seconds since it started, views in order."""
+    result = CliRunner().invoke(
+        main, ["render-one", "--out", str(tmp_path), *SMALL, "--view", "0", "--view", "3"])
+    assert result.exit_code == 0, result.output
+    listed = {line.split("view_NNN/")[1].split()[0] for line in result.stdout.splitlines() if "view_NNN/" in line}
+    written = {re.sub(r"_\d{3}\.", "_NNN.", p.name) for p in (tmp_path / "view_003").iterdir()}
+    assert listed == written
+    stages = [line.split("] ", 1)[1] for line in result.stderr.splitlines() if line.startswith("[")]
+    assert stages[0] == "compose scene" and stages[-1] == "contact sheet"
+    assert stages.index("render view 0") < stages.index("encode view 0") < stages.index("render view 3")
+    seconds = [float(line[1:].split(" s]")[0]) for line in result.stderr.splitlines() if line.startswith("[")]
+    assert seconds == sorted(seconds)
 
 
 def test_several_views_share_one_scene(tmp_path):

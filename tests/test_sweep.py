@@ -6,6 +6,7 @@ without rendering."""
 from __future__ import annotations
 
 import collections
+import json
 from pathlib import Path
 
 import pytest
@@ -116,6 +117,35 @@ def test_plan_prints_the_sweep_without_rendering(tmp_path):
     bad.write_text("sweep:\n  splits:\n    - name: train\n      sun_elevations_deg: [95]\n")
     result = CliRunner().invoke(main, ["plan", str(bad)])
     assert result.exit_code != 0 and "sun_elevations_deg[0]" in result.output
+
+
+def test_plan_names_whose_record_it_scaled(tmp_path):
+    """The estimate is the recorded machine's: plan names that machine (CPU, cores, date, file) and
+    this one, and never claims to have measured "this machine"."""
+    import os
+
+    from moonbot.host import cpu_id, cpu_model
+    from moonbot.sweep.plan import LOADED_SLOWDOWN
+
+    run = {"workers": 1, "threads_per_worker": 2, "samples_per_s": 0.5, "seconds": 100.0,
+           "megapixel_samples": 10.0, "bytes": 2e9, "megapixels": 1000.0}
+    other = {"cpu": "Imaginary CPU 9000", "cpu_id": "GenuineImaginary 1/2/3", "cores": 64, "embree_isa": "avx512",
+             "date": "2031-02-03T04:05:06Z"}
+    same = {"cpu": cpu_model(), "cpu_id": cpu_id(), "cores": os.cpu_count(), "embree_isa": "avx2",
+            "date": "2026-11-26T02:42:09Z"}
+    outputs = {}
+    for name, machine in (("other", other), ("same", same)):
+        record = tmp_path / f"generate-{name}.json"
+        record.write_text(json.dumps({"machine": machine, "runs": [run]}))
+        result = CliRunner().invoke(main, ["plan", str(CONFIGS / "synbag-1.0.yaml"), "--bench-record", str(record)])
+        assert result.exit_code == 0, result.output
+        assert "this machine" not in result.output.replace("this machine's record", "")
+        assert f"from    {record}: measured on {machine['cpu']} ({machine['cpu_id']}), {machine['cores']} cores" \
+            in result.output and machine["date"][:10] in result.output
+        assert f"here    {cpu_model()} ({cpu_id()}), {os.cpu_count()} cores" in result.output
+        outputs[name] = result.output
+    assert "another CPU or core count" in outputs["other"] and "bench/bench_generate.py" in outputs["other"]
+    assert "the same CPU model and cores" in outputs["same"] and f"{LOADED_SLOWDOWN:g}x slower" in outputs["same"]
 
 
 @pytest.mark.timeout(900)  # 36 layouts settled: 112 s on a loaded 2-core machine; room for a slower one

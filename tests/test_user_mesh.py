@@ -412,7 +412,7 @@ def test_render_one_and_a_mixed_sweep_validate(tmp_path):
     v, t = u_block()
     path = write_obj(tmp_path / "u.obj", v * 0.5, t)  # 15 cm across
     result = CliRunner().invoke(main, ["render-one", "--out", str(tmp_path / "one"), "--set", "camera.width=64",
-                                       "--set", "camera.height=48", "--set", "render.spp=1", "--set",
+                                       "--set", "camera.height=48", "--set", "render.spp=2", "--set",
                                        f"bags.mesh={path}", "--no-sheet"])
     assert result.exit_code == 0, result.output
     mask = np.asarray(Image.open(tmp_path / "one" / "view_000" / "mask.png"))
@@ -459,7 +459,7 @@ def test_a_bop_model_from_ycb_video_renders(tmp_path):
     """The can, declared in mm, through `moonbot render-one`: upright on the ground, in view."""
     path = PUBLIC / "ycbv-obj_000001.ply"
     result = CliRunner().invoke(main, ["render-one", "--out", str(tmp_path), "--set", "camera.width=64", "--set",
-                                       "camera.height=48", "--set", "render.spp=1", "--set", "terrain.location=plane",
+                                       "camera.height=48", "--set", "render.spp=2", "--set", "terrain.location=plane",
                                        "--set", f"meshes.user=[{{path: {path}, unit: mm, name: can}}]", "--set",
                                        "bags.mesh=can", "--no-sheet"])
     assert result.exit_code == 0, result.output

@@ -81,5 +81,10 @@ def test_rows_and_yaml():
     assert data["train"] == data["val"] == "images/default" and "test" not in data and data["nc"] == 3
     data = yaml.safe_load(data_yaml(["train", "val", "test"], "segment"))
     assert (data["train"], data["val"], data["test"]) == ("images/train", "images/val", "images/test")
+    # Without a val split the model is selected on training images, never on the test images.
+    data = yaml.safe_load(data_yaml(["train", "test"], "detect"))
+    assert (data["train"], data["val"], data["test"]) == ("images/train", "images/train", "images/test")
+    data = yaml.safe_load(data_yaml(["test"], "detect"))
+    assert data["train"] == data["val"] == data["test"] == "images/test"
     data = yaml.safe_load(data_yaml(["train"], "detect", {1: "sandbag-01", 2: "sandbag-02", 3: "sandbag-03", 4: "can"}))
     assert data["nc"] == 4 and data["names"][3] == "can"

@@ -39,10 +39,10 @@ void bind_light_cache(py::module_& m) {
                     l = c.vertex(instance, vertex);
                 }
                 return py::make_tuple(py::make_tuple(l.irradiance.x, l.irradiance.y, l.irradiance.z),
-                                      py::make_tuple(l.direction.x, l.direction.y, l.direction.z));
+                                      py::make_tuple(l.mean_direction.x, l.mean_direction.y, l.mean_direction.z));
             },
             py::arg("instance"), py::arg("vertex"),
-            "((E_r, E_g, E_b) W/m², (x, y, z) unit mean incident direction, world) at a vertex of a covered "
+            "((E_r, E_g, E_b) W/m², (x, y, z) luminance-weighted mean of the unit incident directions, world: length 1 for light from one direction, less the more it spreads) at a vertex of a covered "
             "instance, filled first if it is not yet.")
         .def("fill_all", &LightCache::fill_all, py::call_guard<py::gil_scoped_release>(),
              "Fill every vertex of the covered instances (rendering fills only what it touches).")

@@ -362,13 +362,15 @@ IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instan
     // Cosine-weighted sampling (pdf μ/π): E = ∫ L μ dω ≈ π/N · Σ L_k.
     IndirectLight out;
     glm::dvec3 direction(0.0);
+    double weight = 0.0;
     for (size_t k = 0; k < n; ++k) {
         out.irradiance += radiance[k];
-        direction += luminance(radiance[k]) * first_dir[k];
+        const double w = luminance(radiance[k]);
+        direction += w * first_dir[k];
+        weight += w;
     }
     out.irradiance *= kPi / static_cast<double>(n);
-    const double len = glm::length(direction);
-    out.direction = len > 0.0 ? direction / len : glm::dvec3(0.0);
+    out.mean_direction = weight > 0.0 ? direction / weight : glm::dvec3(0.0);
     return out;
 }
 
@@ -436,7 +438,7 @@ std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_
     const double fu = u - u0, fv = v - v0;
     IndirectLight out;
     glm::dvec3 direction(0.0);
-    double total = 0.0;
+    double total = 0.0, weight = 0.0;
     for (int corner = 0; corner < 4; ++corner) {
         const int du = corner & 1, dv = corner >> 1;
         const double w = (du ? fu : 1.0 - fu) * (dv ? fv : 1.0 - fv);
@@ -446,12 +448,12 @@ std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_
         if (!node) continue;
         total += w;
         out.irradiance += w * node->irradiance;
-        direction += (w * luminance(node->irradiance)) * node->direction;
+        direction += (w * luminance(node->irradiance)) * node->mean_direction;
+        weight += w * luminance(node->irradiance);
     }
     if (!(total > 0.0)) return std::nullopt;
     out.irradiance /= total;
-    const double len = glm::length(direction);
-    out.direction = len > 0.0 ? direction / len : glm::dvec3(0.0);
+    out.mean_direction = weight > 0.0 ? direction / weight : glm::dvec3(0.0);
     return out;
 }
 
@@ -504,13 +506,14 @@ IndirectLight LightCache::at(uint32_t instance, uint32_t prim, double u, double 
     const double w[3] = {1.0 - u - v, u, v};
     IndirectLight out;
     glm::dvec3 direction(0.0);
+    double weight = 0.0;
     for (int k = 0; k < 3; ++k) {
         const IndirectLight corner = vertex(instance, c[k]);
         out.irradiance += w[k] * corner.irradiance;
-        direction += (w[k] * luminance(corner.irradiance)) * corner.direction;
+        direction += (w[k] * luminance(corner.irradiance)) * corner.mean_direction;
+        weight += w[k] * luminance(corner.irradiance);
     }
-    const double len = glm::length(direction);
-    out.direction = len > 0.0 ? direction / len : glm::dvec3(0.0);
+    out.mean_direction = weight > 0.0 ? direction / weight : glm::dvec3(0.0);
     return out;
 }
 

@@ -125,6 +125,7 @@ struct TileScratch {
     std::array<int, kTilePixels> sun_hidden;     // ... and those blocked or below the facet's horizon
     std::array<SampleAgreement, kTilePixels> agreement;
     std::array<int, kTilePixels> refined;        // the tile's pixels that get more samples
+    std::array<int, kTilePixels> sun_rays;       // of a refinement sample: its Sun-disk rays, per refined pixel
     // Dust, used only when the render has a medium:
     std::array<double, kTilePixels> sun_dust;       // transmittance toward the Sun at each first hit
     std::array<double, kTilePixels> dust_through;   // transmittance from the camera to the hit
@@ -136,16 +137,26 @@ struct TileScratch {
 /// the tiles and read by the second, which refines a pixel where it or one of its eight
 /// neighbours disagrees: a sliver of a pixel that all of its own base samples miss is mostly
 /// caught by a neighbour's along the same edge. Complete before the second pass starts, so the
-/// decisions are the same whatever tile a thread took.
+/// decisions are the same whatever tile a thread took. With one base sample (the pixel-centre
+/// ray) a pixel has nothing of its own to compare: its 3×3 neighbourhood's centre samples are
+/// compared instead, from the `centre` record.
 struct AdaptiveFrame {
-    std::vector<glm::dvec3> sum, direct_sum;  // over the base samples: radiance, and its direct part
-    std::vector<uint8_t> disagree;            // SampleAgreement::disagree, 0 or 1
+    /// One pixel's centre sample, as SampleAgreement::add takes it (spp 1 only).
+    struct CentreSample {
+        uint32_t hit;           // the instance hit, or SampleAgreement::kSky
+        uint16_t sun_escaped;   // its Sun shadow rays that escaped ...
+        uint16_t sun_hidden;    // ... and those blocked or below the facet's horizon
+        double luminance;       // of its direct light, W/(m²·sr)
+    };
+    std::vector<glm::dvec3> sum, direct_sum;  // over the base samples (spp >= 2): radiance, and its direct part
+    std::vector<uint8_t> disagree;            // spp >= 2: bit 0 SampleAgreement::disagree, bit 1 its Sun rays partly escape
+    std::vector<CentreSample> centre;         // spp 1 only
     std::vector<double> dust_through;         // with dust only: the pixel's transmittance ...
     std::vector<glm::dvec3> dust_glow;        // ... and glow (TileScratch), applied after refining
 
-    AdaptiveFrame(size_t pixels, bool dust)
-        : sum(pixels), direct_sum(pixels), disagree(pixels), dust_through(dust ? pixels : 0),
-          dust_glow(dust ? pixels : 0) {}
+    AdaptiveFrame(size_t pixels, bool centre_only, bool dust)
+        : sum(centre_only ? 0 : pixels), direct_sum(centre_only ? 0 : pixels), disagree(centre_only ? 0 : pixels),
+          centre(centre_only ? pixels : 0), dust_through(dust ? pixels : 0), dust_glow(dust ? pixels : 0) {}
 };
 
 class TileRenderer {
@@ -195,6 +206,20 @@ public:
         if (m_medium) march_dust(x0, y0, tw, n, s);
         if (m_settings.spp == 1) {
             shade(n, s, stats, 0, /*indirect=*/true);
+            if (m_adaptive) {
+                AdaptiveFrame& a = *m_adaptive;
+                for (int y = y0, i = 0; y < y1; ++y)
+                    for (int x = x0; x < x1; ++x, ++i) {
+                        const size_t k = index(x, y);
+                        const PixelHit& h = s.hits.pixel(i);
+                        a.centre[k] = {h.hit ? s.hits.record(h).instance : SampleAgreement::kSky,
+                                       static_cast<uint16_t>(s.sun_escaped[i]), static_cast<uint16_t>(s.sun_hidden[i]),
+                                       luminance(s.direct[i])};
+                        if (!m_medium) continue;
+                        a.dust_through[k] = s.dust_through[i];
+                        a.dust_glow[k] = s.dust_glow[i];
+                    }
+            }
         } else {
             const bool adaptive = m_adaptive != nullptr;
             std::array<glm::dvec3, kTilePixels> sum, direct_sum;
@@ -223,7 +248,10 @@ public:
                         const size_t k = index(x, y);
                         a.sum[k] = sum[i];
                         a.direct_sum[k] = direct_sum[i];
-                        a.disagree[k] = s.agreement[i].disagree(m_settings.spp, m_settings.adaptive_threshold);
+                        const SampleAgreement& agreement = s.agreement[i];
+                        a.disagree[k] = static_cast<uint8_t>(
+                            (agreement.disagree(m_settings.spp, m_settings.adaptive_threshold) ? 1 : 0) |
+                            (agreement.sun_escaped > 0 && agreement.sun_hidden > 0 ? 2 : 0));
                         if (!m_medium) continue;
                         a.dust_through[k] = s.dust_through[i];
                         a.dust_glow[k] = s.dust_glow[i];
@@ -240,38 +268,58 @@ public:
     }
 
     /// Adaptive anti-aliasing's second pass over the tile [x0, x1) × [y0, y1), once every tile's
-    /// base samples are in (AdaptiveFrame): each pixel where it or a neighbour disagrees gets
-    /// samples spp .. adaptive_spp − 1 of direct light alone, and its rgb becomes the split
-    /// estimator (render.h). The other pixels keep what the first pass wrote.
+    /// base samples are in (AdaptiveFrame). With spp ≥ 2 base samples, each pixel where it or a
+    /// neighbour disagrees gets samples spp .. adaptive_spp − 1 of direct light alone, and its rgb
+    /// becomes the split estimator (render.h). With one (the centre sample), each pixel whose 3×3
+    /// neighbourhood's centre samples disagree gets adaptive_spp jittered samples of its whole
+    /// radiance in place of the centre's. The other pixels keep what the first pass wrote.
     void refine_tile(int x0, int y0, int x1, int y1, TileScratch& s, RenderStats& stats) const {
         const AdaptiveFrame& a = *m_adaptive;
         const int tw = x1 - x0, w = m_camera.width(), h = m_camera.height();
+        const int base = m_settings.spp, total = m_settings.adaptive_spp;
         int count = 0;
         for (int y = y0, i = 0; y < y1; ++y)
             for (int x = x0; x < x1; ++x, ++i) {
-                bool refine = false;
-                for (int ny = std::max(y - 1, 0); ny <= std::min(y + 1, h - 1) && !refine; ++ny)
-                    for (int nx = std::max(x - 1, 0); nx <= std::min(x + 1, w - 1) && !refine; ++nx)
-                        refine = a.disagree[index(nx, ny)] != 0;
+                bool refine = false, penumbra = false;
+                SampleAgreement neighbourhood;
+                int samples = 0;
+                for (int ny = std::max(y - 1, 0); ny <= std::min(y + 1, h - 1); ++ny)
+                    for (int nx = std::max(x - 1, 0); nx <= std::min(x + 1, w - 1); ++nx) {
+                        if (base >= 2) {
+                            refine = refine || (a.disagree[index(nx, ny)] & 1) != 0;
+                            penumbra = penumbra || (a.disagree[index(nx, ny)] & 2) != 0;
+                            continue;
+                        }
+                        const AdaptiveFrame::CentreSample& c = a.centre[index(nx, ny)];
+                        neighbourhood.add(samples++, c.hit, c.sun_escaped, c.sun_hidden, c.luminance);
+                    }
+                if (base == 1) refine = neighbourhood.disagree(samples, m_settings.adaptive_threshold);
                 if (!refine) continue;
+                // In a penumbra (its own or a neighbour's base samples' Sun rays partly escape) a
+                // refinement sample keeps light_samples rays: there the disk's visibility is what
+                // varies. Elsewhere the many samples spread one ray each over the disk.
+                s.sun_rays[count] = penumbra ? m_settings.light_samples : 1;
                 s.refined[count] = i;
                 s.streams[count++] = pixel_stream(m_settings.seed, index(x, y));
             }
         if (count == 0) return;
-        const int base = m_settings.spp, total = m_settings.adaptive_spp;
         const uint64_t rays_before = stats.camera_rays + stats.second_look_rays + stats.shadow_rays;
         std::array<glm::dvec3, kTilePixels> extra;
         std::fill_n(extra.begin(), count, glm::dvec3(0.0));
-        for (int sample = base; sample < total; ++sample) {
+        // Over one centre sample: all of the pixel's samples anew, indirect light included (the
+        // cache's costs no ray); over more: the samples past them, direct light alone.
+        const bool whole = base == 1;
+        for (int sample = whole ? 0 : base; sample < total; ++sample) {
             trace(x0, y0, tw, count, s, stats, sample, s.refined.data());
-            shade(count, s, stats, static_cast<uint32_t>(sample), /*indirect=*/false);
-            for (int j = 0; j < count; ++j) extra[j] += s.direct[j];
+            shade(count, s, stats, static_cast<uint32_t>(sample), /*indirect=*/whole, /*refining=*/!whole);
+            for (int j = 0; j < count; ++j) extra[j] += whole ? s.radiance[j] : s.direct[j];
         }
         for (int j = 0; j < count; ++j) {
             const int i = s.refined[j];
             const size_t k = index(x0 + i % tw, y0 + i / tw);
-            glm::dvec3 radiance =
-                (a.sum[k] - a.direct_sum[k]) / double(base) + (a.direct_sum[k] + extra[j]) / double(total);
+            glm::dvec3 radiance = whole ? extra[j] / double(total)
+                                        : (a.sum[k] - a.direct_sum[k]) / double(base) +
+                                              (a.direct_sum[k] + extra[j]) / double(total);
             if (m_medium) radiance = radiance * a.dust_through[k] + a.dust_glow[k];
             for (int c = 0; c < 3; ++c) m_out.rgb[3 * k + c] = static_cast<float>(radiance[c]);
         }
@@ -307,8 +355,11 @@ private:
     }
 
     /// The radiance of the n resolved camera hits for one sample: the lights at the hit (also
-    /// kept apart in `direct` when adaptive_spp > 0), then, with `indirect`, the indirect light (add_indirect).
-    void shade(int n, TileScratch& s, RenderStats& stats, uint32_t sample, bool indirect) const {
+    /// kept apart in `direct` when adaptive_spp > 0), then, with `indirect`, the indirect light
+    /// (add_indirect). `refining`: a refinement sample past spp ≥ 2 base samples, which casts
+    /// TileScratch::sun_rays Sun-disk rays per pixel (light_vertices).
+    void shade(int n, TileScratch& s, RenderStats& stats, uint32_t sample, bool indirect,
+               bool refining = false) const {
         std::fill_n(s.radiance.begin(), n, glm::dvec3(0.0));
         if (m_settings.adaptive_spp > 0) {
             // Where no light shines (or not the Sun), nothing below writes them.
@@ -346,7 +397,8 @@ private:
             if (m_medium && m_sun) s.sun_dust[i] = m_medium->sun_transmittance(v.point);
         }
         light_vertices(n, s, stats, sample, m_settings.light_samples, kPairLight,
-                       m_medium && m_sun ? s.sun_dust.data() : nullptr, /*camera_hits=*/true);
+                       m_medium && m_sun ? s.sun_dust.data() : nullptr, /*camera_hits=*/true,
+                       refining ? s.sun_rays.data() : nullptr);
         if (m_settings.adaptive_spp > 0) std::copy_n(s.radiance.begin(), n, s.direct.begin());
         if (indirect) add_indirect(n, s, stats, sample);
     }
@@ -563,24 +615,34 @@ private:
     /// vertex weighted by its path throughput (and the Sun's by `sun_dust`, the dust's
     /// transmittance toward it, per pixel, where given). `camera_hits`: the vertices are the
     /// camera rays' hits; else a bounce's, scattered over the scene, whose shadow rays are
-    /// counted apart (bounce_shadow_rays).
+    /// counted apart (bounce_shadow_rays). `sun_rays` (refinement samples past the spp base
+    /// samples only): the Sun's rays per vertex, R_i ≤ `samples`, at points
+    /// spp·samples + (sample − spp)·R_i + k of its sequence, past the base samples' (with R_i =
+    /// `samples` the points sample·R_i + k as above).
     void light_vertices(int n, TileScratch& s, RenderStats& stats, uint32_t sample, int samples,
-                        uint32_t pair, const double* sun_dust, bool camera_hits) const {
+                        uint32_t pair, const double* sun_dust, bool camera_hits,
+                        const int* sun_rays = nullptr) const {
+        const auto base = static_cast<uint32_t>(m_settings.spp);
         for (size_t l = 0; l < m_lights.size(); ++l) {
             const LightData& light = m_lights[l];
             // The Earth's light is ~1e-4 of the Sun's: one shadow ray toward its disk leaves noise
             // far below the Sun's, so only the Sun gets `samples`.
-            const int rays_per_vertex = light.point || l > 0 ? 1 : samples;
+            const int most = light.point || l > 0 ? 1 : samples;
+            const bool per_pixel = sun_rays != nullptr && most > 1;
+            auto rays_of = [&](int i) { return per_pixel ? sun_rays[i] : most; };
             std::fill_n(s.visible.begin(), n, 0);
-            for (int k = 0; k < rays_per_vertex; ++k) {
-                // Consecutive points of the light's sequence: stratified over all the pixel's rays to it.
-                const uint32_t point = sample * static_cast<uint32_t>(rays_per_vertex) + static_cast<uint32_t>(k);
+            for (int k = 0; k < most; ++k) {
                 int count = 0;
                 for (int i = 0; i < n; ++i) {
                     const PathVertex& v = s.path[i];
-                    if (!v.alive || v.cos_light[l] <= 0.0) continue;
+                    if (!v.alive || v.cos_light[l] <= 0.0 || k >= rays_of(i)) continue;
                     glm::dvec3 to_light = light.dir;
                     if (!light.point) {
+                        // Consecutive points of the light's sequence: stratified over all the pixel's rays to it.
+                        const auto rays = static_cast<uint32_t>(rays_of(i));
+                        const uint32_t point = per_pixel ? base * static_cast<uint32_t>(samples) + (sample - base) * rays +
+                                                               static_cast<uint32_t>(k)
+                                                         : sample * rays + static_cast<uint32_t>(k);
                         to_light = light.toward(sample_pair(s.streams[i], point, pair + static_cast<uint32_t>(l)));
                         if (glm::dot(v.normal, to_light) <= 0.0) continue;  // below the facet's horizon
                     }
@@ -600,7 +662,7 @@ private:
                 for (int i = 0; i < n; ++i) {
                     const bool faces = s.path[i].alive && s.path[i].cos_light[l] > 0.0;
                     s.sun_escaped[i] = faces ? s.visible[i] : 0;
-                    s.sun_hidden[i] = faces ? rays_per_vertex - s.visible[i] : 0;
+                    s.sun_hidden[i] = faces ? rays_of(i) - s.visible[i] : 0;
                 }
             }
             for (int i = 0; i < n; ++i) {
@@ -617,11 +679,11 @@ private:
                     // The cloth's (1 − s)·albedo/π·shape + s·f_sheen.
                     const glm::dvec3 brdf = (1.0 - v.sheen) * v.albedo * shape + glm::dvec3(v.sheen * sheen_weight(v, light.dir));
                     s.radiance[i] += (brdf * (light.scale * mu_i)) *
-                                     ((double(s.visible[i]) / rays_per_vertex) * dust) * light.color * v.throughput;
+                                     ((double(s.visible[i]) / rays_of(i)) * dust) * light.color * v.throughput;
                     continue;
                 }
                 s.radiance[i] += (v.albedo * (light.scale * mu_i)) *
-                                 (shape * (double(s.visible[i]) / rays_per_vertex) * dust) * light.color * v.throughput;
+                                 (shape * (double(s.visible[i]) / rays_of(i)) * dust) * light.color * v.throughput;
             }
         }
     }
@@ -629,27 +691,57 @@ private:
     /// The indirect radiance toward the camera at camera hit `v` (on triangle `prim`, at Embree's
     /// barycentrics u, w) from the light cache, W/(m²·sr): the cached irradiance E shaded with
     /// the hit's BRDF, albedo/π · shape · E (on glossy cloth (1 − s)·albedo/π·shape + s·f_sheen,
-    /// as light_vertices weighs it), the shape and the sheen taken with the irradiance's mean
-    /// incident direction (about the geometric normal, as a bounce's weight is). None where the cache does
+    /// as light_vertices weighs it), the shape taken along the irradiance's mean incident
+    /// direction (about the geometric normal, as a bounce's weight is) and the sheen averaged over
+    /// a lobe about it as wide as the light spreads (sheen_over_lobe). None where the cache does
     /// not serve the hit (moving geometry, or its surface seen from the back): that path bounces.
     std::optional<glm::dvec3> cached_indirect(const PathVertex& v, uint32_t prim, double u, double w) const {
         if (!m_light_cache->covers(v.instance)) return std::nullopt;
         if (glm::dot(m_light_cache->normal_at(v.instance, prim, u, w), v.normal) <= 0.0) return std::nullopt;
         const IndirectLight in = m_light_cache->at(v.instance, prim, u, w);
+        const double resultant = glm::length(in.mean_direction);
+        const glm::dvec3 axis = resultant > 0.0 ? in.mean_direction / resultant : v.normal;
         const InstanceData& inst = m_instances[v.instance];
         double shape = 1.0;
         if (inst.photometry.model != Photometry::Model::Lambert) {
             // The mean direction may dip below a facet that leans from its vertices' normals.
-            const double mu_i = std::max(glm::dot(v.normal, in.direction), 1e-3);
-            shape = photometric_shape(inst.photometry, mu_i, glm::dot(v.normal, v.wo), glm::dot(in.direction, v.wo));
+            const double mu_i = std::max(glm::dot(v.normal, axis), 1e-3);
+            shape = photometric_shape(inst.photometry, mu_i, glm::dot(v.normal, v.wo), glm::dot(axis, v.wo));
         }
         glm::dvec3 brdf = v.albedo * shape;  // π·f
-        if (v.sheen > 0.0) {
-            brdf *= 1.0 - v.sheen;
-            const double length = glm::length(in.direction);
-            if (length > 0.0) brdf += glm::dvec3(v.sheen * sheen_weight(v, in.direction / length));
-        }
+        if (v.sheen > 0.0) brdf = brdf * (1.0 - v.sheen) + glm::dvec3(v.sheen * sheen_over_lobe(v, axis, resultant));
         return brdf * kInvPi * in.irradiance * v.throughput;
+    }
+
+    /// The cloth's π·f_sheen at vertex `v` averaged over incident light spread about the unit
+    /// `axis` with mean resultant length `resultant` (IndirectLight::mean_direction): a von
+    /// Mises–Fisher lobe of concentration κ = R̄(3 − R̄²)/(1 − R̄²) (Banerjee et al. 2005's
+    /// estimate from R̄), read at 16 fixed points of it (a Fibonacci lattice through its inverse
+    /// CDF, so the same for every pixel), those below the geometric horizon left out. The
+    /// sheen's lobe is sharp: read along the mean direction alone, the light a shadowed face gets
+    /// from the ground around it would gloss as if it all came from that one direction.
+    static double sheen_over_lobe(const PathVertex& v, const glm::dvec3& axis, double resultant) {
+        constexpr int kPoints = 16;
+        constexpr double kGoldenFraction = 0.6180339887498949;
+        const double r = std::min(resultant, 0.999);
+        const double kappa = std::max(r * (3.0 - r * r) / (1.0 - r * r), 1e-6);
+        glm::dvec3 t, b;
+        orthonormal_basis(axis, t, b);
+        double sum = 0.0;
+        int used = 0;
+        for (int k = 0; k < kPoints; ++k) {
+            const double p = (k + 0.5) / kPoints;
+            // Inverse CDF of cos θ under a vMF lobe: 1 + ln(1 − p·(1 − e^(−2κ)))/κ.
+            const double cos_theta = std::clamp(1.0 + std::log1p(-p * -std::expm1(-2.0 * kappa)) / kappa, -1.0, 1.0);
+            const double sin_theta = std::sqrt(std::max(0.0, 1.0 - cos_theta * cos_theta));
+            double c, s;
+            turn_cos_sin(std::fmod(k * kGoldenFraction, 1.0), c, s);
+            const glm::dvec3 wi = axis * cos_theta + (t * c + b * s) * sin_theta;
+            if (glm::dot(wi, v.normal) <= 0.0) continue;
+            sum += sheen_weight(v, wi);
+            ++used;
+        }
+        return used > 0 ? sum / used : 0.0;
     }
 
     /// Continues every live path by one bounce: a cosine-distributed direction about the normal
@@ -774,9 +866,6 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
             throw std::invalid_argument("adaptive_spp: must be 0 (off) or in spp + 1.." + std::to_string(kMaxSpp) +
                                         " = " + std::to_string(settings.spp + 1) + ".." + std::to_string(kMaxSpp) +
                                         ", got " + std::to_string(settings.adaptive_spp));
-        if (settings.spp < 2)
-            throw std::invalid_argument("adaptive_spp: needs spp >= 2 base samples to compare, got spp " +
-                                        std::to_string(settings.spp));
     }
     if (!(settings.adaptive_threshold >= 0.0) || !std::isfinite(settings.adaptive_threshold))
         throw std::invalid_argument("adaptive_threshold: must be a finite number >= 0, got " +
@@ -799,9 +888,9 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     tbb::task_arena arena(settings.threads > 0 ? settings.threads : tbb::task_arena::automatic);
     if (medium && !medium->puffs.empty() && out.rgb)
         arena.execute([&] { dust.emplace(*medium, scene, lights.sun.direction()); });
-    // Adaptive anti-aliasing (rgb only, spp >= 2 checked above): a second pass refines.
+    // Adaptive anti-aliasing (rgb only): a second pass refines.
     std::optional<AdaptiveFrame> adaptive;
-    if (settings.adaptive_spp > 0 && out.rgb) adaptive.emplace(static_cast<size_t>(w) * h, dust.has_value());
+    if (settings.adaptive_spp > 0 && out.rgb) adaptive.emplace(static_cast<size_t>(w) * h, settings.spp == 1, dust.has_value());
     const TileRenderer tiles(scene, camera, lights, settings, out, dust ? &*dust : nullptr, light_cache,
                              adaptive ? &*adaptive : nullptr);
     std::atomic<uint64_t> camera_rays{0}, second_look_rays{0}, shadow_rays{0}, bounce_shadow_rays{0}, bounce_rays{0},

@@ -4,33 +4,38 @@ interrupted merge leaves the previous dataset (or nothing) and never half of one
 
     DATASET/
       camera.json  dataset_info.json  manifest.json
+      scene_index.json  scene_index.parquet   one row per merged task: scene ids → conditions
+      test_targets_bop19.json                 when there is a test split (bop_toolkit's eval)
       models/       obj_NNNNNN.ply (mm) + models_info.json     (moonbot.bop.models)
       models_eval/  obj_NNNNNN.ply (surface samples) + models_info.json
-      <split>/<mesh>/<location>/scene_NNNNNN/                  NNNNNN = scene_id in its split
+      <bop split>/NNNNNN/                     train_pbr, val_pbr, test; NNNNNN = scene_id in its split
         rgb/IIIIII.png  depth/IIIIII.png (uint16, mm × depth_scale)  depth_npy/IIIIII.npy (float32 m)
         depth_preview/IIIIII.png  mask_color/IIIIII.png  [rgb_exr/IIIIII.exr when rendered]
         mask/IIIIII_KKKKKK.png        the instance alone (amodal), 0/255
         mask_visib/IIIIII_KKKKKK.png  its visible part, 0/255
         scene_gt.json  scene_camera.json  scene_gt_info.json  scene_meta.json
+        scene_gt_coco.json            bop_toolkit calc_gt_coco's COCO annotations (moonbot.export.coco)
+      by_condition/<split>/<mesh>/<location>/scene_NNNNNN → ../../../../<bop split>/NNNNNN  (links)
       yolo/detect/  data.yaml  images/<split>/<name>.png  labels/<split>/<name>.txt   (boxes)
       yolo/segment/ data.yaml  images/<split>/<name>.png  labels/<split>/<name>.txt   (polygons)
 
-Image ids follow the sweep: IIIIII = task_in_scene × views_per_task + the view's index in the
-task's `views`; KKKKKK is the instance's index in the image's scene_gt.json list (the scene's bags
-in instance-id order). YOLO names are `<mesh>_<location>_<scene_id:06d>_<im_id:06d>`.
+Split directories, scene ids and the view: moonbot.bop.layout. Image ids follow the sweep:
+IIIIII = task_in_scene × views_per_task + the view's index in the task's `views`; KKKKKK is the
+instance's index in the image's scene_gt.json list (the scene's bags in instance-id order). YOLO
+names are `<mesh>_<location>_<scene_id:06d>_<im_id:06d>`.
 
 Bytes: the dataset is a pure function of the task directories (and the config): JSON with
 sorted keys (image ids in numeric order), scenes in sweep order, PNGs encoded at the tasks'
 `output.png_compression`. Merging again gives the same bytes (manifest.json lists every other
-file's size and sha256). Files taken from the tasks are copied, their sha256 checked against
-DONE.json on the way (a mismatch makes the task invalid, reported, and its scene is merged
-without it); with `link=True` they are hard-linked instead (no copy, no read: DONE.json's sha256
-is trusted; across file systems they are copied). Task files are only ever replaced by rename,
-never changed in place, so a link cannot change under the dataset. YOLO images are hard links to
-the dataset's own rgb files.
+file's size and sha256, and every link's target). Files taken from the tasks are copied, their
+sha256 checked against DONE.json on the way (a mismatch makes the task invalid, reported, and its
+scene is merged without it); with `link=True` they are hard-linked instead (no copy, no read:
+DONE.json's sha256 is trusted; across file systems they are copied). Task files are only ever
+replaced by rename, never changed in place, so a link cannot change under the dataset. YOLO
+images are hard links to the dataset's own rgb files.
 
-bop_toolkit conventions throughout (`../shared/reference/bop-format.md`): mm, R row-major,
-OpenCV camera, pixel centres at +0.5; scene_gt_info.json as moonbot.bop.gt_info documents.
+bop_toolkit conventions throughout: mm, R row-major, OpenCV camera, pixel centres at +0.5;
+scene_gt_info.json as moonbot.bop.gt_info documents.
 """
 
 from __future__ import annotations
@@ -51,18 +56,21 @@ import numpy as np
 
 from moonbot import __version__, _core
 from moonbot.bop.gt_info import gt_info_entry
-from moonbot.bop.inventory import Inventory, MergeError, SceneTasks, TaskDir, scan_tasks
+from moonbot.bop.inventory import TASK as TASK_RECORD, Inventory, MergeError, SceneTasks, TaskDir, scan_tasks
+from moonbot.bop.layout import (SCENE_INDEX_JSON, SCENE_INDEX_PARQUET, SCENE_META, TEST_SPLIT, TEST_TARGETS,
+                                bop_split, check_id, scene_rel, view_rel, view_target)
+from moonbot.bop.scene_index import index_json, index_rows, parquet_bytes, test_targets
 from moonbot.bop.models import write_models
 from moonbot.config import Config, config_hash
 from moonbot.config.load import from_mapping
 from moonbot.config.schema import MeshesConfig
+from moonbot.export.coco import SCENE_COCO, scene_gt_coco_bytes
 from moonbot.scene.bag_mesh import dataset_meshes
 from moonbot.writer.checksum import file_sha256
 from moonbot.writer.sheet import colour_mask
 from moonbot.writer.staging import staged_directory
 from moonbot.yolo.labels import data_yaml, detect_row, segment_row
 
-SCENE_DIR = "{split}/{mesh}/{location}/scene_{scene_id:06d}"
 YOLO_TASKS = ("detect", "segment")
 MANIFEST = "manifest.json"
 DATASET_INFO = "dataset_info.json"
@@ -115,6 +123,7 @@ class _SceneJob:
     rel: str
     scene: SceneTasks
     link: bool
+    obj_ids: tuple[int, ...]  # the dataset's objects (MeshesConfig.objects): the COCO categories
 
 
 @dataclass
@@ -129,6 +138,8 @@ class _SceneOutput:
     split: str
     task_ids: list  # the tasks merged into the scene
     task_versions: list  # their moonbot_version
+    meta: dict  # scene_meta.json without its per-image records
+    visible_counts: dict  # im_id → {obj_id: instances with a visible pixel}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -276,6 +287,7 @@ def _build_scene(job: _SceneJob) -> _SceneOutput:
     instances_total = outside_total = 0
     shared = job.scene.record
     tasks_meta = []
+    visible_counts: dict = {}
     for task in job.scene.tasks:
         r = task.record
         files = _TaskFiles(task, job.link)
@@ -287,6 +299,10 @@ def _build_scene(job: _SceneJob) -> _SceneOutput:
         first_image = r["task_in_scene"] * r["views_per_task"]
         for i, v in enumerate(r["views"]):
             im = first_image + i
+            try:
+                check_id(im, "image id")
+            except ValueError as e:
+                raise _BadTask(task.task_id, f"{task.path / TASK_RECORD}: {e}") from None
             view = f"view_{v:03d}"
             gt_path = task.path / view / "gt.json"
             gt = files.json(f"{view}/gt.json")
@@ -359,6 +375,10 @@ def _build_scene(job: _SceneJob) -> _SceneOutput:
                     if row is not None:
                         rows.append(row)
             instances_total += len(instances)
+            visible_counts[im] = {}
+            for entry, info_entry in zip(image_gt, image_info):
+                if info_entry["px_count_visib"] > 0:
+                    visible_counts[im][entry["obj_id"]] = visible_counts[im].get(entry["obj_id"], 0) + 1
             scene_gt[im] = image_gt
             scene_gt_info[im] = image_info
             scene_camera[im] = {"cam_K": K, "depth_scale": depth_scale, "cam_R_w2c": R_w2c, "cam_t_w2c": t_w2c}
@@ -381,18 +401,24 @@ def _build_scene(job: _SceneJob) -> _SceneOutput:
         })
     meta = {
         **shared,
+        "bop_split": bop_split(shared["split"]),
+        "scene_dir": job.rel,
+        "view": view_rel(shared["split"], shared["mesh"], shared["location"], shared["scene_id"]),
         "instances": [{"instance_id": i, "obj_id": o} for i, o in reference_instances or []],
         "tasks": tasks_meta,
         "missing_tasks_in_scene": list(job.scene.missing),
-        "images": images_meta,
     }
     _put_bytes(root, f"{job.rel}/scene_gt.json", dumps_scene_json(scene_gt), entries)
     _put_bytes(root, f"{job.rel}/scene_gt_info.json", dumps_scene_json(scene_gt_info), entries)
     _put_bytes(root, f"{job.rel}/scene_camera.json", dumps_scene_json(scene_camera), entries)
-    _put_bytes(root, f"{job.rel}/scene_meta.json", dumps_json(meta), entries)
+    _put_bytes(root, f"{job.rel}/{SCENE_META}", dumps_json({**meta, "images": images_meta}), entries)
+    coco = scene_gt_coco_bytes(scene_root, "moonbot", bop_split(shared["split"]), job.obj_ids,
+                               (camera["width"], camera["height"]))
+    _put_bytes(root, f"{job.rel}/{SCENE_COCO}", coco, entries)
     return _SceneOutput(job.rel, entries, yolo, len(scene_gt), instances_total, outside_total, camera or {},
                         shared["split"], [t.task_id for t in job.scene.tasks],
-                        [str(t.record.get("moonbot_version", "unknown")) for t in job.scene.tasks])
+                        [str(t.record.get("moonbot_version", "unknown")) for t in job.scene.tasks],
+                        meta, visible_counts)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -401,7 +427,10 @@ def _build_scene(job: _SceneJob) -> _SceneOutput:
 
 def _scene_rel(scene: SceneTasks) -> str:
     r = scene.record
-    return SCENE_DIR.format(split=r["split"], mesh=r["mesh"], location=r["location"], scene_id=r["scene_id"])
+    try:
+        return scene_rel(r["split"], r["scene_id"])
+    except ValueError as e:
+        raise MergeError(f"{scene.tasks[0].path / TASK_RECORD}: {e}") from None
 
 
 def _without(scene: SceneTasks, task_id: str) -> SceneTasks | None:
@@ -412,10 +441,12 @@ def _without(scene: SceneTasks, task_id: str) -> SceneTasks | None:
     return dataclasses.replace(scene, tasks=kept, missing=tuple(sorted(set(scene.missing) | gone)))
 
 
-def _run_scenes(stage: Path, inventory: Inventory, link: bool, workers: int, say) -> list[_SceneOutput]:
+def _run_scenes(stage: Path, inventory: Inventory, link: bool, workers: int, say,
+                obj_ids: tuple[int, ...]) -> list[_SceneOutput]:
     """Builds every scene folder, `workers` processes at a time (1: in this process). A scene whose
-    task turns out bad is rebuilt without it; the task goes to inventory.invalid / missing."""
-    jobs = {k: _SceneJob(str(stage), _scene_rel(s), s, link) for k, s in enumerate(inventory.scenes)}
+    task turns out bad is rebuilt without it; the task goes to inventory.invalid / missing.
+    `obj_ids`: the dataset's objects, the scenes' COCO categories."""
+    jobs = {k: _SceneJob(str(stage), _scene_rel(s), s, link, obj_ids) for k, s in enumerate(inventory.scenes)}
     outputs: dict[int, _SceneOutput] = {}
     pool = None
     if workers > 1 and len(jobs) > 1:
@@ -489,6 +520,20 @@ def _models(stage: Path, previous: Path, meshes: MeshesConfig, entries: dict) ->
     return False
 
 
+def _write_view(stage: Path, outputs: list[_SceneOutput]) -> dict[str, str]:
+    """The paper's split/mesh/location/scene hierarchy as relative links to the BOP scene
+    directories (moonbot.bop.layout); returns link path → target, both dataset-relative."""
+    links = {}
+    for output in outputs:
+        meta = output.meta
+        link = stage / meta["view"]
+        link.parent.mkdir(parents=True, exist_ok=True)
+        target = view_target(meta["split"], meta["scene_id"])
+        os.symlink(target, link, target_is_directory=True)
+        links[meta["view"]] = target
+    return links
+
+
 def sweep_stale(dataset_dir: Path) -> list[Path]:
     """Removes what interrupted merges left beside `dataset_dir` (staged_directory's hidden
     `.<name>.*.tmp` and `.<name>.*.old` directories) and returns them. One merge at a time per
@@ -539,7 +584,7 @@ def merge_dataset(out_dir: Path, dataset_dir: Path | None = None, config: Config
         say(f"removed {p} (left by an interrupted merge)")
 
     with staged_directory(dataset_dir) as stage:
-        outputs = _run_scenes(stage, inventory, link, workers, say)
+        outputs = _run_scenes(stage, inventory, link, workers, say, tuple(meshes.objects()))
         # Tasks found bad while building were appended in completion order: back to sweep order.
         last = len(inventory.position)
         inventory.missing = sorted(set(inventory.missing), key=lambda t: (inventory.position.get(t, last), t))
@@ -568,6 +613,14 @@ def merge_dataset(out_dir: Path, dataset_dir: Path | None = None, config: Config
         for kind in YOLO_TASKS:
             _put_bytes(stage, f"yolo/{kind}/data.yaml", data_yaml(splits, kind, meshes.objects()).encode("utf-8"), entries)
 
+        rows = index_rows([o.meta for o in outputs])
+        _put_bytes(stage, SCENE_INDEX_JSON, dumps_json(index_json(rows)), entries)
+        _put_bytes(stage, SCENE_INDEX_PARQUET, parquet_bytes(rows), entries)
+        if TEST_SPLIT in splits:
+            targets = test_targets({o.meta["scene_id"]: o.visible_counts for o in outputs if o.split == TEST_SPLIT})
+            _put_bytes(stage, TEST_TARGETS, dumps_json(targets), entries)
+        links = _write_view(stage, outputs)
+
         models_reused = _models(stage, dataset_dir, meshes, entries)
         _put_bytes(stage, "camera.json", dumps_json(camera), entries)
 
@@ -584,7 +637,9 @@ def merge_dataset(out_dir: Path, dataset_dir: Path | None = None, config: Config
         info = {
             "name": "moonbot",
             "description": "Synthetic lunar sandbag scenes for 6-DoF pose estimation (BOP layout), by moonbot",
-            "layout": f"<split>/<mesh>/<location>/scene_NNNNNN/ ({SCENE_DIR})",
+            "layout": "BOP: <bop split>/<scene_id:06d>/ (train_pbr, val_pbr, test); the paper's "
+                      "<split>/<mesh>/<location>/scene_NNNNNN as links under by_condition/",
+            "bop_splits": {s: bop_split(s) for s in splits},
             "moonbot_version": __version__,
             "task_moonbot_versions": versions,
             "config": dataclasses.asdict(config) if config is not None else None,
@@ -626,7 +681,8 @@ def merge_dataset(out_dir: Path, dataset_dir: Path | None = None, config: Config
                 entries[rel] = file_sha256(path)
         manifest = {"algorithm": "sha256", "file_count": len(entries),
                     "total_bytes": sum(size for size, _ in entries.values()),
-                    "files": {rel: {"bytes": size, "sha256": sha} for rel, (size, sha) in sorted(entries.items())}}
+                    "files": {rel: {"bytes": size, "sha256": sha} for rel, (size, sha) in sorted(entries.items())},
+                    "links": dict(sorted(links.items()))}
         manifest_bytes = dumps_json(manifest)
         (stage / MANIFEST).write_bytes(manifest_bytes)
 

@@ -1,6 +1,8 @@
-"""BOP object models (bop_toolkit's conventions, `../shared/reference/bop-format.md`): meshes in
-millimetres as binary PLY with vertex normals in `models/obj_NNNNNN.ply`, the surface resampled
-evenly in `models_eval/`, and in both folders `models_info.json` with each model's diameter,
+"""BOP object models (bop_toolkit's conventions): meshes in millimetres as binary PLY with vertex
+normals in `models/obj_NNNNNN.ply`, the same surface remeshed evenly in `models_eval/` (a mesh,
+as in BOP's datasets: bop_toolkit's error functions take its vertices as the model's points, and
+its renderer, for VSD and the pose visualisations, its triangles), and in both folders
+`models_info.json` with each model's diameter,
 extents and discrete symmetries (4×4, row-major, millimetres) — bop_toolkit reads it from the
 folder of the model type it loads (models/ or models_eval/)."""
 
@@ -98,6 +100,39 @@ def sample_surface_faces(vertices: np.ndarray, triangles: np.ndarray, spacing: f
     flip = r1 + r2 > 1.0  # fold the unit square onto the triangle
     r1, r2 = np.where(flip, 1.0 - r1, r1), np.where(flip, 1.0 - r2, r2)
     return a[which] + r1[:, None] * (b - a)[which] + r2[:, None] * (c - a)[which], which
+
+
+def resample_mesh(vertices: np.ndarray, triangles: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray]:
+    """The surface remeshed with vertices about one per spacing² of area: each triangle is cut
+    into n² similar triangles, n = √(2 × its area) / spacing rounded (at least 1: n² triangles
+    hold about n²/2 vertices), vertices shared between triangles merged. The surface is the same
+    (the faces' total area is the mesh's); orientation is kept. Returns (vertices (K, 3) float64,
+    triangles (M, 3) int64), in `vertices`' unit; deterministic."""
+    v = vertices.astype(np.float64)
+    corners = v[triangles]  # (T, 3, 3)
+    area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+    steps = np.maximum(1, np.rint(np.sqrt(2.0 * area) / spacing)).astype(int)
+    points, faces, offset = [], [], 0
+    for n in np.unique(steps):
+        i, j = (a.ravel() for a in np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij"))
+        inside = i + j <= n
+        i, j = i[inside], j[inside]
+        index = {(a, b): k for k, (a, b) in enumerate(zip(i.tolist(), j.tolist()))}
+        up = [(index[a, b], index[a + 1, b], index[a, b + 1]) for (a, b) in index if a + b < n]
+        down = [(index[a + 1, b], index[a + 1, b + 1], index[a, b + 1]) for (a, b) in index if a + b < n - 1]
+        # Barycentric weights of the first, second and third corner; a shared edge's points get
+        # the same weights from both of its triangles, so they come out bit for bit equal.
+        weights = np.stack([(n - i - j) / n, i / n, j / n], axis=1)  # (P, 3)
+        chosen = np.flatnonzero(steps == n)
+        group = corners[chosen]  # (G, 3, 3)
+        lattice = weights[None, :, 0, None] * group[:, None, 0] + weights[None, :, 1, None] * group[:, None, 1] \
+            + weights[None, :, 2, None] * group[:, None, 2]  # (G, P, 3)
+        template = np.array(up + down, np.int64)
+        points.append(lattice.reshape(-1, 3))
+        faces.append((template[None] + (offset + np.arange(len(chosen)) * len(weights))[:, None, None]).reshape(-1, 3))
+        offset += len(chosen) * len(weights)
+    merged, inverse = np.unique(np.concatenate(points), axis=0, return_inverse=True)
+    return merged, inverse.reshape(-1)[np.concatenate(faces)]
 
 
 def axis_rotations() -> list[np.ndarray]:
@@ -288,9 +323,9 @@ def write_models(out_dir: Path, meshes: dict[int, tuple[np.ndarray, np.ndarray]]
         mm = vertices.astype(np.float64) * 1000.0
         write_ply(out_dir / "models" / f"obj_{obj_id:06d}.ply", mm.astype(np.float32), triangles,
                   vertex_normals(vertices, triangles))
-        evaluation = sample_surface(mm, triangles, EVAL_SPACING_MM).astype(np.float32)
-        write_ply(out_dir / "models_eval" / f"obj_{obj_id:06d}.ply", evaluation,
-                  np.empty((0, 3), np.int32))
+        evaluation, faces = resample_mesh(mm, triangles, EVAL_SPACING_MM)
+        write_ply(out_dir / "models_eval" / f"obj_{obj_id:06d}.ply", evaluation.astype(np.float32), faces,
+                  vertex_normals(evaluation, faces))
         infos[obj_id] = model_info(mm, triangles)
     text = json.dumps({str(k): v.to_json() for k, v in infos.items()}, indent=2) + "\n"
     for folder in ("models", "models_eval"):

@@ -2,11 +2,11 @@
 their conditions and BOP annotations, each image's metric depth and visible masks, and the object
 models with their models_info.json. The evaluation and the baseline read through here.
 
-Layout: DATASET/<split>/<mesh>/<location>/scene_NNNNNN/ with scene_gt.json, scene_camera.json,
-scene_gt_info.json and scene_meta.json (moonbot's conditions: mesh, location, bags, stain_seeds,
-dust); depth_npy/NNNNNN.npy (H, W) float32 metres; mask_visib/NNNNNN_KKKKKK.png (instance K's
-visible pixels, 0/255). Scene ids are unique within a split, so (split, scene_id, im_id) names
-an image, and the BOP results CSV's scene_id is the split's scene_id."""
+Layout (moonbot.bop.layout): DATASET/<bop split>/NNNNNN/ with scene_gt.json, scene_camera.json,
+scene_gt_info.json and scene_meta.json (moonbot's conditions: split, mesh, location, bags,
+stain_seeds, dust); depth_npy/NNNNNN.npy (H, W) float32 metres; mask_visib/NNNNNN_KKKKKK.png
+(instance K's visible pixels, 0/255). Scene ids are unique within a split, so (split, scene_id,
+im_id) names an image, and the BOP results CSV's scene_id is the split's scene_id."""
 
 from __future__ import annotations
 
@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from moonbot import _core
+from moonbot.bop.layout import SCENE_META, bop_split, scene_dirs
 from moonbot.bop.models import read_ply
 
 
@@ -89,7 +90,7 @@ class Scene:
 def read_scene(path: Path) -> Scene:
     """Reads one scene directory's JSON files. Raises DatasetError naming the file."""
     path = Path(path)
-    meta = _load_json(path / "scene_meta.json")
+    meta = _load_json(path / SCENE_META)
     gt = _load_json(path / "scene_gt.json")
     info = _load_json(path / "scene_gt_info.json")
     camera = _load_json(path / "scene_camera.json")
@@ -110,17 +111,24 @@ def read_scene(path: Path) -> Scene:
         return Scene(path, str(meta["split"]), int(meta["scene_id"]), str(meta["mesh"]), str(meta["location"]),
                      int(meta["bags"]), int(meta["stain_seeds"]), bool(meta["dust"]), images, cameras)
     except (KeyError, TypeError, ValueError) as e:
-        raise DatasetError(f"{path / 'scene_meta.json'}: lacks a field ({e!r})") from None
+        raise DatasetError(f"{path / SCENE_META}: lacks a field ({e!r})") from None
 
 
 def scenes(dataset: Path, split: str | None = None) -> list[Scene]:
-    """Every scene of the dataset (or of one split), in (split, scene_id) order. Raises
-    DatasetError naming the dataset when there is none."""
+    """Every scene of the dataset (or of one split, named as the sweep names it, `train`, or by
+    its BOP directory, `train_pbr`), in (split, scene_id) order. Raises DatasetError naming the
+    dataset when there is none."""
     dataset = Path(dataset)
-    pattern = f"{split}/*/*/scene_*" if split else "*/*/*/scene_*"
-    found = [read_scene(p) for p in sorted(dataset.glob(pattern)) if p.is_dir()]
+    paths = scene_dirs(dataset)
+    if split is not None:
+        paths = [p for p in paths if p.parent.name in (split, bop_split(split))]
+    found = [read_scene(p) for p in paths]
+    if split is not None:
+        found = [s for s in found if split in (s.split, bop_split(s.split))]
     if not found:
-        raise DatasetError(f"{dataset}: no {split + '/' if split else ''}<mesh>/<location>/scene_NNNNNN directory")
+        where = f"{dataset}/{bop_split(split)}" if split else str(dataset)
+        raise DatasetError(f"{where}: no scene directory (<bop split>/NNNNNN/ with {SCENE_META}); "
+                           "a dataset is what `moonbot merge` writes")
     return sorted(found, key=lambda s: (s.split, s.scene_id))
 
 

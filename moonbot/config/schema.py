@@ -607,12 +607,13 @@ class RenderConfig:
     bounces: int = field(default=2, metadata=spec(
         "diffuse inter-reflections lighting the shadows (0 = direct sunlight only)", lo=0, hi=16))
     adaptive_spp: int = field(default=32, metadata=spec(
-        "adaptive anti-aliasing: the samples a pixel gets (those past spp: direct light only) when its "
-        "spp base samples (or a neighbour's) disagree in hit instance, Sun visibility or direct luminance; "
-        "off where it is 0, not above spp, or spp < 2 (nothing to compare)", lo=0, hi=65536))
+        "adaptive anti-aliasing: the samples a pixel gets when its spp base samples (or a neighbour's; with "
+        "spp 1 the pixel-centre samples of its 3x3 neighbourhood) disagree in hit instance, Sun visibility "
+        "or direct luminance; past spp >= 2 they carry direct light only, over spp 1 the whole radiance; "
+        "off where it is 0 or not above spp", lo=0, hi=65536))
     adaptive_threshold: float = field(default=0.5, metadata=spec(
-        "spread (max - min) of direct luminance over a pixel's base samples, relative to their mean, "
-        "above which adaptive_spp refines it", lo=0.0, hi=1000.0))
+        "spread (max - min) of direct luminance over the samples compared (adaptive_spp), relative to "
+        "their mean, above which adaptive_spp refines a pixel", lo=0.0, hi=1000.0))
     indirect: Literal["path", "cache"] = field(default="cache", metadata=spec(
         "how a pixel's first hit gets its indirect light: path = its own bounce paths (the reference); "
         "cache = a per-task world-space cache of indirect irradiance per vertex of the static scene, "
@@ -637,9 +638,9 @@ class RenderConfig:
 
     @property
     def refinement_spp(self) -> int:
-        """adaptive_spp where it applies (above spp, and spp >= 2 base samples to compare), else 0:
-        a render asked for many uniform samples, or for the one pixel-centre sample, refines nothing."""
-        return self.adaptive_spp if self.spp >= 2 and self.adaptive_spp > self.spp else 0
+        """adaptive_spp where it applies (above spp), else 0: a render asked for at least as many
+        uniform samples refines nothing."""
+        return self.adaptive_spp if self.adaptive_spp > self.spp else 0
 
 
 @dataclass(frozen=True)
@@ -799,6 +800,13 @@ class DustConfig:
     cloud: CloudConfig = field(default_factory=CloudConfig)
 
 
+# A split's axes: its scenes' (meshes › locations › bag counts › stain seeds › dust), then its tasks'.
+SPLIT_AXES = ("meshes", "locations", "bag_counts", "stain_seeds", "dust", "sun_elevations_deg", "sun_azimuths_deg",
+              "camera_heights_m")
+# BOP numbers scenes and images with six digits: ids 0..999999.
+MAX_SCENES = 1_000_000
+MAX_IMAGES_PER_SCENE = 1_000_000
+
 LocationName = Literal["flat", "hilly", "crater", "dem", "plane", "slope"]
 
 
@@ -824,15 +832,34 @@ class SplitConfig:
         "Sun azimuths, degrees clockwise from North (sun.azimuth_deg)", lo=0.0, hi=360.0))
     camera_heights_m: tuple[float, ...] = field(default=(), metadata=spec(
         "camera heights above the target's centre, metres (orbit.height_m)", lo=0.0, hi=100.0))
+    draw_from: str = field(default="", metadata=spec(
+        "the split whose grid this one draws its scenes and tasks from (e.g. val from train; its own axes stay "
+        "empty); empty: this split is its own grid"))
+    scenes: int = field(default=0, metadata=spec(
+        "with draw_from: scenes drawn, balanced over the meshes (moonbot.sweep.tasks.draw)", lo=0, hi=MAX_SCENES))
+    tasks_per_scene: int = field(default=0, metadata=spec(
+        "with draw_from: Sun × camera-height tasks drawn per scene; 0 = all of the source's", lo=0, hi=MAX_SCENES))
 
     def __post_init__(self) -> None:
         if not self.name or not all(c.isalnum() or c in "-_" for c in self.name):
             raise ValueError(f"name: must be letters, digits, '-' or '_', got {self.name!r}")
-        for axis in ("meshes", "locations", "bag_counts", "stain_seeds", "dust", "sun_elevations_deg",
-                     "sun_azimuths_deg", "camera_heights_m"):
+        for axis in SPLIT_AXES:
             values = getattr(self, axis)
             if len(set(values)) != len(values):
                 raise ValueError(f"{axis}: repeats a value: {list(values)}")
+        if self.draw_from:
+            given = [axis for axis in SPLIT_AXES if getattr(self, axis)]
+            if given:
+                raise ValueError(f"{given[0]}: a split that draws from {self.draw_from!r} takes its axes from it; "
+                                 "leave them empty")
+            if self.scenes < 1:
+                raise ValueError(f"scenes: a split that draws from {self.draw_from!r} needs scenes >= 1")
+        elif self.scenes or self.tasks_per_scene:
+            raise ValueError(f"{'scenes' if self.scenes else 'tasks_per_scene'}: only for a split with draw_from")
+        scenes = math.prod(max(1, len(getattr(self, axis))) for axis in SPLIT_AXES[:5])
+        if scenes > MAX_SCENES:
+            raise ValueError(f"meshes: {scenes} scenes (meshes × locations × bag_counts × stain_seeds × dust) exceed "
+                             f"BOP's six-digit scene ids (at most {MAX_SCENES})")
 
 
 @dataclass(frozen=True)
@@ -848,6 +875,22 @@ class SweepConfig:
         names = [s.name for s in self.splits]
         if len(set(names)) != len(names):
             raise ValueError(f"splits: two splits are named alike: {names}")
+        grids = {s.name for s in self.splits if not s.draw_from}
+        for k, split in enumerate(self.splits):
+            if not split.draw_from:
+                continue
+            if split.draw_from not in grids:
+                raise ValueError(f"splits[{k}].draw_from: {split.draw_from!r} is not a split with its own axes "
+                                 f"(those are: {sorted(grids)})")
+            source = next(s for s in self.splits if s.name == split.draw_from)
+            scenes = math.prod(max(1, len(getattr(source, axis))) for axis in SPLIT_AXES[:5])
+            shots = math.prod(max(1, len(getattr(source, axis))) for axis in SPLIT_AXES[5:])
+            if split.scenes > scenes:
+                raise ValueError(f"splits[{k}].scenes: {split.scenes} is more than the {scenes} scenes of "
+                                 f"{split.draw_from!r}")
+            if split.tasks_per_scene > shots:
+                raise ValueError(f"splits[{k}].tasks_per_scene: {split.tasks_per_scene} is more than the {shots} "
+                                 f"tasks a scene of {split.draw_from!r} has")
 
 
 @dataclass(frozen=True)
@@ -875,6 +918,13 @@ class Config:
         object.__setattr__(self, "meshes", meshes)
         object.__setattr__(self, "bags", bags)
         object.__setattr__(self, "sweep", sweep)
+        by_name = {s.name: s for s in self.sweep.splits}
+        for k, split in enumerate(self.sweep.splits):
+            grid = by_name[split.draw_from] if split.draw_from else split
+            tasks = split.tasks_per_scene or math.prod(max(1, len(getattr(grid, axis))) for axis in SPLIT_AXES[5:])
+            if tasks * self.orbit.views > MAX_IMAGES_PER_SCENE:
+                raise ValueError(f"sweep.splits[{k}]: {tasks} tasks × {self.orbit.views} views a scene exceed BOP's "
+                                 f"six-digit image ids (at most {MAX_IMAGES_PER_SCENE} images a scene)")
 
 
 def _mesh_name(path: str) -> str:

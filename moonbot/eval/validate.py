@@ -1,5 +1,8 @@
-"""`moonbot validate`: a merged BOP dataset checked against itself (issue 8). Every file against
-the manifest (size and SHA-256, nothing unlisted but `moonbot eval`'s reports in eval/); the JSON
+"""`moonbot validate`: a merged BOP dataset checked against itself. Every file against the
+manifest (size and SHA-256, nothing unlisted but `moonbot eval`'s reports in eval/), and every link
+of the by_condition/ view against it (its target, resolving to its scene); the tree
+(moonbot.bop.layout: each scene in `<bop split>/<scene_id:06d>/` as its scene_meta.json says,
+scene_index.json and .parquet row for row what the scene_meta.json files say); the JSON
 files' BOP fields, types and units; per image, the 16-bit depth PNG × depth_scale against the
 metric .npy (to the PNG's 1 mm rounding) and no pixel below the horizon without depth, and per instance its masks against scene_gt_info.json
 (the visible mask inside the amodal one, visible masks of one image disjoint, counts, boxes and
@@ -15,14 +18,19 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import pyarrow.parquet as pq
 
 from moonbot import _core
 from moonbot.bop.gt_info import bbox_of
+from moonbot.bop.layout import (SCENE_INDEX_JSON, SCENE_INDEX_PARQUET, SCENE_META, VIEW_ROOT, scene_dirs, scene_rel,
+                                view_rel)
 from moonbot.bop.models import read_ply
+from moonbot.bop.scene_index import COLUMNS, index_rows
 from moonbot.writer.checksum import file_sha256
 
 EVAL_DIR = "eval"  # moonbot eval's default output folder inside the dataset, not in the manifest
@@ -55,11 +63,25 @@ class ValidationReport:
 def check_manifest(dataset: Path, report: ValidationReport) -> None:
     path = dataset / "manifest.json"
     try:
-        files = json.loads(path.read_text())["files"]
-    except (OSError, ValueError, KeyError) as e:
+        manifest = json.loads(path.read_text())
+        files, listed_links = manifest["files"], manifest.get("links", {})
+    except (OSError, ValueError, KeyError, AttributeError) as e:
         report.fail(path, "manifest", f"unreadable ({e})")
         return
-    on_disk = {str(p.relative_to(dataset)) for p in dataset.rglob("*") if p.is_file()} - {"manifest.json"}
+    tree = list(dataset.rglob("*"))  # not into the view's links: they are checked as links
+    on_disk = {str(p.relative_to(dataset)) for p in tree if p.is_file() and not p.is_symlink()} - {"manifest.json"}
+    links = {str(p.relative_to(dataset)) for p in tree if p.is_symlink()}
+    for name in sorted(links - set(listed_links)):
+        report.fail(dataset / name, "manifest", "a link not listed in manifest.json")
+    for name, target in sorted(listed_links.items()):
+        report.count("links")
+        p = dataset / name
+        if not p.is_symlink():
+            report.fail(p, "manifest", f"listed as a link to {target} but missing or not a link")
+        elif os.readlink(p) != target:
+            report.fail(p, "manifest", f"links to {os.readlink(p)}, manifest.json says {target}")
+        elif not p.resolve().is_dir() or dataset.resolve() not in p.resolve().parents:
+            report.fail(p, "manifest", f"{target} is not a directory of the dataset")
     # `moonbot eval` writes its reports into DATASET/eval/ by default: results, not dataset files.
     for name in sorted(n for n in on_disk - set(files) if not n.startswith(f"{EVAL_DIR}/")):
         report.fail(dataset / name, "manifest", "not listed in manifest.json")
@@ -235,10 +257,67 @@ def validate_dataset(dataset: Path) -> ValidationReport:
             models[int(path.stem.split("_")[1])] = read_ply(path)
         except ValueError as e:
             report.fail(path, "models", str(e))
-    for scene in sorted(dataset.glob("*/*/*/scene_*")):
-        if scene.is_dir():
-            report.count("scenes")
-            check_scene(scene, report, models)
+    metas = []
+    for scene in scene_dirs(dataset):
+        report.count("scenes")
+        meta = check_layout(dataset, scene, report)
+        if meta is not None:
+            metas.append(meta)
+        check_scene(scene, report, models)
     if not report.checked.get("scenes"):
-        report.fail(dataset, "scenes", "no split/mesh/location/scene_NNNNNN directory")
+        report.fail(dataset, "scenes", f"no scene directory (<bop split>/NNNNNN/ with {SCENE_META})")
+    else:
+        check_index(dataset, metas, report)
     return report
+
+
+def check_layout(dataset: Path, scene: Path, report: ValidationReport) -> dict | None:
+    """The scene sits where its scene_meta.json's split and scene_id put it, and its by_condition
+    link leads to it. Returns the scene_meta.json content (None when unreadable)."""
+    path = scene / SCENE_META
+    try:
+        meta = json.loads(path.read_text())
+        want, view = scene_rel(meta["split"], meta["scene_id"]), view_rel(meta["split"], meta["mesh"],
+                                                                         meta["location"], meta["scene_id"])
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        report.fail(path, "layout", f"unreadable or lacks split, scene_id, mesh or location ({e})")
+        return None
+    report.count("layout")
+    here = scene.relative_to(dataset).as_posix()
+    if here != want or meta.get("scene_dir") != want:
+        report.fail(path, "layout", f"the scene is at {here} and says scene_dir {meta.get('scene_dir')!r}; its split "
+                    f"{meta['split']!r} and scene_id {meta['scene_id']} put it at {want}")
+    if meta.get("view") != view or not (dataset / view).is_dir() or (dataset / view).resolve() != scene.resolve():
+        report.fail(dataset / view, "layout", f"the {VIEW_ROOT}/ link does not lead to {here}")
+    return meta
+
+
+def check_index(dataset: Path, metas: list[dict], report: ValidationReport) -> None:
+    """scene_index.json and scene_index.parquet hold exactly the rows the scene_meta.json files
+    give (moonbot.bop.scene_index), in dataset order."""
+    try:
+        want = {(r["bop_split"], r["scene_id"], r["task_in_scene"]): r for r in index_rows(metas)}
+    except (KeyError, TypeError, ValueError) as e:
+        report.fail(dataset, "index", f"a {SCENE_META} lacks a field the index needs ({e!r})")
+        return
+    for name in (SCENE_INDEX_JSON, SCENE_INDEX_PARQUET):
+        path = dataset / name
+        report.count("index")
+        try:
+            if name == SCENE_INDEX_JSON:
+                content = json.loads(path.read_text())
+                columns, rows = content["columns"], content["rows"]
+            else:
+                table = pq.read_table(path)
+                columns, rows = table.column_names, table.to_pylist()
+        except (OSError, ValueError, KeyError, TypeError) as e:
+            report.fail(path, "index", f"unreadable ({e})")
+            continue
+        if list(columns) != list(COLUMNS):
+            report.fail(path, "index", f"columns {list(columns)}, expected {list(COLUMNS)}")
+            continue
+        got = {(r["bop_split"], r["scene_id"], r["task_in_scene"]): r for r in rows}
+        for key in sorted(set(want) | set(got), key=str):
+            if want.get(key) != got.get(key):
+                report.fail(path, "index", f"row {key} is {got.get(key)}, the scene's {SCENE_META} gives {want.get(key)}")
+                break

@@ -6,7 +6,9 @@ which worker ran what, in which order, or how often a task was retried. The bags
 placed and settled once, by a placement task per layout (moonbot.pipeline.placements) that the
 scene's tasks depend on; a placement that fails fails them, naming the layout. A task that stops making
 progress (moonbot.pipeline.heartbeat) has its worker restarted and runs again; one that hangs
-RETRIES + 1 times is reported failed, and the others go on."""
+RETRIES + 1 times is reported failed, and the others go on. Interrupted (Ctrl-C, SIGTERM), a run
+closes its cluster, removes the local cluster's scratch space and the unfinished tasks'
+temporaries, and returns what is complete, unmerged (GenerateResult.interrupted)."""
 
 from __future__ import annotations
 
@@ -14,8 +16,12 @@ import dataclasses
 import json
 import os
 import shutil
+import signal
 import sys
+import tempfile
+import threading
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -41,6 +47,8 @@ RETRIES = 2
 # With no task finishing, the progress line is repeated this often (seconds), with the running
 # task longest without progress: a run never looks frozen.
 STATUS_EVERY_S = 30.0
+# The progress line names this many running tasks, the oldest first, with their ages.
+RUNNING_SHOWN = 3
 # A finished task's small result is read from the worker that ran it, which may meanwhile be stuck
 # in a hung task holding the GIL: after this many seconds the driver reads the task's directory
 # (or placement record) instead, so that it goes on watching and can restart that worker.
@@ -119,6 +127,35 @@ class GenerateResult:
     hangs: list = field(default_factory=list)
     seconds: float = 0.0
     merge: object = None  # the MergeReport of the merge that ended the run (None: not merged)
+    interrupted: str | None = None  # the signal that stopped the run ("SIGINT", "SIGTERM"), None if none did
+    complete: int = 0  # tasks complete in OUT/tasks when the run ended
+
+
+class Interrupted(KeyboardInterrupt):
+    """A run stopped by a signal other than SIGINT (which raises KeyboardInterrupt itself)."""
+
+    def __init__(self, signal_name: str) -> None:
+        super().__init__(signal_name)
+        self.signal_name = signal_name
+
+
+@contextmanager
+def sigterm_interrupts():
+    """While it is open, SIGTERM (`kill`, a batch system's stop) interrupts the main thread as
+    Ctrl-C does, so the run's clean-up runs instead of the process just ending. (Signal handlers
+    belong to the main thread: elsewhere this does nothing.)"""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise Interrupted(signal.Signals(signum).name)
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def pending_tasks(config: Config, out_dir: Path) -> tuple[list[Task], int]:
@@ -144,7 +181,10 @@ def generate(config: Config | str | Path | None, out_dir: Path, *, client: Clien
     never judged hung) RETRIES + 1 times, its worker restarted after each.
     The resolved config is kept as OUT/config.json (a later run into the same OUT must have the
     same config); at the end the tasks' stats are collected (OUT/stats/) and, with `merge`, the
-    complete tasks are merged into the BOP dataset OUT/dataset (missing ones reported)."""
+    complete tasks are merged into the BOP dataset OUT/dataset (missing ones reported).
+    Interrupted by Ctrl-C or SIGTERM, it closes the cluster, removes the temporaries (the local
+    cluster's scratch space, unfinished tasks' staging folders, heartbeats) and returns at once
+    with `interrupted` set and nothing merged: `moonbot merge OUT` merges what is complete."""
     if not isinstance(config, Config):
         config = load_config(config)
     out_dir = Path(out_dir)
@@ -159,10 +199,18 @@ def generate(config: Config | str | Path | None, out_dir: Path, *, client: Clien
     result = GenerateResult(tasks=complete + len(pending), complete_before=complete)
     say = (lambda text: print(text, file=progress, flush=True)) if progress else (lambda text: None)
     say(f"{result.tasks} tasks, {complete} complete, {len(pending)} to render into {out_dir}")
-    if pending:
-        render_pending(config, out_dir, pending, result, client, workers, threads, scheduler, scheduler_file,
-                       start, say, StallLimit(config, task_timeout))
+    try:
+        with sigterm_interrupts():
+            if pending:
+                render_pending(config, out_dir, pending, result, client, workers, threads, scheduler,
+                               scheduler_file, start, say, StallLimit(config, task_timeout))
+    except KeyboardInterrupt as e:  # Ctrl-C, or SIGTERM as Interrupted; the cluster is closed by now
+        result.interrupted = e.signal_name if isinstance(e, Interrupted) else "SIGINT"
     sweep_temporaries(out_dir)
+    result.complete = result.tasks - len(pending_tasks(config, out_dir)[0])
+    if result.interrupted:
+        result.seconds = time.perf_counter() - start
+        return result
     if result.rendered or result.complete_before:
         collect(out_dir)
         if merge:
@@ -190,48 +238,61 @@ def keep_config(config: Config, out_dir: Path) -> None:
 
 def render_pending(config: Config, out_dir: Path, pending: list[Task], result: GenerateResult, client, workers,
                    threads, scheduler, scheduler_file, start: float, say, limit: StallLimit) -> None:
-    """Runs `pending` on the cluster (see generate) and records outcomes in `result`."""
-    own_cluster = own_client = None
-    with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
-                          "distributed.scheduler.worker-saturation": 1.0}):
-        if client is None:
-            if scheduler or scheduler_file:
-                own_client = client = (Client(scheduler) if scheduler else Client(scheduler_file=scheduler_file))
-            else:
-                cores = os.cpu_count() or 1
-                n = max(1, min(workers or cores, len(pending)))
-                threads = threads or max(1, cores // n)
-                own_cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                           dashboard_address=":0", silence_logs=40)
-                own_client = client = Client(own_cluster)
-        # Heartbeats of an earlier, interrupted run are not this run's tasks'.
-        shutil.rmtree(heartbeat_dir(out_dir), ignore_errors=True)
+    """Runs `pending` on the cluster (see generate) and records outcomes in `result`. A local
+    cluster keeps its scratch space (worker folders, lock files) in a folder of its own under the
+    system's temporary folder, removed when it closes, however the run ends."""
+    own_cluster = own_client = scratch = None
+    settings = {"distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
+                "distributed.scheduler.worker-saturation": 1.0}
+    if client is None and not (scheduler or scheduler_file):
+        scratch = tempfile.mkdtemp(prefix="moonbot-dask-")
+        settings["temporary-directory"] = scratch
+    with dask.config.set(settings):
         try:
-            say(f"dashboard: {client.dashboard_link}")
-            say(f"a task is hung after {limit.describe()}")
-            # One task per location stands for its terrain (task_config costs ~10 ms; a sweep has thousands).
-            by_location = {t.location: t for t in reversed(pending)}
-            terrains = list({task_config(config, t).terrain: None for t in by_location.values()})
-            client.register_plugin(TerrainWarmup(terrains))
-            # One placement per layout with pending tasks, submitted first (so run first); each
-            # task waits for its own layout's only.
-            layouts = {layout_id(t): t for t in reversed(pending)}
-            kept = {layout for layout in layouts if read_record(placement_path(out_dir, layout)) is not None}
-            placements = {layout: client.submit(_place_on_worker, config, t, str(out_dir), key=TASK_PREFIX + layout,
-                                                pure=False, retries=RETRIES)
-                          for layout, t in sorted(layouts.items(), key=lambda item: item[1].index)}
-            futures = client.map(_run_on_worker, [config] * len(pending), pending, [str(out_dir)] * len(pending),
-                                 [threads] * len(pending), [placements[layout_id(t)] for t in pending],
-                                 key=[f"render-{t.task_id}" for t in pending], pure=False, retries=RETRIES)
-            SweepWatch(client, futures, pending, result, Watchdog(out_dir, limit), start, say, out_dir,
-                       placements, kept).run()
-            del futures, placements
+            if client is None:
+                if scheduler or scheduler_file:
+                    own_client = client = (Client(scheduler) if scheduler else Client(scheduler_file=scheduler_file))
+                else:
+                    cores = os.cpu_count() or 1
+                    n = max(1, min(workers or cores, len(pending)))
+                    threads = threads or max(1, cores // n)
+                    own_cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                               dashboard_address=":0", silence_logs=40, local_directory=scratch)
+                    own_client = client = Client(own_cluster)
+            watch_pending(config, out_dir, pending, result, client, threads, start, say, limit)
         finally:
             if own_client is not None:
                 own_client.close()
             if own_cluster is not None:
                 own_cluster.close()
             shutil.rmtree(heartbeat_dir(out_dir), ignore_errors=True)
+            if scratch is not None:
+                shutil.rmtree(scratch, ignore_errors=True)
+
+
+def watch_pending(config: Config, out_dir: Path, pending: list[Task], result: GenerateResult, client: Client,
+                  threads, start: float, say, limit: StallLimit) -> None:
+    """Submits `pending` (and their layouts' placements) to `client` and watches them to the end."""
+    # Heartbeats of an earlier, interrupted run are not this run's tasks'.
+    shutil.rmtree(heartbeat_dir(out_dir), ignore_errors=True)
+    say(f"dashboard: {client.dashboard_link}")
+    say(f"a task is hung after {limit.describe()}")
+    # One task per location stands for its terrain (task_config costs ~10 ms; a sweep has thousands).
+    by_location = {t.location: t for t in reversed(pending)}
+    terrains = list({task_config(config, t).terrain: None for t in by_location.values()})
+    client.register_plugin(TerrainWarmup(terrains))
+    # One placement per layout with pending tasks, submitted first (so run first); each
+    # task waits for its own layout's only.
+    layouts = {layout_id(t): t for t in reversed(pending)}
+    kept = {layout for layout in layouts if read_record(placement_path(out_dir, layout)) is not None}
+    placements = {layout: client.submit(_place_on_worker, config, t, str(out_dir), key=TASK_PREFIX + layout,
+                                        pure=False, retries=RETRIES)
+                  for layout, t in sorted(layouts.items(), key=lambda item: item[1].index)}
+    futures = client.map(_run_on_worker, [config] * len(pending), pending, [str(out_dir)] * len(pending),
+                         [threads] * len(pending), [placements[layout_id(t)] for t in pending],
+                         key=[f"render-{t.task_id}" for t in pending], pure=False, retries=RETRIES)
+    SweepWatch(client, futures, pending, result, Watchdog(out_dir, limit), start, say, out_dir,
+               placements, kept).run()
 
 
 @dataclass(frozen=True)
@@ -426,17 +487,27 @@ class SweepWatch:
                   f"samples, {rate:.2f} samples/s, ETA {eta:.0f} s{self.running(time.monotonic())}")
 
     def running(self, now: float) -> str:
-        """", N running, the slowest: its stage and seconds without progress" (empty: none known)."""
-        beats = [b for b in self.watchdog.beats.values() if b.task_id in self.waiting]
-        if not beats:
-            return ""
-        slowest = max(beats, key=lambda b: b.stalled_s(now))
-        return (f"; {len(beats)} running, longest without progress {slowest.task_id} in {slowest.stage!r} "
-                f"for {slowest.stalled_s(now):.0f} s ({slowest.task_s(now):.0f} s into the task)")
+        """The running tasks as running_tasks() says them, after "; " (empty: none known)."""
+        text = running_tasks([b for b in self.watchdog.beats.values() if b.task_id in self.waiting], now)
+        return f"; {text}" if text else ""
 
     def line(self, text: str) -> None:
         self.say(f"[{self.done}/{self.total}] {text}")
         self.last_line = time.monotonic()
+
+
+def running_tasks(beats: list[Beat], now: float) -> str:
+    """"N running: <task> for A s (in <stage> for S s), ..." for the RUNNING_SHOWN oldest of the
+    tasks whose last heartbeats are `beats`, then "and K more": each task's age (seconds since
+    it started) and its stage's (seconds without progress), on the driver's clock at `now`
+    (time.monotonic()). Empty when `beats` is."""
+    if not beats:
+        return ""
+    oldest = sorted(beats, key=lambda b: (-b.task_s(now), b.task_id))
+    shown = ", ".join(f"{b.task_id} for {b.task_s(now):.0f} s (in {b.stage!r} for {b.stalled_s(now):.0f} s)"
+                      for b in oldest[:RUNNING_SHOWN])
+    more = len(oldest) - RUNNING_SHOWN
+    return f"{len(oldest)} running: {shown}" + (f", and {more} more" if more > 0 else "")
 
 
 def fetch(future) -> dict | None:

@@ -9,6 +9,7 @@ import numpy as np
 from moonbot.config import Config
 from moonbot.pipeline.views import ViewResult
 from moonbot.render import resolve_exposure
+from moonbot.writer import AMODAL_FILE
 
 
 def format_summary(config: Config, results: list[ViewResult], sheet: Path | None = None) -> str:
@@ -48,11 +49,14 @@ def format_summary(config: Config, results: list[ViewResult], sheet: Path | None
     lines += rows
     lines += ["", "files   " + (str(results[0].out_dir.parent) if results else "(none)")]
     names = ("rgb.png",) + (("rgb.exr",) if c.output.exr else ()) + (
-        "depth.npy", "depth.png", "depth_preview.png", "mask.png", "gt.json")
+        "depth.npy", "depth.png", "depth_preview.png", "mask.png")
     for name in names:
         lines.append(f"        view_NNN/{name}")
+    lines.append("        view_NNN/" + AMODAL_FILE.format(instance_id=0).replace("000", "NNN")
+                 + " (instance NNN alone, occluders ignored: BOP's mask/)")
+    lines.append("        view_NNN/gt.json")
     if sheet is not None:
-        lines.append(f"        {sheet.name} (rgb | depth | mask per view)")
+        lines.append(f"        {sheet.name} (rgb | depth | mask per view, labelled)")
     return "\n".join(lines)
 
 

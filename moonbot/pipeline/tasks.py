@@ -73,6 +73,16 @@ def sweep_temporaries(out_dir: Path) -> list[Path]:
     return stray
 
 
+def generate_folder_dataset(path: Path) -> Path | None:
+    """When `path` is the folder of a `moonbot generate --out` run (its config.json and tasks/, and
+    no manifest.json of a dataset of its own): where merge puts its dataset by default,
+    path/dataset, merged or not yet. None for any other folder."""
+    path = Path(path)
+    if (path / "config.json").is_file() and (path / "tasks").is_dir() and not (path / "manifest.json").exists():
+        return path / "dataset"
+    return None
+
+
 def task_record(config: Config, task: Task, views: list[int]) -> dict:
     """task.json: the task's identity, where its images go in the dataset, and the config it renders."""
     tconfig = task_config(config, task)

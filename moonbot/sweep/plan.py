@@ -1,6 +1,8 @@
 """What a sweep will cost before anything is rendered: its scenes, tasks and samples per split,
-and the disk and time they take on this machine, scaled from the recorded generate benchmark
-(bench/bench_generate.py → bench/results/generate-<machine>.json).
+and the disk and time they take, scaled from a recorded generate benchmark (bench/bench_generate.py
+→ bench/results/generate-<machine>.json). Nothing is measured here: the time is that of the
+machine the record measured, which `moonbot plan` names (CPU, cores, date, file) beside this
+machine's CPU and how far the two may differ (provenance()).
 
 Time scales with what each stage is paid per: rendering, masks, dust and encoding per
 megapixel-sample; composing the scene and building its BVH per task; placing and settling the
@@ -11,11 +13,18 @@ time by megapixel-samples alone would overstate the per-task and per-layout stag
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
 from moonbot.config import Config
 from moonbot.sweep.tasks import tasks
+
+# How far one machine strays from its own record: the default level of the throughput benchmark ran
+# this many times slower while other processes loaded the 2-core machine
+# (bench/results/amd-epyc-2c-2026-11-23.json) than on the same machine quiet an hour later (its
+# -quiet.json): 0.0973 against 0.2576 samples/s.
+LOADED_SLOWDOWN = 2.6
 
 # The stages (stats.json's stages_s, and the placements') paid once per layout and once per task;
 # every other stage is paid per sample and scales with megapixel-samples.
@@ -54,25 +63,56 @@ def split_plans(config: Config) -> list[SplitPlan]:
 
 @dataclass(frozen=True)
 class Estimate:
-    """Disk (bytes) and time (seconds on `workers` workers of this machine) for a sweep, from the
-    benchmark record at `source`: bytes per megapixel as measured there, times the sweep's; its
-    time split by stage into what is paid per megapixel-sample, per task and per layout, each
-    scaled by the sweep's count of it (see the module docstring)."""
+    """Disk (bytes) and time (seconds on `workers` workers of the recorded machine) for a sweep,
+    from the benchmark record at `source`: bytes per megapixel as measured there, times the
+    sweep's; its time split by stage into what is paid per megapixel-sample, per task and per
+    layout, each scaled by the sweep's count of it (see the module docstring). `machine`: the
+    record's fingerprint (moonbot.benchmark.fingerprint.machine; empty when it has none)."""
 
     bytes: float
     seconds: float
     workers: int
     threads: int  # render threads per worker in the benchmark run used
     source: str
+    machine: dict
 
 
 def default_record() -> Path:
-    """This machine's generate benchmark record in the checkout's bench/results/ (named by the
-    same machine slug the benchmarks use: CPU vendor and family, cores)."""
-    from moonbot.benchmark.fingerprint import machine, machine_slug
+    """The generate benchmark record in the checkout's bench/results/ for a machine like this
+    one (named by the machine slug the benchmarks use: CPU vendor and family, cores); when there
+    is none, the first other machine's record there, if any (provenance() then says it is
+    another machine's)."""
+    from moonbot.benchmark.fingerprint import machine_slug
+    from moonbot.host import cpu_model
 
-    root = Path(__file__).resolve().parents[2]
-    return root / "bench" / "results" / f"generate-{machine_slug(machine())}.json"
+    results = Path(__file__).resolve().parents[2] / "bench" / "results"
+    own = results / f"generate-{machine_slug({'cpu': cpu_model(), 'cores': os.cpu_count()})}.json"
+    others = sorted(results.glob("generate-*.json"))
+    return own if own.exists() or not others else others[0]
+
+
+def provenance(estimate: Estimate) -> list[str]:
+    """Lines saying whose record the estimate scaled (file, CPU, cores, Embree ISA, date) and
+    this machine's CPU, with how far its time may differ: the same CPU model and core count still
+    strays by up to LOADED_SLOWDOWN under other load; another CPU is not estimated at all."""
+    from moonbot.host import cpu_id, cpu_model
+
+    here = f"{cpu_model()} ({cpu_id()}), {os.cpu_count()} cores"
+    m = estimate.machine
+    if not m.get("cpu"):
+        return [f"from    {estimate.source}, a record that names no machine",
+                f"here    {here}: not measured; run bench/bench_generate.py here for this machine's record"]
+    there = f"{m['cpu']} ({m.get('cpu_id', '?')}), {m.get('cores', '?')} cores"
+    lines = [f"from    {estimate.source}: measured on {there}, Embree {m.get('embree_isa', '?')}, "
+             f"{str(m.get('date', '?'))[:10]}"]
+    if (m["cpu"], m.get("cpu_id"), m.get("cores")) == (cpu_model(), cpu_id(), os.cpu_count()):
+        lines.append(f"here    {here}, the same CPU model and cores, not measured here: load, clock and memory "
+                     f"can make it up to {LOADED_SLOWDOWN:g}x slower (one such machine loaded by other processes "
+                     "against itself quiet)")
+    else:
+        lines.append(f"here    {here}: another CPU or core count, so the time above is that machine's, "
+                     "not this one's; run bench/bench_generate.py here for this machine's record")
+    return lines
 
 
 def estimate(plans: list[SplitPlan], record_path: Path) -> Estimate | None:
@@ -97,5 +137,6 @@ def estimate(plans: list[SplitPlan], record_path: Path) -> Estimate | None:
     except (OSError, ValueError, KeyError, TypeError, ZeroDivisionError):
         return None
     mp = sum(p.megapixels for p in plans)
+    machine = record.get("machine") if isinstance(record.get("machine"), dict) else {}
     return Estimate(bytes=b_per_mp * mp, seconds=best["seconds"] * scale, workers=best["workers"],
-                    threads=best.get("threads_per_worker", 1), source=str(record_path))
+                    threads=best.get("threads_per_worker", 1), source=str(record_path), machine=machine)

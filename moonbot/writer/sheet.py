@@ -1,9 +1,10 @@
 """A contact sheet for people debugging a scene: per view, the written rgb.png, depth_preview.png
-and mask.png (coloured by instance) side by side, read back from disk so the sheet shows exactly
-what was written."""
+and mask.png (coloured by instance) side by side under a label naming the view, its azimuth and
+each tile, read back from disk so the sheet shows exactly what was written."""
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -13,6 +14,8 @@ from moonbot import _core
 
 _GAP = 2          # pixels between tiles and cells
 _GAP_GREY = 64
+LABEL_PX = 14     # height of the label strip above each view's tiles
+_LABEL_GREY = 32
 
 
 def colour_mask(instance: np.ndarray) -> np.ndarray:
@@ -27,20 +30,60 @@ def colour_mask(instance: np.ndarray) -> np.ndarray:
 
 
 def write_sheet(view_dirs: list[Path], path: Path, png_compression: int = 1) -> None:
-    """Writes `path` (PNG): one cell per view directory, each rgb | depth | mask, cells in a grid
-    about as wide as it is tall. Large images are shown at an integer reduction (nearest pixel)."""
-    cells = []
+    """Writes `path` (PNG): one cell per view directory, each a label strip (LABEL_PX rows: "view
+    NNN, az A°", "depth", "mask" over their tiles) above rgb | depth (near: bright) | coloured
+    mask, cells in a grid about as wide as it is tall. Large images are shown at an integer
+    reduction (nearest pixel); the labels are not reduced."""
+    tiles_per_view = []
     for d in view_dirs:
         rgb = _core.read_image(str(d / "rgb.png"))
         depth = _core.read_image(str(d / "depth_preview.png"))
         mask = colour_mask(_core.read_image(str(d / "mask.png")))
-        tiles = [rgb, np.repeat(depth[..., None], 3, axis=2), mask]
-        cells.append(_hstack(tiles))
-    step = max(1, math.ceil(cells[0].shape[1] / (960 if len(cells) == 1 else 480)))
-    cells = [c[::step, ::step] for c in cells]
+        tiles_per_view.append([rgb, np.repeat(depth[..., None], 3, axis=2), mask])
+    tile_w = tiles_per_view[0][0].shape[1]
+    step = max(1, math.ceil((3 * tile_w + 2 * _GAP) / (960 if len(view_dirs) == 1 else 480)))
+    cells = []
+    for d, tiles in zip(view_dirs, tiles_per_view):
+        tiles = [t[::step, ::step] for t in tiles]
+        labels = [_view_name(d), "depth", "mask"]
+        cells.append(np.concatenate([label_strip(labels, tiles[0].shape[1], _GAP), _hstack(tiles)]))
     columns = max(1, round(math.sqrt(len(cells) * cells[0].shape[0] / cells[0].shape[1])))
     rows = [_hstack(cells[i:i + columns], pad_to=columns) for i in range(0, len(cells), columns)]
     _core.write_image(str(path), _vstack(rows), png_compression)
+
+
+def _view_name(view_dir: Path) -> str:
+    """"view NNN, az A°" from the view's gt.json (its folder's name alone when that is unreadable)."""
+    try:
+        azimuth = json.loads((view_dir / "gt.json").read_text())["camera_azimuth_deg"]
+        return f"{view_dir.name.replace('_', ' ')}, az {azimuth:g}°"
+    except (OSError, ValueError, KeyError, TypeError):
+        return view_dir.name.replace("_", " ")
+
+
+def label_strip(labels: list[str], tile_w: int, gap: int) -> np.ndarray:
+    """(LABEL_PX, n·tile_w + (n-1)·gap, 3) uint8: each label in light grey on dark grey, left-aligned
+    over its tile and clipped to it, drawn by matplotlib's Agg renderer (DejaVu Sans, shipped with
+    matplotlib, so the pixels are the same on every machine with the same matplotlib)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Rectangle
+
+    width = len(labels) * tile_w + (len(labels) - 1) * gap
+    dpi = 100
+    fig = Figure(figsize=(width / dpi, LABEL_PX / dpi), dpi=dpi, facecolor=(_LABEL_GREY / 255,) * 3)
+    canvas = FigureCanvasAgg(fig)
+    for i, text in enumerate(labels):
+        left = i * (tile_w + gap)
+        artist = fig.text((left + 2) / width, 0.5, text, ha="left", va="center", color="0.85",
+                          fontsize=0.62 * LABEL_PX * 72 / dpi, family="DejaVu Sans")
+        artist.set_clip_path(Rectangle((left, 0), tile_w, LABEL_PX, transform=None))  # display pixels
+    canvas.draw()
+    pixels = np.asarray(canvas.buffer_rgba())[..., :3]
+    strip = np.full((LABEL_PX, width, 3), _LABEL_GREY, np.uint8)
+    h, w = min(LABEL_PX, pixels.shape[0]), min(width, pixels.shape[1])
+    strip[:h, :w] = pixels[:h, :w]
+    return strip
 
 
 def _hstack(images: list[np.ndarray], pad_to: int = 0) -> np.ndarray:

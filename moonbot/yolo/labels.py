@@ -63,17 +63,28 @@ def segment_row(obj_id: int, visible: np.ndarray, tolerance: float = DEFAULT_TOL
 
 def data_yaml(splits: list[str], task: str, objects: dict[int, str] | None = None) -> str:
     """The dataset YAML of one YOLO tree whose images/ holds `splits` (dataset order). `train` is
-    the split named train (else the first); `val` the split named val, else test, else the train
-    split (Ultralytics requires one); `test` the split named test when there is one. No `path`:
-    Ultralytics then takes the YAML's own directory as the root, so the tree can be moved.
-    `objects`: {obj_id: name} of the dataset (MeshesConfig.objects; None: the built-in variants),
-    ids 1..n without gaps as MeshesConfig numbers them."""
+    the split named train, else the first that is neither val nor test; `val` the split named val.
+    A model must not be selected on its test images, so without a val split `val` is the training
+    images, and a comment says so (Ultralytics requires a `val`). A dataset of evaluation splits
+    only (val and/or test) points train and val at the first of them, to be scored with `yolo val`.
+    `test` is the split named test when there is one. No `path`: Ultralytics then takes the YAML's
+    own directory as the root, so the tree can be moved. `objects`: {obj_id: name} of the dataset
+    (MeshesConfig.objects; None: the built-in variants), ids 1..n without gaps as MeshesConfig
+    numbers them."""
     if not splits:
         raise ValueError("splits: a YOLO dataset needs at least one split")
-    train = "train" if "train" in splits else splits[0]
-    val = "val" if "val" in splits else "test" if "test" in splits else train
-    lines = [f"# moonbot {task} labels of the visible instance masks (Ultralytics layout); class = BOP obj_id - 1",
-             f"train: images/{train}", f"val: images/{val}"]
+    lines = [f"# moonbot {task} labels of the visible instance masks (Ultralytics layout); class = BOP obj_id - 1"]
+    training = [s for s in splits if s not in ("val", "test")]
+    train = "train" if "train" in splits else training[0] if training else splits[0]
+    if not training:
+        lines.append(f"# evaluation splits only: train and val are the {train} images, for `yolo val`")
+        val = train
+    elif "val" in splits:
+        val = "val"
+    else:
+        lines.append("# no val split in this dataset (a sweep split with draw_from adds one): val is the training images")
+        val = train
+    lines += [f"train: images/{train}", f"val: images/{val}"]
     if "test" in splits:
         lines.append("test: images/test")
     names = CLASS_NAMES if objects is None else {obj_id - 1: name for obj_id, name in objects.items()}

@@ -57,7 +57,10 @@ constexpr int kMaxGatherRays = 65536;
 /// Indirect light arriving at a surface point.
 struct IndirectLight {
     glm::dvec3 irradiance{0.0};  ///< W/m², linear RGB, on the cached side of the surface
-    glm::dvec3 direction{0.0};   ///< irradiance-weighted mean incident direction (unit, world; toward where the light comes from), 0 if dark
+    /// The luminance-weighted mean of the unit incident directions (world; toward where the light
+    /// comes from), 0 if dark. Its length R̄ ≤ 1 says how spread the light is: 1 from a single
+    /// direction, 2/3 for light of one radiance over the whole hemisphere.
+    glm::dvec3 mean_direction{0.0};
 };
 
 /// What the cache has done so far, cumulatively. Counts cover each vertex once (its first fill),

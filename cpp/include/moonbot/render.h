@@ -32,16 +32,20 @@ struct RenderSettings {
     /// Diffuse inter-reflection: path vertices after the first hit, each lit by the lights
     /// through a shadow ray (next-event estimation); 0 = direct light only, at most kMaxBounces.
     int bounces = 0;
-    /// Adaptive anti-aliasing of direct light; 0 = off (every pixel gets `spp` samples). Else the
-    /// samples a pixel is brought up to, spp < adaptive_spp ≤ 65536 (needs spp ≥ 2), when its
-    /// own `spp` base samples or those of one of its eight neighbours disagree: they hit
-    /// different instances (or some the sky), some of their Sun shadow rays escape and some do
-    /// not, or the luminance of their direct light spreads (max − min) beyond
-    /// `adaptive_threshold` times its mean. (The neighbours catch the slivers of an edge that all
-    /// of a pixel's own base samples miss.) The extra samples carry direct light only (a camera
-    /// ray and its shadow rays); the pixel's indirect light stays the mean of its base samples
-    /// (render()'s split estimator). The decisions follow from the base samples of every pixel,
-    /// all taken before any refinement: images stay identical whatever the thread count.
+    /// Adaptive anti-aliasing; 0 = off (every pixel gets `spp` samples). Else the samples a pixel
+    /// is brought up to, spp < adaptive_spp ≤ 65536, where samples disagree: they hit different
+    /// instances (or some the sky), some of their Sun shadow rays escape and some do not, or the
+    /// luminance of their direct light spreads (max − min) beyond `adaptive_threshold` times its
+    /// mean. With spp ≥ 2 the samples compared are a pixel's own `spp` base samples, and a pixel
+    /// is refined where they or those of one of its eight neighbours disagree (the neighbours
+    /// catch the slivers of an edge that all of a pixel's own base samples miss); the extra
+    /// samples carry direct light only (a camera ray and its shadow rays), and the pixel's
+    /// indirect light stays the mean of its base samples (render()'s split estimator). With
+    /// spp = 1 the base sample is the pixel-centre ray the depth and labels already trace, and
+    /// the samples compared are the centre samples of the pixel's 3×3 neighbourhood; a refined
+    /// pixel's radiance is then the mean of adaptive_spp jittered samples, indirect light
+    /// included. The decisions follow from the base samples of every pixel, all taken before
+    /// any refinement: images stay identical whatever the thread count.
     int adaptive_spp = 0;
     /// The relative spread of direct luminance over a pixel's base samples that refines it; ≥ 0.
     double adaptive_threshold = 0.25;
@@ -83,10 +87,11 @@ struct RenderStats {
 /// horizon, the part below it counts as hidden.) With `bounces` > 0 each path continues in a
 /// cosine-distributed direction, weighted by π·f, and is lit again at every vertex.
 ///
-/// Adaptive anti-aliasing (`adaptive_spp` N > 0, over B = `spp` base samples): a refined pixel's
-/// radiance is the split estimator (1/N)·Σ_N L_direct + (1/B)·Σ_B L_indirect, L_direct the lights
-/// at the camera ray's hit, L_indirect what the bounce paths add; a pixel not refined keeps
-/// (1/B)·Σ_B L, bit for bit what adaptive_spp 0 gives.
+/// Adaptive anti-aliasing (`adaptive_spp` N > 0, over B = `spp` base samples): with B ≥ 2 a
+/// refined pixel's radiance is the split estimator (1/N)·Σ_N L_direct + (1/B)·Σ_B L_indirect,
+/// L_direct the lights at the camera ray's hit, L_indirect what the bounce paths add; with B = 1
+/// it is (1/N)·Σ_N L over N jittered samples. A pixel not refined keeps (1/B)·Σ_B L, bit for bit
+/// what adaptive_spp 0 gives.
 ///
 /// Dust (`medium`, optional; null or puff-free costs nothing): baked per render on a grid of
 /// spacing voxel_m (DustGrid: extinction k, optical depth toward the Sun, the geometry's shade
