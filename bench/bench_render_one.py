@@ -31,7 +31,7 @@ from moonbot.config import load_config
 from moonbot.pipeline import run_views
 from moonbot.render import build_scene, exposure_scale
 from moonbot.scene import compose_scene, intrinsics, orbit_pose, pixel_directions
-from moonbot.scene.bag_mesh import OBJ_IDS, variant_mesh
+from moonbot.scene.bag_mesh import variant_mesh
 from moonbot.terrain.ground import flat_patch
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
@@ -149,7 +149,7 @@ def terrain_view():
     start = time.perf_counter()
     terrain = scene.add_mesh(vertices, triangles)
     build_s = time.perf_counter() - start
-    bag_vertices, bag_triangles = variant_mesh(config.meshes, OBJ_IDS[config.bags.mesh])
+    bag_vertices, bag_triangles = variant_mesh(config.meshes, config.meshes.obj_id(config.bags.mesh))
     bag = scene.add_mesh(bag_vertices, bag_triangles)
     scene.add_background(terrain, np.eye(4), (config.terrain.albedo,) * 3)
     world = np.eye(4)

@@ -88,31 +88,43 @@ def render_one(config_path: Path | None, views: tuple[int, ...], all_views: bool
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
               default=Path("out/models"), show_default=True,
               help="Directory for models/, models_eval/ and models_info.json.")
+@click.option("--mesh", "mesh_file", type=click.Path(dir_okay=False, path_type=Path),
+              help="A mesh file of your own (.obj, .ply, .glb, .gltf): shorthand for --set bags.mesh=FILE; "
+                   "declare its unit and up axis in meshes.user.")
 @click.option("--set", "overrides", multiple=True, metavar="FIELD=VALUE",
               help="Override a config field, e.g. --set meshes.sandbag_02.seam_height_m=0.004.")
-def meshes(config_path: Path | None, out_dir: Path, overrides: tuple[str, ...]) -> None:
-    """Write the three sandbag meshes of CONFIG (`meshes:` section; default: the embedded
-    config) as BOP object models in millimetres: models/obj_NNNNNN.ply with normals,
-    models_eval/ (surface resampled evenly) and models_info.json (diameter, extents, symmetries
-    found numerically within 1 % of the diameter)."""
+def meshes(config_path: Path | None, out_dir: Path, mesh_file: Path | None, overrides: tuple[str, ...]) -> None:
+    """Write the bag meshes of CONFIG (the three sandbags of its `meshes:` section and each
+    mesh of your own in meshes.user; default: the embedded config) as BOP object models in
+    millimetres: models/obj_NNNNNN.ply with normals, models_eval/ (surface resampled evenly)
+    and models_info.json (diameter, extents, discrete and continuous symmetries found
+    numerically within 1 % of the diameter). A mesh of your own is checked and repaired first,
+    and what was done is printed."""
     from moonbot.bop import write_models
     from moonbot.config import ConfigError, load_config, parse_overrides
-    from moonbot.scene.bag_mesh import VARIANTS, variant_meshes
+    from moonbot.scene.bag_mesh import dataset_meshes
+    from moonbot.scene.user_mesh import describe
 
     try:
-        config = load_config(config_path, parse_overrides(overrides))
-    except ConfigError as e:
-        raise click.ClickException(str(e)) from None
-    meshes_by_id = variant_meshes(config.meshes)
-    try:
+        settings = parse_overrides(overrides)
+        if mesh_file is not None:  # a path, not a YAML value
+            settings["bags.mesh"] = str(mesh_file)
+        config = load_config(config_path, settings)
+        for entry in config.meshes.user:
+            for line in describe(entry):
+                click.echo(line)
+        meshes_by_id = dataset_meshes(config.meshes)
         infos = write_models(out_dir, meshes_by_id)
-    except OSError as e:
+    except (ConfigError, ValueError, OSError) as e:  # a bad field or mesh file, named in the message
         raise click.ClickException(str(e)) from None
-    click.echo(f"{'obj_id':>6}  {'mesh':<11} {'vertices':>8} {'triangles':>9} {'diameter':>9}  symmetries")
+    names = config.meshes.objects()
+    width = max(11, *(len(n) for n in names.values()))
+    click.echo(f"{'obj_id':>6}  {'mesh':<{width}} {'vertices':>8} {'triangles':>9} {'diameter':>9}  symmetries")
     for obj_id, info in infos.items():
         v, t = meshes_by_id[obj_id]
-        click.echo(f"{obj_id:>6}  {VARIANTS[obj_id][0]:<11} {len(v):>8} {len(t):>9} "
-                   f"{info.diameter:>7.1f}mm  {len(info.symmetries)}")
+        axes = "".join(f", continuous about {[round(float(c), 3) for c in a]}" for a, _ in info.continuous)
+        click.echo(f"{obj_id:>6}  {names[obj_id]:<{width}} {len(v):>8} {len(t):>9} "
+                   f"{info.diameter:>7.1f}mm  {len(info.symmetries)}{axes}")
     click.echo(f"\nwritten {out_dir}/models, models_eval, models_info.json")
 
 

@@ -74,8 +74,9 @@ def test_rows_and_yaml():
     row = segment_row(1, mask).split()
     assert row[0] == "0" and len(row) == 9  # a rectangle: four corners
     assert detect_row(1, np.zeros((4, 4), bool)) is None and segment_row(1, np.zeros((4, 4), bool)) is None
-    with pytest.raises(ValueError, match="obj_id: 4"):
-        yolo_class(4)
+    assert yolo_class(4) == 3  # a user mesh's (obj_id 4, the first after the built-in variants)
+    with pytest.raises(ValueError, match="obj_id: 0"):
+        yolo_class(0)
     data = yaml.safe_load(data_yaml(["default"], "detect"))
     assert data["train"] == data["val"] == "images/default" and "test" not in data and data["nc"] == 3
     data = yaml.safe_load(data_yaml(["train", "val", "test"], "segment"))
@@ -85,3 +86,5 @@ def test_rows_and_yaml():
     assert (data["train"], data["val"], data["test"]) == ("images/train", "images/train", "images/test")
     data = yaml.safe_load(data_yaml(["test"], "detect"))
     assert data["train"] == data["val"] == data["test"] == "images/test"
+    data = yaml.safe_load(data_yaml(["train"], "detect", {1: "sandbag-01", 2: "sandbag-02", 3: "sandbag-03", 4: "can"}))
+    assert data["nc"] == 4 and data["names"][3] == "can"

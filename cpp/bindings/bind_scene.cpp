@@ -239,9 +239,12 @@ void bind_scene(py::module_& m) {
                                                "), got " + std::to_string(uv->shape(0)));
                 }
                 std::optional<py::array_t<float, py::array::c_style>> va;
+                int channels = 1;
                 if (!vertex_albedo.is_none()) {
-                    va = float_rows(py::reinterpret_borrow<py::object>(vertex_albedo).attr("reshape")(-1, 1),
-                                    "vertex_albedo", 1);
+                    auto given = py::reinterpret_borrow<py::object>(vertex_albedo);
+                    const py::tuple shape = py::module_::import("numpy").attr("shape")(given);
+                    channels = shape.size() == 2 && shape[1].cast<int>() == 3 ? 3 : 1;
+                    va = float_rows(channels == 3 ? given : given.attr("reshape")(-1, 1), "vertex_albedo", channels);
                     if (va->shape(0) != v.shape(0))
                         fail("vertex_albedo", "must have one value per vertex (" + std::to_string(v.shape(0)) +
                                                   "), got " + std::to_string(va->shape(0)));
@@ -256,13 +259,15 @@ void bind_scene(py::module_& m) {
                 // Safe without the GIL: the arrays are our own contiguous copies or held references.
                 py::gil_scoped_release release;
                 return s.add_mesh(v.data(), static_cast<size_t>(v.shape(0)), t.data(), t.size() / 3,
-                                  uv ? uv->data() : nullptr, va ? va->data() : nullptr, vn ? vn->data() : nullptr);
+                                  uv ? uv->data() : nullptr, va ? va->data() : nullptr, vn ? vn->data() : nullptr,
+                                  channels);
             },
             py::arg("vertices"), py::arg("triangles"), py::arg("corner_uvs") = py::none(),
             py::arg("vertex_albedo") = py::none(), py::arg("vertex_normals") = py::none(),
             "Add a prototype mesh: vertices (N, 3) float, metres; triangles (M, 3) int; optional "
             "corner_uvs (M, 6) float: (u, v) of each triangle's three corners, for woven materials; "
-            "optional vertex_albedo (N,) float >= 0: a factor on the albedo per vertex; optional "
+            "optional vertex_albedo (N,) or (N, 3) float >= 0: a factor on the albedo per vertex, or per "
+            "vertex and RGB channel; optional "
             "vertex_normals (N, 3) float: smooth shading normals (object frame). Builds its BVH. "
             "Returns the mesh index.")
         .def(

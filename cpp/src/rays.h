@@ -86,6 +86,7 @@ struct InstanceData {
     const WovenSurface* woven;   // null unless the material is woven
     const StainMask* stain;      // null unless the instance is stained
     const float* vertex_albedo;  // per-vertex albedo factors, or null
+    int vertex_albedo_channels;  // 1: one factor per vertex; 3: one per RGB channel
     const float* vertex_normals; // per-vertex unit shading normals (object frame), or null
     const RegolithGrain* grain;  // granular micro-texture at camera hits, or null
 };
@@ -107,14 +108,27 @@ inline glm::dvec3 shading_normal_at(const InstanceData& inst, uint32_t prim, dou
     return glm::dot(n, geometric) < 0.0 ? -n : n;
 }
 
+/// The mesh's per-vertex albedo factor of instance `inst` at barycentrics (u, v) of triangle
+/// `prim`, per RGB channel (one factor: the same on all three); 1 where the mesh has none.
+inline glm::dvec3 vertex_factor_at(const InstanceData& inst, uint32_t prim, double u, double v) {
+    if (!inst.vertex_albedo) return glm::dvec3(1.0);
+    const uint32_t* c = inst.triangles + 3 * static_cast<size_t>(prim);
+    if (inst.vertex_albedo_channels == 3) {
+        auto rgb = [&](int k) {
+            const float* f = inst.vertex_albedo + 3 * static_cast<size_t>(c[k]);
+            return glm::dvec3(f[0], f[1], f[2]);
+        };
+        return (1.0 - u - v) * rgb(0) + u * rgb(1) + v * rgb(2);
+    }
+    return glm::dvec3((1.0 - u - v) * inst.vertex_albedo[c[0]] + u * inst.vertex_albedo[c[1]] +
+                      v * inst.vertex_albedo[c[2]]);
+}
+
 /// The albedo of instance `inst` at barycentrics (u, v) of triangle `prim`: the material's,
-/// times the mesh's per-vertex factor there when it has one.
+/// times the mesh's per-vertex factor there (one, or one per channel) when it has one.
 inline glm::dvec3 albedo_at(const InstanceData& inst, uint32_t prim, double u, double v) {
     if (!inst.vertex_albedo) return inst.albedo;
-    const uint32_t* c = inst.triangles + 3 * static_cast<size_t>(prim);
-    const double f = (1.0 - u - v) * inst.vertex_albedo[c[0]] + u * inst.vertex_albedo[c[1]] +
-                     v * inst.vertex_albedo[c[2]];
-    return inst.albedo * f;
+    return inst.albedo * vertex_factor_at(inst, prim, u, v);
 }
 
 /// The photometric shape of an instance's surface (photometry.h). Lambert's is 1 outright: no
@@ -158,7 +172,7 @@ inline std::vector<InstanceData> instance_table(const Scene& scene) {
                     inst.label, inst.material.photometry,
                     mesh.corner_uvs.empty() ? nullptr : mesh.corner_uvs.data(),
                     inst.material.woven ? &*inst.material.woven : nullptr, inst.stain,
-                    mesh.vertex_albedo.empty() ? nullptr : mesh.vertex_albedo.data(),
+                    mesh.vertex_albedo.empty() ? nullptr : mesh.vertex_albedo.data(), mesh.vertex_albedo_channels,
                     mesh.vertex_normals.empty() ? nullptr : mesh.vertex_normals.data(),
                     inst.material.grain.get()};
     }

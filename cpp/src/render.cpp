@@ -563,17 +563,20 @@ private:
         }
         const double footprint = pixel_footprint(h, dir, n);
         const FabricSample f = fabric_eval(w.fabric, st.x * w.metres_per_uv, st.y * w.metres_per_uv, footprint);
+        // The cloth's clean colour: the weave's, tinted by the mesh's own per-vertex colour (a
+        // user mesh's texture; exactly the weave's without one).
+        const glm::dvec3 clean = inst.vertex_albedo ? f.albedo * vertex_factor_at(inst, tri.prim, b1, b2) : f.albedo;
         double dirt = 0.0;  // the stain mask's value or the dust's cover
         if (w.dust) {
             const glm::dvec3 object_point = (1.0 - b1 - b2) * object_vertex(inst, corner[0]) +
                                             b1 * object_vertex(inst, corner[1]) + b2 * object_vertex(inst, corner[2]);
             dirt = w.dust->coverage(object_point, footprint);
-            v.albedo = dusted_colour(f.albedo, dirt, w.dirt_colour);
+            v.albedo = dusted_colour(clean, dirt, w.dirt_colour);
         } else if (inst.stain) {
             dirt = inst.stain->sample(st.x, st.y);
-            v.albedo = stained_base_colour(f.albedo, dirt, w.dirt_colour);
+            v.albedo = stained_base_colour(clean, dirt, w.dirt_colour);
         } else {
-            v.albedo = f.albedo;
+            v.albedo = clean;
         }
         // Dust fills the weave's pits: under cover m the relief flattens toward the mean surface.
         const glm::dvec3 weave = w.dust ? glm::mix(f.normal, glm::dvec3(0.0, 0.0, 1.0), dirt) : f.normal;

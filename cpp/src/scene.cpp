@@ -57,7 +57,7 @@ void Scene::require_not_rendering() const {
 
 uint32_t Scene::add_mesh(const float* vertices, size_t n_vertices, const uint32_t* triangles,
                          size_t n_triangles, const float* corner_uvs, const float* vertex_albedo,
-                         const float* vertex_normals) {
+                         const float* vertex_normals, int albedo_channels) {
     require_not_rendering();
     if (n_vertices == 0) throw std::invalid_argument("vertices: mesh has no vertices");
     if (n_triangles == 0) throw std::invalid_argument("triangles: mesh has no triangles");
@@ -75,14 +75,19 @@ uint32_t Scene::add_mesh(const float* vertices, size_t n_vertices, const uint32_
         for (size_t i = 0; i < 6 * n_triangles; ++i)
             if (!std::isfinite(corner_uvs[i]))
                 throw std::invalid_argument("corner_uvs: non-finite coordinate at triangle " + std::to_string(i / 6));
+    if (albedo_channels != 1 && albedo_channels != 3)
+        throw std::invalid_argument("vertex_albedo: 1 or 3 channels, got " + std::to_string(albedo_channels));
+    const size_t n_albedo = n_vertices * static_cast<size_t>(albedo_channels);
     if (vertex_albedo)
-        for (size_t i = 0; i < n_vertices; ++i)
+        for (size_t i = 0; i < n_albedo; ++i)
             if (!(std::isfinite(vertex_albedo[i]) && vertex_albedo[i] >= 0.0f))
                 throw std::invalid_argument("vertex_albedo: must be finite and >= 0, got " +
-                                            std::to_string(vertex_albedo[i]) + " at vertex " + std::to_string(i));
+                                            std::to_string(vertex_albedo[i]) + " at vertex " +
+                                            std::to_string(i / albedo_channels));
     auto mesh = std::make_unique<Mesh>();
     if (corner_uvs) mesh->corner_uvs.assign(corner_uvs, corner_uvs + 6 * n_triangles);
-    if (vertex_albedo) mesh->vertex_albedo.assign(vertex_albedo, vertex_albedo + n_vertices);
+    if (vertex_albedo) mesh->vertex_albedo.assign(vertex_albedo, vertex_albedo + n_albedo);
+    mesh->vertex_albedo_channels = albedo_channels;
     if (vertex_normals) {
         mesh->vertex_normals.resize(3 * n_vertices);
         for (size_t i = 0; i < n_vertices; ++i) {

@@ -65,7 +65,7 @@ from moonbot.config import Config, config_hash
 from moonbot.config.load import from_mapping
 from moonbot.config.schema import MeshesConfig
 from moonbot.export.coco import SCENE_COCO, scene_gt_coco_bytes
-from moonbot.scene.bag_mesh import VARIANTS, variant_meshes
+from moonbot.scene.bag_mesh import dataset_meshes
 from moonbot.writer.checksum import file_sha256
 from moonbot.writer.sheet import colour_mask
 from moonbot.writer.staging import staged_directory
@@ -123,6 +123,7 @@ class _SceneJob:
     rel: str
     scene: SceneTasks
     link: bool
+    obj_ids: tuple[int, ...]  # the dataset's objects (MeshesConfig.objects): the COCO categories
 
 
 @dataclass
@@ -411,7 +412,7 @@ def _build_scene(job: _SceneJob) -> _SceneOutput:
     _put_bytes(root, f"{job.rel}/scene_gt_info.json", dumps_scene_json(scene_gt_info), entries)
     _put_bytes(root, f"{job.rel}/scene_camera.json", dumps_scene_json(scene_camera), entries)
     _put_bytes(root, f"{job.rel}/{SCENE_META}", dumps_json({**meta, "images": images_meta}), entries)
-    coco = scene_gt_coco_bytes(scene_root, "moonbot", bop_split(shared["split"]), sorted(VARIANTS),
+    coco = scene_gt_coco_bytes(scene_root, "moonbot", bop_split(shared["split"]), job.obj_ids,
                                (camera["width"], camera["height"]))
     _put_bytes(root, f"{job.rel}/{SCENE_COCO}", coco, entries)
     return _SceneOutput(job.rel, entries, yolo, len(scene_gt), instances_total, outside_total, camera or {},
@@ -440,10 +441,12 @@ def _without(scene: SceneTasks, task_id: str) -> SceneTasks | None:
     return dataclasses.replace(scene, tasks=kept, missing=tuple(sorted(set(scene.missing) | gone)))
 
 
-def _run_scenes(stage: Path, inventory: Inventory, link: bool, workers: int, say) -> list[_SceneOutput]:
+def _run_scenes(stage: Path, inventory: Inventory, link: bool, workers: int, say,
+                obj_ids: tuple[int, ...]) -> list[_SceneOutput]:
     """Builds every scene folder, `workers` processes at a time (1: in this process). A scene whose
-    task turns out bad is rebuilt without it; the task goes to inventory.invalid / missing."""
-    jobs = {k: _SceneJob(str(stage), _scene_rel(s), s, link) for k, s in enumerate(inventory.scenes)}
+    task turns out bad is rebuilt without it; the task goes to inventory.invalid / missing.
+    `obj_ids`: the dataset's objects, the scenes' COCO categories."""
+    jobs = {k: _SceneJob(str(stage), _scene_rel(s), s, link, obj_ids) for k, s in enumerate(inventory.scenes)}
     outputs: dict[int, _SceneOutput] = {}
     pool = None
     if workers > 1 and len(jobs) > 1:
@@ -513,7 +516,7 @@ def _models(stage: Path, previous: Path, meshes: MeshesConfig, entries: dict) ->
         pass
     for sub in ("models", "models_eval"):
         shutil.rmtree(stage / sub, ignore_errors=True)
-    write_models(stage, variant_meshes(meshes))
+    write_models(stage, dataset_meshes(meshes))
     return False
 
 
@@ -581,7 +584,7 @@ def merge_dataset(out_dir: Path, dataset_dir: Path | None = None, config: Config
         say(f"removed {p} (left by an interrupted merge)")
 
     with staged_directory(dataset_dir) as stage:
-        outputs = _run_scenes(stage, inventory, link, workers, say)
+        outputs = _run_scenes(stage, inventory, link, workers, say, tuple(meshes.objects()))
         # Tasks found bad while building were appended in completion order: back to sweep order.
         last = len(inventory.position)
         inventory.missing = sorted(set(inventory.missing), key=lambda t: (inventory.position.get(t, last), t))
@@ -608,7 +611,7 @@ def merge_dataset(out_dir: Path, dataset_dir: Path | None = None, config: Config
                     entries[image_rel] = entries[rgb_rel]
                     _put_bytes(stage, label_rel, text.encode("ascii"), entries)
         for kind in YOLO_TASKS:
-            _put_bytes(stage, f"yolo/{kind}/data.yaml", data_yaml(splits, kind).encode("utf-8"), entries)
+            _put_bytes(stage, f"yolo/{kind}/data.yaml", data_yaml(splits, kind, meshes.objects()).encode("utf-8"), entries)
 
         rows = index_rows([o.meta for o in outputs])
         _put_bytes(stage, SCENE_INDEX_JSON, dumps_json(index_json(rows)), entries)
@@ -643,7 +646,7 @@ def merge_dataset(out_dir: Path, dataset_dir: Path | None = None, config: Config
             "config_hash": config_hash(config) if config is not None else None,
             "seed": config.seed if config is not None else None,
             "meshes_hash": config_hash(meshes),
-            "objects": {str(obj_id): name for obj_id, (name, _) in sorted(VARIANTS.items())},
+            "objects": {str(obj_id): name for obj_id, name in meshes.objects().items()},
             "splits": [{"name": s, **per_split[s]} for s in splits],
             "tasks_merged": len(merged_tasks),
             "images": sum(o.images for o in outputs),

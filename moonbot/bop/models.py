@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,17 +24,27 @@ from moonbot.writer.staging import atomic_write
 SYMMETRY_TOLERANCE = 0.01
 # Spacing of the evenly resampled surface (models_eval and the symmetry search), millimetres.
 EVAL_SPACING_MM = 1.5
+# Turns about a candidate axis that must all hold for a continuous symmetry: each at least 5°
+# from every multiple of 360°/n for n ≤ 12, so no n-fold body passes them at 1 % of its diameter.
+CONTINUOUS_TRIAL_DEG = (15.0, 114.0, 171.0)
+# n-fold turns tried about each candidate axis besides the box's 24 rotations.
+MAX_FOLD = 12
 
 
 @dataclass(frozen=True)
 class ModelInfo:
     """One models_info.json entry; lengths in millimetres. `symmetries` are 4×4 model-frame
-    transforms (rotation about the model's origin, zero translation) other than the identity."""
+    rigid transforms other than the identity (a turn about an axis through the origin, or
+    through the surface's centroid, then with the translation that keeps that axis in place);
+    `continuous` are (unit axis (3,), offset (3,): a point of the axis) of the axes the surface
+    is symmetric about at every angle (BOP's symmetries_continuous), turns about which the
+    discrete list then leaves out."""
 
     diameter: float
     minimum: tuple[float, float, float]
     size: tuple[float, float, float]
     symmetries: tuple[np.ndarray, ...]
+    continuous: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
 
     def to_json(self) -> dict:
         info = {"diameter": self.diameter,
@@ -41,6 +52,9 @@ class ModelInfo:
                 "size_x": self.size[0], "size_y": self.size[1], "size_z": self.size[2]}
         if self.symmetries:
             info["symmetries_discrete"] = [s.reshape(-1).tolist() for s in self.symmetries]
+        if self.continuous:
+            info["symmetries_continuous"] = [{"axis": axis.tolist(), "offset": offset.tolist()}
+                                             for axis, offset in self.continuous]
         return info
 
 
@@ -142,34 +156,107 @@ def find_symmetries(vertices: np.ndarray, triangles: np.ndarray, tolerance: floa
     candidate, that largest distance (over a subset for a candidate the subset already rejects),
     so a report can show how clear each decision was."""
     points = sample_surface(vertices, triangles, spacing)
-    tree = cKDTree(points)
-    # Most candidates miss by centimetres: an evenly spread subset rejects them at once, and
-    # only the survivors are checked at every sample.
-    probe = points[:: max(1, len(points) // 4096)]
+    test = _SymmetryTest(points, tolerance)
     found, distances = [], {}
     for R in axis_rotations()[1:]:  # the candidates: all but the identity
-        worst = float(tree.query(probe @ R.T, k=1, workers=-1)[0].max())
-        if worst <= tolerance:
-            worst = float(tree.query(points @ R.T, k=1, workers=-1)[0].max())
+        worst = test.worst(R, np.zeros(3))
         distances[str(R.astype(int).tolist())] = worst
         if worst <= tolerance:
             found.append(R)
     return found, distances
 
 
+class _SymmetryTest:
+    """How far a rigid motion moves the surface samples `points` (K, 3) off themselves: the
+    largest distance from a moved sample to its nearest unmoved one. Most candidates miss by
+    far more than `tolerance`: evenly spread subsets (about 256, then 4096 samples) reject them
+    at once, and only the survivors are measured at every sample."""
+
+    def __init__(self, points: np.ndarray, tolerance: float) -> None:
+        self.points, self.tolerance = points, tolerance
+        self.tree = cKDTree(points)
+        self.probes = [points[:: max(1, len(points) // n)] for n in (256, 4096)] + [points]
+
+    def worst(self, R: np.ndarray, t: np.ndarray) -> float:
+        for probe in self.probes:
+            worst = float(self.tree.query(probe @ R.T + t, k=1, workers=-1 if len(probe) > 4096 else 1)[0].max())
+            if worst > self.tolerance:
+                break
+        return worst
+
+
+def axis_turn(axis: np.ndarray, angle: float) -> np.ndarray:
+    """The rotation (3, 3) by `angle` radians about the unit `axis` (right-handed; Rodrigues)."""
+    K = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * K + (1.0 - math.cos(angle)) * (K @ K)
+
+
+def find_all_symmetries(vertices: np.ndarray, triangles: np.ndarray, tolerance: float, spacing: float
+                        ) -> tuple[list[np.ndarray], list[tuple[np.ndarray, np.ndarray]]]:
+    """Discrete and continuous symmetries of the surface within `tolerance` (find_symmetries'
+    test), in the model frame, same unit as `vertices`. Candidate axes: x, y and z through the
+    origin, and the surface's principal axes (of its samples' second moments, each whose moment
+    differs from the others' by more than 1 % of the largest) through its centroid where they
+    differ from those. An axis is continuous when turns by each of
+    CONTINUOUS_TRIAL_DEG hold. Discrete candidates: the box's 24 rotations first (as
+    find_symmetries tries them), then the n-fold turns (n ≤ MAX_FOLD) and half-turns about each
+    candidate axis, each once; turns about a continuous axis are left out. Returns (4×4 transforms
+    in that order, [(unit axis, offset)])."""
+    points = sample_surface(vertices, triangles, spacing)
+    test = _SymmetryTest(points, tolerance)
+    centroid = points.mean(axis=0)
+    axes = [(np.eye(3)[k], np.zeros(3)) for k in range(3)]
+    moments, vectors = np.linalg.eigh(np.cov((points - centroid).T))
+    for k in range(3):
+        if min(abs(moments[k] - moments[j]) for j in range(3) if j != k) <= 0.01 * moments.max():
+            continue  # a repeated moment: any axis in its plane is principal, none is the body's
+        axis = vectors[:, k] * (1.0 if vectors[:, k][np.argmax(np.abs(vectors[:, k]))] > 0 else -1.0)
+        if not any(abs(axis @ a) > math.cos(math.radians(1.0))
+                   and np.linalg.norm(np.cross(centroid - o, a)) <= tolerance for a, o in axes):
+            axes.append((axis, centroid))
+
+    def motion(R: np.ndarray, offset: np.ndarray) -> np.ndarray:
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = R, offset - R @ offset
+        return T
+
+    continuous = [(a, o) for a, o in axes
+                  if all(test.worst(axis_turn(a, math.radians(d)), o - axis_turn(a, math.radians(d)) @ o) <= tolerance
+                         for d in CONTINUOUS_TRIAL_DEG)]
+
+    def about_continuous(T: np.ndarray) -> bool:
+        """Whether T turns about a continuous axis (it is then implied by that axis)."""
+        for a, o in continuous:
+            if np.allclose(T[:3, :3] @ a, a, atol=1e-9) and np.allclose(T @ np.append(o, 1.0), np.append(o, 1.0),
+                                                                           atol=1e-6 * max(1.0, tolerance)):
+                return True
+        return False
+
+    candidates = [motion(R, np.zeros(3)) for R in axis_rotations()[1:]]
+    for a, o in axes:
+        for n in range(2, MAX_FOLD + 1):
+            candidates += [motion(axis_turn(a, 2 * math.pi * k / n), o) for k in range(1, n)
+                           if math.gcd(k, n) == 1]
+    found: list[np.ndarray] = []
+    tried: set[bytes] = set()
+    for T in candidates:
+        key = (np.round(T, 9) + 0.0).tobytes()  # (+ 0.0: no -0.0) a turn reached twice (a half-turn is every even fold's) is tried once
+        if key in tried:
+            continue
+        tried.add(key)
+        if not about_continuous(T) and test.worst(T[:3, :3], T[:3, 3]) <= tolerance:
+            found.append(T)
+    return found, continuous
+
+
 def model_info(vertices_mm: np.ndarray, triangles: np.ndarray) -> ModelInfo:
     """models_info.json entry of a mesh in millimetres, model origin at the body's centre."""
     d = diameter(vertices_mm)
-    rotations, _ = find_symmetries(vertices_mm, triangles, SYMMETRY_TOLERANCE * d, EVAL_SPACING_MM)
-    symmetries = []
-    for R in rotations:
-        T = np.eye(4)
-        T[:3, :3] = R
-        symmetries.append(T)
+    symmetries, continuous = find_all_symmetries(vertices_mm, triangles, SYMMETRY_TOLERANCE * d, EVAL_SPACING_MM)
     lo = vertices_mm.min(axis=0).astype(np.float64)
     hi = vertices_mm.max(axis=0).astype(np.float64)
     return ModelInfo(diameter=d, minimum=tuple(lo.tolist()), size=tuple((hi - lo).tolist()),
-                     symmetries=tuple(symmetries))
+                     symmetries=tuple(symmetries), continuous=tuple(continuous))
 
 
 def write_ply(path: Path, vertices: np.ndarray, triangles: np.ndarray,

@@ -7,8 +7,11 @@ Sun azimuth clockwise from North.
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import math
 from dataclasses import dataclass, field
+from pathlib import Path, PurePath
 from typing import Literal
 
 
@@ -401,15 +404,68 @@ class BagShape:
             raise ValueError(f"wrinkle_seed: must be in [0, 2^63), got {self.wrinkle_seed}")
 
 
+# The built-in mesh variants by name and their BOP obj_ids: the one table of object ids. Meshes of
+# your own (meshes.user) follow from FIRST_USER_OBJ_ID, in the order of their paths.
+BUILTIN_MESHES = {"sandbag-01": 1, "sandbag-02": 2, "sandbag-03": 3}
+FIRST_USER_OBJ_ID = max(BUILTIN_MESHES.values()) + 1
+# Mesh files trimesh reads without further system libraries (FBX: none of trimesh's loaders).
+MESH_FILE_SUFFIXES = (".obj", ".ply", ".glb", ".gltf")
+
+
+@dataclass(frozen=True)
+class UserMeshConfig:
+    """A bag mesh of your own, read, checked and repaired by moonbot/scene/user_mesh.py. Its
+    model frame is the file's, turned so `up_axis` points up (+z) and moved so the centre of its
+    bounding box is the origin; lengths are converted from `unit` to metres."""
+
+    path: str = field(default="", metadata=spec(
+        "the mesh file (.obj, .ply, .glb or .gltf), relative to the working directory"))
+    name: str = field(default="", metadata=spec(
+        "the mesh's name in bags.mesh, task ids, the dataset tree and YOLO's classes: letters, digits, "
+        "'-' or '_' ('' = the file's stem, lower-cased)"))
+    unit: Literal["m", "cm", "mm"] = field(default="m", metadata=spec("the file's unit of length"))
+    up_axis: Literal["auto", "+x", "-x", "+y", "-y", "+z", "-z"] = field(default="auto", metadata=spec(
+        "the file's axis that points up when the bag rests as modelled (auto: +y for .glb/.gltf, glTF's "
+        "own convention; +z otherwise)"))
+    texture: str = field(default="", metadata=spec(
+        "a base-colour image (PNG or JPEG, sRGB) on the mesh's own UVs, in place of its material's "
+        "('' = the material's, if it has one)"))
+    sha256: str = field(default="", metadata=spec(
+        "the file's SHA-256 (hex); filled in when the config is loaded, and a config whose file has "
+        "changed since is refused"))
+
+
 @dataclass(frozen=True)
 class MeshesConfig:
-    """The three SynBag-1.0 mesh variants (obj_id 1, 2, 3). sandbag-03 is longer by default: its
-    folds take up fabric, and 0.36 m keeps its diameter on the paper's ~400 mm ADD-S scale."""
+    """The three SynBag-1.0 mesh variants (obj_id 1, 2, 3) and meshes of your own (`user`, obj_id
+    4, 5, ... in the order of their paths). sandbag-03 is longer by default: its folds take up
+    fabric, and 0.36 m keeps its diameter on the paper's ~400 mm ADD-S scale."""
 
     sandbag_01: BagShape = field(default_factory=lambda: BagShape(wrinkle_seed=1))
     sandbag_02: BagShape = field(default_factory=lambda: BagShape(seam_height_m=0.003, wrinkle_seed=2))
     sandbag_03: BagShape = field(
         default_factory=lambda: BagShape(size_m=(0.36, 0.20, 0.12), fold_length_m=0.06, wrinkle_seed=3))
+    user: tuple[UserMeshConfig, ...] = field(default=(), metadata=spec(
+        "meshes of your own; bags.mesh and a split's meshes may also name a file directly, which adds "
+        "it here with the defaults. Sorted by path when loaded: that order numbers their obj_ids"))
+
+    def objects(self) -> dict[int, str]:
+        """Every object of a dataset made with these meshes: {obj_id: name}, ascending; the
+        built-in variants always, then the user meshes."""
+        out = {obj_id: name for name, obj_id in BUILTIN_MESHES.items()}
+        out.update({FIRST_USER_OBJ_ID + k: entry.name for k, entry in enumerate(self.user)})
+        return out
+
+    def obj_id(self, name: str) -> int:
+        """The BOP obj_id of the mesh named `name` (a built-in variant or a user mesh)."""
+        for obj_id, known in self.objects().items():
+            if known == name:
+                return obj_id
+        raise ValueError(f"bags.mesh: no mesh named {name!r} (known: {', '.join(self.objects().values())})")
+
+    def user_mesh(self, name: str) -> UserMeshConfig | None:
+        """The meshes.user entry named `name`; None for a built-in variant."""
+        return next((entry for entry in self.user if entry.name == name), None)
 
 
 @dataclass(frozen=True)
@@ -523,8 +579,9 @@ class BagsConfig:
     gap_m: float = field(default=0.02, metadata=spec("clearance between neighbouring bags, metres", lo=0.0, hi=1.0))
     scatter_radius_m: float = field(default=1.0, metadata=spec(
         "scattered layout: bags lie within this distance of the target, metres", lo=0.0, hi=100.0))
-    mesh: Literal["sandbag-01", "sandbag-02", "sandbag-03"] = field(default="sandbag-01", metadata=spec(
-        "mesh variant (BOP obj_id 1, 2, 3)"))
+    mesh: str = field(default="sandbag-01", metadata=spec(
+        "the bags' mesh: a built-in variant (sandbag-01, sandbag-02, sandbag-03: BOP obj_id 1, 2, 3), the "
+        "name of a meshes.user entry, or a mesh file (.obj, .ply, .glb, .gltf; added to meshes.user)"))
     albedo: tuple[float, float, float] = field(default=(0.55, 0.45, 0.32), metadata=spec(
         "linear RGB albedo of the fabric (tan)", lo=0.0, hi=1.0, length=3))
     yaw_deg: float = field(default=20.0, metadata=spec(
@@ -750,7 +807,6 @@ SPLIT_AXES = ("meshes", "locations", "bag_counts", "stain_seeds", "dust", "sun_e
 MAX_SCENES = 1_000_000
 MAX_IMAGES_PER_SCENE = 1_000_000
 
-MeshName = Literal["sandbag-01", "sandbag-02", "sandbag-03"]
 LocationName = Literal["flat", "hilly", "crater", "dem", "plane", "slope"]
 
 
@@ -762,7 +818,8 @@ class SplitConfig:
     task the orbit's views). An empty list takes the base config's single value."""
 
     name: str = field(default="train", metadata=spec("the split's directory name (train, test, ...)"))
-    meshes: tuple[MeshName, ...] = field(default=(), metadata=spec("bag mesh variants (bags.mesh)"))
+    meshes: tuple[str, ...] = field(default=(), metadata=spec(
+        "bag meshes (bags.mesh): built-in variants, meshes.user names or mesh files"))
     locations: tuple[LocationName, ...] = field(default=(), metadata=spec("terrain locations (terrain.location)"))
     bag_counts: tuple[int, ...] = field(default=(), metadata=spec(
         "bags per scene (bags.count; more than one are laid out as the sweep's many_bags_layout)", lo=1, hi=255))
@@ -854,6 +911,13 @@ class Config:
     sweep: SweepConfig = field(default_factory=SweepConfig)
 
     def __post_init__(self) -> None:
+        # Every mesh the config names resolves to a built-in variant or a meshes.user entry, by
+        # name, so task ids and the dataset tree are file-name safe and a task's config (which
+        # keeps meshes.user whole) numbers the objects as its sweep does.
+        meshes, bags, sweep = _resolve_meshes(self.meshes, self.bags, self.sweep)
+        object.__setattr__(self, "meshes", meshes)
+        object.__setattr__(self, "bags", bags)
+        object.__setattr__(self, "sweep", sweep)
         by_name = {s.name: s for s in self.sweep.splits}
         for k, split in enumerate(self.sweep.splits):
             grid = by_name[split.draw_from] if split.draw_from else split
@@ -861,3 +925,81 @@ class Config:
             if tasks * self.orbit.views > MAX_IMAGES_PER_SCENE:
                 raise ValueError(f"sweep.splits[{k}]: {tasks} tasks × {self.orbit.views} views a scene exceed BOP's "
                                  f"six-digit image ids (at most {MAX_IMAGES_PER_SCENE} images a scene)")
+
+
+def _mesh_name(path: str) -> str:
+    """The name a mesh file gets by default: its stem, lower-cased, other characters than
+    letters, digits, '-' and '_' as '-'."""
+    stem = PurePath(path).stem.lower()
+    return "".join(c if c.isascii() and (c.isalnum() or c in "-_") else "-" for c in stem) or "mesh"
+
+
+def _file_sha256(path: str, where: str) -> str:
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError as e:
+        raise ValueError(f"{where}: {path}: cannot read ({e.strerror or e})") from None
+
+
+def _resolve_meshes(meshes: MeshesConfig, bags: BagsConfig,
+                    sweep: SweepConfig) -> tuple[MeshesConfig, BagsConfig, SweepConfig]:
+    """meshes.user completed and sorted by path (each with its name, concrete up axis and the
+    file's SHA-256), with bags.mesh and the splits' meshes as names. Raises ValueError naming the
+    field for a mesh that is neither built in, nor a user mesh's name, nor a readable mesh file,
+    for two user meshes of one name or file, and for a file changed since its SHA-256 was taken."""
+    entries: dict[str, tuple[UserMeshConfig, str]] = {}  # path → (entry, the field that named it)
+
+    def add(entry: UserMeshConfig, where: str) -> None:
+        suffix = PurePath(entry.path).suffix.lower()
+        if suffix == ".fbx":
+            raise ValueError(f"{where}: {entry.path}: FBX is not read (trimesh has no FBX loader); export the "
+                             f"mesh as glTF (.glb) or OBJ")
+        if suffix not in MESH_FILE_SUFFIXES:
+            raise ValueError(f"{where}: {entry.path!r} is not a mesh file ({', '.join(MESH_FILE_SUFFIXES)})")
+        if entry.path in entries:
+            raise ValueError(f"{where}: {entry.path} is listed twice")
+        name = entry.name or _mesh_name(entry.path)
+        if not all(c.isascii() and (c.isalnum() or c in "-_") for c in name):
+            raise ValueError(f"{where}: name must be letters, digits, '-' or '_', got {name!r}")
+        clash = [p for p, (e, _) in entries.items() if e.name == name]
+        if name in BUILTIN_MESHES or clash:
+            raise ValueError(f"{where}: the name {name!r} is taken (by {clash[0] if clash else 'a built-in variant'}); "
+                             f"give meshes.user entries distinct names")
+        up = entry.up_axis if entry.up_axis != "auto" else "+y" if suffix in (".glb", ".gltf") else "+z"
+        digest = _file_sha256(entry.path, where)
+        if entry.sha256 and entry.sha256 != digest:
+            raise ValueError(f"{where}: {entry.path} has changed since this config was made (SHA-256 "
+                             f"{digest[:12]}…, not {entry.sha256[:12]}…)")
+        entries[entry.path] = (dataclasses.replace(entry, name=name, up_axis=up, sha256=digest), where)
+
+    for k, entry in enumerate(meshes.user):
+        if not entry.path:
+            raise ValueError(f"meshes.user[{k}].path: required")
+        add(entry, f"meshes.user[{k}]")
+
+    def resolve(value: str, where: str) -> str:
+        if value in BUILTIN_MESHES:
+            return value
+        for entry, _ in entries.values():
+            if value in (entry.name, entry.path):
+                return entry.name
+        if PurePath(value).suffix.lower() in MESH_FILE_SUFFIXES + (".fbx",):
+            add(UserMeshConfig(path=value), where)
+            return entries[value][0].name
+        raise ValueError(f"{where}: must be one of {', '.join(BUILTIN_MESHES)}, a meshes.user name or a mesh "
+                         f"file ({', '.join(MESH_FILE_SUFFIXES)}), got {value!r}")
+
+    mesh = resolve(bags.mesh, "bags.mesh")
+    splits = []
+    for i, split in enumerate(sweep.splits):
+        names = tuple(resolve(m, f"sweep.splits[{i}].meshes[{j}]") for j, m in enumerate(split.meshes))
+        try:
+            splits.append(dataclasses.replace(split, meshes=names))
+        except ValueError as e:  # a file named twice, once by its path and once by its name
+            raise ValueError(f"sweep.splits[{i}].{e}") from None
+    splits = tuple(splits)
+    user = tuple(entry for _, (entry, _) in sorted(entries.items()))
+    if mesh == bags.mesh and splits == sweep.splits and user == meshes.user:
+        return meshes, bags, sweep
+    return (dataclasses.replace(meshes, user=user), dataclasses.replace(bags, mesh=mesh),
+            dataclasses.replace(sweep, splits=splits))

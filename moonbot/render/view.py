@@ -51,7 +51,7 @@ def build_scene(spec: SceneSpec, embree_isa: str = "auto", watertight: bool = Tr
         if key == TERRAIN_MESH:
             return terrain
         if key in bag_ids:  # wrinkles shaded smooth, not as a mosaic of 5 mm facets
-            return {"vertex_normals": vertex_normals(v, t)}
+            return {"vertex_normals": vertex_normals(v, t), "vertex_albedo": spec.bag_vertex_albedo}
         return {}
 
     mesh_index = {key: scene.add_mesh(v, t, spec.bag_uvs.reshape(len(t), 6) if key in bag_ids else None,

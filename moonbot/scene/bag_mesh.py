@@ -41,10 +41,11 @@ declared symmetry (moonbot/bop/models.py) to the seed's luck.
 from __future__ import annotations
 
 import itertools
+from dataclasses import dataclass
 
 import numpy as np
 
-from moonbot.config.schema import BagShape, MeshesConfig
+from moonbot.config.schema import BUILTIN_MESHES, BagShape, MeshesConfig
 
 
 # The variants' default shapes.
@@ -422,13 +423,10 @@ def atlas_metres_per_uv(shape: BagShape = FILLED) -> float:
     return float(max(2 * (L + W), H + 2 * W))
 
 
-# The SynBag-1.0 mesh variants by BOP obj_id: (name, mesh maker with the variant's defaults).
-VARIANTS = {
-    1: ("sandbag-01", filled_cuboid),
-    2: ("sandbag-02", seamed_cuboid),
-    3: ("sandbag-03", folded_cuboid),
-}
-OBJ_IDS = {name: obj_id for obj_id, (name, _) in VARIANTS.items()}
+# The SynBag-1.0 mesh variants by BOP obj_id (the ids are BUILTIN_MESHES'): (name, mesh maker
+# with the variant's defaults).
+_MAKERS = {"sandbag-01": filled_cuboid, "sandbag-02": seamed_cuboid, "sandbag-03": folded_cuboid}
+VARIANTS = {BUILTIN_MESHES[name]: (name, maker) for name, maker in _MAKERS.items()}
 
 
 def variant_shape(meshes: MeshesConfig, obj_id: int) -> BagShape:
@@ -449,3 +447,70 @@ def variant_collision_points(meshes: MeshesConfig, obj_id: int) -> np.ndarray:
 def variant_meshes(meshes: MeshesConfig) -> dict[int, tuple[np.ndarray, np.ndarray]]:
     """All three variants with the configured shapes, by obj_id."""
     return {obj_id: variant_mesh(meshes, obj_id) for obj_id in VARIANTS}
+
+
+@dataclass(frozen=True)
+class BagModel:
+    """What a scene needs of one bag mesh, built in or a user's: its BOP `obj_id` and `name`,
+    `vertices` (N, 3) float32 metres in the model frame (z up), `triangles` (M, 3) int32, the
+    cloth's atlas `corner_uvs` (M, 3, 2) float32 at `metres_per_uv`, and the mesh's own colour
+    where it has one (a user mesh's texture: mean linear RGB `albedo` and the per-vertex,
+    per-channel factor `vertex_albedo` (N, 3) float32; None: the bags' configured albedo,
+    uniform)."""
+
+    obj_id: int
+    name: str
+    vertices: np.ndarray
+    triangles: np.ndarray
+    corner_uvs: np.ndarray
+    metres_per_uv: float
+    albedo: tuple[float, float, float] | None = None
+    vertex_albedo: np.ndarray | None = None
+
+
+def bag_model(meshes: MeshesConfig, name: str) -> BagModel:
+    """The bag mesh named `name` (bags.mesh): a built-in variant with its configured shape, or a
+    meshes.user entry read by moonbot.scene.user_mesh (ValueError naming the file if it fails)."""
+    obj_id = meshes.obj_id(name)
+    entry = meshes.user_mesh(name)
+    if entry is None:
+        shape = variant_shape(meshes, obj_id)
+        vertices, triangles = variant_mesh(meshes, obj_id)
+        return BagModel(obj_id, name, vertices, triangles, uv_atlas(shape), atlas_metres_per_uv(shape))
+    from moonbot.scene.user_mesh import load_user_mesh  # here: built-in scenes never load trimesh
+
+    user = load_user_mesh(entry)
+    return BagModel(obj_id, name, user.vertices, user.triangles, user.corner_uvs, user.metres_per_uv,
+                    user.albedo, user.vertex_albedo)
+
+
+# A user mesh whose convex hull holds more than this many times its volume settles as convex
+# parts (moonbot.scene.convex_parts), not as its hull.
+DECOMPOSE_ABOVE_HULL_FIT = 1.2
+
+
+def bag_collision(meshes: MeshesConfig, name: str) -> list[np.ndarray]:
+    """The shapes settling collides for the bag mesh `name`: point sets (K, 3) float64, model
+    frame, metres, each standing for its convex hull, together holding the whole mesh. A built-in
+    variant: one, collision_points. A user mesh: its vertices (one hull) where the hull fits
+    within DECOMPOSE_ABOVE_HULL_FIT of its volume, else its convex parts."""
+    entry = meshes.user_mesh(name)
+    if entry is None:
+        return [variant_collision_points(meshes, meshes.obj_id(name))]
+    from moonbot.scene.user_mesh import load_user_mesh, user_convex_parts
+
+    user = load_user_mesh(entry)
+    if user.report.hull_fit <= DECOMPOSE_ABOVE_HULL_FIT:
+        return [user.vertices.astype(np.float64)]
+    return list(user_convex_parts(entry).parts)
+
+
+def dataset_meshes(meshes: MeshesConfig) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """Every object of a dataset made with `meshes` (MeshesConfig.objects): (vertices (N, 3)
+    float32 metres, triangles (M, 3) int32) by obj_id, the built-in variants always."""
+    out = variant_meshes(meshes)
+    for obj_id, name in meshes.objects().items():
+        if obj_id not in out:
+            model = bag_model(meshes, name)
+            out[obj_id] = (model.vertices, model.triangles)
+    return out

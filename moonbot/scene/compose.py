@@ -10,8 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from moonbot.config.schema import Config, FabricConfig, PhotometryConfig, StainConfig
-from moonbot.scene.bag_mesh import (OBJ_IDS, atlas_metres_per_uv, collision_points, uv_atlas, variant_mesh,
-                                    variant_shape)
+from moonbot.scene.bag_mesh import bag_collision, bag_model
 from moonbot.scene.placement import Placement, arrange_bags
 from moonbot.terrain import get_terrain
 from moonbot.terrain.ground import Ground
@@ -41,7 +40,8 @@ class SceneSpec:
     `terrain_albedo_scale` ((N,) float32 or None), shaded with the smooth `terrain_normals`
     ((N, 3) float32 or None) and shaped by `terrain_photometry`; `bag_uvs`
     (M, 3, 2) float32 are the bag mesh's corner UVs (its cloth's atlas, `bag_metres_per_uv`
-    metres per unit), woven and stained as `fabric` and `stain` say;
+    metres per unit), woven and stained as `fabric` and `stain` say, its albedo varied per vertex
+    and channel by `bag_vertex_albedo` ((N, 3) float32, a user mesh's texture; None: uniform);
     `ground` is the terrain's height field (the camera keeps clear of it); `rocks` are
     (mesh key, world-from-model (4, 4) float64) background instances, scaled by diameter;
     `terrain_seconds` is what building the terrain cost this scene (0 when this process had it
@@ -63,6 +63,7 @@ class SceneSpec:
     rocks: tuple[tuple[int, np.ndarray], ...]
     terrain_seconds: float
     site: DemSite | None = None
+    bag_vertex_albedo: np.ndarray | None = None
 
 
 TERRAIN_MESH = 0  # key of the terrain in SceneSpec.meshes; bags use their obj_id (≥ 1)
@@ -94,29 +95,29 @@ def stain_seed(dataset_seed: int, instance_id: int) -> int:
 def place_bags(config: Config, ground: Ground) -> Placement:
     """The config's bags placed by `bags.layout` on `ground` (the terrain's) and, where
     `bags.settle.enabled`, settled against it (moonbot.scene.placement; deterministic from the
-    dataset seed). Settling collides the variant's smooth hull (bag_mesh.collision_points), which
-    a scene that does not settle never builds."""
-    obj_id = OBJ_IDS[config.bags.mesh]
-    vertices, triangles = variant_mesh(config.meshes, obj_id)
-    collision = collision_points(variant_shape(config.meshes, obj_id)) if config.bags.settle.enabled else None
-    return arrange_bags(vertices, triangles, config.bags, ground, seed=config.seed, collision=collision)
+    dataset seed). Settling collides the mesh's convex shapes (bag_mesh.bag_collision: a variant's
+    smooth hull, a user mesh's hull or convex parts), which a scene that does not settle never
+    builds."""
+    model = bag_model(config.meshes, config.bags.mesh)
+    collision = bag_collision(config.meshes, config.bags.mesh) if config.bags.settle.enabled else None
+    return arrange_bags(model.vertices, model.triangles, config.bags, ground, seed=config.seed, collision=collision)
 
 
 def compose_scene(config: Config, placement: Placement | None = None) -> SceneSpec:
-    """`bags.count` bags of the configured mesh variant on the configured ground, placed by
+    """`bags.count` bags of the configured mesh (bags.mesh) on the configured ground, placed by
     `bags.layout` and settled (moonbot.scene.placement; deterministic from the dataset seed),
     instance ids 1..count, bag 1 the orbit target. A `placement` given (the same config's, made
     once for every task of its scene: moonbot.pipeline.placements) is used as it is."""
-    obj_id = OBJ_IDS[config.bags.mesh]
-    vertices, triangles = variant_mesh(config.meshes, obj_id)
-    shape = variant_shape(config.meshes, obj_id)
+    model = bag_model(config.meshes, config.bags.mesh)
+    obj_id, vertices, triangles = model.obj_id, model.vertices, model.triangles
+    albedo = model.albedo if model.albedo is not None else config.bags.albedo
     terrain, cached = get_terrain(config.terrain)
     if placement is None:
         placement = place_bags(config, terrain.ground)
     elif len(placement.poses) != config.bags.count:
         raise ValueError(f"bags.count: {config.bags.count} bags, but the placement given has {len(placement.poses)}")
     instances = tuple(BagInstance(obj_id=obj_id, instance_id=i + 1, world_from_model=pose,
-                                  albedo=config.bags.albedo, stain_seed=stain_seed(config.seed, i + 1))
+                                  albedo=albedo, stain_seed=stain_seed(config.seed, i + 1))
                       for i, pose in enumerate(placement.poses))
     meshes = {TERRAIN_MESH: terrain.mesh, obj_id: (vertices, triangles)}
     rocks: tuple[tuple[int, np.ndarray], ...] = ()
@@ -133,8 +134,8 @@ def compose_scene(config: Config, placement: Placement | None = None) -> SceneSp
         terrain_albedo_scale=terrain.albedo_scale,
         terrain_normals=terrain.normals,
         terrain_photometry=config.terrain.photometry,
-        bag_uvs=uv_atlas(shape),
-        bag_metres_per_uv=atlas_metres_per_uv(shape),
+        bag_uvs=model.corner_uvs,
+        bag_metres_per_uv=model.metres_per_uv,
         fabric=config.bags.fabric,
         stain=config.bags.stain,
         bags=instances,
@@ -144,4 +145,5 @@ def compose_scene(config: Config, placement: Placement | None = None) -> SceneSp
         rocks=rocks,
         terrain_seconds=0.0 if cached else terrain.build_seconds,
         site=terrain.site,
+        bag_vertex_albedo=model.vertex_albedo,
     )

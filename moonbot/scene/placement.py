@@ -214,11 +214,12 @@ class Placement:
 
 
 def arrange_bags(vertices: np.ndarray, triangles: np.ndarray, bags: BagsConfig, ground: Ground,
-                 seed: int, collision: np.ndarray | None = None) -> Placement:
+                 seed: int, collision: np.ndarray | list[np.ndarray] | None = None) -> Placement:
     """Places the configured bags on `ground`, settles them when `bags.settle.enabled`, and
     checks the result against the ground's mesh (the triangles the renderer draws).
     `collision` (K, 3), model frame, metres: points whose convex hull holds the mesh, the shape
-    settling collides (bag_mesh.collision_points); None: the mesh's vertices."""
+    settling collides (bag_mesh.collision_points), or a list of such point sets whose hulls hold
+    it together (convex parts: bag_mesh.bag_collision); None: the mesh's vertices."""
     settle_cfg = bags.settle
     clearance = settle_cfg.margin_m + (settle_cfg.drop_m if settle_cfg.enabled else 0.0)
     poses = place_bags(vertices, triangles, bags.count, bags.layout, seed=seed, ground=ground, yaw_deg=bags.yaw_deg,

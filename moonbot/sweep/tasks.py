@@ -22,15 +22,13 @@ from moonbot.config import Config
 from moonbot.config.load import from_mapping
 from moonbot.config.schema import SplitConfig, SweepConfig
 
-# bags.mesh → BOP obj_id (moonbot/bop/models.py numbers the variants the same way).
-OBJ_IDS = {"sandbag-01": 1, "sandbag-02": 2, "sandbag-03": 3}
-
 
 @dataclass(frozen=True)
 class Task:
     """One task's identity: where it sits in the sweep and what it varies. `index` numbers the
     tasks of the whole sweep from 0; `scene_id` the scenes of its split; `task_in_scene` the
-    tasks of its scene (of `tasks_per_scene`). Angles in degrees, heights in metres."""
+    tasks of its scene (of `tasks_per_scene`); `obj_id` is the BOP id of its `mesh`
+    (MeshesConfig.objects). Angles in degrees, heights in metres."""
 
     index: int
     split: str
@@ -38,6 +36,7 @@ class Task:
     task_in_scene: int
     tasks_per_scene: int
     mesh: str
+    obj_id: int
     location: str
     bags: int
     stain_seeds: int
@@ -45,10 +44,6 @@ class Task:
     sun_elevation_deg: float
     sun_azimuth_deg: float
     camera_height_m: float
-
-    @property
-    def obj_id(self) -> int:
-        return OBJ_IDS[self.mesh]
 
     @property
     def task_id(self) -> str:
@@ -84,7 +79,8 @@ def tasks(config: Config) -> list[Task]:
             chosen = [(scene, shots) for scene in scenes]
         for scene_id, ((mesh, location, bags, stain, dust), scene_shots) in enumerate(chosen):
             for k, (elevation, azimuth, height) in enumerate(scene_shots):
-                out.append(Task(len(out), split.name, scene_id, k, len(scene_shots), mesh, location, bags, stain, dust,
+                out.append(Task(len(out), split.name, scene_id, k, len(scene_shots), mesh, config.meshes.obj_id(mesh),
+                                location, bags, stain, dust,
                                 float(elevation), float(azimuth), float(height)))
     return out
 

@@ -18,17 +18,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from moonbot.scene.bag_mesh import VARIANTS
+from moonbot.config.schema import MeshesConfig
 from moonbot.yolo.polygon import DEFAULT_TOLERANCE_PX, mask_polygon
 
-# Class index → name: obj_id − 1 → the mesh variant.
-CLASS_NAMES = {obj_id - 1: name for obj_id, (name, _) in sorted(VARIANTS.items())}
+# Class index → name of the built-in variants: obj_id − 1 → the mesh; user meshes follow
+# (MeshesConfig.objects).
+CLASS_NAMES = {obj_id - 1: name for obj_id, name in MeshesConfig().objects().items()}
 
 
 def yolo_class(obj_id: int) -> int:
-    """The YOLO class of a BOP obj_id (1-based → 0-based). ValueError for an unknown obj_id."""
-    if obj_id - 1 not in CLASS_NAMES:
-        raise ValueError(f"obj_id: {obj_id} is not a moonbot object (1..{len(CLASS_NAMES)})")
+    """The YOLO class of a BOP obj_id (1-based → 0-based). ValueError for an obj_id below 1."""
+    if obj_id < 1:
+        raise ValueError(f"obj_id: {obj_id} is not a BOP object id (1, 2, ...)")
     return obj_id - 1
 
 
@@ -60,14 +61,16 @@ def segment_row(obj_id: int, visible: np.ndarray, tolerance: float = DEFAULT_TOL
     return f"{yolo_class(obj_id)} " + _fmt(xy.reshape(-1))
 
 
-def data_yaml(splits: list[str], task: str) -> str:
+def data_yaml(splits: list[str], task: str, objects: dict[int, str] | None = None) -> str:
     """The dataset YAML of one YOLO tree whose images/ holds `splits` (dataset order). `train` is
     the split named train, else the first that is neither val nor test; `val` the split named val.
     A model must not be selected on its test images, so without a val split `val` is the training
     images, and a comment says so (Ultralytics requires a `val`). A dataset of evaluation splits
     only (val and/or test) points train and val at the first of them, to be scored with `yolo val`.
     `test` is the split named test when there is one. No `path`: Ultralytics then takes the YAML's
-    own directory as the root, so the tree can be moved."""
+    own directory as the root, so the tree can be moved. `objects`: {obj_id: name} of the dataset
+    (MeshesConfig.objects; None: the built-in variants), ids 1..n without gaps as MeshesConfig
+    numbers them."""
     if not splits:
         raise ValueError("splits: a YOLO dataset needs at least one split")
     lines = [f"# moonbot {task} labels of the visible instance masks (Ultralytics layout); class = BOP obj_id - 1"]
@@ -84,7 +87,8 @@ def data_yaml(splits: list[str], task: str) -> str:
     lines += [f"train: images/{train}", f"val: images/{val}"]
     if "test" in splits:
         lines.append("test: images/test")
-    lines.append(f"nc: {len(CLASS_NAMES)}")
+    names = CLASS_NAMES if objects is None else {obj_id - 1: name for obj_id, name in objects.items()}
+    lines.append(f"nc: {len(names)}")
     lines.append("names:")
-    lines += [f"  {k}: {name}" for k, name in sorted(CLASS_NAMES.items())]
+    lines += [f"  {k}: {name}" for k, name in sorted(names.items())]
     return "\n".join(lines) + "\n"

@@ -58,7 +58,8 @@ struct Mesh {
     std::vector<float> vertices;      // xyz per vertex, metres, plus one padding float (Embree rule)
     std::vector<uint32_t> triangles;  // three vertex indices per triangle
     std::vector<float> corner_uvs;    // (u, v) per triangle corner, 6 per triangle; empty if none
-    std::vector<float> vertex_albedo;  // a factor on the material's albedo per vertex; empty if none
+    std::vector<float> vertex_albedo;  // a factor on the material's albedo per vertex (1 or 3 per vertex); empty if none
+    int vertex_albedo_channels = 1;    // 1: one factor on all of RGB; 3: one per channel
     std::vector<float> vertex_normals;  // unit shading normal per vertex (object frame, xyz); empty if none
     size_t vertex_count() const { return (vertices.size() - 1) / 3; }
     size_t triangle_count() const { return triangles.size() / 3; }
@@ -96,15 +97,17 @@ public:
     /// is n_triangles×3 indices into it. Both are copied. Throws std::invalid_argument naming the
     /// argument on an empty mesh, a non-finite vertex or an index out of range. Returns its index.
     /// `corner_uvs` (optional, n_triangles×3×2, finite) are texture coordinates per triangle
-    /// corner, which a woven material needs. `vertex_albedo` (optional, n_vertices, finite,
-    /// ≥ 0) multiplies the albedo of any material on the mesh, interpolated across triangles
-    /// (regolith's albedo varies over a site). `vertex_normals` (optional, n_vertices×3, finite,
+    /// corner, which a woven material needs. `vertex_albedo` (optional, n_vertices ×
+    /// `albedo_channels` (1 or 3), finite, ≥ 0) multiplies the albedo of any material on the
+    /// mesh, interpolated across triangles: one factor (regolith's albedo varies over a site) or
+    /// one per RGB channel (a user mesh's base-colour texture). `vertex_normals` (optional, n_vertices×3, finite,
     /// non-zero; normalised here) are shading normals interpolated across triangles, so a
     /// tessellated smooth surface does not shade as facets; visibility still follows the
     /// triangles themselves.
     uint32_t add_mesh(const float* vertices, size_t n_vertices, const uint32_t* triangles,
                       size_t n_triangles, const float* corner_uvs = nullptr,
-                      const float* vertex_albedo = nullptr, const float* vertex_normals = nullptr);
+                      const float* vertex_albedo = nullptr, const float* vertex_normals = nullptr,
+                      int albedo_channels = 1);
 
     /// Moves the vertices of mesh `mesh` (one without vertex normals, whose shading would go
     /// stale) to `vertices` (n_vertices×3, the mesh's own count, finite; triangles and UVs stay)
