@@ -304,7 +304,8 @@ TEST_CASE(adaptive_settings_are_checked) {
         return std::string();
     };
     CHECK(message(4, 4, 0.25).rfind("adaptive_spp: must be 0 (off) or in spp + 1..65536", 0) == 0);
-    CHECK(message(1, 8, 0.25).rfind("adaptive_spp: needs spp >= 2", 0) == 0);
+    CHECK(message(1, 1, 0.25).rfind("adaptive_spp: must be 0 (off) or in spp + 1..65536", 0) == 0);
+    CHECK(message(1, 8, 0.25).empty());  // over the pixel-centre sample
     CHECK(message(4, 8, -1.0).rfind("adaptive_threshold:", 0) == 0);
     CHECK(message(4, 8, 0.0).empty());
     CHECK(message(4, 0, 0.25).empty());
