@@ -384,11 +384,11 @@ def export_coco(dataset: Path, out_dir: Path) -> None:
     """One COCO instance-segmentation file per split of DATASET (visible masks as RLE, amodal
     boxes, categories = obj_ids), for detectron2 or mmdetection with DATASET as image root."""
     from moonbot.bop.reader import DatasetError
-    from moonbot.export.coco import ExportError, write_split_cocos
+    from moonbot.export.coco import write_split_cocos
 
     try:
         written = write_split_cocos(dataset, out_dir)
-    except (DatasetError, ExportError, OSError) as e:
+    except (DatasetError, OSError) as e:
         raise click.ClickException(str(e)) from None
     for split, path in written.items():
         click.echo(f"{split}: {path}")
@@ -406,12 +406,11 @@ def export_shards(dataset: Path, out_dir: Path, shard_size: int, shuffle_seed: i
     """BOP-webdataset shards of every split of DATASET, as bop_toolkit's bop_webdataset reads them
     (rgb.png: pass rgb_suffix=".png")."""
     from moonbot.bop.reader import DatasetError
-    from moonbot.export.coco import ExportError
     from moonbot.export.webdataset import write_shards
 
     try:
         written = write_shards(dataset, out_dir, shard_size, shuffle_seed)
-    except (DatasetError, ExportError, OSError) as e:
+    except (DatasetError, OSError) as e:
         raise click.ClickException(str(e)) from None
     for split in written:
         click.echo(f"{split.split}: {split.images} images in {split.shards} shards -> {split.folder}")

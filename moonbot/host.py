@@ -7,6 +7,7 @@ its coherent AVX-512 kernels on only the former."""
 from __future__ import annotations
 
 import platform
+import re
 from pathlib import Path
 
 # The /proc/cpuinfo flags of the x86-64 SIMD extensions, narrowest first: those Embree's kernels
@@ -67,3 +68,11 @@ def host_record(requested_isa: str = "auto") -> dict:
     stats.json and every benchmark result carries."""
     return {"cpu_model": cpu_model(), "cpu_id": cpu_id(), "simd_flags": simd_flags(),
             **embree_record(requested_isa)}
+
+
+def machine_slug(m: dict) -> str:
+    """A record's machine as a file-name part: its CPU model, lower-case and dashed, and its core
+    count ("amd-epyc-2c"): bench/results/<slug>.json."""
+    cpu = re.sub(r"[^a-z0-9]+", "-", m["cpu"].lower()).strip("-")
+    cpu = re.sub(r"-(processor|cpu|with-radeon-graphics).*$", "", cpu)
+    return f"{cpu}-{m['cores']}c"

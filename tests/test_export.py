@@ -29,9 +29,12 @@ from pycocotools.coco import COCO
 from moonbot.bop import merge_dataset
 from moonbot.cli import main
 from moonbot.config import load_config
-from moonbot.export import ExportError, dataset_scenes, encode_rle, write_shards, write_split_cocos
-from moonbot.export.coco import IMAGE_ID_STRIDE, SCENE_COCO
-from moonbot.export.toolkit_json import dumps_toolkit_json
+from moonbot.bop.coco import SCENE_COCO, scene_coco
+from moonbot.bop.reader import DatasetError
+from moonbot.bop.rle import encode_rle
+from moonbot.bop.toolkit_json import dumps_toolkit_json
+from moonbot.export import dataset_scenes, write_shards, write_split_cocos
+from moonbot.export.coco import IMAGE_ID_STRIDE
 from moonbot.pipeline.tasks import run_task
 from moonbot.sweep import tasks
 
@@ -175,7 +178,6 @@ def test_scene_coco_on_a_hand_made_scene(tmp_path):
     """calc_gt_coco's rules where the smoke scenes do not reach them: an instance under 10 %
     visible is `ignore`, one with no visible pixel has no annotation and takes no id, a mask with
     its first pixel set starts its RLE with a 0 run, a JPEG rgb is named as it is."""
-    from moonbot.export import scene_coco
 
     scene = tmp_path / "000007"
     for sub in ("rgb", "mask", "mask_visib"):
@@ -207,9 +209,9 @@ def test_scene_coco_on_a_hand_made_scene(tmp_path):
     assert (second["id"], second["image_id"], second["category_id"], second["area"], second["ignore"]) == \
         (2, 3, 1, 12, False)
     (scene / "mask" / "000003_000000.png").unlink()
-    with pytest.raises(ExportError, match="000003_000000.png: missing"):
+    with pytest.raises(DatasetError, match="000003_000000.png: missing"):
         scene_coco(scene, "lunar", "train_pbr", [1, 2], (5, 4))
-    with pytest.raises(ExportError, match="4, 5"):
+    with pytest.raises(DatasetError, match="4, 5"):
         scene_coco(scene, "lunar", "train_pbr", [1, 2], (6, 4))
 
 
@@ -334,7 +336,7 @@ def test_a_missing_mask_is_named_and_nothing_half_written(dataset, tmp_path):
     scene = next(s for s in dataset_scenes(copy) if s.split == "train")
     missing = scene.path / "mask_visib" / "000001_000000.png"
     missing.unlink()
-    with pytest.raises(ExportError, match=str(missing)):
+    with pytest.raises(DatasetError, match=str(missing)):
         write_split_cocos(copy, tmp_path / "coco")
     assert not (tmp_path / "coco" / "instances_train.json").exists()
     result = CliRunner().invoke(main, ["export", "shards", str(copy), "--out", str(tmp_path / "shards")])

@@ -47,12 +47,6 @@ def machine(embree_isa: str = "auto") -> dict:
     }
 
 
-def machine_slug(m: dict) -> str:
-    cpu = re.sub(r"[^a-z0-9]+", "-", m["cpu"].lower()).strip("-")
-    cpu = re.sub(r"-(processor|cpu|with-radeon-graphics).*$", "", cpu)
-    return f"{cpu}-{m['cores']}c"
-
-
 def library_versions() -> dict:
     """Versions of the Python packages a generate run goes through (moonbot itself included);
     the C++ libraries' are in `machine()`."""

@@ -36,7 +36,8 @@ from typing import Callable
 import numpy as np
 
 from moonbot.benchmark import realism
-from moonbot.benchmark.fingerprint import machine, machine_slug
+from moonbot.benchmark.fingerprint import machine
+from moonbot.host import machine_slug
 
 SCHEMA_VERSION = 1
 ROOT = Path(__file__).resolve().parents[2]  # the checkout (an editable install)

@@ -43,9 +43,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from moonbot.benchmark.fingerprint import library_versions, machine, machine_slug
+from moonbot.benchmark.fingerprint import library_versions, machine
 from moonbot.benchmark.levels import LEVELS, level_config
 from moonbot.benchmark.limit import embree_limit, encode_limit, encode_limit_seconds, ray_limit_seconds
+from moonbot.host import machine_slug
 from moonbot.pipeline.stats import read_stats, start_seconds
 
 SCHEMA_VERSION = 2

@@ -5,9 +5,9 @@ dataset with YOLO labels and a manifest (merge.py)."""
 from moonbot.bop.gt_info import bbox_of, gt_info_entry
 from moonbot.bop.inventory import Inventory, MergeError, SceneTasks, TaskDir, scan_tasks
 from moonbot.bop.merge import EXIT_INCOMPLETE, MergeReport, merge_dataset
-from moonbot.bop.models import (ModelInfo, diameter, find_symmetries, model_info, sample_surface,
-                                vertex_normals, write_models, write_ply)
+from moonbot.bop.models import (ModelInfo, diameter, find_symmetries, model_info, sample_surface, write_models,
+                                write_ply)
 
 __all__ = ["EXIT_INCOMPLETE", "Inventory", "MergeError", "MergeReport", "ModelInfo", "SceneTasks", "TaskDir",
            "bbox_of", "diameter", "find_symmetries", "gt_info_entry", "merge_dataset", "model_info",
-           "sample_surface", "scan_tasks", "vertex_normals", "write_models", "write_ply"]
+           "sample_surface", "scan_tasks", "write_models", "write_ply"]

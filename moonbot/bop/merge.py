@@ -14,7 +14,7 @@ interrupted merge leaves the previous dataset (or nothing) and never half of one
         mask/IIIIII_KKKKKK.png        the instance alone (amodal), 0/255
         mask_visib/IIIIII_KKKKKK.png  its visible part, 0/255
         scene_gt.json  scene_camera.json  scene_gt_info.json  scene_meta.json
-        scene_gt_coco.json            bop_toolkit calc_gt_coco's COCO annotations (moonbot.export.coco)
+        scene_gt_coco.json            bop_toolkit calc_gt_coco's COCO annotations (moonbot.bop.coco)
       by_condition/<split>/<mesh>/<location>/scene_NNNNNN → ../../../../<bop split>/NNNNNN  (links)
       yolo/detect/  data.yaml  images/<split>/<name>.png  labels/<split>/<name>.txt   (boxes)
       yolo/segment/ data.yaml  images/<split>/<name>.png  labels/<split>/<name>.txt   (polygons)
@@ -64,7 +64,7 @@ from moonbot.bop.models import write_models
 from moonbot.config import Config, config_hash
 from moonbot.config.load import from_mapping
 from moonbot.config.schema import MeshesConfig
-from moonbot.export.coco import SCENE_COCO, scene_gt_coco_bytes
+from moonbot.bop.coco import SCENE_COCO, scene_gt_coco_bytes
 from moonbot.scene.bag_mesh import dataset_meshes
 from moonbot.writer.checksum import file_sha256
 from moonbot.writer.sheet import colour_mask

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import ConvexHull, cKDTree
 
+from moonbot.scene.normals import vertex_normals
 from moonbot.writer.staging import atomic_write
 
 # A rotation is a symmetry when it maps the surface onto itself within this fraction of the
@@ -56,16 +57,6 @@ class ModelInfo:
             info["symmetries_continuous"] = [{"axis": axis.tolist(), "offset": offset.tolist()}
                                              for axis, offset in self.continuous]
         return info
-
-
-def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """Area-weighted unit vertex normals (N, 3) float32 of an outward-oriented mesh."""
-    v = vertices.astype(np.float64)
-    face = np.cross(v[triangles[:, 1]] - v[triangles[:, 0]], v[triangles[:, 2]] - v[triangles[:, 0]])
-    normals = np.zeros_like(v)
-    for corner in range(3):
-        np.add.at(normals, triangles[:, corner], face)
-    return (normals / np.linalg.norm(normals, axis=1, keepdims=True)).astype(np.float32)
 
 
 def diameter(vertices: np.ndarray) -> float:

@@ -1,63 +1,24 @@
-"""COCO instance annotations of a BOP dataset: `scene_gt_coco.json` in each scene, as bop_toolkit's
-`scripts/calc_gt_coco.py` writes it, and one COCO file per split for detectron2 / mmdetection.
-
-scene_gt_coco.json holds what calc_gt_coco computes with `--use_all_gt` and the default
-`--bbox_type amodal` (every image of the scene; moonbot's training data has no test targets):
-
-- `images`: one per image of scene_gt.json, `id` = the BOP im_id, `file_name` the rgb file
-  relative to the scene directory (`rgb/000000.png`), `width`/`height` the dataset's image size,
-  `license` 1, empty `coco_url`/`flickr_url`.
-- `annotations`: one per instance whose visible mask (mask_visib/) has a pixel and whose amodal
-  mask (mask/) has one; `id` counts them from 1 within the scene in scene_gt.json order (an
-  instance left out takes no id); `category_id` = obj_id; `iscrowd` 0; `area` = visible pixels;
-  `bbox` = [x, y, w, h] of the amodal mask, w = max x - min x + 1 (calc_gt_coco's
-  `bbox_from_binary_mask`, one wider than scene_gt_info's bbox); `segmentation` = the visible
-  mask's uncompressed RLE (moonbot.export.rle); `width`/`height` the mask's; `ignore` =
-  visib_fract < 0.1.
-- `categories`: {"id": obj_id, "name": str(obj_id), "supercategory": dataset name} for every
-  object of the dataset (models/models_info.json).
-- `info`: description "<dataset>_<split>" (the split without its type: `train` for train_pbr),
-  url of the format's reference tool, version "0.1.0", empty contributor; `licenses` [].
-
-Where calc_gt_coco writes the wall-clock time (`info.year`, `info.date_created`, each image's
-`date_captured`), moonbot writes the Unix epoch in the same format: a dataset is a pure function
-of its tasks, so its bytes carry no time of writing. The file is laid out as bop_toolkit's
-save_json lays it out (moonbot.export.toolkit_json); with those three fields set alike, it is
-byte for byte calc_gt_coco's file.
-
-The split file (`instances_<split>.json`) gathers the split's scenes: `file_name` relative to the
-dataset root, image `id` = scene_id × 1 000 000 + im_id (BOP im_ids have 6 digits) with
-`scene_id` and `im_id` fields beside it, annotation ids from 1 over the split. Everything else is
-as in scene_gt_coco.json.
+"""One COCO file per split of a merged BOP dataset, for detectron2 / mmdetection: its scenes'
+scene_gt_coco.json content (moonbot.bop.coco, as bop_toolkit's calc_gt_coco writes it) gathered,
+with `file_name` relative to the dataset root, image `id` = scene_id × 1 000 000 + im_id (BOP
+im_ids have 6 digits) with `scene_id` and `im_id` fields beside it, and annotation ids from 1
+over the split. Everything else is as in scene_gt_coco.json.
 """
 
 from __future__ import annotations
 
-import datetime
-import json
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
-from moonbot import _core
-from moonbot.export.rle import encode_rle
+from moonbot.bop.coco import coco_categories, coco_info, image_info, load_json, rgb_name, scene_annotations
+from moonbot.bop.reader import DatasetError
+from moonbot.bop.toolkit_json import dumps_toolkit_json
 from moonbot.export.scenes import SceneDir, dataset_scenes
-from moonbot.export.toolkit_json import dumps_toolkit_json
 from moonbot.writer.staging import atomic_write
 
-SCENE_COCO = "scene_gt_coco.json"
-# calc_gt_coco flags an instance `ignore` below this visible fraction (its "objects smaller than
-# 10% visible"), so that evaluation neither rewards nor penalises detecting it.
-IGNORE_BELOW_VISIB_FRACT = 0.1
 # Split files' image ids: scene_id × this + im_id (BOP image ids are six-digit).
 IMAGE_ID_STRIDE = 1_000_000
-_EPOCH = datetime.datetime.fromtimestamp(0, datetime.timezone.utc)
-
-
-class ExportError(ValueError):
-    """A dataset file the export needs is missing or malformed; the message names it."""
 
 
 @dataclass(frozen=True)
@@ -71,150 +32,28 @@ class DatasetFacts:
     height: int
 
 
-def _load_json(path: Path):
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ExportError(f"{path}: missing") from None
-    except (OSError, ValueError) as e:
-        raise ExportError(f"{path}: unreadable ({e})") from None
-
-
 def dataset_facts(dataset: Path) -> DatasetFacts:
-    """The dataset's name, object ids and image size. ExportError naming the file and field."""
+    """The dataset's name, object ids and image size. DatasetError naming the file and field."""
     dataset = Path(dataset)
-    info, models, camera = (_load_json(dataset / name) for name in
+    info, models, camera = (load_json(dataset / name) for name in
                             ("dataset_info.json", "models/models_info.json", "camera.json"))
     try:
         name = info["name"]
         if not isinstance(name, str) or not name:
             raise TypeError(name)
     except (KeyError, TypeError):
-        raise ExportError(f"{dataset / 'dataset_info.json'}: field 'name' must be a non-empty string") from None
+        raise DatasetError(f"{dataset / 'dataset_info.json'}: field 'name' must be a non-empty string") from None
     try:
         obj_ids = tuple(sorted(int(k) for k in models))
     except (TypeError, ValueError):
-        raise ExportError(f"{dataset / 'models/models_info.json'}: keys must be obj_ids") from None
+        raise DatasetError(f"{dataset / 'models/models_info.json'}: keys must be obj_ids") from None
     size = []
     for field in ("width", "height"):
         value = camera.get(field) if isinstance(camera, dict) else None
         if not isinstance(value, int) or isinstance(value, bool) or value <= 0:
-            raise ExportError(f"{dataset / 'camera.json'}: field '{field}' must be a positive integer, got {value!r}")
+            raise DatasetError(f"{dataset / 'camera.json'}: field '{field}' must be a positive integer, got {value!r}")
         size.append(value)
     return DatasetFacts(name, obj_ids, *size)
-
-
-def toolkit_split(split: str) -> str:
-    """The split as bop_toolkit's dataset_params takes it: the directory name without its split
-    type (`train_pbr` → `train`; `test` stays)."""
-    return split.split("_", 1)[0]
-
-
-def coco_info(dataset_name: str, split: str) -> dict:
-    """calc_gt_coco's `info`, with the epoch where it writes the time of writing."""
-    return {
-        "description": f"{dataset_name}_{toolkit_split(split)}",
-        "url": "https://github.com/thodan/bop_toolkit",
-        "version": "0.1.0",
-        "year": _EPOCH.year,
-        "contributor": "",
-        "date_created": _EPOCH.isoformat(" "),
-    }
-
-
-def coco_categories(dataset_name: str, obj_ids: Iterable[int]) -> list[dict]:
-    """One category per object, as calc_gt_coco lists them."""
-    return [{"id": int(obj_id), "name": str(obj_id), "supercategory": dataset_name} for obj_id in obj_ids]
-
-
-def _image_info(image_id: int, file_name: str, width: int, height: int) -> dict:
-    return {"id": image_id, "file_name": file_name, "width": width, "height": height,
-            "date_captured": _EPOCH.replace(tzinfo=None).isoformat(" "), "license": 1, "coco_url": "",
-            "flickr_url": ""}
-
-
-def amodal_bbox(mask: np.ndarray) -> list[int]:
-    """[x, y, w, h] of a non-empty (H, W) mask, pixels: w = max x - min x + 1 (calc_gt_coco's box,
-    which covers the last column; scene_gt_info's `bbox_obj` is one narrower)."""
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    return [int(cols[0]), int(rows[0]), int(cols[-1] - cols[0] + 1), int(rows[-1] - rows[0] + 1)]
-
-
-def read_mask(path: Path, height: int, width: int) -> np.ndarray:
-    """A BOP mask PNG as (H, W) bool (nonzero = set). ExportError naming the file when it is
-    missing, unreadable or not H × W."""
-    if not path.is_file():
-        raise ExportError(f"{path}: missing")
-    try:
-        pixels = _core.read_image(str(path))
-    except (OSError, ValueError, RuntimeError) as e:
-        raise ExportError(f"{path}: unreadable ({e})") from None
-    if pixels.size != height * width or pixels.shape[:2] != (height, width):
-        raise ExportError(f"{path}: {pixels.shape} pixels, the dataset's images are {height} x {width}")
-    return pixels.reshape(height, width) != 0
-
-
-def rgb_name(scene_dir: Path, im_id: int) -> str:
-    """The image's rgb file relative to the scene directory (PNG, else JPEG as BOP's PBR splits).
-    ExportError when there is neither."""
-    for suffix in (".png", ".jpg"):
-        name = f"rgb/{im_id:06d}{suffix}"
-        if (scene_dir / name).is_file():
-            return name
-    raise ExportError(f"{scene_dir / 'rgb'}: no {im_id:06d}.png or .jpg (image {im_id} of scene_gt.json)")
-
-
-def _scene_annotations(scene_dir: Path, width: int, height: int):
-    """Yields (im_id, [annotation without id or image_id, ...]) for each image of the scene, in
-    scene_gt.json order; instances with an empty visible or amodal mask are left out."""
-    gt = _load_json(scene_dir / "scene_gt.json")
-    gt_info = _load_json(scene_dir / "scene_gt_info.json")
-    if not isinstance(gt, dict) or not isinstance(gt_info, dict):
-        raise ExportError(f"{scene_dir}: scene_gt.json and scene_gt_info.json must be JSON objects")
-    for im_key, instances in gt.items():
-        try:
-            im_id = int(im_key)
-            infos = gt_info[im_key]
-            pairs = [(int(inst["obj_id"]), float(infos[k]["visib_fract"])) for k, inst in enumerate(instances)]
-        except (KeyError, IndexError, TypeError, ValueError) as e:
-            raise ExportError(f"{scene_dir / 'scene_gt.json'}: image {im_key!r} lacks obj_id, or "
-                              f"scene_gt_info.json its visib_fract ({e!r})") from None
-        annotations = []
-        for k, (obj_id, visib_fract) in enumerate(pairs):
-            mask_name = f"{im_id:06d}_{k:06d}.png"
-            visible = read_mask(scene_dir / "mask_visib" / mask_name, height, width)
-            if not visible.any():
-                continue
-            amodal = read_mask(scene_dir / "mask" / mask_name, height, width)
-            if not amodal.any():
-                continue
-            annotations.append({"category_id": obj_id, "iscrowd": 0, "area": int(np.count_nonzero(visible)),
-                                "bbox": amodal_bbox(amodal), "segmentation": encode_rle(visible),
-                                "width": width, "height": height,
-                                "ignore": visib_fract < IGNORE_BELOW_VISIB_FRACT})
-        yield im_id, annotations
-
-
-def scene_coco(scene_dir: Path, dataset_name: str, split: str, obj_ids: Sequence[int],
-               im_size: tuple[int, int]) -> dict:
-    """The content of `scene_dir`'s scene_gt_coco.json (see the module's docstring). `im_size`:
-    (width, height) pixels. ExportError naming the file when a scene file is missing or
-    malformed."""
-    scene_dir = Path(scene_dir)
-    width, height = im_size
-    coco = {"info": coco_info(dataset_name, split), "licenses": [],
-            "categories": coco_categories(dataset_name, obj_ids), "images": [], "annotations": []}
-    for im_id, annotations in _scene_annotations(scene_dir, width, height):
-        coco["images"].append(_image_info(im_id, rgb_name(scene_dir, im_id), width, height))
-        for annotation in annotations:
-            coco["annotations"].append({"id": len(coco["annotations"]) + 1, "image_id": im_id, **annotation})
-    return coco
-
-
-def scene_gt_coco_bytes(scene_dir: Path, dataset_name: str, split: str, obj_ids: Sequence[int],
-                        im_size: tuple[int, int]) -> bytes:
-    """scene_gt_coco.json's bytes for `scene_dir`, laid out as calc_gt_coco saves it."""
-    return dumps_toolkit_json(scene_coco(scene_dir, dataset_name, split, obj_ids, im_size))
 
 
 def split_coco(dataset: Path, split: str, facts: DatasetFacts | None = None,
@@ -222,22 +61,22 @@ def split_coco(dataset: Path, split: str, facts: DatasetFacts | None = None,
     """One COCO file's content for a split of `dataset`: its scenes' images and annotations with
     dataset-root-relative file names and split-unique ids (module docstring). `facts` and
     `scenes` (the dataset's, as dataset_facts and dataset_scenes find them) are read when not
-    given. ExportError when the split has no scene."""
+    given. DatasetError when the split has no scene."""
     dataset = Path(dataset)
     facts = facts or dataset_facts(dataset)
     coco = {"info": coco_info(facts.name, split), "licenses": [],
             "categories": coco_categories(facts.name, facts.obj_ids), "images": [], "annotations": []}
     found = [s for s in (scenes if scenes is not None else dataset_scenes(dataset)) if s.split == split]
     if not found:
-        raise ExportError(f"{dataset}: no scene of split {split!r}")
+        raise DatasetError(f"{dataset}: no scene of split {split!r}")
     for scene in found:
         prefix = scene.path.relative_to(dataset).as_posix()
-        for im_id, annotations in _scene_annotations(scene.path, facts.width, facts.height):
+        for im_id, annotations in scene_annotations(scene.path, facts.width, facts.height):
             if not 0 <= im_id < IMAGE_ID_STRIDE:
-                raise ExportError(f"{scene.path / 'scene_gt.json'}: image id {im_id} is not a BOP image id "
+                raise DatasetError(f"{scene.path / 'scene_gt.json'}: image id {im_id} is not a BOP image id "
                                   f"(0 to {IMAGE_ID_STRIDE - 1})")
             image_id = scene.scene_id * IMAGE_ID_STRIDE + im_id
-            image = _image_info(image_id, f"{prefix}/{rgb_name(scene.path, im_id)}", facts.width, facts.height)
+            image = image_info(image_id, f"{prefix}/{rgb_name(scene.path, im_id)}", facts.width, facts.height)
             coco["images"].append({**image, "scene_id": scene.scene_id, "im_id": im_id})
             for annotation in annotations:
                 coco["annotations"].append({"id": len(coco["annotations"]) + 1, "image_id": image_id,

@@ -6,6 +6,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from moonbot.bop.reader import scenes
+
 
 @dataclass(frozen=True)
 class SceneDir:
@@ -21,7 +23,4 @@ class SceneDir:
 def dataset_scenes(dataset: Path) -> list[SceneDir]:
     """Every scene of `dataset`, in (split, scene_id) order. DatasetError naming the dataset (or
     the malformed file) when there is none."""
-    # Imported here: moonbot.bop's merge imports this package (it writes scene_gt_coco.json).
-    from moonbot.bop.reader import scenes
-
     return [SceneDir(s.split, s.scene_id, s.path) for s in scenes(Path(dataset))]

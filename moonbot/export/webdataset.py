@@ -19,7 +19,7 @@ and each image one sample of consecutive tar members named `<key>.<field>`, key 
 
 The JSON members hold what bop_toolkit's scene-to-imagewise conversion writes: poses, cam_K and
 the world-to-camera pose as floats, laid out as its save_json lays them out
-(moonbot.export.toolkit_json). Images go in dataset order (split, scene_id, im_id), or in the
+(moonbot.bop.toolkit_json). Images go in dataset order (split, scene_id, im_id), or in the
 order of NumPy's legacy `RandomState(seed).permutation` when a shuffle seed is given (its stream
 is frozen across NumPy versions).
 
@@ -39,10 +39,11 @@ from pathlib import Path
 
 import numpy as np
 
-from moonbot.export.coco import ExportError, read_mask, rgb_name
-from moonbot.export.rle import encode_rle
+from moonbot.bop.coco import read_mask, rgb_name
+from moonbot.bop.reader import DatasetError
+from moonbot.bop.rle import encode_rle
+from moonbot.bop.toolkit_json import dumps_toolkit_json
 from moonbot.export.scenes import SceneDir, dataset_scenes
-from moonbot.export.toolkit_json import dumps_toolkit_json
 from moonbot.writer.staging import staged_directory
 
 SHARD_NAME = "shard-{:06d}.tar"
@@ -70,9 +71,9 @@ def _load_json(path: Path):
     try:
         return json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        raise ExportError(f"{path}: missing") from None
+        raise DatasetError(f"{path}: missing") from None
     except (OSError, ValueError) as e:
-        raise ExportError(f"{path}: unreadable ({e})") from None
+        raise DatasetError(f"{path}: unreadable ({e})") from None
 
 
 def _floats(entry: dict, fields: tuple[str, ...]) -> dict:
@@ -85,9 +86,9 @@ def _read(path: Path) -> bytes:
     try:
         return path.read_bytes()
     except FileNotFoundError:
-        raise ExportError(f"{path}: missing") from None
+        raise DatasetError(f"{path}: missing") from None
     except OSError as e:
-        raise ExportError(f"{path}: unreadable ({e.strerror or e})") from None
+        raise DatasetError(f"{path}: unreadable ({e.strerror or e})") from None
 
 
 @dataclass(frozen=True)
@@ -105,7 +106,7 @@ def _scene_images(scene: SceneDir) -> list[_Image]:
     try:
         return [_Image(scene, int(im)) for im in gt]
     except (TypeError, ValueError):
-        raise ExportError(f"{scene.path / 'scene_gt.json'}: keys must be image ids") from None
+        raise DatasetError(f"{scene.path / 'scene_gt.json'}: keys must be image ids") from None
 
 
 class _SceneFiles:
@@ -127,7 +128,7 @@ class _SceneFiles:
             gt = [_floats(inst, ("cam_R_m2c", "cam_t_m2c")) for inst in gt]
             camera = _floats(camera, ("cam_K", "cam_R_w2c", "cam_t_w2c"))
         except (KeyError, TypeError, ValueError, AttributeError) as e:
-            raise ExportError(f"{self.path}: scene_gt, scene_gt_info and scene_camera.json disagree on image "
+            raise DatasetError(f"{self.path}: scene_gt, scene_gt_info and scene_camera.json disagree on image "
                               f"{im_id} ({e})") from None
         depth = _read(self.path / "depth" / f"{im_id:06d}.png")
         rgb_file = rgb_name(self.path, im_id)
@@ -147,7 +148,7 @@ class _SceneFiles:
 def _png_size(data: bytes, path: Path) -> tuple[int, int]:
     """(height, width) from a PNG's IHDR chunk."""
     if data[:8] != b"\x89PNG\r\n\x1a\n" or data[12:16] != b"IHDR":
-        raise ExportError(f"{path}: not a PNG")
+        raise DatasetError(f"{path}: not a PNG")
     return int.from_bytes(data[20:24], "big"), int.from_bytes(data[16:20], "big")
 
 
@@ -167,7 +168,7 @@ def _chunks(items: list, size: int) -> Iterator[list]:
 def write_split_shards(scenes: list[SceneDir], split: str, folder: Path, shard_size: int,
                        shuffle_seed: int | None = None) -> SplitShards:
     """Writes the shards and key_to_shard.json of one split's `scenes` into `folder` (replaced
-    whole). ExportError naming the file when a scene file is missing or malformed; then
+    whole). DatasetError naming the file when a scene file is missing or malformed; then
     `folder` is left as it was."""
     if shard_size < 1:
         raise ValueError(f"shard_size must be at least 1, got {shard_size}")
@@ -185,7 +186,7 @@ def write_split_shards(scenes: list[SceneDir], split: str, folder: Path, shard_s
                         # Shuffled images visit scenes in any order: their JSON files stay loaded.
                         scene_files = files[image.scene.path] = _SceneFiles(image.scene)
                     if image.key in key_to_shard:
-                        raise ExportError(f"{image.scene.path}: image key {image.key} also names an image of "
+                        raise DatasetError(f"{image.scene.path}: image key {image.key} also names an image of "
                                           "another scene of the split (scene ids must be unique in a split)")
                     for field, data in scene_files.sample(image.im_id):
                         tar.addfile(_member(f"{image.key}.{field}", data), io.BytesIO(data))
@@ -197,7 +198,7 @@ def write_split_shards(scenes: list[SceneDir], split: str, folder: Path, shard_s
 def write_shards(dataset: Path, out_dir: Path, shard_size: int = DEFAULT_SHARD_SIZE,
                  shuffle_seed: int | None = None) -> list[SplitShards]:
     """BOP-webdataset shards of every split of `dataset` under `out_dir`/<split>_web/ (module
-    docstring). DatasetError or ExportError naming the file when the dataset is malformed."""
+    docstring). DatasetError or DatasetError naming the file when the dataset is malformed."""
     scenes = dataset_scenes(Path(dataset))
     splits = list(dict.fromkeys(s.split for s in scenes))
     return [write_split_shards([s for s in scenes if s.split == split], split, Path(out_dir) / f"{split}_web",

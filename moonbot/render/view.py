@@ -11,6 +11,7 @@ from moonbot import _core
 from moonbot.config.schema import Config, GrainConfig, PhotometryConfig
 from moonbot.scene.compose import TERRAIN_MESH, SceneSpec
 from moonbot.scene.orbit import CameraPose
+from moonbot.scene.normals import vertex_normals
 
 
 # The Earth seen from the Moon: 2·asin(6371 km / 384 400 km) = 1.90° (lunar-physics.md §2).
@@ -41,7 +42,6 @@ def build_scene(spec: SceneSpec, embree_isa: str = "auto", watertight: bool = Tr
     for zero seeds); then commits.
     `embree_isa` is render.embree_isa: the SIMD kernels Embree traces it with; watertight=False
     only measures what watertight traversal costs (bench/bench_embree_isa.py)."""
-    from moonbot.bop.models import vertex_normals  # here: moonbot.bop imports this module
 
     scene = _core.Scene(embree_isa, watertight)
     bag_ids = {bag.obj_id for bag in spec.bags}

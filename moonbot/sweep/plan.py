@@ -82,8 +82,7 @@ def default_record() -> Path:
     one (named by the machine slug the benchmarks use: CPU vendor and family, cores); when there
     is none, the first other machine's record there, if any (provenance() then says it is
     another machine's)."""
-    from moonbot.benchmark.fingerprint import machine_slug
-    from moonbot.host import cpu_model
+    from moonbot.host import cpu_model, machine_slug
 
     results = Path(__file__).resolve().parents[2] / "bench" / "results"
     own = results / f"generate-{machine_slug({'cpu': cpu_model(), 'cores': os.cpu_count()})}.json"
