@@ -186,8 +186,9 @@ def test_noise_falls_faster_than_one_over_root_spp():
 
 def test_soft_shadow_edge_has_the_penumbra_of_the_sun_disk():
     """A wall's shadow on the plane: with a point Sun the edge is a step; with the 0.533° disk the
-    lit fraction ramps over the penumbra H·θ/sin(e) (H the wall's height, θ the disk in radians)
-    and is one half on the geometric edge."""
+    lit fraction ramps over the penumbra H·θ/sin²(e) (H the wall's height, θ the disk in radians:
+    the shadow's edge moves by H·dcot(e) = H·de/sin²(e) across the disk) and is one half on the
+    geometric edge."""
     scene = _core.Scene()
     s = 50.0
     plane = scene.add_mesh(np.array([[-s, -s, 0], [s, -s, 0], [s, s, 0], [-s, s, 0]], np.float32),
