@@ -500,10 +500,11 @@ def running_tasks(beats: list[Beat], now: float) -> str:
     """"N running: <task> for A s (in <stage> for S s), ..." for the RUNNING_SHOWN oldest of the
     tasks whose last heartbeats are `beats`, then "and K more": each task's age (seconds since
     it started) and its stage's (seconds without progress), on the driver's clock at `now`
-    (time.monotonic()). Empty when `beats` is."""
+    (time.monotonic()). Oldest first by the whole seconds shown, ties by task id: a worker's
+    sub-second timing must not reorder tasks whose ages read the same. Empty when `beats` is."""
     if not beats:
         return ""
-    oldest = sorted(beats, key=lambda b: (-b.task_s(now), b.task_id))
+    oldest = sorted(beats, key=lambda b: (-round(b.task_s(now)), b.task_id))
     shown = ", ".join(f"{b.task_id} for {b.task_s(now):.0f} s (in {b.stage!r} for {b.stalled_s(now):.0f} s)"
                       for b in oldest[:RUNNING_SHOWN])
     more = len(oldest) - RUNNING_SHOWN
