@@ -30,14 +30,13 @@ byte for byte calc_gt_coco's file.
 from __future__ import annotations
 
 import datetime
-import json
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
 
 from moonbot import _core
-from moonbot.bop.reader import DatasetError
+from moonbot.bop.reader import DatasetError, load_json
 from moonbot.bop.rle import encode_rle
 from moonbot.bop.toolkit_json import dumps_toolkit_json
 
@@ -46,15 +45,6 @@ SCENE_COCO = "scene_gt_coco.json"
 # 10% visible"), so that evaluation neither rewards nor penalises detecting it.
 IGNORE_BELOW_VISIB_FRACT = 0.1
 _EPOCH = datetime.datetime.fromtimestamp(0, datetime.timezone.utc)
-
-
-def load_json(path: Path):
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise DatasetError(f"{path}: missing") from None
-    except (OSError, ValueError) as e:
-        raise DatasetError(f"{path}: unreadable ({e})") from None
 
 
 def toolkit_split(split: str) -> str:

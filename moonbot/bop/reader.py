@@ -25,9 +25,10 @@ class DatasetError(ValueError):
     """A dataset file is missing or malformed; the message names the file."""
 
 
-def _load_json(path: Path):
+def load_json(path: Path):
+    """A dataset JSON file's content; DatasetError naming the file when it is missing or not JSON."""
     try:
-        return json.loads(path.read_text())
+        return json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise DatasetError(f"{path}: missing") from None
     except (OSError, ValueError) as e:
@@ -90,10 +91,10 @@ class Scene:
 def read_scene(path: Path) -> Scene:
     """Reads one scene directory's JSON files. Raises DatasetError naming the file."""
     path = Path(path)
-    meta = _load_json(path / SCENE_META)
-    gt = _load_json(path / "scene_gt.json")
-    info = _load_json(path / "scene_gt_info.json")
-    camera = _load_json(path / "scene_camera.json")
+    meta = load_json(path / SCENE_META)
+    gt = load_json(path / "scene_gt.json")
+    info = load_json(path / "scene_gt_info.json")
+    camera = load_json(path / "scene_camera.json")
     images, cameras = {}, {}
     try:
         for im, entries in gt.items():
@@ -148,7 +149,7 @@ def read_models(dataset: Path, kind: str = "models_eval") -> dict[int, Model]:
     """The dataset's models of one kind ('models' or 'models_eval', bop-format.md §1.2) by obj_id.
     Raises DatasetError naming the file."""
     folder = Path(dataset) / kind
-    info = _load_json(folder / "models_info.json")
+    info = load_json(folder / "models_info.json")
     models = {}
     for obj, entry in info.items():
         path = folder / f"obj_{int(obj):06d}.ply"

@@ -11,8 +11,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from moonbot.bop.coco import coco_categories, coco_info, image_info, load_json, rgb_name, scene_annotations
-from moonbot.bop.reader import DatasetError
+from moonbot.bop.coco import coco_categories, coco_info, image_info, rgb_name, scene_annotations
+from moonbot.bop.reader import DatasetError, load_json
 from moonbot.bop.toolkit_json import dumps_toolkit_json
 from moonbot.export.scenes import SceneDir, dataset_scenes
 from moonbot.writer.staging import atomic_write

@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from moonbot.bop.coco import read_mask, rgb_name
-from moonbot.bop.reader import DatasetError
+from moonbot.bop.reader import DatasetError, load_json
 from moonbot.bop.rle import encode_rle
 from moonbot.bop.toolkit_json import dumps_toolkit_json
 from moonbot.export.scenes import SceneDir, dataset_scenes
@@ -65,15 +65,6 @@ class SplitShards:
 def image_key(scene_id: int, im_id: int) -> str:
     """bop_toolkit's key of an image: `<scene_id:06d>_<im_id:06d>`."""
     return f"{scene_id:06d}_{im_id:06d}"
-
-
-def _load_json(path: Path):
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise DatasetError(f"{path}: missing") from None
-    except (OSError, ValueError) as e:
-        raise DatasetError(f"{path}: unreadable ({e})") from None
 
 
 def _floats(entry: dict, fields: tuple[str, ...]) -> dict:
@@ -102,7 +93,7 @@ class _Image:
 
 
 def _scene_images(scene: SceneDir) -> list[_Image]:
-    gt = _load_json(scene.path / "scene_gt.json")
+    gt = load_json(scene.path / "scene_gt.json")
     try:
         return [_Image(scene, int(im)) for im in gt]
     except (TypeError, ValueError):
@@ -114,9 +105,9 @@ class _SceneFiles:
 
     def __init__(self, scene: SceneDir) -> None:
         self.path = scene.path
-        self.gt = _load_json(scene.path / "scene_gt.json")
-        self.gt_info = _load_json(scene.path / "scene_gt_info.json")
-        self.camera = _load_json(scene.path / "scene_camera.json")
+        self.gt = load_json(scene.path / "scene_gt.json")
+        self.gt_info = load_json(scene.path / "scene_gt_info.json")
+        self.camera = load_json(scene.path / "scene_camera.json")
 
     def sample(self, im_id: int) -> list[tuple[str, bytes]]:
         """(field, bytes) of image im_id's members, in member order."""
