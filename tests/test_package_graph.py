@@ -9,6 +9,8 @@ import ast
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent / "moonbot"
+# The units an import can name: moonbot's folders and the modules beside them.
+UNITS = {p.name if p.is_dir() else p.stem for p in ROOT.iterdir() if p.is_dir() or p.suffix == ".py"}
 
 
 def unit_of(path: Path) -> str:
@@ -19,7 +21,6 @@ def unit_of(path: Path) -> str:
 
 def imports(path: Path) -> list[tuple[str, int]]:
     """(moonbot unit imported, line) for every import in the file."""
-    units = {p.name if p.is_dir() else p.stem for p in ROOT.iterdir() if p.is_dir() or p.suffix == ".py"}
     found = []
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
         names = []
@@ -29,7 +30,7 @@ def imports(path: Path) -> list[tuple[str, int]]:
             names = [node.module] if node.module != "moonbot" else [f"moonbot.{a.name}" for a in node.names]
         for name in names:
             parts = name.split(".")
-            if parts[0] == "moonbot" and len(parts) > 1 and parts[1] in units:
+            if parts[0] == "moonbot" and len(parts) > 1 and parts[1] in UNITS:
                 found.append((parts[1], node.lineno))
     return found
 

@@ -725,6 +725,7 @@ private:
         constexpr double kGoldenFraction = 0.6180339887498949;
         const double r = std::min(resultant, 0.999);
         const double kappa = std::max(r * (3.0 - r * r) / (1.0 - r * r), 1e-6);
+        const double span = -std::expm1(-2.0 * kappa);  // 1 − e^(−2κ)
         glm::dvec3 t, b;
         orthonormal_basis(axis, t, b);
         double sum = 0.0;
@@ -732,7 +733,7 @@ private:
         for (int k = 0; k < kPoints; ++k) {
             const double p = (k + 0.5) / kPoints;
             // Inverse CDF of cos θ under a vMF lobe: 1 + ln(1 − p·(1 − e^(−2κ)))/κ.
-            const double cos_theta = std::clamp(1.0 + std::log1p(-p * -std::expm1(-2.0 * kappa)) / kappa, -1.0, 1.0);
+            const double cos_theta = std::clamp(1.0 + std::log1p(-p * span) / kappa, -1.0, 1.0);
             const double sin_theta = std::sqrt(std::max(0.0, 1.0 - cos_theta * cos_theta));
             double c, s;
             turn_cos_sin(std::fmod(k * kGoldenFraction, 1.0), c, s);
