@@ -63,7 +63,7 @@ def main() -> int:
         return _core.render(scene, camera, sun, spp=1, seed=1, passes=["rgb"], medium=medium)
 
     def medium(voxel, rate=40.0, stride=1):
-        puffs = _core.cloud_puffs(1, CAPTURE_S, origin=origin, rate_per_s=rate)
+        puffs = _core.cloud_puffs(_core.CloudParams(origin=origin, rate_per_s=rate), 1, CAPTURE_S)
         return _core.Medium(puffs, voxel_m=voxel, floor_z=origin[2] - 1.0, march_stride_px=stride)
 
     clear, clear_s = timed(lambda: render(None), args.repeats)

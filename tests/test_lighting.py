@@ -71,7 +71,8 @@ def test_plane_under_the_sun_is_E_f_sin_e_at_every_pixel(model, elevation):
     the disk sampled, inter-reflection on (a plane never sees itself) and Earthshine off. Grazing
     Suns included: no shadow acne (every pixel lit), nothing leaks."""
     albedo = 0.12
-    photometry = _core.Photometry(model, "exponential", 1.8 if model == "lunar-lambert" else 0.0, 0.07)
+    photometry = _core.Photometry(model=model, surge_amplitude=1.8 if model == "lunar-lambert" else 0.0,
+                                  surge_width=0.07)
     scene = plane_scene(albedo, photometry)
     camera, K, R = look_at([1.2, -1.6, 3.0], [0.0, 0.0, 0.0])
     sun = _core.Sun(200.0, elevation, E, 0.533)
@@ -89,7 +90,7 @@ def test_plane_under_the_sun_is_E_f_sin_e_at_every_pixel(model, elevation):
 
 @pytest.mark.parametrize("elevation", [-0.3, -1.0, -30.0, -90.0])
 def test_sun_below_the_horizon_is_a_black_finite_image(elevation):
-    scene = plane_scene(0.12, _core.Photometry("lunar-lambert", "exponential", 1.8, 0.07))
+    scene = plane_scene(0.12, _core.Photometry(model="lunar-lambert", surge_amplitude=1.8, surge_width=0.07))
     camera, _, _ = look_at([3.0, -4.0, 1.5], [0.0, 0.0, 0.0])
     out = _core.render(scene, camera, _core.Sun(10.0, elevation, E, 0.533), spp=4, light_samples=4, bounces=3)
     assert np.isfinite(out["rgb"]).all() and (out["rgb"] == 0).all()
@@ -98,8 +99,8 @@ def test_sun_below_the_horizon_is_a_black_finite_image(elevation):
 
 def test_photometry_is_reciprocal_and_conserves_energy():
     rng = np.random.default_rng(3)
-    models = [_core.Photometry("lunar-lambert", phase, b0, 0.07) for phase in ("exponential", "mcewen")
-              for b0 in (0.0, 1.8)]
+    models = [_core.Photometry(model="lunar-lambert", phase=phase, surge_amplitude=b0, surge_width=0.07)
+              for phase in ("exponential", "mcewen") for b0 in (0.0, 1.8)]
     for p in models:
         for _ in range(200):
             a, b = rng.normal(size=3), rng.normal(size=3)

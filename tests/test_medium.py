@@ -126,7 +126,7 @@ def test_a_medium_without_puffs_is_no_medium():
 
 
 def test_dust_renders_the_same_on_one_and_two_threads_and_stays_finite_in_hard_cases():
-    puffs = _core.cloud_puffs(5, 6.0, origin=(0.3, 0.2, 0.0), vertical_offset_m=0.0)
+    puffs = _core.cloud_puffs(_core.CloudParams(origin=(0.3, 0.2, 0.0), vertical_offset_m=0.0), 5, 6.0)
     for offset, elevation in (((0, 0, 0), 30.0), ((0, 0, 0), 0.5), ((3000.0, -2000.0, 500.0), 8.0)):
         shifted = puffs.copy()
         shifted[:, :3] += offset
@@ -158,13 +158,13 @@ def test_medium_arguments_name_the_field():
 
 
 def test_cloud_puffs_are_a_pure_function_of_time():
-    a = _core.cloud_puffs(11, 7.0)
+    a = _core.cloud_puffs(_core.CloudParams(), 11, 7.0)
     assert a.shape[0] == pytest.approx(40 * 5, abs=2)  # rate × lifetime alive
-    np.testing.assert_array_equal(a, _core.cloud_puffs(11, 7.0))
-    assert not np.array_equal(a, _core.cloud_puffs(12, 7.0))
+    np.testing.assert_array_equal(a, _core.cloud_puffs(_core.CloudParams(), 11, 7.0))
+    assert not np.array_equal(a, _core.cloud_puffs(_core.CloudParams(), 12, 7.0))
     # Without gravity each puff drifts in a straight line: 0.1 s later, the puffs still alive
     # moved by at most 0.1 s × 0.7 m/s, and grew by 0.1 s × 0.08 m/s.
-    b = _core.cloud_puffs(11, 7.1)
+    b = _core.cloud_puffs(_core.CloudParams(), 11, 7.1)
     common = min(len(a), len(b)) - 8
     moved = np.linalg.norm(b[:common, :3] - a[4:4 + common, :3], axis=1)
     assert moved.max() <= 0.07 + 1e-12
@@ -172,16 +172,17 @@ def test_cloud_puffs_are_a_pure_function_of_time():
     # Opacity rises then falls: the peak optical depth through a centre stays ≤ the configured one.
     through = a[:, 4] * a[:, 3] * np.sqrt(2 * np.pi)
     assert through.max() <= 0.25 + 1e-12
-    assert len(_core.cloud_puffs(11, 0.0)) == 0  # the first puff, at birth, is transparent: left out
+    # The first puff, at birth, is transparent: left out.
+    assert len(_core.cloud_puffs(_core.CloudParams(), 11, 0.0)) == 0
     with pytest.raises(ValueError, match="lifetime_s"):
-        _core.cloud_puffs(1, 1.0, lifetime_s=0.0)
+        _core.cloud_puffs(_core.CloudParams(lifetime_s=0.0), 1, 1.0)
     with pytest.raises(ValueError, match="time_s"):
-        _core.cloud_puffs(1, -1.0)
+        _core.cloud_puffs(_core.CloudParams(), 1, -1.0)
 
 
 def test_fragment_mesh_is_closed_outward_and_inside_each_fragment():
     scene = wall_scene()
-    state = _core.simulate_ejecta(scene, seed=2, time_s=0.3, count=30)
+    state = _core.simulate_ejecta(scene, _core.EjectaParams(count=30), seed=2, time_s=0.3)
     v, t = state["vertices"].astype(float), state["triangles"]
     assert v.shape == (30 * 12, 3) and t.shape == (30 * 20, 3)
     for f in range(30):
@@ -200,12 +201,13 @@ def test_fragment_mesh_is_closed_outward_and_inside_each_fragment():
 
 def test_moving_a_mesh_rebuilds_it_alone():
     scene = wall_scene()
-    state = _core.simulate_ejecta(scene, seed=2, time_s=0.2, count=10)
+    state = _core.simulate_ejecta(scene, _core.EjectaParams(count=10), seed=2, time_s=0.2)
     mesh = scene.add_mesh(state["vertices"], state["triangles"])
     scene.add_background(mesh, np.eye(4), (0.1, 0.1, 0.1))
     scene.commit()
     before = scene.bvh_builds
-    later = _core.simulate_ejecta(scene, seed=2, time_s=0.4, count=10)  # (collides with the old mesh too)
+    # (It collides with the old mesh too.)
+    later = _core.simulate_ejecta(scene, _core.EjectaParams(count=10), seed=2, time_s=0.4)
     scene.update_mesh(mesh, later["vertices"])
     assert not scene.committed
     scene.commit()

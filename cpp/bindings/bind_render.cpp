@@ -23,6 +23,7 @@ void bind_render(py::module_& m) {
                 else fail("passes", "unknown pass '" + p + "' (rgb, depth, instance)");
             }
             if (!rgb && !depth && !instance) fail("passes", "must name at least one pass");
+            if (medium) medium->validate();  // its fields are writable from Python
             const auto h = static_cast<py::ssize_t>(camera.height());
             const auto w = static_cast<py::ssize_t>(camera.width());
             // The outputs are allocated as numpy arrays and the core renders straight into them.
