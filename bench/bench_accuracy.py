@@ -163,7 +163,7 @@ def sun_visibility(config, scene, spec, depth: np.ndarray) -> np.ndarray:
     distance = depth[hit] * np.linalg.norm(dirs[hit], axis=1)
     origins = points + back * (1e-4 * distance + 1e-4)[:, None]
     s = config.sun
-    to_sun = np.asarray(_core.Sun(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2,
+    to_sun = np.asarray(_core.DirectionalLight(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2,
                                   s.angular_diameter_deg).direction, dtype=np.float64)
     a = np.cross(to_sun, [0.0, 0.0, 1.0] if abs(to_sun[2]) < 0.9 else [1.0, 0.0, 0.0])
     a /= np.linalg.norm(a)

@@ -57,7 +57,7 @@ def main() -> int:
     pose = orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, config.orbit.start_azimuth_deg)
     camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], config.camera.width, config.camera.height,
                           pose.R, pose.t)
-    sun = _core.Sun(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2, 0.0)
+    sun = _core.DirectionalLight(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2, 0.0)
 
     def render(medium):
         return _core.render(scene, camera, sun, spp=1, seed=1, passes=["rgb"], medium=medium)

@@ -67,7 +67,7 @@ def default_view():
     pose = orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, 0.0)
     camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], config.camera.width,
                           config.camera.height, pose.R, pose.t)
-    sun = _core.Sun(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2)
+    sun = _core.DirectionalLight(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2)
     return config, scene, camera, sun
 
 
@@ -160,7 +160,7 @@ def terrain_view():
     pose = orbit_pose(world[:3, 3], config.orbit.radius_m, config.orbit.height_m, 0.0)
     camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], config.camera.width,
                           config.camera.height, pose.R, pose.t)
-    sun = _core.Sun(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2)
+    sun = _core.DirectionalLight(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2)
     return scene, camera, sun, {"triangles": int(len(triangles) + len(bag_triangles)),
                                 "terrain_bvh_build_s": build_s}
 

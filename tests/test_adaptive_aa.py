@@ -38,7 +38,7 @@ def corner_camera(scale: int = 1) -> _core.Camera:
 
 
 # A point Sun: a face's direct light is one value, so a pixel is mixed only where faces meet.
-SUN = _core.Sun(-35.0, 40.0, E, 0.0)
+SUN = _core.DirectionalLight(-35.0, 40.0, E, 0.0)
 
 
 def test_refines_the_edges_and_leaves_the_faces_alone():
@@ -118,7 +118,7 @@ def ground_camera() -> _core.Camera:
     return _core.Camera(F, F, W / 2, H / 2, W, H, R, -R @ centre)
 
 
-DISK_SUN = _core.Sun(-60.0, 12.0, E, 0.533)
+DISK_SUN = _core.DirectionalLight(-60.0, 12.0, E, 0.533)
 QUALITY = {"spp": 4, "light_samples": 2, "bounces": 2}
 
 

@@ -38,7 +38,7 @@ def test_transmittance_matches_the_closed_form_through_one_puff():
     # and toward the Sun, each exp(-optical depth) of the puff along that ray.
     scene, camera = wall_scene(), down_camera()
     centre, sigma, peak = np.array([0.05, -0.03, 0.9]), 0.2, 3.0
-    sun = _core.Sun(30.0, 60.0, 1000.0, 0.0)
+    sun = _core.DirectionalLight(30.0, 60.0, 1000.0, 0.0)
     clear = _core.render(scene, camera, sun)
     medium = _core.Medium([[*centre, sigma, peak]], albedo=(0, 0, 0), voxel_m=0.005)
     dusty = _core.render(scene, camera, sun, medium=medium)
@@ -66,7 +66,7 @@ def test_single_scattering_against_the_sky_matches_the_integral():
     R = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])  # looking east, level
     camera = _core.Camera(40.0, 40.0, W / 2, H / 2, W, H, R, -R @ np.zeros(3))
     centre, sigma, peak = np.array([3.0, 0.0, 0.0]), 0.3, 1e-3
-    sun = _core.Sun(135.0, 20.0, 1000.0, 0.0)  # behind and to the right: scattering at ~118°
+    sun = _core.DirectionalLight(135.0, 20.0, 1000.0, 0.0)  # behind and to the right: scattering at ~118°
     medium = _core.Medium([[*centre, sigma, peak]], albedo=(0.5, 0.5, 0.5), asymmetry=0.6, voxel_m=0.01)
     out = _core.render(scene, camera, sun, medium=medium)
     d = R.T @ (np.linalg.inv(np.array([[40.0, 0, W / 2], [0, 40.0, H / 2], [0, 0, 1]])) @ [W / 2 + 0.5, H / 2 + 0.5, 1])
@@ -90,7 +90,7 @@ def test_a_strided_march_matches_the_closed_form_and_the_full_march():
     camera = _core.Camera(f, f, w / 2, h / 2, w, h, R, -R @ np.array([0.0, 0.0, 2.0]))
     scene = wall_scene()
     centre, sigma, peak = np.array([0.01, -0.02, 0.9]), 0.2, 3.0
-    sun = _core.Sun(30.0, 60.0, 1000.0, 0.0)
+    sun = _core.DirectionalLight(30.0, 60.0, 1000.0, 0.0)
     clear = _core.render(scene, camera, sun)["rgb"][..., 0]
     out = {}
     for stride in (1, 4):
@@ -115,7 +115,7 @@ def test_a_strided_march_matches_the_closed_form_and_the_full_march():
 
 def test_a_medium_without_puffs_is_no_medium():
     scene, camera = wall_scene(), down_camera()
-    sun = _core.Sun(30.0, 40.0, 1000.0, 0.533)
+    sun = _core.DirectionalLight(30.0, 40.0, 1000.0, 0.533)
     kwargs = dict(spp=2, seed=3, light_samples=2, bounces=1)
     plain = _core.render(scene, camera, sun, **kwargs)
     empty = _core.render(scene, camera, sun, medium=_core.Medium(np.zeros((0, 5))), **kwargs)
@@ -131,7 +131,7 @@ def test_dust_renders_the_same_on_one_and_two_threads_and_stays_finite_in_hard_c
         shifted = puffs.copy()
         shifted[:, :3] += offset
         scene, camera = wall_scene(offset), down_camera(offset, height=0.4)  # camera inside the cloud
-        sun = _core.Sun(120.0, elevation, 1361.0, 0.533)
+        sun = _core.DirectionalLight(120.0, elevation, 1361.0, 0.533)
         for stride in (1, 4):
             medium = _core.Medium(shifted, voxel_m=0.1, floor_z=offset[2] - 0.5, march_stride_px=stride)
             one = _core.render(scene, camera, sun, spp=2, seed=9, threads=1, medium=medium)

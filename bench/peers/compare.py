@@ -78,7 +78,7 @@ def render_moonbot(config, spec, ladder: list[int], threads: int, repeats: int, 
     w, h = config.camera.width, config.camera.height
     camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], w, h, pose.R, pose.t)
     s = config.sun
-    sun = _core.Sun(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
+    sun = _core.DirectionalLight(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
     r = config.render
 
     def render(spp: int, seed: int):

@@ -160,7 +160,7 @@ def export_scene(out: Path, config: Config, spec: SceneSpec, view: int = 0) -> d
     center = pose.center
     forward, down = pose.R[2], pose.R[1]
     s = config.sun
-    sun = _core.Sun(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
+    sun = _core.DirectionalLight(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
     scene = {
         "schema_version": SCHEMA_VERSION,
         "source": f"moonbot {__version__}: embedded default config + parity overrides, orbit view {view}",

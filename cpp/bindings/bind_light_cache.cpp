@@ -12,9 +12,9 @@ void bind_light_cache(py::module_& m) {
                            "A world-space cache of indirect light over a committed scene's non-moving instances "
                            "(cpp/include/moonbot/light_cache.h): filled per vertex on first touch by render(), "
                            "shared by every view of the scene.")
-        .def(py::init([](const Scene& scene, const Sun& sun, const std::optional<Sun>& earth, int bounces,
-                         int rays_objects, int rays_background, double background_cell_m, double object_cell_m, uint64_t seed,
-                         int threads) {
+        .def(py::init([](const Scene& scene, const DirectionalLight& sun, const std::optional<DirectionalLight>& earth,
+                         int bounces, int rays_objects, int rays_background, double background_cell_m,
+                         double object_cell_m, uint64_t seed, int threads) {
                  return std::make_unique<LightCache>(
                      scene, Lights{sun, earth},
                      LightCacheSettings{bounces, rays_objects, rays_background, background_cell_m, object_cell_m, seed,

@@ -11,9 +11,10 @@ namespace moonbot::bindings {
 void bind_render(py::module_& m) {
     m.def(
         "render",
-        [](const Scene& scene, const Camera& camera, const Sun& sun, int spp, uint64_t seed,
+        [](const Scene& scene, const Camera& camera, const std::optional<DirectionalLight>& sun, int spp, uint64_t seed,
            int threads, const std::vector<std::string>& passes, bool exact_depth, int light_samples,
-           int bounces, const std::optional<Sun>& earth, const Medium* medium, const LightCache* light_cache,
+           int bounces, const std::optional<DirectionalLight>& earth, const Medium* medium,
+           const LightCache* light_cache,
            int adaptive_spp, double adaptive_threshold) {
             bool rgb = false, depth = false, instance = false;
             for (const std::string& p : passes) {
@@ -23,6 +24,9 @@ void bind_render(py::module_& m) {
                 else fail("passes", "unknown pass '" + p + "' (rgb, depth, instance)");
             }
             if (!rgb && !depth && !instance) fail("passes", "must name at least one pass");
+            if (!sun && rgb) fail("sun", "is None: only the depth and instance passes render without a light");
+            if (!sun && (earth || medium || light_cache))
+                fail("sun", "is None: earth, medium and light_cache light the rgb pass, which needs a light");
             if (medium) medium->validate();  // its fields are writable from Python
             const auto h = static_cast<py::ssize_t>(camera.height());
             const auto w = static_cast<py::ssize_t>(camera.width());
@@ -51,7 +55,8 @@ void bind_render(py::module_& m) {
                 py::gil_scoped_release release;
                 const RenderSettings settings{spp,           seed,    threads,      exact_depth,
                                               light_samples, bounces, adaptive_spp, adaptive_threshold};
-                stats = render(scene, camera, Lights{sun, earth}, settings, view, medium, light_cache);
+                stats = sun ? render(scene, camera, Lights{*sun, earth}, settings, view, medium, light_cache)
+                            : render_geometry(scene, camera, settings, view);
             }
             out["camera_rays"] = stats.camera_rays;
             out["second_look_rays"] = stats.second_look_rays;
@@ -74,7 +79,8 @@ void bind_render(py::module_& m) {
         "W/(m²·sr), depth (H, W) float32 z-depth in metres (0 = no hit), instance (H, W) uint8 "
         "(0 = background) — and camera_rays, second_look_rays (camera rays traced again where one may have "
         "slipped through a shared vertex), shadow_rays (bounce_shadow_rays of them from bounce vertices), "
-        "bounce_rays, medium_rays, seconds. exact_depth "
+        "bounce_rays, medium_rays, seconds. sun: the Sun (a DirectionalLight), or None for the depth and "
+        "instance passes alone (nothing is lit, no shadow ray traced). exact_depth "
         "re-solves hit distances in double (exact at kilometre coordinates); False keeps Embree's "
         "float32 t. light_samples: shadow rays per sample toward each light's disk; bounces: "
         "diffuse inter-reflections (0 = direct light only); earth: a second light (Earthshine); "

@@ -10,7 +10,7 @@
 #include "params.h"
 #include "moonbot/camera.h"
 #include "moonbot/scene.h"
-#include "moonbot/sun.h"
+#include "moonbot/light.h"
 
 namespace moonbot::bindings {
 
@@ -389,20 +389,27 @@ void bind_scene(py::module_& m) {
             "Project world points (N, 3) metres to (u, v, z): pixel coordinates with pixel "
             "centres at +0.5, and z-depth in metres.");
 
-    py::class_<Sun>(m, "Sun",
-                    "A distant disk light (the Sun, or the Earth for Earthshine): azimuth clockwise from "
-                    "North, elevation, irradiance W/m², angular diameter (0 = point), linear RGB tint.")
+    py::class_<DirectionalLight>(m, "DirectionalLight",
+                                 "A distant disk light, the Sun or the Earth (Earthshine): azimuth clockwise from "
+                                 "North (0 = +y, 90 = +x) and elevation above the horizon, degrees; irradiance, "
+                                 "W/m^2 on a surface facing it (default: the Sun's at 1 au); angular diameter of its "
+                                 "disk, degrees (0 = a point); linear RGB tint of the irradiance.")
         .def(py::init([](double az, double el, double irradiance, double diameter, const py::handle& color) {
-                 return Sun(az, el, irradiance, diameter, vector<3>(color, "color"));
+                 return DirectionalLight(az, el, irradiance, diameter, vector<3>(color, "color"));
              }),
-             py::arg("azimuth_deg"), py::arg("elevation_deg"), py::arg("irradiance") = 1361.0,
+             py::arg("azimuth_deg"), py::arg("elevation_deg"), py::arg("irradiance") = kSolarIrradiance,
              py::arg("angular_diameter_deg") = 0.0, py::arg("color") = py::make_tuple(1.0, 1.0, 1.0))
-        .def_property_readonly("direction", [](const Sun& s) {
+        .def_property_readonly("direction", [](const DirectionalLight& s) {
             const glm::dvec3 d = s.direction();
             return py::array_t<double>(3, &d.x);
-        }, "Unit vector toward the Sun, world ENU.")
-        .def_property_readonly("irradiance", &Sun::irradiance)
-        .def_property_readonly("angular_diameter_deg", &Sun::angular_diameter_deg);
+        }, "Unit vector toward the light, world ENU, (3,) float64.")
+        .def_property_readonly("azimuth_deg", &DirectionalLight::azimuth_deg)
+        .def_property_readonly("elevation_deg", &DirectionalLight::elevation_deg)
+        .def_property_readonly("irradiance", &DirectionalLight::irradiance, "W/m^2")
+        .def_property_readonly("color", [](const DirectionalLight& s) {
+            return py::make_tuple(s.color().x, s.color().y, s.color().z);
+        }, "linear RGB tint")
+        .def_property_readonly("angular_diameter_deg", &DirectionalLight::angular_diameter_deg);
 }
 
 }  // namespace moonbot::bindings

@@ -821,14 +821,23 @@ private:
 
 }  // namespace
 
-RenderStats render(const Scene& scene, const Camera& camera, const Sun& sun,
+RenderStats render(const Scene& scene, const Camera& camera, const DirectionalLight& sun,
                    const RenderSettings& settings, const FrameView& out) {
     return render(scene, camera, Lights{sun, std::nullopt}, settings, out);
 }
 
+RenderStats render_geometry(const Scene& scene, const Camera& camera, const RenderSettings& settings,
+                            const FrameView& out) {
+    if (out.rgb) throw std::invalid_argument("rgb: render_geometry renders depth and instance only");
+    // The renderer reads its lights only to shade rgb, which is not asked for here: any light will
+    // do, and none of it is used.
+    const DirectionalLight unused(0.0, 90.0, 0.0);
+    return render(scene, camera, Lights{unused, std::nullopt}, settings, out);
+}
+
 namespace {
 
-bool same_light(const Sun& a, const Sun& b) {
+bool same_light(const DirectionalLight& a, const DirectionalLight& b) {
     return a.direction() == b.direction() && a.irradiance() == b.irradiance() &&
            a.half_angle() == b.half_angle() && a.color() == b.color();
 }
@@ -936,7 +945,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     return stats;
 }
 
-Frame render_frame(const Scene& scene, const Camera& camera, const Sun& sun,
+Frame render_frame(const Scene& scene, const Camera& camera, const DirectionalLight& sun,
                    const RenderSettings& settings) {
     return render_frame(scene, camera, Lights{sun, std::nullopt}, settings);
 }

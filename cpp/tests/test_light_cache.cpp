@@ -44,7 +44,7 @@ TEST_CASE(moving_a_static_mesh_makes_it_moving_and_bumps_the_revision) {
     scene.commit();
     CHECK(scene.instance(b).moving);
     CHECK(scene.static_revision() == before + 1);
-    const LightCache cache(scene, Lights{Sun(0, 30, 1361), std::nullopt}, LightCacheSettings{});
+    const LightCache cache(scene, Lights{DirectionalLight(0, 30, 1361), std::nullopt}, LightCacheSettings{});
     CHECK(cache.covers(0) && !cache.covers(b));
 }
 
@@ -53,7 +53,7 @@ TEST_CASE(cache_values_do_not_depend_on_threads_or_fill_order) {
     scene.add_background(fixtures::add_plane_mesh(scene, 5.0f), identity(), Material{glm::vec3(0.3f)});
     scene.add_instance(fixtures::add_box_mesh(scene, 0.6f, 0.4f, 0.3f), identity(), 1, Material{glm::vec3(0.6f)});
     scene.commit();
-    const Lights lights{Sun(120, 20, 1361, 0.53), std::nullopt};
+    const Lights lights{DirectionalLight(120, 20, 1361, 0.53), std::nullopt};
     LightCacheSettings one;
     one.threads = 1;
     one.rays_objects = one.rays_background = 64;

@@ -78,7 +78,7 @@ def limit_scene(config: Config, task: Task) -> ProbeView:
     K = intrinsics(c.camera)
     camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], c.camera.width, c.camera.height, pose.R, pose.t)
     s = c.sun
-    sun = _core.Sun(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
+    sun = _core.DirectionalLight(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
     return ProbeView(c, scene, camera, sun, K, pose, medium)
 
 

@@ -90,13 +90,13 @@ def regolith_grain(config: GrainConfig) -> _core.RegolithGrain | None:
     return _core.RegolithGrain(params.grain(config))
 
 
-def scene_lights(config: Config) -> tuple[_core.Sun, _core.Sun | None]:
+def scene_lights(config: Config) -> tuple[_core.DirectionalLight, _core.DirectionalLight | None]:
     """The config's Sun, and the Earth as a second light where earthshine is on (else None: no
     second light, no shadow rays toward it; principle 3)."""
     s = config.sun
-    sun = _core.Sun(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
-    earth = (_core.Sun(s.earth_azimuth_deg, s.earth_elevation_deg, s.earth_irradiance_w_m2, EARTH_DIAMETER_DEG,
-                       s.earth_color) if s.earthshine else None)
+    sun = _core.DirectionalLight(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
+    earth = (_core.DirectionalLight(s.earth_azimuth_deg, s.earth_elevation_deg, s.earth_irradiance_w_m2,
+                                    EARTH_DIAMETER_DEG, s.earth_color) if s.earthshine else None)
     return sun, earth
 
 

@@ -23,7 +23,7 @@
 #include <glm/glm.hpp>
 
 #include "moonbot/scene.h"
-#include "moonbot/sun.h"
+#include "moonbot/light.h"
 
 namespace moonbot {
 
