@@ -153,7 +153,8 @@ void bind_dust(py::module_& m) {
                  return py::type::of<Medium>()(**given).cast<Medium>();
              }),
              py::arg("puffs"), "Medium(puffs=puffs, **fields).")
-        .def_property_readonly("puff_count", [](const Medium& m) { return m.puffs.size(); });
+        .def_property_readonly(
+            "puff_count", [](const Medium& m) { return m.puffs.size(); }, "puffs in the medium");
     m.def("henyey_greenstein", &henyey_greenstein, py::arg("cos_theta"), py::arg("g"),
           "Henyey-Greenstein phase function per steradian (g > 0: forward).");
     m.def(

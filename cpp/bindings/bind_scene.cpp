@@ -175,7 +175,7 @@ void bind_scene(py::module_& m) {
         "and relief of 1-D RMS slope slope_rms_deg (degrees), prefiltered over each pixel's footprint.")
         .def(py::init([](const GrainParams& params) { return std::make_shared<RegolithGrain>(params); }),
              py::arg("params"), "Its octaves laid out; ValueError naming the field on bad params.")
-        .def_property_readonly("octaves", &RegolithGrain::octaves)
+        .def_property_readonly("octaves", &RegolithGrain::octaves, "octaves of value noise, finest to coarsest cell")
         .def_property_readonly("flat_footprint_m", &RegolithGrain::flat_footprint_m,
                                "footprints (metres) at or above this give exactly the mean")
         .def(
@@ -348,9 +348,9 @@ void bind_scene(py::module_& m) {
             "traces them), watertight as the renderer's camera rays are: (t (N,) float64 in units of |direction|, inf on a miss; instance (N,) int64, -1 on a "
             "miss; primitive (N,) int64, the triangle's index in its mesh, -1 on a miss). For checking the "
             "traversal itself; renders resolve hits in double on top of this.")
-        .def_property_readonly("committed", &Scene::committed)
-        .def_property_readonly("mesh_count", &Scene::mesh_count)
-        .def_property_readonly("instance_count", &Scene::instance_count)
+        .def_property_readonly("committed", &Scene::committed, "commit() has run since the last change")
+        .def_property_readonly("mesh_count", &Scene::mesh_count, "prototype meshes added")
+        .def_property_readonly("instance_count", &Scene::instance_count, "instances added, labelled and background")
         .def_property_readonly("bvh_builds", &Scene::bvh_builds,
                                "BVH builds so far: one per mesh plus one per commit.");
 
@@ -364,8 +364,8 @@ void bind_scene(py::module_& m) {
              py::arg("height"), py::arg("R"), py::arg("t"),
              "Intrinsics in pixels; R (3, 3) and t (3,) metres map world to camera: "
              "x_cam = R x_world + t.")
-        .def_property_readonly("width", &Camera::width)
-        .def_property_readonly("height", &Camera::height)
+        .def_property_readonly("width", &Camera::width, "pixels")
+        .def_property_readonly("height", &Camera::height, "pixels")
         .def_property_readonly("center", [](const Camera& c) {
             const glm::dvec3 p = c.center();
             return py::array_t<double>(3, &p.x);
@@ -398,13 +398,15 @@ void bind_scene(py::module_& m) {
                  return DirectionalLight(az, el, irradiance, diameter, vector<3>(color, "color"));
              }),
              py::arg("azimuth_deg"), py::arg("elevation_deg"), py::arg("irradiance") = kSolarIrradiance,
-             py::arg("angular_diameter_deg") = 0.0, py::arg("color") = py::make_tuple(1.0, 1.0, 1.0))
+             py::arg("angular_diameter_deg") = 0.0, py::arg("color") = py::make_tuple(1.0, 1.0, 1.0),
+             "ValueError naming the field: elevation in [-90, 90], irradiance in [0, 1e7], angular diameter in "
+             "[0, 10], each color channel in [0, 10].")
         .def_property_readonly("direction", [](const DirectionalLight& s) {
             const glm::dvec3 d = s.direction();
             return py::array_t<double>(3, &d.x);
         }, "Unit vector toward the light, world ENU, (3,) float64.")
-        .def_property_readonly("azimuth_deg", &DirectionalLight::azimuth_deg)
-        .def_property_readonly("elevation_deg", &DirectionalLight::elevation_deg)
+        .def_property_readonly("azimuth_deg", &DirectionalLight::azimuth_deg, "clockwise from North, degrees")
+        .def_property_readonly("elevation_deg", &DirectionalLight::elevation_deg, "above the horizon, degrees")
         .def_property_readonly("irradiance", &DirectionalLight::irradiance, "W/m^2")
         .def_property_readonly("color", [](const DirectionalLight& s) {
             return py::make_tuple(s.color().x, s.color().y, s.color().z);

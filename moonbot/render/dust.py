@@ -57,7 +57,7 @@ def emitter_origin(spec: SceneSpec, dust: DustConfig) -> np.ndarray:
 
 
 def ejecta_state(scene: _core.Scene, dust: DustConfig, seed: int, origin: np.ndarray, time_s: float,
-                 threads: int = 0) -> _core.EjectaState:
+                 threads: int = 0) -> dict:
     """The ejecta of `dust.ejecta` thrown from `origin` ((3,) world metres) at `time_s` seconds
     after the emitter starts, flown on `scene` (committed, without the fragments' own mesh) in
     steps of `dust.time_step_s`: `_core.simulate_ejecta`'s state, every fragment of the burst
