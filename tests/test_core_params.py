@@ -13,7 +13,7 @@ import pytest
 
 from moonbot import _core
 from moonbot.config.schema import (CloudConfig, EjectaConfig, FabricConfig, GrainConfig, PhotometryConfig,
-                                   StainConfig)
+                                   StainConfig, SunConfig)
 from moonbot.render import params
 
 # Schema defaults that differ from the C++ struct's on purpose: the config's are the dataset's
@@ -91,6 +91,10 @@ def test_schema_defaults_are_the_cores_or_differ_on_purpose():
             if ours == "seed" or (isinstance(struct, (_core.EjectaParams, _core.CloudParams)) and ours == "origin"):
                 continue
             assert same_value(getattr(config, ours), getattr(default, theirs)), key
+
+
+def test_the_suns_irradiance_is_the_cores_default():
+    assert _core.DirectionalLight(0.0, 90.0).irradiance == SunConfig().irradiance_w_m2
 
 
 def test_photometry_ranges_come_from_the_core_and_the_schema_keeps_within_them():

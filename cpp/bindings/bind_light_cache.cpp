@@ -20,9 +20,12 @@ void bind_light_cache(py::module_& m) {
                      LightCacheSettings{bounces, rays_objects, rays_background, background_cell_m, object_cell_m, seed,
                                         threads});
              }),
-             py::arg("scene"), py::arg("sun"), py::arg("earth") = py::none(), py::arg("bounces") = 2,
-             py::arg("rays_objects") = 256, py::arg("rays_background") = 64, py::arg("background_cell_m") = 0.0, py::arg("object_cell_m") = 0.0, py::arg("seed") = 0,
-             py::arg("threads") = 0,
+             py::arg("scene"), py::arg("sun"), py::arg("earth") = py::none(),
+             py::arg("bounces") = LightCacheSettings{}.bounces, py::arg("rays_objects") = LightCacheSettings{}.rays_objects,
+             py::arg("rays_background") = LightCacheSettings{}.rays_background,
+             py::arg("background_cell_m") = LightCacheSettings{}.background_cell_m,
+             py::arg("object_cell_m") = LightCacheSettings{}.object_cell_m, py::arg("seed") = LightCacheSettings{}.seed,
+             py::arg("threads") = LightCacheSettings{}.threads,
              py::keep_alive<1, 2>(),  // the cache reads the scene's meshes for its whole life
              "bounces: path vertices after each gather point (as render's bounces, 1..16); rays_objects / "
              "rays_background: gather rays per vertex on labelled instances (bags) / per vertex or lattice node on "

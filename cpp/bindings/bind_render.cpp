@@ -69,12 +69,14 @@ void bind_render(py::module_& m) {
             out["seconds"] = stats.seconds;
             return out;
         },
-        py::arg("scene"), py::arg("camera"), py::arg("sun"), py::arg("spp") = 1,
-        py::arg("seed") = 0, py::arg("threads") = 0,
+        // The settings' defaults are RenderSettings' (moonbot/render.h).
+        py::arg("scene"), py::arg("camera"), py::arg("sun"), py::arg("spp") = RenderSettings{}.spp,
+        py::arg("seed") = RenderSettings{}.seed, py::arg("threads") = RenderSettings{}.threads,
         py::arg("passes") = std::vector<std::string>{"rgb", "depth", "instance"},
-        py::arg("exact_depth") = true, py::arg("light_samples") = 1, py::arg("bounces") = 0,
-        py::arg("earth") = py::none(), py::arg("medium") = nullptr, py::arg("light_cache") = nullptr,
-        py::arg("adaptive_spp") = 0, py::arg("adaptive_threshold") = 0.25,
+        py::arg("exact_depth") = RenderSettings{}.exact_depth, py::arg("light_samples") = RenderSettings{}.light_samples,
+        py::arg("bounces") = RenderSettings{}.bounces, py::arg("earth") = py::none(), py::arg("medium") = nullptr,
+        py::arg("light_cache") = nullptr, py::arg("adaptive_spp") = RenderSettings{}.adaptive_spp,
+        py::arg("adaptive_threshold") = RenderSettings{}.adaptive_threshold,
         "Render one view. Returns a dict with the requested passes — rgb (H, W, 3) float32 "
         "W/(m²·sr), depth (H, W) float32 z-depth in metres (0 = no hit), instance (H, W) uint8 "
         "(0 = background) — and camera_rays, second_look_rays (camera rays traced again where one may have "
