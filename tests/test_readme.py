@@ -20,7 +20,8 @@ README_PATH = ROOT / "README.md"
 README = README_PATH.read_text(encoding="utf-8")
 DOCS = sorted((ROOT / "docs").glob("*.md"))
 # Every page a newcomer is sent to from the README, whose links must resolve.
-LINKED_PAGES = [README_PATH, *DOCS, *(ROOT / folder / "README.md" for folder in ("bench", "bench/results", "bench/peers", "cluster"))]
+LINKED_PAGES = [README_PATH, *DOCS,
+                *(ROOT / folder / "README.md" for folder in ("bench", "bench/results", "bench/peers", "cluster"))]
 README_MAX_LINES = 200
 
 
