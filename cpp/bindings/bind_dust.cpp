@@ -154,7 +154,7 @@ void bind_dust(py::module_& m) {
              }),
              py::arg("puffs"), "Medium(puffs=puffs, **fields).")
         .def_property_readonly(
-            "puff_count", [](const Medium& m) { return m.puffs.size(); }, "puffs in the medium");
+            "puff_count", [](const Medium& medium) { return medium.puffs.size(); }, "puffs in the medium");
     m.def("henyey_greenstein", &henyey_greenstein, py::arg("cos_theta"), py::arg("g"),
           "Henyey-Greenstein phase function per steradian (g > 0: forward).");
     m.def(

@@ -27,7 +27,6 @@ void bind_render(py::module_& m) {
             if (!sun && rgb) fail("sun", "is None: only the depth and instance passes render without a light");
             if (!sun && (earth || medium || light_cache))
                 fail("sun", "is None: earth, medium and light_cache light the rgb pass, which needs a light");
-            if (medium) medium->validate();  // its fields are writable from Python
             const auto h = static_cast<py::ssize_t>(camera.height());
             const auto w = static_cast<py::ssize_t>(camera.width());
             // The outputs are allocated as numpy arrays and the core renders straight into them.

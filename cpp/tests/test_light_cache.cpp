@@ -1,4 +1,6 @@
 #include <cstring>
+#include <stdexcept>
+#include <string>
 
 #include "check.h"
 #include "fixtures.h"
@@ -74,4 +76,25 @@ TEST_CASE(cache_values_do_not_depend_on_threads_or_fill_order) {
     const Frame f2 = render_frame(scene, cam, lights, r2, nullptr, &b);
     CHECK(std::memcmp(f1.rgb.data(), f2.rgb.data(), f1.rgb.size() * sizeof(float)) == 0);
     CHECK(f1.stats.bounce_rays == 0);
+}
+
+TEST_CASE(light_cache_settings_validate_names_the_field) {
+    LightCacheSettings{}.validate();  // the defaults are valid
+    auto rejection = [](const LightCacheSettings& s) -> std::string {
+        try {
+            s.validate();
+        } catch (const std::invalid_argument& e) {
+            return e.what();
+        }
+        return "";
+    };
+    LightCacheSettings s;
+    s.bounces = 0;
+    CHECK(rejection(s).rfind("bounces: a light cache needs 1..", 0) == 0);
+    s = LightCacheSettings{};
+    s.rays_background = 0;
+    CHECK(rejection(s).rfind("rays_background: ", 0) == 0);
+    s = LightCacheSettings{};
+    s.object_cell_m = -1.0;
+    CHECK(rejection(s).rfind("object_cell_m: ", 0) == 0);
 }

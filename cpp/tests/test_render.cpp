@@ -328,3 +328,27 @@ TEST_CASE(render_geometry_needs_no_light_and_matches_a_lit_render) {
     std::vector<float> rgb(3 * n);
     CHECK_THROWS(std::invalid_argument, render_geometry(scene, cam, RenderSettings{}, {rgb.data(), nullptr, nullptr}));
 }
+
+TEST_CASE(render_settings_validate_names_the_field) {
+    RenderSettings{}.validate();  // the defaults are valid
+    auto rejection = [](const RenderSettings& s) -> std::string {
+        try {
+            s.validate();
+        } catch (const std::invalid_argument& e) {
+            return e.what();
+        }
+        return "";
+    };
+    RenderSettings s;
+    s.spp = 0;
+    CHECK(rejection(s).rfind("spp: must be in 1..", 0) == 0);
+    s = RenderSettings{};
+    s.adaptive_spp = 1;  // not above spp
+    CHECK(rejection(s).rfind("adaptive_spp: ", 0) == 0);
+    s = RenderSettings{};
+    s.adaptive_threshold = NAN;
+    CHECK(rejection(s).rfind("adaptive_threshold: ", 0) == 0);
+    s = RenderSettings{};
+    s.threads = kMaxThreads + 1;
+    CHECK(rejection(s).rfind("threads: ", 0) == 0);
+}

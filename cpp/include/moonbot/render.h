@@ -49,6 +49,9 @@ struct RenderSettings {
     int adaptive_spp = 0;
     /// The relative spread of direct luminance over a pixel's base samples that refines it; ≥ 0.
     double adaptive_threshold = 0.25;
+
+    /// Throws std::invalid_argument naming the first field out of its range (render() calls it).
+    void validate() const;
 };
 
 constexpr int kMaxLightSamples = 1024;
