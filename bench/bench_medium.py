@@ -60,7 +60,7 @@ def main() -> int:
     sun = _core.DirectionalLight(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2, 0.0)
 
     def render(medium):
-        return _core.render(scene, camera, sun, spp=1, seed=1, passes=["rgb"], medium=medium)
+        return _core.render(scene, camera, sun, _core.RenderSettings(spp=1, seed=1), passes=["rgb"], medium=medium)
 
     def medium(voxel, rate=40.0, stride=1):
         puffs = _core.cloud_puffs(_core.CloudParams(origin=origin, rate_per_s=rate), 1, CAPTURE_S)

@@ -6,7 +6,7 @@ import collections.abc
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['Camera', 'CloudParams', 'DirectionalLight', 'EjectaParams', 'FabricParams', 'GrainParams', 'LUNAR_RADIUS', 'LightCache', 'LunarFrame', 'MAX_DUST_STEP', 'Medium', 'Photometry', 'RegolithGrain', 'SPAWN_CLEARANCE', 'Scene', 'SoilingParams', 'StainMask', 'StainParams', 'WovenSurface', 'cloud_puffs', 'curvature_drop', 'embree_isas', 'fabric_eval', 'henyey_greenstein', 'import_dem', 'measure_embree_limit', 'puff_optical_depth', 'read_image', 'render', 'resolve_embree_isa', 'simulate_ejecta', 'splat', 'splat_support_area', 'stain_mask', 'stain_mask_bytes', 'stain_masks_allocated', 'stained_base_colour', 'stamp_centres', 'tonemap_reinhard', 'weave_height', 'write_image']
+__all__: list[str] = ['Camera', 'CloudParams', 'DirectionalLight', 'EjectaParams', 'FabricParams', 'GrainParams', 'LUNAR_RADIUS', 'LightCache', 'LightCacheSettings', 'LunarFrame', 'MAX_DUST_STEP', 'Medium', 'Photometry', 'RegolithGrain', 'RenderSettings', 'SPAWN_CLEARANCE', 'Scene', 'SoilingParams', 'StainMask', 'StainParams', 'WovenSurface', 'cloud_puffs', 'curvature_drop', 'embree_isas', 'fabric_eval', 'henyey_greenstein', 'import_dem', 'measure_embree_limit', 'puff_optical_depth', 'read_image', 'render', 'resolve_embree_isa', 'simulate_ejecta', 'splat', 'splat_support_area', 'stain_mask', 'stain_mask_bytes', 'stain_masks_allocated', 'stained_base_colour', 'stamp_centres', 'tonemap_reinhard', 'weave_height', 'write_image']
 class Photometry:
     """
     A photometric function: BRDF = albedo/pi * shape(mu_i, mu_o, g) (moonbot/photometry.h). model 'lambert' | 'lunar-lambert' (McEwen) | 'hapke' (Hapke 2012 with porosity, SHOE, CBOE, roughness; shape normalised to 1 at i = e = g = 0). The Hapke fields are read only by 'hapke' but checked whatever the model; their defaults are the Sato et al. 2014 lunar set. Ranges: `ranges`.
@@ -927,13 +927,90 @@ class Medium:
     @voxel_m.setter
     def voxel_m(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
+class LightCacheSettings:
+    """
+    How a LightCache gathers (moonbot/light_cache.h).
+    """
+    fields: typing.ClassVar[tuple] = ('bounces', 'rays_objects', 'rays_background', 'background_cell_m', 'object_cell_m', 'seed', 'threads')
+    @typing.overload
+    def __init__(self) -> None:
+        """
+        The C++ defaults.
+        """
+    @typing.overload
+    def __init__(self, **kwargs) -> None:
+        """
+        The C++ defaults with the fields given set (by name), validated.
+        """
+    def __repr__(self) -> str:
+        ...
+    def validate(self) -> None:
+        """
+        Raises ValueError naming the first field out of its range.
+        """
+    @property
+    def background_cell_m(self) -> float:
+        """
+        the background's world-space lattice spacing, metres (0 = per vertex)
+        """
+    @background_cell_m.setter
+    def background_cell_m(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def bounces(self) -> int:
+        """
+        path vertices after each gather point (as RenderSettings.bounces), 1..16
+        """
+    @bounces.setter
+    def bounces(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def object_cell_m(self) -> float:
+        """
+        the same for labelled instances, metres (0 = per vertex)
+        """
+    @object_cell_m.setter
+    def object_cell_m(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def rays_background(self) -> int:
+        """
+        gather rays per vertex (or lattice node) on background instances (terrain, rocks), 1..65536
+        """
+    @rays_background.setter
+    def rays_background(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def rays_objects(self) -> int:
+        """
+        gather rays per vertex (or lattice node) on labelled instances (bags), 1..65536
+        """
+    @rays_objects.setter
+    def rays_objects(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def seed(self) -> int:
+        """
+        keys the gather rays
+        """
+    @seed.setter
+    def seed(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def threads(self) -> int:
+        """
+        worker threads of fill_all, 0 = all
+        """
+    @threads.setter
+    def threads(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
 class LightCache:
     """
     A world-space cache of indirect light over a committed scene's non-moving instances (cpp/include/moonbot/light_cache.h): filled per vertex on first touch by render(), shared by every view of the scene.
     """
-    def __init__(self, scene: Scene, sun: DirectionalLight, earth: DirectionalLight | None = None, bounces: typing.SupportsInt | typing.SupportsIndex = 2, rays_objects: typing.SupportsInt | typing.SupportsIndex = 256, rays_background: typing.SupportsInt | typing.SupportsIndex = 64, background_cell_m: typing.SupportsFloat | typing.SupportsIndex = 0.0, object_cell_m: typing.SupportsFloat | typing.SupportsIndex = 0.0, seed: typing.SupportsInt | typing.SupportsIndex = 0, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> None:
+    def __init__(self, scene: Scene, sun: DirectionalLight, earth: DirectionalLight | None = None, settings: LightCacheSettings = ...) -> None:
         """
-        bounces: path vertices after each gather point (as render's bounces, 1..16); rays_objects / rays_background: gather rays per vertex on labelled instances (bags) / per vertex or lattice node on background (terrain, rocks); background_cell_m: the background's world-space lattice spacing, metres (0 = per vertex); object_cell_m: the same for labelled instances; seed: keys the gather rays; threads: of fill_all (0 = all).
+        A cache over `scene` for these lights, gathering as `settings` (a LightCacheSettings) says.
         """
     def covers(self, instance: typing.SupportsInt | typing.SupportsIndex) -> bool:
         """
@@ -951,6 +1028,91 @@ class LightCache:
         """
         ((E_r, E_g, E_b) W/m², (x, y, z) luminance-weighted mean of the unit incident directions, world: length 1 for light from one direction, less the more it spreads) at a vertex of a covered instance, filled first if it is not yet.
         """
+class RenderSettings:
+    """
+    A render's quality and threads (moonbot/render.h).
+    """
+    fields: typing.ClassVar[tuple] = ('spp', 'seed', 'threads', 'exact_depth', 'light_samples', 'bounces', 'adaptive_spp', 'adaptive_threshold')
+    @typing.overload
+    def __init__(self) -> None:
+        """
+        The C++ defaults.
+        """
+    @typing.overload
+    def __init__(self, **kwargs) -> None:
+        """
+        The C++ defaults with the fields given set (by name), validated.
+        """
+    def __repr__(self) -> str:
+        ...
+    def validate(self) -> None:
+        """
+        Raises ValueError naming the first field out of its range.
+        """
+    @property
+    def adaptive_spp(self) -> int:
+        """
+        0 = off, else the samples (direct light only past spp) a pixel whose samples disagree is brought up to, spp < adaptive_spp <= 65536
+        """
+    @adaptive_spp.setter
+    def adaptive_spp(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def adaptive_threshold(self) -> float:
+        """
+        relative spread of direct luminance over a pixel's base samples that refines it, >= 0
+        """
+    @adaptive_threshold.setter
+    def adaptive_threshold(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def bounces(self) -> int:
+        """
+        diffuse inter-reflections, 0 (direct light only)..16
+        """
+    @bounces.setter
+    def bounces(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def exact_depth(self) -> bool:
+        """
+        re-solve hit distances in double (exact at kilometre coordinates); False keeps Embree's float32 t
+        """
+    @exact_depth.setter
+    def exact_depth(self, arg0: bool) -> None:
+        ...
+    @property
+    def light_samples(self) -> int:
+        """
+        shadow rays per sample toward the Sun's disk, 1..1024
+        """
+    @light_samples.setter
+    def light_samples(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def seed(self) -> int:
+        """
+        keys the counter-based generator (with pixel and sample)
+        """
+    @seed.setter
+    def seed(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def spp(self) -> int:
+        """
+        RGB samples per pixel, 1..65536; 1 = the pixel-centre ray, no jitter
+        """
+    @spp.setter
+    def spp(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def threads(self) -> int:
+        """
+        worker threads, 0 = all hardware threads, at most 1024
+        """
+    @threads.setter
+    def threads(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
 class LunarFrame:
     """
     Local East-North-Up frame on the lunar sphere (GeographicLib), metres.
@@ -1016,9 +1178,9 @@ def read_image(path: str) -> numpy.ndarray:
     """
     Read an image through OpenImageIO: (H, W) or (H, W, C), uint8 / uint16 as stored, float32 otherwise. Raises OSError naming the path.
     """
-def render(scene: Scene, camera: Camera, sun: DirectionalLight | None, spp: typing.SupportsInt | typing.SupportsIndex = 1, seed: typing.SupportsInt | typing.SupportsIndex = 0, threads: typing.SupportsInt | typing.SupportsIndex = 0, passes: collections.abc.Sequence[str] = ['rgb', 'depth', 'instance'], exact_depth: bool = True, light_samples: typing.SupportsInt | typing.SupportsIndex = 1, bounces: typing.SupportsInt | typing.SupportsIndex = 0, earth: DirectionalLight | None = None, medium: Medium = None, light_cache: LightCache = None, adaptive_spp: typing.SupportsInt | typing.SupportsIndex = 0, adaptive_threshold: typing.SupportsFloat | typing.SupportsIndex = 0.25) -> dict:
+def render(scene: Scene, camera: Camera, sun: DirectionalLight | None, settings: RenderSettings = ..., passes: collections.abc.Sequence[str] = ['rgb', 'depth', 'instance'], earth: DirectionalLight | None = None, medium: Medium = None, light_cache: LightCache = None) -> dict:
     """
-    Render one view. Returns a dict with the requested passes — rgb (H, W, 3) float32 W/(m²·sr), depth (H, W) float32 z-depth in metres (0 = no hit), instance (H, W) uint8 (0 = background) — and camera_rays, second_look_rays (camera rays traced again where one may have slipped through a shared vertex), shadow_rays (bounce_shadow_rays of them from bounce vertices), bounce_rays, medium_rays, seconds. sun: the Sun (a DirectionalLight), or None for the depth and instance passes alone (nothing is lit, no shadow ray traced). exact_depth re-solves hit distances in double (exact at kilometre coordinates); False keeps Embree's float32 t. light_samples: shadow rays per sample toward each light's disk; bounces: diffuse inter-reflections (0 = direct light only); earth: a second light (Earthshine); medium: dust (a Medium) attenuating and scattering sunlight in rgb only (medium_rays: its shadow rays toward the Sun); light_cache: a LightCache built for this scene, these lights and bounces, from which camera hits on the surfaces it covers take their indirect light (no bounce rays); adaptive_spp: 0 = off, else the samples (direct light only past spp) a pixel whose spp base samples (or a neighbour's) disagree in hit instance, Sun visibility or direct luminance (relative spread > adaptive_threshold) is brought up to (refined_pixels: how many; refinement_rays: their extra camera, second-look and shadow rays).
+    Render one view with `settings` (a RenderSettings). Returns a dict with the requested passes: rgb (H, W, 3) float32 W/(m^2 sr), depth (H, W) float32 z-depth in metres (0 = no hit), instance (H, W) uint8 (0 = background); and the counts camera_rays, second_look_rays (camera rays traced again where one may have slipped through a shared vertex), shadow_rays (bounce_shadow_rays of them from bounce vertices), bounce_rays, medium_rays (the dust's shadow rays toward the Sun), refined_pixels and refinement_rays (adaptive anti-aliasing's pixels and their extra rays), and seconds. sun: the Sun (a DirectionalLight), or None for the depth and instance passes alone (nothing is lit, no shadow ray traced); earth: a second light (Earthshine); medium: dust (a Medium) attenuating and scattering sunlight in rgb only; light_cache: a LightCache built for this scene, these lights and settings.bounces, from which camera hits on the surfaces it covers take their indirect light (no bounce rays).
     """
 def resolve_embree_isa(name: str = 'auto') -> str:
     """

@@ -333,7 +333,7 @@ def test_add_instance_survives_anything(kwargs, background):
         if isinstance(label, int) and 1 <= label <= 255:
             scene.add_instance(0, np.eye(4), label, GREY)  # the label was not consumed
     scene.commit()
-    out = _core.render(scene, down_camera(4, 4), _core.DirectionalLight(30, 60), threads=1)
+    out = _core.render(scene, down_camera(4, 4), _core.DirectionalLight(30, 60), _core.RenderSettings(threads=1))
     assert out["depth"].shape == (4, 4)
 
 
@@ -788,21 +788,27 @@ def test_sun_defects_name_the_field(args, field, data):
 def test_render_defects_name_the_setting(setting, data):
     """render refuses spp outside 1..65536, a negative thread count, an unknown or empty pass
     list, and an uncommitted or instance-less scene, each with ValueError naming it."""
-    kwargs = dict(spp=1, seed=0, threads=1, passes=["rgb", "depth", "instance"])
+    settings = dict(spp=1, seed=0, threads=1)
+    passes = ["rgb", "depth", "instance"]
     scene = ground_scene(3)
     if setting == "spp":
-        kwargs["spp"] = data.draw(st.one_of(st.integers(INT_MIN, 0), st.integers(MAX_SPP + 1, INT_MAX)))
+        settings["spp"] = data.draw(st.one_of(st.integers(INT_MIN, 0), st.integers(MAX_SPP + 1, INT_MAX)))
     elif setting == "threads":
-        kwargs["threads"] = data.draw(st.integers(INT_MIN, -1))
+        settings["threads"] = data.draw(st.integers(INT_MIN, -1))
     elif setting == "passes":
         good = data.draw(st.lists(st.sampled_from(["rgb", "depth", "instance"]), max_size=3))
         unknown = data.draw(st.text(st.characters(exclude_categories=["Cs"]), max_size=6)
                             .filter(lambda p: p not in ("rgb", "depth", "instance")))
-        kwargs["passes"] = data.draw(st.permutations([*good, unknown])) if data.draw(st.booleans()) else []
+        passes = data.draw(st.permutations([*good, unknown])) if data.draw(st.booleans()) else []
     else:
         scene = data.draw(st.sampled_from([lambda: ground_scene(3, commit=False), _stale_scene,
                                            _empty_scene]))()
-    expect_named(setting, _core.render, scene, down_camera(4, 4), _core.DirectionalLight(0, 45), **kwargs)
+
+    def call():
+        # A setting out of range is refused where the RenderSettings is made (or, written after, by render).
+        _core.render(scene, down_camera(4, 4), _core.DirectionalLight(0, 45), _core.RenderSettings(**settings),
+                     passes=passes)
+    expect_named(setting, call)
 
 
 @DEFECT
@@ -962,9 +968,9 @@ def test_bad_camera_is_named(field, value):
     expect_named(field, _core.Camera, **{**GOOD_CAMERA, field: value})
 
 
-def _render_call(scene=None, **settings_):
+def _render_call(scene=None, passes=("rgb", "depth", "instance"), **settings_):
     return lambda: _core.render(scene() if scene else ground_scene(4), down_camera(4, 4),
-                                _core.DirectionalLight(0, 45), **settings_)
+                                _core.DirectionalLight(0, 45), _core.RenderSettings(**settings_), passes=list(passes))
 
 
 BAD_RENDERS = {
@@ -1178,9 +1184,12 @@ def test_overflowing_conversion_is_not_fatal(tmp_path, body, name, flags):
 
 
 HUGE_THREAD_COUNTS = {
-    "render-threads-65537": "_core.render(ground_scene(), small_camera(), _core.DirectionalLight(0, 45), threads=65537)",
-    "render-threads-10**8": "_core.render(ground_scene(), small_camera(), _core.DirectionalLight(0, 45), threads=10**8)",
-    "render-threads-int-max": "_core.render(ground_scene(), small_camera(), _core.DirectionalLight(0, 45), threads=2**31 - 1)",
+    "render-threads-65537": "_core.render(ground_scene(), small_camera(), _core.DirectionalLight(0, 45), "
+                            "_core.RenderSettings(threads=65537))",
+    "render-threads-10**8": "_core.render(ground_scene(), small_camera(), _core.DirectionalLight(0, 45), "
+                            "_core.RenderSettings(threads=10**8))",
+    "render-threads-int-max": "_core.render(ground_scene(), small_camera(), _core.DirectionalLight(0, 45), "
+                              "_core.RenderSettings(threads=2**31 - 1))",
     "measure_embree_limit-threads-65537": "_core.measure_embree_limit(ground_scene(), small_camera(), "
                                           "_core.DirectionalLight(0, 45), threads=65537, repeats=1)",
 }
@@ -1292,7 +1301,7 @@ def test_scene_cannot_change_while_rendering():
     def render():
         try:
             for _ in range(5):
-                _core.render(scene, cam, _core.DirectionalLight(0, 30), spp=2)
+                _core.render(scene, cam, _core.DirectionalLight(0, 30), _core.RenderSettings(spp=2))
         finally:
             done.set()
 

@@ -13,20 +13,26 @@ import pytest
 
 from moonbot import _core
 from moonbot.config.schema import (CloudConfig, EjectaConfig, FabricConfig, GrainConfig, PhotometryConfig,
-                                   StainConfig, SunConfig)
+                                   RenderConfig, StainConfig, SunConfig)
 from moonbot.render import params
 
 # Schema defaults that differ from the C++ struct's on purpose: the config's are the dataset's
 # choices, the struct's the plain model (effects off, or the reference's values).
-DEFAULTS_DIFFER = {
-    ("PhotometryConfig", "model"): "the dataset renders Lunar-Lambert; the core's default is Lambert",
-    ("PhotometryConfig", "surge_amplitude"): "the dataset's opposition surge is on; the core's is off",
-    ("PhotometryConfig", "roughness_deg"): "the dataset's θ̄ leaves out the relief its mesh and grain hold; "
-                                           "the core's is Sato et al. 2014's 23.4°",
-    ("GrainConfig", "albedo_rms"): "the dataset's grain is on; the core's is off",
-    ("GrainConfig", "slope_rms_deg"): "the dataset's grain is on; the core's is off",
-    ("FabricConfig", "sheen"): "the dataset's tapes are glossy; the core's default is the matte weave",
-    ("CloudConfig", "march_stride_px"): "the dataset marches every 4th pixel; the core's default marches all",
+DEFAULTS_DIFFER = {  # (struct, struct field): why the schema's default is another
+    ("Photometry", "model"): "the dataset renders Lunar-Lambert; the core's default is Lambert",
+    ("Photometry", "surge_amplitude"): "the dataset's opposition surge is on; the core's is off",
+    ("Photometry", "roughness_deg"): "the dataset's θ̄ leaves out the relief its mesh and grain hold; "
+                                     "the core's is Sato et al. 2014's 23.4°",
+    ("GrainParams", "albedo_rms"): "the dataset's grain is on; the core's is off",
+    ("GrainParams", "slope_rms_deg"): "the dataset's grain is on; the core's is off",
+    ("FabricParams", "sheen"): "the dataset's tapes are glossy; the core's default is the matte weave",
+    ("Medium", "march_stride_px"): "the dataset marches every 4th pixel; the core's default marches all",
+    ("RenderSettings", "spp"): "the dataset's quality; the core's default is one pixel-centre ray",
+    ("RenderSettings", "light_samples"): "the dataset's soft shadows; the core's default is one shadow ray",
+    ("RenderSettings", "bounces"): "the dataset's inter-reflection; the core's default is direct light",
+    ("RenderSettings", "adaptive_threshold"): "the dataset's; the core's default matters only when adaptive_spp is on",
+    ("LightCacheSettings", "background_cell_m"): "the dataset's lattice; the core's default gathers per vertex",
+    ("LightCacheSettings", "object_cell_m"): "the dataset's lattice; the core's default gathers per vertex",
 }
 
 
@@ -55,6 +61,11 @@ def built():
         (StainConfig(), woven.soiling, {k: k for k in ("contact_height_m", "deposit_radius_m", "handled_share",
                                                        "speckle")}),
         (StainConfig(), woven, {"dirt_colour": "dirt_colour", "mode": "stain_mode"}),
+        (RenderConfig(), params.render_settings(RenderConfig(), 9), {k: k for k in (
+            "spp", "threads", "exact_depth", "light_samples", "bounces", "adaptive_threshold")}),
+        (RenderConfig(), params.light_cache_settings(RenderConfig(), 9), {
+            "bounces": "bounces", "cache_rays_bags": "rays_objects", "cache_rays_terrain": "rays_background",
+            "cache_terrain_cell_m": "background_cell_m", "cache_bag_cell_m": "object_cell_m", "threads": "threads"}),
     ]
 
 
@@ -78,13 +89,16 @@ def test_every_config_field_reaches_its_struct():
     assert covered["StainConfig"] == set(config_fields(StainConfig()))
     woven = params.woven(FabricConfig(), StainConfig(), 2.0, 7)
     assert woven.metres_per_uv == 2.0 and woven.stain_seed == 7
+    render = RenderConfig()
+    assert params.render_settings(render, 9).seed == params.light_cache_settings(render, 9).seed == 9
+    assert params.render_settings(render, 9).adaptive_spp == render.refinement_spp
 
 
 def test_schema_defaults_are_the_cores_or_differ_on_purpose():
     for config, struct, mapping in built():
         default = type(struct)()
         for ours, theirs in mapping.items():
-            key = (type(config).__name__, ours)
+            key = (type(struct).__name__, theirs)
             if key in DEFAULTS_DIFFER:
                 assert not same_value(getattr(config, ours), getattr(default, theirs)), key
                 continue

@@ -349,7 +349,8 @@ def test_a_polar_site_shadow_falls_to_its_true_south(tmp_path, lat0):
 
     def brightness(sun_azimuth: float, xy: tuple[float, float]) -> float:
         """Mean radiance of the 3 × 3 pixels over a post's top at world `xy`, over the image's median."""
-        rgb = _core.render(scene, camera, _core.DirectionalLight(sun_azimuth, 30.0, 1361.0, 0.533), bounces=0)["rgb"]
+        rgb = _core.render(scene, camera, _core.DirectionalLight(sun_azimuth, 30.0, 1361.0, 0.533),
+                           _core.RenderSettings(bounces=0))["rgb"]
         top = float(ground.height(np.array([xy[0]]), np.array([xy[1]]))[0])
         u = size / 2 + f * (xy[0] - centre[0]) / (centre[2] - top)
         v = size / 2 - f * (xy[1] - centre[1]) / (centre[2] - top)

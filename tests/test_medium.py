@@ -95,7 +95,8 @@ def test_a_strided_march_matches_the_closed_form_and_the_full_march():
     out = {}
     for stride in (1, 4):
         medium = _core.Medium([[*centre, sigma, peak]], albedo=(0, 0, 0), voxel_m=0.005, march_stride_px=stride)
-        out[stride] = _core.render(scene, camera, sun, medium=medium, threads=2)["rgb"][..., 0] / clear
+        out[stride] = _core.render(scene, camera, sun, _core.RenderSettings(threads=2),
+                                   medium=medium)["rgb"][..., 0] / clear
     K_inv = np.linalg.inv(np.array([[f, 0, w / 2], [0, f, h / 2], [0, 0, 1]]))
     az, el = np.radians(30.0), np.radians(60.0)
     to_sun = np.array([np.sin(az) * np.cos(el), np.cos(az) * np.cos(el), np.sin(el)])
@@ -116,9 +117,9 @@ def test_a_strided_march_matches_the_closed_form_and_the_full_march():
 def test_a_medium_without_puffs_is_no_medium():
     scene, camera = wall_scene(), down_camera()
     sun = _core.DirectionalLight(30.0, 40.0, 1000.0, 0.533)
-    kwargs = dict(spp=2, seed=3, light_samples=2, bounces=1)
-    plain = _core.render(scene, camera, sun, **kwargs)
-    empty = _core.render(scene, camera, sun, medium=_core.Medium(np.zeros((0, 5))), **kwargs)
+    settings = _core.RenderSettings(spp=2, seed=3, light_samples=2, bounces=1)
+    plain = _core.render(scene, camera, sun, settings)
+    empty = _core.render(scene, camera, sun, settings, medium=_core.Medium(np.zeros((0, 5))))
     for key in ("rgb", "depth", "instance"):
         assert plain[key].tobytes() == empty[key].tobytes()
     assert plain["medium_rays"] == empty["medium_rays"] == 0
@@ -134,8 +135,8 @@ def test_dust_renders_the_same_on_one_and_two_threads_and_stays_finite_in_hard_c
         sun = _core.DirectionalLight(120.0, elevation, 1361.0, 0.533)
         for stride in (1, 4):
             medium = _core.Medium(shifted, voxel_m=0.1, floor_z=offset[2] - 0.5, march_stride_px=stride)
-            one = _core.render(scene, camera, sun, spp=2, seed=9, threads=1, medium=medium)
-            two = _core.render(scene, camera, sun, spp=2, seed=9, threads=2, medium=medium)
+            one = _core.render(scene, camera, sun, _core.RenderSettings(spp=2, seed=9, threads=1), medium=medium)
+            two = _core.render(scene, camera, sun, _core.RenderSettings(spp=2, seed=9, threads=2), medium=medium)
             assert one["rgb"].tobytes() == two["rgb"].tobytes()
             assert np.isfinite(one["rgb"]).all() and (one["rgb"] >= 0).all()
             assert one["medium_rays"] > 0

@@ -91,7 +91,8 @@ def test_outputs_identical_for_one_and_two_threads():
     scene, _ = ground_and_box()
     K = K_for(W, H, 70.0)
     cam = camera(K, W, H, orbit_pose(np.array([0, 0, 0.2]), 1.0, 0.5, 40.0))
-    runs = [_core.render(scene, cam, _core.DirectionalLight(120, 12), spp=8, seed=5, threads=n) for n in (1, 2)]
+    runs = [_core.render(scene, cam, _core.DirectionalLight(120, 12),
+                         _core.RenderSettings(spp=8, seed=5, threads=n)) for n in (1, 2)]
     for name in ("rgb", "depth", "instance"):
         assert runs[0][name].tobytes() == runs[1][name].tobytes(), name
 
@@ -103,15 +104,16 @@ def test_only_requested_passes_cost_rays():
     scene, _ = ground_and_box()
     builds = scene.bvh_builds
     cam = camera(K_for(W, H, 70.0), W, H, orbit_pose(np.array([0, 0, 0.2]), 1.0, 0.5, 40.0))
-    geometry = _core.render(scene, cam, _core.DirectionalLight(120, 12), spp=4, passes=["depth", "instance"])
+    geometry = _core.render(scene, cam, _core.DirectionalLight(120, 12), _core.RenderSettings(spp=4),
+                            passes=["depth", "instance"])
     assert set(geometry) >= {"depth", "instance"} and "rgb" not in geometry
     assert geometry["camera_rays"] == W * H and geometry["shadow_rays"] == 0
-    full = _core.render(scene, cam, _core.DirectionalLight(120, 12), spp=4)
+    full = _core.render(scene, cam, _core.DirectionalLight(120, 12), _core.RenderSettings(spp=4))
     assert full["camera_rays"] == W * H * (1 + 4)
     assert 0 < full["shadow_rays"] <= W * H * 4
     # Sun below the horizon: the ground faces away (no ray), the box's vertical faces still face
     # it and trace a shadow ray, which the ground blocks. The image is black.
-    night = _core.render(scene, cam, _core.DirectionalLight(120, -5), spp=4)
+    night = _core.render(scene, cam, _core.DirectionalLight(120, -5), _core.RenderSettings(spp=4))
     assert night["shadow_rays"] < full["shadow_rays"] / 4 and not night["rgb"].any()
     assert scene.bvh_builds == builds
 
@@ -141,7 +143,7 @@ def test_camera_straight_above_is_stable():
         pose = orbit_pose(np.array([0.0, 0.0, 0.2]), 0.0, 1.0, azimuth)
         np.testing.assert_allclose(pose.R @ pose.R.T, np.eye(3), atol=1e-15)
         assert np.linalg.det(pose.R) == pytest.approx(1.0, abs=1e-15)
-        out = _core.render(scene, camera(K, W, H, pose), _core.DirectionalLight(120, 12), spp=2)
+        out = _core.render(scene, camera(K, W, H, pose), _core.DirectionalLight(120, 12), _core.RenderSettings(spp=2))
         assert np.isfinite(out["rgb"]).all()
         assert out["instance"][H // 2, W // 2] == 1
         assert out["depth"][H // 2, W // 2] == pytest.approx(1.0 - 0.2, rel=1e-6)
@@ -156,7 +158,8 @@ def test_grazing_sun_on_a_plane_has_no_acne(elevation):
     scene.commit()
     K = K_for(W, H, 70.0)
     pose = orbit_pose(np.zeros(3), 3.0, 1.0, 10.0)
-    out = _core.render(scene, camera(K, W, H, pose), _core.DirectionalLight(190, elevation), spp=4)
+    out = _core.render(scene, camera(K, W, H, pose), _core.DirectionalLight(190, elevation),
+                       _core.RenderSettings(spp=4))
     hit = out["depth"] > 0
     expected = 0.12 / np.pi * 1361 * np.sin(np.radians(elevation))
     np.testing.assert_allclose(out["rgb"][hit], expected, rtol=1e-5)
@@ -219,8 +222,8 @@ def test_exact_depth_holds_far_from_the_origin(offset):
     t = (n @ (world[:3, 3] - pose.center)) / (d @ n)
     errors = {}
     for exact in (True, False):
-        out = _core.render(scene, camera(K, W, H, pose), _core.DirectionalLight(0, 45), passes=["depth"],
-                           exact_depth=exact)
+        out = _core.render(scene, camera(K, W, H, pose), _core.DirectionalLight(0, 45),
+                           _core.RenderSettings(exact_depth=exact), passes=["depth"])
         hit = out["depth"] > 0
         assert hit.mean() > 0.9
         errors[exact] = np.max(np.abs(out["depth"][hit] - t[hit]) / t[hit])
@@ -240,7 +243,7 @@ def test_embree_limit_probe_traces_the_renderers_rays():
     assert limit["camera_rays"] == rendered["camera_rays"] == W * H
     assert limit["shadow_rays"] == rendered["shadow_rays"] > 0
     first, second = limit["bounce_rays"]
-    bounced = _core.render(scene, cam, sun, bounces=1)
+    bounced = _core.render(scene, cam, sun, _core.RenderSettings(bounces=1))
     assert first == bounced["bounce_rays"] == np.count_nonzero(bounced["depth"] > 0)
     # The bounce vertices' shadow rays are told apart from the camera hits'.
     assert rendered["bounce_shadow_rays"] == 0

@@ -281,7 +281,8 @@ def test_the_core_scales_each_channel_by_a_vertex_colour(woven):
         scene.add_instance(mesh, np.eye(4), 1, (0.6, 0.6, 0.6),
                            woven=_core.WovenSurface(metres_per_uv=10.0) if woven else None)
         scene.commit()
-        images.append(_core.render(scene, view, sun, spp=1, light_samples=1, seed=1, bounces=0)["rgb"])
+        images.append(_core.render(scene, view, sun,
+                                   _core.RenderSettings(spp=1, light_samples=1, seed=1, bounces=0))["rgb"])
     assert images[0].min() > 0
     np.testing.assert_allclose(images[1], images[0] * colour, rtol=1e-5)
     with pytest.raises(ValueError, match="vertex_albedo"):

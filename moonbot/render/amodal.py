@@ -147,8 +147,8 @@ def render_amodal_masks(scenes: AmodalScenes, K: np.ndarray, pose: CameraPose, w
         if window is not None:
             x0, y0, x1, y1 = window
             camera = _core.Camera(fx, fy, cx - x0, cy - y0, x1 - x0, y1 - y0, pose.R, pose.t)
-            out = _core.render(bag.scene, camera, None, passes=["instance"], threads=threads,
-                               exact_depth=False)
+            out = _core.render(bag.scene, camera, None, _core.RenderSettings(threads=threads, exact_depth=False),
+                               passes=["instance"])
             hit = out["instance"] == bag.instance_id
             rays = int(out["camera_rays"])
             count = int(np.count_nonzero(hit))

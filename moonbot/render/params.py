@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from moonbot import _core
-from moonbot.config.schema import CloudConfig, EjectaConfig, FabricConfig, GrainConfig, PhotometryConfig, StainConfig
+from moonbot.config.schema import (CloudConfig, EjectaConfig, FabricConfig, GrainConfig, PhotometryConfig,
+                                   RenderConfig, StainConfig)
 
 
 def photometry(config: PhotometryConfig) -> _core.Photometry:
@@ -66,3 +67,20 @@ def medium(config: CloudConfig, puffs: np.ndarray, floor_z: float) -> _core.Medi
     (moonbot/medium.h), none of it below `floor_z` (world metres)."""
     return _core.Medium(puffs=puffs, albedo=config.albedo, asymmetry=config.asymmetry, voxel_m=config.voxel_m,
                         floor_z=floor_z, march_stride_px=config.march_stride_px)
+
+
+def render_settings(config: RenderConfig, seed: int) -> _core.RenderSettings:
+    """A view's render quality and threads (moonbot/render.h), its samples keyed by `seed`;
+    adaptive anti-aliasing's samples as config.refinement_spp resolves them (0 = off)."""
+    return _core.RenderSettings(
+        spp=config.spp, seed=seed, threads=config.threads, exact_depth=config.exact_depth,
+        light_samples=config.light_samples, bounces=config.bounces, adaptive_spp=config.refinement_spp,
+        adaptive_threshold=config.adaptive_threshold)
+
+
+def light_cache_settings(config: RenderConfig, seed: int) -> _core.LightCacheSettings:
+    """How the task's light cache gathers (moonbot/light_cache.h), keyed by `seed` (the dataset's)."""
+    return _core.LightCacheSettings(
+        bounces=config.bounces, rays_objects=config.cache_rays_bags, rays_background=config.cache_rays_terrain,
+        background_cell_m=config.cache_terrain_cell_m, object_cell_m=config.cache_bag_cell_m, seed=seed,
+        threads=config.threads)

@@ -109,10 +109,7 @@ def build_light_cache(scene: _core.Scene, config: Config) -> _core.LightCache | 
     if r.indirect != "cache" or r.bounces == 0:
         return None
     sun, earth = scene_lights(config)
-    return _core.LightCache(scene, sun, earth, bounces=r.bounces, rays_objects=r.cache_rays_bags,
-                            rays_background=r.cache_rays_terrain, background_cell_m=r.cache_terrain_cell_m,
-                            object_cell_m=r.cache_bag_cell_m,
-                            seed=config.seed, threads=r.threads)
+    return _core.LightCache(scene, sun, earth, params.light_cache_settings(r, config.seed))
 
 
 def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraPose,
@@ -126,11 +123,8 @@ def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraP
                           config.camera.height, pose.R, pose.t)
     sun, earth = scene_lights(config)
     start = time.perf_counter()
-    out = _core.render(scene, camera, sun, spp=config.render.spp, seed=seed,
-                       threads=config.render.threads, exact_depth=config.render.exact_depth,
-                       light_samples=config.render.light_samples, bounces=config.render.bounces, earth=earth,
-                       medium=medium, light_cache=light_cache, adaptive_spp=config.render.refinement_spp,
-                       adaptive_threshold=config.render.adaptive_threshold)
+    out = _core.render(scene, camera, sun, params.render_settings(config.render, seed), earth=earth, medium=medium,
+                       light_cache=light_cache)
     stats = {"camera_rays": out["camera_rays"], "second_look_rays": out["second_look_rays"],
              "shadow_rays": out["shadow_rays"], "bounce_shadow_rays": out["bounce_shadow_rays"],
              "bounce_rays": out["bounce_rays"], "medium_rays": out["medium_rays"],
