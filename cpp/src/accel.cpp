@@ -1,6 +1,6 @@
 #include "moonbot/accel.h"
 
-#include "rays.h"
+#include "orthonormal_basis.h"
 
 #include <embree3/rtcore.h>
 
