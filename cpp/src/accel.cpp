@@ -42,30 +42,22 @@ namespace {
 // performance reference measured as fastest on AVX2 (reference/performance-limits.md).
 constexpr size_t kStream = 64;
 
-// Embree's packet entry points by width, so one template serves 8 and 16.
+// Embree's packet types and entry points by width, so one template serves 8 and 16.
 template <int W>
 struct PacketCalls;
 template <>
 struct PacketCalls<8> {
     using RayHitW = RTCRayHit8;
     using RayW = RTCRay8;
-    static void intersect(const int* valid, RTCScene s, RTCIntersectContext* c, RTCRayHit8* r) {
-        rtcIntersect8(valid, s, c, r);
-    }
-    static void occluded(const int* valid, RTCScene s, RTCIntersectContext* c, RTCRay8* r) {
-        rtcOccluded8(valid, s, c, r);
-    }
+    static constexpr auto intersect = rtcIntersect8;
+    static constexpr auto occluded = rtcOccluded8;
 };
 template <>
 struct PacketCalls<16> {
     using RayHitW = RTCRayHit16;
     using RayW = RTCRay16;
-    static void intersect(const int* valid, RTCScene s, RTCIntersectContext* c, RTCRayHit16* r) {
-        rtcIntersect16(valid, s, c, r);
-    }
-    static void occluded(const int* valid, RTCScene s, RTCIntersectContext* c, RTCRay16* r) {
-        rtcOccluded16(valid, s, c, r);
-    }
+    static constexpr auto intersect = rtcIntersect16;
+    static constexpr auto occluded = rtcOccluded16;
 };
 
 /// Embree's valid mask for a packet whose first `active` lanes carry rays: -1 on, 0 off.
