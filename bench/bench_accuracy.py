@@ -75,13 +75,13 @@ from pathlib import Path
 import numpy as np
 
 from moonbot import _core
+from moonbot.charts import time_error_plot
 from moonbot.config import config_hash, load_config
 from moonbot.render import SceneDust, build_light_cache, build_scene, exposure_scale, render_view
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
 from moonbot.scene.orbit import orbit_height, pixel_directions
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
-from svgplot import time_error_plot
 
 RESULTS = Path(__file__).resolve().parent / "results"
 SCHEMA_VERSION = 2  # 2: the adaptive curve (rows with knob "adaptive" carry regions)

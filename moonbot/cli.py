@@ -345,10 +345,11 @@ def merge(out_dir: Path, dataset_dir: Path | None, config_path: Path | None, lin
     merged and they are listed), 1 when nothing could be merged (the previous dataset is kept)."""
     from moonbot.bop.merge import EXIT_INCOMPLETE, MergeError, merge_dataset
     from moonbot.config import ConfigError, load_config
+    from moonbot.yolo.export import write_yolo
 
     try:
         config = load_config(config_path) if config_path is not None else None
-        report = merge_dataset(out_dir, dataset_dir, config, link=link, workers=workers)
+        report = merge_dataset(out_dir, dataset_dir, config, link=link, workers=workers, exporters=(write_yolo,))
     except (ConfigError, MergeError, OSError) as e:
         raise click.ClickException(str(e)) from None
     click.echo(f"merged {report.tasks} tasks: {report.scenes} scenes, {report.images} images, "
@@ -629,9 +630,10 @@ def evaluate(dataset: Path, results_path: Path, split: str, out_dir: Path | None
     ADD, ADD-S, translation error, recall at 10/20 % of the diameter and ADD-S AUC per condition
     (mesh, location, stain, dust) and per visible-pixel bin. Writes table3/table4 .txt and .csv,
     per_instance.csv and two PNG plots, and prints both tables. Definitions, matching and
-    exclusions: moonbot/eval/report.py."""
+    exclusions: moonbot/eval/matching.py."""
     from moonbot.bop.reader import DatasetError
-    from moonbot.eval.report import EvalError, run_eval, unknown_message
+    from moonbot.eval.matching import EvalError, unknown_message
+    from moonbot.eval.report import run_eval
     from moonbot.eval.results import ResultsError
 
     try:

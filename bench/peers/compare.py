@@ -53,7 +53,7 @@ sys.path.insert(0, str(HERE.parent))
 from export_scene import export_scene, parity_config, parity_spec, view_camera  # noqa: E402
 from ladder_errors import at_error, rel_errors  # noqa: E402
 from fingerprint import machine, machine_slug  # noqa: E402
-from svgplot import time_error_plot  # noqa: E402
+from moonbot.charts import time_error_plot  # noqa: E402
 
 ROOT = HERE.parents[1]
 RESULTS = HERE.parent / "results"
