@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from moonbot import __version__
+from moonbot.config.schema import LOCATIONS, TEST_GROUNDS
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -30,7 +31,7 @@ def main() -> None:
               help="Directory to write into; one view_NNN/ folder per view.")
 @click.option("--set", "overrides", multiple=True, metavar="FIELD=VALUE",
               help="Override a config field, e.g. --set sun.elevation_deg=5 (YAML value).")
-@click.option("--location", type=click.Choice(["flat", "hilly", "crater", "dem", "plane", "slope"]),
+@click.option("--location", type=click.Choice(LOCATIONS + TEST_GROUNDS),
               help="Terrain location (shorthand for --set terrain.location=...).")
 @click.option("--dem", "dem_file", type=click.Path(dir_okay=False, path_type=Path),
               help="A LocalDem .npz from `moonbot terrain import`: render at that site "
@@ -226,7 +227,7 @@ def stats(out_dir: Path, reference_path: Path | None, reference_rate: float | No
 @main.command("plan")
 @click.argument("config_path", metavar="CONFIG", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--bench-record", type=click.Path(dir_okay=False, path_type=Path),
-              help="A generate benchmark record to estimate from (default: the one in bench/results/ of a "
+              help="A generate benchmark record to estimate from (default: the one in ./bench/results/ of a "
                    "machine with this CPU and core count, else another machine's).")
 def plan(config_path: Path, bench_record: Path | None) -> None:
     """Print CONFIG's sweep — scenes, tasks and samples per split — and the disk and time it will
