@@ -35,7 +35,8 @@ def test_two_renders_give_the_same_bytes(tmp_path):
 
 def test_text_stays_text_and_bars_scale_with_their_values():
     svg = bar_panels_svg("moonbot", PANELS)
-    assert {"moonbot", "throughput", "stages", "host-a", "host-b", "2 /s", "1.5 s", "render", "encode"} <= set(texts(svg))
+    expected = {"moonbot", "throughput", "stages", "host-a", "host-b", "2 /s", "1.5 s", "render", "encode"}
+    assert expected <= set(texts(svg))
     # The first panel's bars, in the first colour: host-a's is twice host-b's.
     fill = COLOURS[0]
     widths = []

@@ -105,10 +105,6 @@ class MergeReport:
         return not self.missing and not self.invalid
 
 
-# ---------------------------------------------------------------------------------------------
-# The dataset
-
-
 def _models(stage: Path, previous: Path, meshes: MeshesConfig, entries: dict) -> bool:
     """models/ and models_eval/ (each with models_info.json) for the three variants of `meshes`:
     copied from the `previous` dataset when its dataset_info.json has the same meshes_hash and its
@@ -177,10 +173,10 @@ def merge_dataset(out_dir: Path, dataset_dir: Path | None = None, config: Config
     `link`: hard-link task files instead of copying them. `workers`: processes building scenes
     (default: one per core). Progress lines go to `progress` (None: silent). `exporters`: each
     called in turn with the complete staging dataset and its manifest entries (Exporter), to add
-    its files before the manifest is written. Raises MergeError
-    when nothing is complete or tasks contradict each other, OSError naming the file on I/O
-    failure; in both cases the previous dataset is left as it was. Temporaries of interrupted
-    merges beside the dataset are removed first (sweep_stale)."""
+    its files before the manifest is written. Raises MergeError when nothing is complete or tasks
+    contradict each other, OSError naming the file on I/O failure; in both cases the previous
+    dataset is left as it was. Temporaries of interrupted merges beside the dataset are removed
+    first (sweep_stale)."""
     start = time.perf_counter()
     out_dir = Path(out_dir)
     dataset_dir = Path(dataset_dir) if dataset_dir is not None else out_dir / "dataset"
@@ -241,6 +237,7 @@ def merge_dataset(out_dir: Path, dataset_dir: Path | None = None, config: Config
     return MergeReport(
         dataset=dataset_dir, splits=tuple(splits), scenes=len(outputs), tasks=info["tasks_merged"],
         images=info["images"], instances=sum(o.instances for o in outputs), missing=tuple(inventory.missing),
-        invalid=dict(sorted(inventory.invalid.items())), extra=tuple(inventory.extra), amodal_outside_px=info["amodal_outside_visible_px"],
+        invalid=dict(sorted(inventory.invalid.items())), extra=tuple(inventory.extra),
+        amodal_outside_px=info["amodal_outside_visible_px"],
         files=len(entries) + 1, bytes=manifest["total_bytes"] + len(manifest_bytes),
         seconds=time.perf_counter() - start, models_reused=models_reused)
