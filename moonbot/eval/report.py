@@ -625,7 +625,7 @@ def run_eval(dataset: Path, results_path: Path, split: str = "test", out_dir: Pa
     from moonbot.bop.reader import read_models, scenes as read_scenes
     from moonbot.eval import plots
     from moonbot.eval.results import read_results
-    from moonbot.writer.staging import atomic_write
+    from moonbot.atomic_io import atomic_write
 
     dataset, results_path = Path(dataset), Path(results_path)
     px_bins = check_bins(px_bins)
