@@ -47,7 +47,8 @@ STATS_RECORD = StatsRecord(
     stages_s={"render": 1.5, "encode_write": 0.5}, samples=2, rays={"camera_rays": 100}, bytes_written=4096,
     samples_per_s=0.8, other={"embree_isa": "avx2", "simd_flags": ["sse2", "avx2"]})
 DONE_RECORD = DoneRecord(task_id="train-s000002-t01", samples=2,
-                         files={"task.json": FileEntry(sha256=SHA, bytes=10), "view_000/gt.json": FileEntry(sha256=SHA)})
+                         files={"task.json": FileEntry(sha256=SHA, bytes=10),
+                                "view_000/gt.json": FileEntry(sha256=SHA)})
 
 # (file name, record, writer, reader)
 KINDS = [(GT, GT_RECORD, write_gt, read_gt), (TASK, TASK_RECORD, write_task, read_task),

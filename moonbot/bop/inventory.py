@@ -45,7 +45,7 @@ class TaskDir:
 
     @functools.cached_property
     def record(self) -> dict:
-        """task.json as the JSON object it holds."""
+        """task.json as the JSON object it holds: the values merge copies into the scene files."""
         return self.task.as_json()
 
 

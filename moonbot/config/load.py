@@ -157,9 +157,11 @@ KEEP_UNKNOWN = "keep_unknown"
 
 
 def from_mapping(cls: type, data: Any, path: str = "") -> Any:
-    """Build dataclass `cls` from a mapping, recursively, checking names, types and ranges. A
-    field without a default must be given; a key the dataclass does not declare is an error, or
-    kept in its KEEP_UNKNOWN field when it has one."""
+    """Build dataclass `cls` from a mapping, recursively, checking names, types and ranges (field
+    metadata: `lo`, `lo_open`, `hi`, and `length` for a tuple); ConfigError names the dotted field
+    path. A field without a default must be given; a key the dataclass does not declare is an
+    error, or kept in its KEEP_UNKNOWN field when it has one. Configs and the file records
+    (moonbot.records) are both read through it."""
     if not isinstance(data, dict):
         raise ConfigError(f"{path or 'config'}: must be a mapping, got {type(data).__name__}")
     where = f"{path}." if path else ""

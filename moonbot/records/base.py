@@ -19,8 +19,9 @@ from typing import Any, TypeVar
 from moonbot.atomic_io import atomic_write
 from moonbot.config.load import KEEP_UNKNOWN, ConfigError, from_mapping
 
-# The layout of every record file this moonbot writes. Version 1: the files as written before
-# they carried a schema_version (the same fields, without that one).
+# The layout of every record file this moonbot writes. Version 1 of task.json, gt.json,
+# stats.json and DONE.json: the files as written before they carried a schema_version; the
+# benchmark result has carried its own since its version 1 (moonbot.records.bench).
 SCHEMA_VERSION = 2
 
 R = TypeVar("R")
@@ -33,21 +34,21 @@ class RecordError(ValueError):
     (or a line of one) and the field path."""
 
 
-def decode(cls: type[R], data: Any, source: str, upgrades: Upgrades, current: int = SCHEMA_VERSION) -> R:
+def decode(cls: type[R], data: Any, source: str, upgrades: Upgrades) -> R:
     """The record `cls` from a parsed JSON value of `source` (a file name, or "file:line"):
-    brought from its schema_version (absent: 1) up to `current` by `upgrades`, then converted
-    field by field. RecordError naming `source` and the field path."""
+    brought from its schema_version (absent: 1) up to SCHEMA_VERSION by `upgrades`, then
+    converted field by field. RecordError naming `source` and the field path."""
     if not isinstance(data, dict):
         raise RecordError(f"{source}: expected a JSON object, got {type(data).__name__}")
     version = data.get("schema_version", 1)
     if isinstance(version, bool) or not isinstance(version, int):
         raise RecordError(f"{source}: schema_version: must be an integer, got {version!r}")
-    if version > current:
-        raise RecordError(f"{source}: schema_version: {version} is newer than this moonbot reads ({current}); "
-                          "update moonbot")
+    if version > SCHEMA_VERSION:
+        raise RecordError(f"{source}: schema_version: {version} is newer than this moonbot reads "
+                          f"({SCHEMA_VERSION}); update moonbot")
     if version < 1:
         raise RecordError(f"{source}: schema_version: must be at least 1, got {version}")
-    while version < current:
+    while version < SCHEMA_VERSION:
         data = upgrades[version](data)
         version += 1
     try:
