@@ -28,15 +28,17 @@ from pathlib import Path
 import dask
 from distributed import Client, LocalCluster, WorkerPlugin, as_completed, get_worker
 
+from moonbot.atomic_io import atomic_write
 from moonbot.bop.merge import merge_dataset
 from moonbot.config import Config, ConfigError, config_hash, load_config
 from moonbot.pipeline.heartbeat import Beat, Heartbeat, StallLimit, Watchdog, heartbeat_dir
 from moonbot.pipeline.placements import (TASK_PREFIX, layout_id, place_layout, placement_for, placement_path,
                                          read_record)
 from moonbot.pipeline.stats import collect
-from moonbot.pipeline.tasks import DONE, is_complete, run_task, sweep_temporaries, task_dir
-from moonbot.writer.staging import atomic_write
+from moonbot.pipeline.tasks import is_complete, run_task, sweep_temporaries, task_dir
+from moonbot.records.done import DONE, read_done
 from moonbot.sweep import Task, task_config, tasks
+from moonbot.yolo.export import write_yolo
 
 # A worker's death counts against the tasks it held; a few deaths of one task are the cluster's
 # fault (preemption, the out-of-memory killer), more are the task's (dask-distribution.md §1.4).
@@ -106,7 +108,7 @@ def _run_on_worker(config: Config, task: Task, out_dir: str, threads: int | None
     finally:
         heartbeat.close()
     return {"task_id": outcome.task_id, "skipped": outcome.skipped, "samples": outcome.samples,
-            "seconds": outcome.stats["wall_s"] if outcome.stats else 0.0,
+            "seconds": outcome.stats.wall_s if outcome.stats else 0.0,
             "longest_stage_s": heartbeat.longest_stage_s}
 
 
@@ -214,7 +216,7 @@ def generate(config: Config | str | Path | None, out_dir: Path, *, client: Clien
     if result.rendered or result.complete_before:
         collect(out_dir)
         if merge:
-            result.merge = merge_dataset(out_dir, config=config, progress=progress)
+            result.merge = merge_dataset(out_dir, config=config, progress=progress, exporters=(write_yolo,))
     result.seconds = time.perf_counter() - start
     return result
 
@@ -379,7 +381,7 @@ class SweepWatch:
             # It finished, but its small result went with a worker that died before the driver
             # read it (the future is "lost"), or is held by a worker that does not answer: the
             # task's directory is the record of what it did.
-            self.result.samples += json.loads((directory / DONE).read_text())["samples"]
+            self.result.samples += read_done(directory / DONE).samples
             self.result.rendered += 1
         elif future.status != "error":
             self.result.failed[task_id] = f"its future ended {future.status!r} without an error or a finished task"

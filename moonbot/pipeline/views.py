@@ -13,13 +13,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from moonbot import __version__
+from moonbot.atomic_io import staged_directory
 from moonbot.config import Config, config_hash
 from moonbot.render import SceneDust, build_light_cache, build_scene, render_view, resolve_exposure
 from moonbot.render.amodal import build_amodal_scenes, render_amodal_masks
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
 from moonbot.scene.orbit import orbit_height
 from moonbot.scene.placement import Placement
-from moonbot.writer import staged_directory, write_sample
+from moonbot.writer import write_sample
 
 
 @dataclass(frozen=True)
@@ -159,8 +160,8 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
             cache_record = {"vertices_filled": cache_after["vertices"] - cache_before["vertices"],
                             "fill_thread_s": cache_after["fill_seconds"] - cache_before["fill_seconds"],
                             "bytes": cache_after["bytes"]}
-        pixels = {i["instance_id"]: i["px_count_visib"] for i in gt["instances"]}
-        results.append(ViewResult(v, out_dir, gt["timings_s"], rays, pixels, meta.get("dust"), cache_record))
+        pixels = {i.instance_id: i.px_count_visib for i in gt.instances}
+        results.append(ViewResult(v, out_dir, gt.timings_s, rays, pixels, meta.get("dust"), cache_record))
         terrain_s = compose_s = build_s = amodal_build_s = 0.0  # paid once, by the first view
         settle_s = None if settle_s is None else 0.0
     return results
