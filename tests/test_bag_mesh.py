@@ -182,7 +182,9 @@ def test_folded_ends_gather_the_cross_section():
 
 def _symmetric_under(v, R, tolerance=1e-6):
     """Fraction of vertices that the rotation R maps onto some vertex of the mesh."""
-    key = lambda a: {tuple(p) for p in np.round(a / tolerance).astype(np.int64)}
+    def key(a):
+        return {tuple(p) for p in np.round(a / tolerance).astype(np.int64)}
+
     original = key(v.astype(np.float64))
     rotated = np.round((v.astype(np.float64) @ R.T) / tolerance).astype(np.int64)
     return np.mean([tuple(p) in original for p in rotated])

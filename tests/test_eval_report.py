@@ -229,7 +229,7 @@ def test_min_visib_fract_leaves_instances_out(split, models):
 
 def test_adds_in_the_model_frame_equals_metrics_adds(models):
     rng = np.random.default_rng(3)
-    for obj_id, full in models.items():
+    for full in models.values():
         model = replace(full, vertices=full.vertices[::20])  # the identity holds for any point set; fast
         mp = ModelPoints(model)
         for _ in range(2):

@@ -239,7 +239,7 @@ def test_poses_project_into_the_boxes(dataset):
 def test_gt_info_fields_and_scene_meta(dataset):
     for scene in (TRAIN, TEST):
         info = load(dataset / scene / "scene_gt_info.json")
-        for im, entries in info.items():
+        for entries in info.values():
             for e in entries:
                 assert set(e) == {"bbox_obj", "bbox_visib", "px_count_all", "px_count_valid", "px_count_visib",
                                   "visib_fract"}
@@ -505,7 +505,7 @@ def test_malformed_task_json_names_the_field(sweep, dataset, tmp_path):
     record["scene_id"] = "zero"
     rewrite(copy / "tasks" / bad, "task.json", json.dumps(record).encode())
     report = merge_dataset(copy, workers=1, progress=None)
-    assert f"task.json: field 'scene_id' must be an integer, got 'zero'" in report.invalid[bad]
+    assert "task.json: field 'scene_id' must be an integer, got 'zero'" in report.invalid[bad]
 
 
 def test_contradicting_tasks_stop_the_merge_and_keep_the_dataset(sweep, dataset, tmp_path):

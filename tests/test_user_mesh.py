@@ -157,7 +157,7 @@ def test_unit_and_up_axis_are_exact(tmp_path):
     # The U's opening points up (+z): the top middle cell is empty.
     assert winding_number(np.array([[0.0, 0.0, 0.1], [0.0, 0.0, -0.1]]), mesh.vertices, mesh.triangles).round(6).tolist() \
         == [0.0, 1.0]
-    for axis, image in (("+x", [0, 0, 1]), ("-x", [0, 0, -1]), ("+y", [0, -1, 0]), ("-y", [0, 1, 0]),
+    for axis, _image in (("+x", [0, 0, 1]), ("-x", [0, 0, -1]), ("+y", [0, -1, 0]), ("-y", [0, 1, 0]),
                         ("+z", [1, 0, 0]), ("-z", [1, 0, 0])):
         R = up_rotation(axis)
         sign, k = (1.0 if axis[0] == "+" else -1.0), "xyz".index(axis[1])
