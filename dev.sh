@@ -8,6 +8,11 @@
 #   ./dev.sh test      setup, then lint, C++ tests (ctest: release, then ASan+UBSan), pytest,
 #                      `moonbot generate configs/smoke.yaml` into build/smoke, and validate,
 #                      baseline and eval on that dataset; every stage time-bounded (below)
+#                      (options go to pytest: ./dev.sh test -m unit). Every test is marked
+#                      (pyproject.toml; `.venv/bin/python -m pytest -m unit` runs one kind alone):
+#                        unit         in-process and quick: a function, a render, a command
+#                        integration  generate or merge over real workers (a Dask cluster), SLURM
+#                        slow         besides: the minutes-long sweeps on a real cluster
 #   ./dev.sh lint      setup, then ruff's lint, and the format checks: import order, `ruff format`,
 #                      clang-format over cpp/ (pyproject.toml and .clang-format configure them)
 #   ./dev.sh format    setup, then sort imports and format the Python and C++ code in place
@@ -199,7 +204,7 @@ case "${1:-}" in
         "$VENV/bin/moonbot" bench throughput "${@:2}"
         ;;
     *)
-        sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'
+        sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//'
         exit 2
         ;;
 esac

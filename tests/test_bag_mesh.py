@@ -13,6 +13,8 @@ import pytest
 
 from moonbot.scene.bag_mesh import FOLDED, SEAMED, BagShape, filled_cuboid, folded_cuboid, seamed_cuboid
 
+pytestmark = pytest.mark.unit
+
 # The unsettled, unwrinkled pillow of the first bodies: the exact-volume tests below hold for it.
 PLAIN = dict(sag_m=0.0, belly_m=0.0, belly_height=0.0, flat_bottom=False, crease_depth_m=0.0, pucker_depth_m=0.0)
 

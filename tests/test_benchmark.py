@@ -21,6 +21,8 @@ from moonbot.benchmark.throughput import DEFAULT_CONFIG, SCHEMA_VERSION, scaling
 from moonbot.cli import main
 from moonbot.config.schema import RenderConfig
 
+pytestmark = pytest.mark.unit
+
 OLD_RESULT = Path(__file__).resolve().parent / "data" / "throughput-result-v1.json"
 TINY = ["camera.width=64", "camera.height=48", "orbit.views=1", "bags.settle.enabled=false",
         "terrain.extent_m=30", "terrain.detail_m=0.05", "terrain.detail_extent_m=1.0", "dust.cloud.voxel_m=0.1"]

@@ -26,6 +26,8 @@ from moonbot.eval import Estimate, add, adds, match_greedy, read_results, write_
 from moonbot.eval.report import (ModelPoints, _Pairs, assign_greedy, check_bins, evaluate, table3, table4)
 from moonbot.eval.validate import ValidationReport, check_manifest
 
+pytestmark = pytest.mark.integration
+
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 TEST_SPLIT = {"name": "test", "meshes": ["sandbag-01", "sandbag-02", "sandbag-03"], "bag_counts": [2],
               "stain_seeds": [0, 15], "dust": [False, True], "sun_elevations_deg": [30.0],

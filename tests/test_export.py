@@ -41,7 +41,10 @@ from moonbot.sweep import tasks
 from test_merge import SWEEP
 
 # pycocotools' compiled decoder (2.0.11) calls a NumPy-1 style __array__ that NumPy 2 warns about.
-pytestmark = pytest.mark.filterwarnings("ignore:__array__ implementation doesn't accept a copy keyword:DeprecationWarning")
+pytestmark = [
+    pytest.mark.integration,
+    pytest.mark.filterwarnings("ignore:__array__ implementation doesn't accept a copy keyword:DeprecationWarning"),
+]
 
 
 @pytest.fixture(scope="module")

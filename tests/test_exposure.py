@@ -20,6 +20,8 @@ from moonbot.render.exposure import (AUTO_MIN_ELEVATION_DEG, EV100_MIN, LUMINOUS
 from moonbot.scene.orbit import CameraPose
 from moonbot.writer import RADIANCE_UNIT, finite_radiance, write_sample
 
+pytestmark = pytest.mark.unit
+
 
 def grey(values) -> np.ndarray:
     """(1, N, 3) float32 grey pixels of the given radiances."""

@@ -29,6 +29,8 @@ from moonbot.pipeline.heartbeat import DEBUG_HANG_ENV, HEARTBEAT_DIR, Heartbeat,
 from moonbot.pipeline.tasks import DONE, is_complete, verify_task
 from moonbot.sweep import tasks
 
+pytestmark = pytest.mark.integration
+
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 DATA_FILES = ("rgb.png", "depth.png", "depth.npy", "mask.png")
 

@@ -14,6 +14,8 @@ from moonbot.pipeline.heartbeat import (DEBUG_HANG_ENV, HEARTBEAT_DIR, RENDER_BU
                                         STALL_FACTOR, STALL_FLOOR_S, Heartbeat, StallLimit, Watchdog,
                                         debug_hang_stage, default_floor_s)
 
+pytestmark = pytest.mark.unit
+
 
 def test_the_default_limit_is_the_floor_the_render_budget_or_the_slowest_stage_times_the_factor():
     default = load_config()  # 640 x 480 at 4 spp: 1.2288 million samples a view, 74 s of budget

@@ -35,6 +35,8 @@ from moonbot.sweep import tasks
 
 from masks import raster
 
+pytestmark = pytest.mark.integration
+
 SWEEP = """
 seed: 3
 camera: {width: 64, height: 48}

@@ -13,6 +13,8 @@ import numpy as np
 import pytest
 import trimesh
 
+pytestmark = pytest.mark.unit
+
 PEERS = Path(__file__).resolve().parents[1] / "bench" / "peers"
 sys.path.insert(0, str(PEERS))
 

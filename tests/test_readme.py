@@ -9,8 +9,11 @@ import tomllib
 from pathlib import Path
 
 import click
+import pytest
 
 from moonbot.cli import main
+
+pytestmark = pytest.mark.unit
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()

@@ -31,6 +31,8 @@ from moonbot.scene.convex_parts import convex_parts, hull_volume
 from moonbot.scene.user_mesh import load_user_mesh, signed_volume, srgb_to_linear, up_rotation
 from moonbot.sweep.tasks import task_config, tasks
 
+pytestmark = pytest.mark.integration
+
 PUBLIC = Path(os.environ.get("MOONBOT_PUBLIC_MESHES", Path(__file__).parent / "data" / "meshes" / "public"))
 
 
