@@ -75,13 +75,14 @@ from pathlib import Path
 import numpy as np
 
 from moonbot import _core
+from moonbot.charts import time_error_plot
 from moonbot.config import config_hash, load_config
 from moonbot.render import SceneDust, build_light_cache, build_scene, exposure_scale, render_view
+from moonbot.render.view import scene_lights
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
 from moonbot.scene.orbit import orbit_height, pixel_directions
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
-from svgplot import time_error_plot
 
 RESULTS = Path(__file__).resolve().parent / "results"
 SCHEMA_VERSION = 2  # 2: the adaptive curve (rows with knob "adaptive" carry regions)
@@ -163,8 +164,7 @@ def sun_visibility(config, scene, spec, depth: np.ndarray) -> np.ndarray:
     distance = depth[hit] * np.linalg.norm(dirs[hit], axis=1)
     origins = points + back * (1e-4 * distance + 1e-4)[:, None]
     s = config.sun
-    to_sun = np.asarray(_core.Sun(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2,
-                                  s.angular_diameter_deg).direction, dtype=np.float64)
+    to_sun = np.asarray(scene_lights(config)[0].direction, dtype=np.float64)
     a = np.cross(to_sun, [0.0, 0.0, 1.0] if abs(to_sun[2]) < 0.9 else [1.0, 0.0, 0.0])
     a /= np.linalg.norm(a)
     b = np.cross(to_sun, a)

@@ -27,10 +27,10 @@ import numpy as np
 
 from moonbot.baseline import ModelCloud, Settings, estimate_pose
 from moonbot.bop.reader import read_models, scenes
-from moonbot.eval.report import ModelPoints
+from moonbot.charts import time_error_plot
+from moonbot.eval.matching import ModelPoints
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
-from svgplot import time_error_plot
 
 RESULTS = Path(__file__).resolve().parent / "results"
 LEVELS = {

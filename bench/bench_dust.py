@@ -24,12 +24,12 @@ from pathlib import Path
 import numpy as np
 
 from moonbot import _core
+from moonbot.charts import time_error_plot
 from moonbot.config import load_config
 from moonbot.render import build_scene
 from moonbot.scene import compose_scene
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
-from svgplot import time_error_plot
 from timing import timed
 
 RESULTS = Path(__file__).resolve().parent / "results"

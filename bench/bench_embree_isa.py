@@ -38,9 +38,8 @@ from moonbot.config import load_config
 from moonbot.eval.validate import depth_holes
 from moonbot.pipeline.views import view_seed
 from moonbot.render import SceneDust
-from moonbot.render.view import build_scene, render_view
-from moonbot.scene import compose_scene, intrinsics, orbit_pose
-from moonbot.scene.orbit import orbit_height
+from moonbot.render.view import build_scene, orbit_view, render_view, view_inputs
+from moonbot.scene import compose_scene
 from moonbot.sweep import task_config, tasks
 
 from fingerprint import library_versions, machine, machine_slug  # bench/ is on sys.path when run as a script
@@ -58,12 +57,6 @@ def variants() -> list[tuple[str, bool]]:
     return [(isa, True) for isa in isas] + [(isa, False) for isa in dict.fromkeys(plain)]
 
 
-def view0(config, spec):
-    azimuth = config.orbit.start_azimuth_deg
-    height = orbit_height(spec.target, config.orbit.radius_m, config.orbit.height_m, azimuth, spec.ground)
-    return intrinsics(config.camera), orbit_pose(spec.target, config.orbit.radius_m, height, azimuth)
-
-
 def speed(repeats: int, threads: int) -> list[dict]:
     config = level_config(CONFIG, "default", {})
     rows = []
@@ -73,7 +66,7 @@ def speed(repeats: int, threads: int) -> list[dict]:
                                                                                                enabled=False)),
                                 render=dataclasses.replace(c.render, threads=threads))
         spec = compose_scene(c)
-        K, pose = view0(c, spec)
+        K, pose = orbit_view(c, spec, 0)
         seed = view_seed(c.seed, 0)
         built = {}
         for isa, watertight in variants():
@@ -118,20 +111,15 @@ def leak_counts() -> dict:
     out = {}
     big = load_config(None, {"camera.width": 4096, "camera.height": 3072})
     spec = compose_scene(big)
-    K, pose = view0(big, spec)
-    cameras = [(K, pose.R, _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], 4096, 3072, pose.R, pose.t))]
+    view = view_inputs(big, spec, 0)
+    cameras = [(view.K, view.pose.R, view.camera)]
     out["default_4096x3072"] = compare_watertight(spec, cameras)
     for location in ("flat", "hilly"):
         c = load_config(None, {"terrain.location": location, "bags.count": 5, "bags.layout": "scattered",
                                "camera.width": 640, "camera.height": 480})
         spec = compose_scene(c)
-        K = intrinsics(c.camera)
-        cameras = []
-        for v in range(c.orbit.views):
-            azimuth = c.orbit.start_azimuth_deg + v * c.orbit.step_deg
-            height = orbit_height(spec.target, c.orbit.radius_m, c.orbit.height_m, azimuth, spec.ground)
-            pose = orbit_pose(spec.target, c.orbit.radius_m, height, azimuth)
-            cameras.append((K, pose.R, _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], 640, 480, pose.R, pose.t)))
+        views = [view_inputs(c, spec, v) for v in range(c.orbit.views)]
+        cameras = [(view.K, view.pose.R, view.camera) for view in views]
         out[f"{location}_5_bags_36_views_640x480"] = compare_watertight(spec, cameras)
     for name, counts in out.items():
         print(f"{name:<32} {counts}", flush=True)

@@ -27,12 +27,13 @@ from pathlib import Path
 import numpy as np
 
 from moonbot import _core
+from moonbot.charts import time_error_plot
 from moonbot.config import load_config
 from moonbot.render import build_scene
+from moonbot.render.view import core_camera
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
-from svgplot import time_error_plot
 from timing import timed
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -55,8 +56,7 @@ def main() -> int:
     origin[2] = float(spec.ground.height(origin[0], origin[1]))
     K = intrinsics(config.camera)
     pose = orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, config.orbit.start_azimuth_deg)
-    camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], config.camera.width, config.camera.height,
-                          pose.R, pose.t)
+    camera = core_camera(K, config.camera.width, config.camera.height, pose)
     sun = _core.Sun(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2, 0.0)
 
     def render(medium):

@@ -30,6 +30,7 @@ from moonbot import _core
 from moonbot.config import load_config
 from moonbot.pipeline import run_views
 from moonbot.render import build_scene, exposure_scale
+from moonbot.render.view import core_camera
 from moonbot.scene import compose_scene, intrinsics, orbit_pose, pixel_directions
 from moonbot.scene.bag_mesh import variant_mesh
 from moonbot.terrain.ground import flat_patch
@@ -65,8 +66,7 @@ def default_view():
     scene = build_scene(spec)
     K = intrinsics(config.camera)
     pose = orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, 0.0)
-    camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], config.camera.width,
-                          config.camera.height, pose.R, pose.t)
+    camera = core_camera(K, config.camera.width, config.camera.height, pose)
     sun = _core.Sun(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2)
     return config, scene, camera, sun
 
@@ -109,7 +109,7 @@ def exact_depth_tradeoff(repeats: int, terrain) -> dict:
         plane_scene.add_background(plane_scene.add_mesh(*flat_patch(100.0)), world, (0.1,) * 3)
         plane_scene.commit()
         pose = orbit_pose(np.array([offset, offset, 0.0]), 1.0, 0.6, 30.0)
-        cam = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], w, h, pose.R, pose.t)
+        cam = core_camera(K, w, h, pose)
         d = pixel_directions(K, pose, w, h)
         n = world[:3, :3] @ np.array([0.0, 0.0, 1.0])
         t = (n @ (world[:3, 3] - pose.center)) / (d @ n)
@@ -158,8 +158,7 @@ def terrain_view():
     scene.commit()
     K = intrinsics(config.camera)
     pose = orbit_pose(world[:3, 3], config.orbit.radius_m, config.orbit.height_m, 0.0)
-    camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], config.camera.width,
-                          config.camera.height, pose.R, pose.t)
+    camera = core_camera(K, config.camera.width, config.camera.height, pose)
     sun = _core.Sun(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2)
     return scene, camera, sun, {"triangles": int(len(triangles) + len(bag_triangles)),
                                 "terrain_bvh_build_s": build_s}

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from moonbot.charts import time_error_plot
 from moonbot.config.schema import BagsConfig, MeshesConfig, SettleConfig
 from moonbot.scene.bag_mesh import variant_mesh
 from moonbot.scene.collision import transform
@@ -35,7 +36,6 @@ from moonbot.scene.settle import settle
 from moonbot.terrain.ground import CraterGround, FlatGround, SlopedGround
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
-from svgplot import time_error_plot
 
 RESULTS = Path(__file__).resolve().parent / "results"
 SCHEMA_VERSION = 1

@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from moonbot.charts import time_error_plot
 from moonbot.config import load_config
 from moonbot.render import build_scene, render_view
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
@@ -39,7 +40,6 @@ from moonbot.terrain.dem import LocalDem
 from moonbot.terrain.location import Location, location_axis
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
-from svgplot import time_error_plot
 
 RESULTS = Path(__file__).resolve().parent / "results"
 SCHEMA_VERSION = 2  # 2: dem rows

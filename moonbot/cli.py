@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from moonbot import __version__
+from moonbot.config.schema import LOCATIONS, TEST_GROUNDS
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -30,7 +31,7 @@ def main() -> None:
               help="Directory to write into; one view_NNN/ folder per view.")
 @click.option("--set", "overrides", multiple=True, metavar="FIELD=VALUE",
               help="Override a config field, e.g. --set sun.elevation_deg=5 (YAML value).")
-@click.option("--location", type=click.Choice(["flat", "hilly", "crater", "dem", "plane", "slope"]),
+@click.option("--location", type=click.Choice(LOCATIONS + TEST_GROUNDS),
               help="Terrain location (shorthand for --set terrain.location=...).")
 @click.option("--dem", "dem_file", type=click.Path(dir_okay=False, path_type=Path),
               help="A LocalDem .npz from `moonbot terrain import`: render at that site "
@@ -226,7 +227,7 @@ def stats(out_dir: Path, reference_path: Path | None, reference_rate: float | No
 @main.command("plan")
 @click.argument("config_path", metavar="CONFIG", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--bench-record", type=click.Path(dir_okay=False, path_type=Path),
-              help="A generate benchmark record to estimate from (default: the one in bench/results/ of a "
+              help="A generate benchmark record to estimate from (default: the one in ./bench/results/ of a "
                    "machine with this CPU and core count, else another machine's).")
 def plan(config_path: Path, bench_record: Path | None) -> None:
     """Print CONFIG's sweep — scenes, tasks and samples per split — and the disk and time it will
@@ -345,10 +346,11 @@ def merge(out_dir: Path, dataset_dir: Path | None, config_path: Path | None, lin
     merged and they are listed), 1 when nothing could be merged (the previous dataset is kept)."""
     from moonbot.bop.merge import EXIT_INCOMPLETE, MergeError, merge_dataset
     from moonbot.config import ConfigError, load_config
+    from moonbot.yolo.export import write_yolo
 
     try:
         config = load_config(config_path) if config_path is not None else None
-        report = merge_dataset(out_dir, dataset_dir, config, link=link, workers=workers)
+        report = merge_dataset(out_dir, dataset_dir, config, link=link, workers=workers, exporters=(write_yolo,))
     except (ConfigError, MergeError, OSError) as e:
         raise click.ClickException(str(e)) from None
     click.echo(f"merged {report.tasks} tasks: {report.scenes} scenes, {report.images} images, "
@@ -629,9 +631,10 @@ def evaluate(dataset: Path, results_path: Path, split: str, out_dir: Path | None
     ADD, ADD-S, translation error, recall at 10/20 % of the diameter and ADD-S AUC per condition
     (mesh, location, stain, dust) and per visible-pixel bin. Writes table3/table4 .txt and .csv,
     per_instance.csv and two PNG plots, and prints both tables. Definitions, matching and
-    exclusions: moonbot/eval/report.py."""
+    exclusions: moonbot/eval/matching.py."""
     from moonbot.bop.reader import DatasetError
-    from moonbot.eval.report import EvalError, run_eval, unknown_message
+    from moonbot.eval.matching import EvalError, unknown_message
+    from moonbot.eval.report import run_eval
     from moonbot.eval.results import ResultsError
 
     try:

@@ -20,7 +20,8 @@ from moonbot.bop.reader import DatasetError, Model, read_models, scenes
 from moonbot.cli import main
 from moonbot.config import load_config
 from moonbot.eval.metrics import adds
-from moonbot.eval.report import evaluate, summarize
+from moonbot.eval.matching import evaluate
+from moonbot.eval.tables import summarize
 from moonbot.eval.results import read_results
 from moonbot.eval.validate import render_at_gt
 from moonbot.pipeline.generate import generate

@@ -23,7 +23,8 @@ from PIL import Image
 from moonbot.bop.reader import read_models, scenes
 from moonbot.cli import main
 from moonbot.eval import Estimate, add, adds, match_greedy, read_results, write_results
-from moonbot.eval.report import (ModelPoints, _Pairs, assign_greedy, check_bins, evaluate, table3, table4)
+from moonbot.eval.matching import ModelPoints, _Pairs, assign_greedy, evaluate
+from moonbot.eval.tables import check_bins, table3, table4
 from moonbot.eval.validate import ValidationReport, check_manifest
 
 pytestmark = pytest.mark.integration

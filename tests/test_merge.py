@@ -32,6 +32,7 @@ from moonbot.config.load import from_mapping
 from moonbot.pipeline.tasks import run_task
 from moonbot.scene import compose_scene
 from moonbot.sweep import tasks
+from moonbot.yolo.export import write_yolo
 
 from masks import raster
 
@@ -81,7 +82,7 @@ def sweep(tmp_path_factory) -> tuple[Path, Config]:
 @pytest.fixture(scope="module")
 def dataset(sweep) -> Path:
     out, config = sweep
-    report = merge_dataset(out, config=config, workers=1, progress=None)
+    report = merge_dataset(out, config=config, workers=1, progress=None, exporters=(write_yolo,))
     assert report.complete and report.scenes == 2 and report.tasks == 3 and report.images == 6
     assert not report.models_reused
     return report.dataset
@@ -418,12 +419,14 @@ def test_yolo_labels_parse_and_match_the_visible_masks(dataset):
 def test_merge_again_gives_the_same_bytes(sweep, dataset, tmp_path):
     out, config = sweep
     before = (dataset / "manifest.json").read_bytes()
-    report = merge_dataset(out, config=config, workers=1, progress=None)  # in place: models reused
+    # In place: models reused.
+    report = merge_dataset(out, config=config, workers=1, progress=None, exporters=(write_yolo,))
     assert report.models_reused and (dataset / "manifest.json").read_bytes() == before
     # Elsewhere, hard-linked, two processes: the same bytes.
     other = tmp_path / "linked"
     shutil.copytree(dataset, other)  # as the previous dataset there, so its models are reused
-    report = merge_dataset(out, other, config=config, link=True, workers=2, progress=None)
+    report = merge_dataset(out, other, config=config, link=True, workers=2, progress=None,
+                           exporters=(write_yolo,))
     assert (other / "manifest.json").read_bytes() == before
     rgb = other / TRAIN / "rgb" / "000000.png"
     task_rgb = out / "tasks" / task_ids(config)[0] / "view_000" / "rgb.png"
@@ -474,7 +477,7 @@ def test_missing_task_without_config_is_found_from_its_scene(sweep, dataset, tmp
     copy = copy_out(out, dataset, tmp_path / "out")
     shutil.rmtree(copy / "tasks" / task_ids(config)[0])
     (copy / "tasks" / "not-a-task").mkdir()  # no DONE.json: reported, not merged
-    report = merge_dataset(copy, workers=1, progress=None)
+    report = merge_dataset(copy, workers=1, progress=None, exporters=(write_yolo,))
     assert not report.complete and report.missing == ("train scene 000000 task 0",)
     assert "not-a-task" in report.invalid and "DONE.json" in report.invalid["not-a-task"]
     assert list(load(copy / "dataset" / TRAIN / "scene_gt.json")) == ["2", "3"]
@@ -491,12 +494,29 @@ def test_corrupt_task_is_left_out_naming_the_file(sweep, dataset, tmp_path):
     data = bytearray(path.read_bytes())
     data[-20] ^= 0xFF
     path.write_bytes(bytes(data))
-    report = merge_dataset(copy, config=config, workers=1, progress=None)
+    report = merge_dataset(copy, config=config, workers=1, progress=None, exporters=(write_yolo,))
     assert list(report.invalid) == [bad] and str(path) in report.invalid[bad] and "sha256" in report.invalid[bad]
     assert report.missing == (bad,) and report.images == 4
     assert list(load(copy / "dataset" / TRAIN / "scene_gt.json")) == ["2", "3"]
     assert not (copy / "dataset" / TRAIN / "rgb" / "000000.png").exists()
     assert not (copy / "dataset" / "yolo/detect/labels/train/sandbag-01_plane_000000_000000.txt").exists()
+
+
+def test_without_exporters_the_dataset_is_the_same_but_for_yolo(sweep, dataset, tmp_path):
+    """The BOP dataset does not depend on the YOLO export: merged without it, every other file
+    has the same bytes and there is no yolo/; the export reads the merged dataset, so running it
+    gives the dataset its yolo/ tree as the merge with it wrote."""
+    out, config = sweep
+    bare = tmp_path / "bare"
+    merge_dataset(out, bare, config=config, workers=1, progress=None)
+    assert not (bare / "yolo").exists()
+    with_yolo = manifest_files(dataset)
+    assert manifest_files(bare) == {rel: entry for rel, entry in with_yolo.items() if not rel.startswith("yolo/")}
+    entries = {rel: (entry["bytes"], entry["sha256"]) for rel, entry in manifest_files(bare).items()}
+    write_yolo(bare, entries)
+    assert {rel: {"bytes": size, "sha256": sha} for rel, (size, sha) in entries.items()} == with_yolo
+    for rel in with_yolo:
+        assert (bare / rel).read_bytes() == (dataset / rel).read_bytes(), rel
 
 
 def test_malformed_task_json_names_the_field(sweep, dataset, tmp_path):
@@ -506,7 +526,7 @@ def test_malformed_task_json_names_the_field(sweep, dataset, tmp_path):
     record = load(copy / "tasks" / bad / "task.json")
     record["scene_id"] = "zero"
     rewrite(copy / "tasks" / bad, "task.json", json.dumps(record).encode())
-    report = merge_dataset(copy, workers=1, progress=None)
+    report = merge_dataset(copy, workers=1, progress=None, exporters=(write_yolo,))
     assert "task.json: field 'scene_id' must be an integer, got 'zero'" in report.invalid[bad]
 
 
@@ -520,7 +540,7 @@ def test_contradicting_tasks_stop_the_merge_and_keep_the_dataset(sweep, dataset,
     record["bags"] = 3
     rewrite(copy / "tasks" / bad, "task.json", json.dumps(record).encode())
     with pytest.raises(MergeError, match=r"task\.json: field 'bags' is 3, but .*task\.json of the same scene has 2"):
-        merge_dataset(copy, workers=1, progress=None)
+        merge_dataset(copy, workers=1, progress=None, exporters=(write_yolo,))
     assert (copy / "dataset" / "manifest.json").read_bytes() == (dataset / "manifest.json").read_bytes()
 
 
@@ -565,6 +585,6 @@ def test_killed_merge_leaves_no_dataset_and_a_rerun_recovers(sweep, dataset, tmp
         proc.wait()
     assert not (copy / "dataset").exists() and list(copy.glob(".dataset.*.tmp"))
     shutil.copytree(dataset, copy / "dataset")  # a previous dataset, so the rerun reuses its models
-    report = merge_dataset(copy, config=config, workers=1, progress=None)
+    report = merge_dataset(copy, config=config, workers=1, progress=None, exporters=(write_yolo,))
     assert report.complete and not list(copy.glob(".dataset.*"))
     assert (copy / "dataset" / "manifest.json").read_bytes() == (dataset / "manifest.json").read_bytes()

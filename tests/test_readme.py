@@ -1,9 +1,12 @@
-"""The README's command examples run as written: after the set-up, `source .venv/bin/activate`
-puts `moonbot` on PATH (the first line of "Using it" says so), and every `moonbot ...` line in
-the README's code blocks names a real command and only options that command has."""
+"""The README and docs/ hold up: after the set-up, `source .venv/bin/activate` puts `moonbot` on PATH
+(the first line of the README's "Using it" says so); every `moonbot ...` line in their code blocks
+names a real command and only options that command has; the README's command table lists every
+command; docs/cli.md is what docs/make_cli_md.py writes today; every relative link (and its
+#anchor) resolves; and the README stays short enough to read."""
 
 from __future__ import annotations
 
+import importlib.util
 import re
 import tomllib
 from pathlib import Path
@@ -16,7 +19,13 @@ from moonbot.cli import main
 pytestmark = pytest.mark.unit
 
 ROOT = Path(__file__).resolve().parents[1]
-README = (ROOT / "README.md").read_text()
+README_PATH = ROOT / "README.md"
+README = README_PATH.read_text(encoding="utf-8")
+DOCS = sorted((ROOT / "docs").glob("*.md"))
+# Every page a newcomer is sent to from the README, whose links must resolve.
+LINKED_PAGES = [README_PATH, *DOCS,
+                *(ROOT / folder / "README.md" for folder in ("bench", "bench/results", "bench/peers", "cluster"))]
+README_MAX_LINES = 200
 
 
 def code_blocks(text: str) -> list[list[str]]:
@@ -41,6 +50,51 @@ def resolve(words: list[str]) -> tuple[click.Command, list[str]]:
     return command, words
 
 
+def leaf_command_names(group: click.Group = main, prefix: str = "moonbot") -> set[str]:
+    """'moonbot render-one', 'moonbot terrain import', ...: every runnable command."""
+    names = set()
+    for name, command in group.commands.items():
+        if isinstance(command, click.Group):
+            names |= leaf_command_names(command, f"{prefix} {name}")
+        else:
+            names.add(f"{prefix} {name}")
+    return names
+
+
+def github_anchor(heading: str) -> str:
+    """The #anchor GitHub gives a markdown heading: lower case, punctuation dropped, spaces → '-'."""
+    text = re.sub(r"[^\w\- ]", "", heading.strip().lower())
+    return text.replace(" ", "-")
+
+
+def anchors(page: Path) -> set[str]:
+    """Every heading anchor of a markdown page (GitHub numbers repeated headings -1, -2, ...)."""
+    text = re.sub(r"^```.*?^```", "", page.read_text(encoding="utf-8"), flags=re.M | re.S)
+    found: set[str] = set()
+    for heading in re.findall(r"^#{1,6} (.+)$", text, re.M):
+        anchor = base = github_anchor(heading)
+        repeat = 0
+        while anchor in found:
+            repeat += 1
+            anchor = f"{base}-{repeat}"
+        found.add(anchor)
+    return found
+
+
+def relative_links(page: Path) -> list[tuple[int, str]]:
+    """(line, target) of every markdown link and image on `page` that is not a URL; code is skipped."""
+    text = page.read_text(encoding="utf-8")
+    # Blank out code (fenced and inline) but keep its newlines, so line numbers stay true.
+    text = re.sub(r"^```.*?^```", lambda m: re.sub(r"[^\n]", " ", m.group(0)), text, flags=re.M | re.S)
+    text = re.sub(r"`[^`\n]*`", lambda m: " " * len(m.group(0)), text)
+    links = []
+    for match in re.finditer(r"!?\[[^\]]*\]\(([^)\s]+)\)", text):
+        target = match.group(1)
+        if not re.match(r"[a-z][a-z0-9+.-]*:", target):  # http:, https:, mailto: ...
+            links.append((text.count("\n", 0, match.start()) + 1, target))
+    return links
+
+
 def test_using_it_starts_by_putting_moonbot_on_path():
     section = README.split("## Using it", 1)[1]
     first = code_blocks(section)[0]
@@ -50,13 +104,66 @@ def test_using_it_starts_by_putting_moonbot_on_path():
 
 
 def test_every_moonbot_line_names_a_real_command_and_its_options():
-    lines = [line.split("  #")[0] for block in code_blocks(README) for line in block if line.startswith("moonbot ")]
-    assert len(lines) >= 10
-    for line in lines:
+    pages = [README_PATH, *DOCS]
+    lines = [(page.name, line.split("  #")[0]) for page in pages
+             for block in code_blocks(page.read_text(encoding="utf-8")) for line in block
+             if line.startswith("moonbot ")]
+    assert len([line for name, line in lines if name == "README.md"]) >= 10
+    for name, line in lines:
         command, rest = resolve(line.split()[1:])
-        assert not isinstance(command, click.Group), f"{line!r}: no such moonbot command"
-        known = {name for p in command.params for name in (*p.opts, *p.secondary_opts)}
+        assert not isinstance(command, click.Group), f"{name}: {line!r}: no such moonbot command"
+        known = {option for p in command.params for option in (*p.opts, *p.secondary_opts)}
         for word in rest:
             option = re.match(r"\[?(--[a-z][a-z0-9-]*)", word.strip("'\""))
             if option:
-                assert option.group(1) in known, f"{line!r}: {command.name} has no option {option.group(1)}"
+                assert option.group(1) in known, f"{name}: {line!r}: {command.name} has no option {option.group(1)}"
+
+
+def test_readme_command_table_lists_every_command():
+    table = set(re.findall(r"^\| `(moonbot [a-z -]+)` \|", README, re.M))
+    assert table == leaf_command_names(), (
+        f"missing from the README's table: {sorted(leaf_command_names() - table)}; "
+        f"not commands: {sorted(table - leaf_command_names())}")
+
+
+def test_cli_md_is_what_make_cli_md_writes():
+    spec = importlib.util.spec_from_file_location("make_cli_md", ROOT / "docs" / "make_cli_md.py")
+    make_cli_md = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(make_cli_md)
+    assert (ROOT / "docs" / "cli.md").read_text(encoding="utf-8") == make_cli_md.render_cli_md(), (
+        "docs/cli.md is stale: run `.venv/bin/python docs/make_cli_md.py`")
+    documented = set(re.findall(r"^## (moonbot [a-z -]+)$", make_cli_md.render_cli_md(), re.M))
+    assert documented == leaf_command_names()
+
+
+def test_every_relative_link_resolves():
+    broken = []
+    for page in LINKED_PAGES:
+        for line, target in relative_links(page):
+            path_part, _, anchor = target.partition("#")
+            linked = (page.parent / path_part).resolve() if path_part else page
+            if not linked.exists():
+                broken.append(f"{page.relative_to(ROOT)}:{line}: {target} (no such file)")
+            elif anchor and linked.suffix == ".md" and anchor not in anchors(linked):
+                broken.append(f"{page.relative_to(ROOT)}:{line}: {target} (no heading #{anchor})")
+    assert not broken, "\n".join(broken)
+
+
+def test_link_checker_sees_links_and_their_anchors(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text("# A title\n\n## Units and frames (SI)\n\nSee [x](other.md#y), ![img](pic.png) and\n"
+                    "[same page](#units-and-frames-si), not `[code](nowhere.md)` nor [web](https://e.org).\n"
+                    "```\n[in a block](gone.md)\n```\n", encoding="utf-8")
+    assert relative_links(page) == [(5, "other.md#y"), (5, "pic.png"), (6, "#units-and-frames-si")]
+    assert anchors(page) == {"a-title", "units-and-frames-si"}
+
+
+def test_readme_is_short():
+    assert len(README.splitlines()) <= README_MAX_LINES
+
+
+def test_no_internal_references_in_readme_or_docs():
+    for page in LINKED_PAGES:
+        text = page.read_text(encoding="utf-8")
+        for pattern in (r"\.\./shared", r"/work/shared", r"\bissue \d", r"\bprinciple \d"):
+            assert not re.search(pattern, text, re.I), f"{page.relative_to(ROOT)} mentions {pattern}"

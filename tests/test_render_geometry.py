@@ -242,3 +242,33 @@ def test_embree_limit_probe_traces_the_renderers_rays():
     assert limit["threads"] == 1 and limit["timer_overhead_s"] >= 0  # timings are for bench/, not tests
     with pytest.raises(ValueError, match="repeats"):
         _core.measure_embree_limit(scene, cam, sun, repeats=0)
+
+
+def test_view_inputs_place_the_orbit_camera_and_the_lights():
+    """view_inputs: orbit view v sits at azimuth start + v × step, orbit.radius_m from the target
+    and above it by at least orbit.height_m (more where the ground rises), looking at the target;
+    the camera has the config's image size and projects the target to the image centre; the Sun
+    comes from the config, and the Earth only with earthshine."""
+    from moonbot.config import load_config
+    from moonbot.render.view import view_inputs
+    from moonbot.scene import compose_scene
+
+    config = load_config(None, {"terrain.location": "plane", "bags.settle.enabled": False,
+                                "camera.width": 64, "camera.height": 48, "sun.earthshine": False})
+    spec = compose_scene(config)
+    o = config.orbit
+    for v in (0, 3):
+        view = view_inputs(config, spec, v)
+        azimuth = np.radians(o.start_azimuth_deg + v * o.step_deg)
+        offset = view.pose.center - spec.target
+        assert np.hypot(offset[0], offset[1]) == pytest.approx(o.radius_m, abs=1e-9)
+        # Azimuth clockwise from North: east = sin, north = cos.
+        assert np.arctan2(offset[0], offset[1]) % (2 * np.pi) == pytest.approx(azimuth % (2 * np.pi), abs=1e-9)
+        assert offset[2] >= o.height_m - 1e-9
+        assert (view.camera.width, view.camera.height) == (64, 48)
+        assert view.camera.project(spec.target[None, :])[0, :2] == pytest.approx([32.0, 24.0], abs=1e-6)
+        np.testing.assert_allclose(view.camera.center, view.pose.center, atol=1e-9)
+        assert view.sun.irradiance == config.sun.irradiance_w_m2 and view.earth is None
+    with_earth = load_config(None, {"terrain.location": "plane", "bags.settle.enabled": False,
+                                    "sun.earthshine": True})
+    assert view_inputs(with_earth, compose_scene(with_earth), 0).earth is not None

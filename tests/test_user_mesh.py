@@ -25,10 +25,11 @@ from moonbot.bop.models import SYMMETRY_TOLERANCE, model_info
 from moonbot.cli import main
 from moonbot.config import ConfigError, load_config
 from moonbot.config.schema import UserMeshConfig
-from moonbot.scene.bag_mesh import DECOMPOSE_ABOVE_HULL_FIT, bag_collision, bag_model
+from moonbot.scene.bag_mesh import bag_collision, bag_model
 from moonbot.scene.collision import winding_number
 from moonbot.scene.convex_parts import convex_parts, hull_volume
-from moonbot.scene.user_mesh import load_user_mesh, signed_volume, srgb_to_linear, up_rotation
+from moonbot.scene.user_mesh import (DECOMPOSE_ABOVE_HULL_FIT, load_user_mesh, signed_volume, srgb_to_linear,
+                                  up_rotation)
 from moonbot.sweep.tasks import task_config, tasks
 
 pytestmark = pytest.mark.integration

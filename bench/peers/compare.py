@@ -50,10 +50,10 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
-from export_scene import export_scene, parity_config, parity_spec, view_camera  # noqa: E402
+from export_scene import export_scene, parity_config, parity_spec  # noqa: E402
 from ladder_errors import at_error, rel_errors  # noqa: E402
 from fingerprint import machine, machine_slug  # noqa: E402
-from svgplot import time_error_plot  # noqa: E402
+from moonbot.charts import time_error_plot  # noqa: E402
 
 ROOT = HERE.parents[1]
 RESULTS = HERE.parent / "results"
@@ -71,14 +71,12 @@ def render_moonbot(config, spec, ladder: list[int], threads: int, repeats: int, 
     repeat_max_spp after a warm-up; one render above)."""
     from moonbot import _core
     from moonbot.render import build_scene
+    from moonbot.render.view import view_inputs
     start = time.perf_counter()
     scene = build_scene(spec)
     build_s = time.perf_counter() - start
-    K, pose = view_camera(config, spec)
-    w, h = config.camera.width, config.camera.height
-    camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], w, h, pose.R, pose.t)
-    s = config.sun
-    sun = _core.Sun(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
+    view = view_inputs(config, spec, 0)
+    camera, sun = view.camera, view.sun
     r = config.render
 
     def render(spp: int, seed: int):

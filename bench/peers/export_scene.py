@@ -2,7 +2,7 @@
 
 moonbot's own code composes the scene (`compose_scene`: the default `flat` location's terrain,
 the settled bag, the rocks left after clearing the site) and places the camera of orbit view 0
-(`orbit_height`, `orbit_pose`, `intrinsics`) exactly as `moonbot render-one` does. This writes:
+(`moonbot.render.view.orbit_view`) exactly as `moonbot render-one` does. This writes:
 
   terrain.ply   the terrain mesh in world metres (float32 x, y, z) with per-vertex float32
                 albedo_r, albedo_g, albedo_b: terrain.albedo × moonbot's per-vertex albedo factor
@@ -45,13 +45,12 @@ from pathlib import Path
 
 import numpy as np
 
-from moonbot import __version__, _core
+from moonbot import __version__
 from moonbot.config import load_config
 from moonbot.config.schema import Config
-from moonbot.render.view import regolith
-from moonbot.scene import CameraPose, SceneSpec, compose_scene, intrinsics, orbit_pose
+from moonbot.render.view import orbit_view, regolith, scene_lights
+from moonbot.scene import SceneSpec, compose_scene
 from moonbot.scene.compose import TERRAIN_MESH
-from moonbot.scene.orbit import orbit_height
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ply import write_ply  # noqa: E402  (bench/peers/ is not a package: the Cycles venv runs these as scripts)
@@ -95,14 +94,6 @@ def parity_config(width: int = 640, height: int = 480, overrides: dict | None = 
 def parity_spec(config: Config) -> SceneSpec:
     """moonbot's scene for the config, without the terrain's smooth shading normals (parity)."""
     return dataclasses.replace(compose_scene(config), terrain_normals=None)
-
-
-def view_camera(config: Config, spec: SceneSpec, view: int = 0) -> tuple[np.ndarray, CameraPose]:
-    """K (3, 3) and the world-to-camera pose of orbit view `view`, as moonbot.pipeline.run_views
-    places it."""
-    azimuth = config.orbit.start_azimuth_deg + view * config.orbit.step_deg
-    height = orbit_height(spec.target, config.orbit.radius_m, config.orbit.height_m, azimuth, spec.ground)
-    return intrinsics(config.camera), orbit_pose(spec.target, config.orbit.radius_m, height, azimuth)
 
 
 def _bounds(vertices: np.ndarray) -> list[list[float]]:
@@ -155,12 +146,12 @@ def export_scene(out: Path, config: Config, spec: SceneSpec, view: int = 0) -> d
                        "albedo": list(bag.albedo), "world_from_model": np.asarray(bag.world_from_model).tolist(),
                        "vertices": len(bv), "triangles": len(t), "bounds_m": _bounds(bv)})
 
-    K, pose = view_camera(config, spec, view)
+    K, pose = orbit_view(config, spec, view)
     w, h = config.camera.width, config.camera.height
     center = pose.center
     forward, down = pose.R[2], pose.R[1]
     s = config.sun
-    sun = _core.Sun(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
+    sun, _ = scene_lights(config)
     scene = {
         "schema_version": SCHEMA_VERSION,
         "source": f"moonbot {__version__}: embedded default config + parity overrides, orbit view {view}",

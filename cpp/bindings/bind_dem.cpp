@@ -6,7 +6,7 @@
 #include <pybind11/stl.h>
 
 #include "arrays.h"
-#include "moonbot/dem.h"
+#include "moonbot/dem_import.h"
 
 namespace moonbot::bindings {
 

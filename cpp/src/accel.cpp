@@ -1,6 +1,6 @@
 #include "moonbot/accel.h"
 
-#include "rays.h"
+#include "orthonormal_basis.h"
 
 #include <embree3/rtcore.h>
 
@@ -42,30 +42,22 @@ namespace {
 // performance reference measured as fastest on AVX2 (reference/performance-limits.md).
 constexpr size_t kStream = 64;
 
-// Embree's packet entry points by width, so one template serves 8 and 16.
+// Embree's packet types and entry points by width, so one template serves 8 and 16.
 template <int W>
 struct PacketCalls;
 template <>
 struct PacketCalls<8> {
     using RayHitW = RTCRayHit8;
     using RayW = RTCRay8;
-    static void intersect(const int* valid, RTCScene s, RTCIntersectContext* c, RTCRayHit8* r) {
-        rtcIntersect8(valid, s, c, r);
-    }
-    static void occluded(const int* valid, RTCScene s, RTCIntersectContext* c, RTCRay8* r) {
-        rtcOccluded8(valid, s, c, r);
-    }
+    static constexpr auto intersect = rtcIntersect8;
+    static constexpr auto occluded = rtcOccluded8;
 };
 template <>
 struct PacketCalls<16> {
     using RayHitW = RTCRayHit16;
     using RayW = RTCRay16;
-    static void intersect(const int* valid, RTCScene s, RTCIntersectContext* c, RTCRayHit16* r) {
-        rtcIntersect16(valid, s, c, r);
-    }
-    static void occluded(const int* valid, RTCScene s, RTCIntersectContext* c, RTCRay16* r) {
-        rtcOccluded16(valid, s, c, r);
-    }
+    static constexpr auto intersect = rtcIntersect16;
+    static constexpr auto occluded = rtcOccluded16;
 };
 
 /// Embree's valid mask for a packet whose first `active` lanes carry rays: -1 on, 0 off.
@@ -76,6 +68,22 @@ struct alignas(4 * W) ValidMask {
         for (int i = 0; i < W; ++i) lanes[i] = static_cast<size_t>(i) < active ? -1 : 0;
     }
 };
+
+/// Calls `trace(valid, p)` for each packet p of n rays held W to a packet, in order; `valid` has
+/// every lane on, or in a last packet of fewer rays only the lanes that carry one.
+template <int W, typename Trace>
+void each_packet(size_t n, Trace trace) {
+    const ValidMask<W> full(W);
+    for (size_t p = 0; p * W < n; ++p) {
+        const size_t active = std::min<size_t>(W, n - p * W);
+        if (active == W) {
+            trace(full.lanes, p);
+        } else {
+            const ValidMask<W> partial(active);
+            trace(partial.lanes, p);
+        }
+    }
+}
 
 [[noreturn]] void throw_device_error(RTCDevice device, const char* what) {
     RTCError code = rtcGetDeviceError(device);
@@ -427,38 +435,24 @@ template <int W>
 void Accel::intersect_packets(RayHitPacket<W>* packets, size_t n) const {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
-    const ValidMask<W> full(W);
-    for (size_t p = 0; p * W < n; ++p) {
+    each_packet<W>(n, [&](const int* valid, size_t p) {
         RayHitPacket<W>& packet = packets[p];
         std::fill_n(packet.geom_id, W, kInvalidId);
         std::fill_n(packet.inst_id, W, kInvalidId);
         auto* rays = reinterpret_cast<typename PacketCalls<W>::RayHitW*>(&packet);
-        const size_t active = std::min<size_t>(W, n - p * W);
-        if (active == W) {
-            PacketCalls<W>::intersect(full.lanes, m_impl->top, &context, rays);
-        } else {
-            const ValidMask<W> partial(active);
-            PacketCalls<W>::intersect(partial.lanes, m_impl->top, &context, rays);
-        }
-    }
+        PacketCalls<W>::intersect(valid, m_impl->top, &context, rays);
+    });
 }
 
 template <int W>
 void Accel::occluded_packets(RayHitPacket<W>* packets, size_t n) const {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
-    const ValidMask<W> full(W);
-    for (size_t p = 0; p * W < n; ++p) {
+    each_packet<W>(n, [&](const int* valid, size_t p) {
         // RTCRayW is the leading member of RTCRayHitW, as for the streams.
         auto* rays = reinterpret_cast<typename PacketCalls<W>::RayW*>(&packets[p]);
-        const size_t active = std::min<size_t>(W, n - p * W);
-        if (active == W) {
-            PacketCalls<W>::occluded(full.lanes, m_impl->top, &context, rays);
-        } else {
-            const ValidMask<W> partial(active);
-            PacketCalls<W>::occluded(partial.lanes, m_impl->top, &context, rays);
-        }
-    }
+        PacketCalls<W>::occluded(valid, m_impl->top, &context, rays);
+    });
 }
 
 template void Accel::intersect_packets<8>(RayHitPacket<8>*, size_t) const;

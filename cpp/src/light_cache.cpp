@@ -13,7 +13,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
-#include "moonbot/render.h"
+#include "moonbot/render_limits.h"
 #include "moonbot/rng.h"
 #include "moonbot/sampler.h"
 #include "rays.h"

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <tbb/blocked_range.h>
@@ -282,22 +283,24 @@ EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const
     limit.shadow_rays = shadow_rays.items.size();
     limit.timer_overhead_s = overhead;
     limit.threads = arena.max_concurrency();
-    limit.intersect_single_s = embree_seconds(arena, camera_rays, repeats, overhead,
-        [&](RayHit* r, size_t n) { accel.intersect_single(r, n); });
-    limit.intersect_packet8_s = embree_seconds(arena, camera_8, repeats, overhead,
-        [&](RayHitPacket<8>* p, size_t n) { accel.intersect_packets(p, n); });
-    limit.intersect_packet16_s = embree_seconds(arena, camera_16, repeats, overhead,
-        [&](RayHitPacket<16>* p, size_t n) { accel.intersect_packets(p, n); });
-    limit.intersect_stream_s = embree_seconds(arena, camera_rays, repeats, overhead,
-        [&](RayHit* r, size_t n) { accel.intersect(r, n); });
-    limit.occluded_single_s = embree_seconds(arena, shadow_rays, repeats, overhead,
-        [&](RayHit* r, size_t n) { accel.occluded_single(r, n); });
-    limit.occluded_packet8_s = embree_seconds(arena, shadow_8, repeats, overhead,
-        [&](RayHitPacket<8>* p, size_t n) { accel.occluded_packets(p, n); });
-    limit.occluded_packet16_s = embree_seconds(arena, shadow_16, repeats, overhead,
-        [&](RayHitPacket<16>* p, size_t n) { accel.occluded_packets(p, n); });
-    limit.occluded_stream_s = embree_seconds(arena, shadow_rays, repeats, overhead,
-        [&](RayHit* r, size_t n) { accel.occluded(r, n); });
+    // A query the four ways Embree takes rays, in this order: one at a time, in packets of 8 and
+    // of 16 (`packets` serves both widths), and as one stream a tile.
+    const auto four_ways = [&](const Tiled<RayHit>& rays, const Tiled<RayHitPacket<8>>& rays_8,
+                               const Tiled<RayHitPacket<16>>& rays_16, auto single, auto packets, auto stream) {
+        return std::tuple<double, double, double, double>{embree_seconds(arena, rays, repeats, overhead, single),
+                                                          embree_seconds(arena, rays_8, repeats, overhead, packets),
+                                                          embree_seconds(arena, rays_16, repeats, overhead, packets),
+                                                          embree_seconds(arena, rays, repeats, overhead, stream)};
+    };
+    std::tie(limit.intersect_single_s, limit.intersect_packet8_s, limit.intersect_packet16_s,
+             limit.intersect_stream_s) =
+        four_ways(camera_rays, camera_8, camera_16, [&](RayHit* r, size_t n) { accel.intersect_single(r, n); },
+                  [&](auto* p, size_t n) { accel.intersect_packets(p, n); },
+                  [&](RayHit* r, size_t n) { accel.intersect(r, n); });
+    std::tie(limit.occluded_single_s, limit.occluded_packet8_s, limit.occluded_packet16_s, limit.occluded_stream_s) =
+        four_ways(shadow_rays, shadow_8, shadow_16, [&](RayHit* r, size_t n) { accel.occluded_single(r, n); },
+                  [&](auto* p, size_t n) { accel.occluded_packets(p, n); },
+                  [&](RayHit* r, size_t n) { accel.occluded(r, n); });
     for (size_t g = 0; g < bounce.size(); ++g) {
         limit.bounce_rays.push_back(bounce[g].items.size());
         limit.bounce_stream_s.push_back(embree_seconds(arena, bounce[g], repeats, overhead,

@@ -17,6 +17,7 @@
 #include "moonbot/sampler.h"
 #include "moonbot/scene.h"
 #include "moonbot/sun.h"
+#include "orthonormal_basis.h"
 
 namespace moonbot::detail {
 
@@ -44,16 +45,6 @@ inline double largest_coordinate(const glm::dvec3& p) {
 inline glm::dvec3 lift_off(const glm::dvec3& point, const glm::dvec3& normal, double reach) {
     const double scale = std::max(1.0, largest_coordinate(point));
     return point + normal * std::max(kShadowBias * scale, kTriangleBias * reach);
-}
-
-/// An orthonormal basis (a, b) completing unit w (Duff et al. 2017, "Building an Orthonormal
-/// Basis, Revisited", JCGT 6(1)): branchless and continuous except at w.z = −0.
-inline void orthonormal_basis(const glm::dvec3& w, glm::dvec3& a, glm::dvec3& b) {
-    const double sign = std::copysign(1.0, w.z);
-    const double k = -1.0 / (sign + w.z);
-    const double xy = w.x * w.y * k;
-    a = {1.0 + sign * w.x * w.x * k, sign * xy, -sign * w.x};
-    b = {xy, sign + w.y * w.y * k, -w.y};
 }
 
 /// A cosine-distributed unit direction about the unit `normal` (Malley's method: a uniform point

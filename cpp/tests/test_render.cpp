@@ -17,6 +17,15 @@ constexpr double kPi = 3.14159265358979323846;
 
 glm::dmat4 identity() { return glm::dmat4(1.0); }
 
+/// A ray from `origin` along `dir` (both narrowed to float32), unbounded, seeing every instance.
+RayHit unbounded_ray(const glm::dvec3& origin, const glm::dvec3& dir) {
+    RayHit r{};
+    r.org_x = float(origin.x), r.org_y = float(origin.y), r.org_z = float(origin.z);
+    r.dir_x = float(dir.x), r.dir_y = float(dir.y), r.dir_z = float(dir.z);
+    r.tfar = INFINITY, r.mask = 0xFFFFFFFFu;
+    return r;
+}
+
 }  // namespace
 
 TEST_CASE(plane_depth_matches_analytic_z_depth) {
@@ -187,11 +196,7 @@ TEST_CASE(tile_records_change_no_bit_against_a_per_pixel_reference) {
                 for (int y = y0; y < std::min(y0 + 8, h); ++y)
                     for (int x = x0; x < std::min(x0 + 8, w); ++x) {
                         const glm::dvec3 d = cam.direction(x + 0.5, y + 0.5);
-                        RayHit r{};
-                        r.org_x = float(o.x), r.org_y = float(o.y), r.org_z = float(o.z);
-                        r.dir_x = float(d.x), r.dir_y = float(d.y), r.dir_z = float(d.z);
-                        r.tfar = INFINITY, r.mask = 0xFFFFFFFFu;
-                        rays.push_back(r);
+                        rays.push_back(unbounded_ray(o, d));
                         dirs.push_back(d);
                         pixels.push_back(static_cast<size_t>(y) * w + x);
                     }
@@ -228,11 +233,7 @@ TEST_CASE(tile_records_change_no_bit_against_a_per_pixel_reference) {
                     const glm::dvec3 p = o + t * dirs[i];
                     const double scale = std::max({1.0, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
                     const glm::dvec3 s = p + n * std::max(kShadowBias * scale, 1e-6 * reach);
-                    RayHit r2{};
-                    r2.org_x = float(s.x), r2.org_y = float(s.y), r2.org_z = float(s.z);
-                    r2.dir_x = float(l.x), r2.dir_y = float(l.y), r2.dir_z = float(l.z);
-                    r2.tfar = INFINITY, r2.mask = 0xFFFFFFFFu;
-                    shadows.push_back(r2);
+                    shadows.push_back(unbounded_ray(s, l));
                     shadow_pixel.push_back(i);
                 }
                 if (!shadows.empty()) scene.accel().occluded(shadows.data(), shadows.size());

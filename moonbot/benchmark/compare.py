@@ -13,9 +13,9 @@ import json
 import math
 from pathlib import Path
 
+from moonbot.atomic_io import atomic_write
 from moonbot.benchmark.throughput import SCHEMA_VERSION, STAGE_GROUPS
-from moonbot.pipeline.svgchart import COLOURS, bar_panel, svg_close, svg_open
-from moonbot.writer.staging import atomic_write
+from moonbot.charts import COLOURS, bar_panels_svg
 
 
 class ResultError(ValueError):
@@ -257,28 +257,22 @@ def format_comparison(named: list[tuple[str, dict]]) -> str:
 def comparison_svg(named: list[tuple[str, dict]], title: str = "moonbot bench throughput") -> str:
     """Three panels, one bar per run of every result: samples/s; worker-seconds a sample per
     stage group, stacked; the whole pipeline's time over the limit."""
-    width = 760
     runs = [(f"{name}: {r['level']} {r['workers']}×{r['threads_per_worker']}", r) for name, rec in named
             for r in rec["runs"]]
-    label_width = min(340, 60 + 6 * max(len(label) for label, _ in runs))
-    top = 36
-    rates, h = bar_panel(top, width, "throughput", "samples/s",
-                         [(label, [r["samples_per_s"]], _g(r["samples_per_s"])) for label, r in runs],
-                         colours=[COLOURS[0]], label_width=label_width)
-    top += h + 16
     groups = list(STAGE_GROUPS)
-    stages, h = bar_panel(top, width, "where a sample's time goes (worker-seconds)", "seconds a sample",
-                          [(label, [r["stage_groups_s_per_sample"][g] for g in groups],
-                            f"{_g(sum(r['stage_groups_s_per_sample'].values()))} s") for label, r in runs],
-                          series=groups, colours=[COLOURS[k] for k in range(len(groups))], label_width=label_width)
-    top += h + 16
-    ratio, h = bar_panel(top, width, "time over the limit (Embree + encoders on the same work)", "ratio",
-                         [(label, [r["ratio"]["render_encode"], max(0.0, r["ratio"]["pipeline"] - r["ratio"]["render_encode"])],
-                           f"{_g(r['ratio']['render_encode'])} / {_g(r['ratio']['pipeline'])}") for label, r in runs],
-                         series=["render + encode", "rest of the pipeline"], colours=[COLOURS[2], COLOURS[7]],
-                         label_width=label_width)
-    top += h + 12
-    return svg_close(svg_open(width, top, title) + rates + stages + ratio)
+    return bar_panels_svg(title, [
+        {"title": "throughput", "axis_label": "samples/s",
+         "rows": [(label, [r["samples_per_s"]], _g(r["samples_per_s"])) for label, r in runs],
+         "colours": [COLOURS[0]]},
+        {"title": "where a sample's time goes (worker-seconds)", "axis_label": "seconds a sample",
+         "rows": [(label, [r["stage_groups_s_per_sample"][g] for g in groups],
+                   f"{_g(sum(r['stage_groups_s_per_sample'].values()))} s") for label, r in runs],
+         "series": groups, "colours": [COLOURS[k] for k in range(len(groups))]},
+        {"title": "time over the limit (Embree + encoders on the same work)", "axis_label": "ratio",
+         "rows": [(label, [r["ratio"]["render_encode"], max(0.0, r["ratio"]["pipeline"] - r["ratio"]["render_encode"])],
+                   f"{_g(r['ratio']['render_encode'])} / {_g(r['ratio']['pipeline'])}") for label, r in runs],
+         "series": ["render + encode", "rest of the pipeline"], "colours": [COLOURS[2], COLOURS[7]]},
+    ], width_in=10.0).decode("utf-8")
 
 
 def write_svg(named: list[tuple[str, dict]], path: Path, title: str = "moonbot bench throughput") -> None:

@@ -1,18 +1,39 @@
-"""What a benchmark result was measured on: the machine's fingerprint and a short name for
-result files. Shared by `moonbot bench` and every script in bench/ (through bench/fingerprint.py).
-The git commit is the checkout's this module lives in (an editable install's); outside a checkout
-it is empty."""
+"""What a benchmark result was measured on: the machine's fingerprint, and where results go.
+Shared by `moonbot bench` and every script in bench/ (through bench/fingerprint.py). The git
+commit is that of the checkout moonbot was installed from, as the install's own record names it
+(PEP 610 direct_url.json: an editable or local-directory install); for any other install it is
+empty."""
 
 from __future__ import annotations
 
+import json
 import os
 import platform
 import re
 import subprocess
 import time
+from importlib import metadata
 from pathlib import Path
+from urllib.parse import unquote, urlparse
 
 from moonbot.host import host_record
+
+# Where benchmark results are written and looked for: bench/results under the working directory
+# (a checkout's when the commands run from it).
+RESULTS_DIR = Path("bench") / "results"
+
+
+def installed_from() -> Path | None:
+    """The local directory moonbot was installed from (an editable or `pip install DIR` install:
+    PEP 610's direct_url.json names it), or None (an index install, or no record)."""
+    try:
+        record = json.loads(metadata.distribution("moonbot").read_text("direct_url.json") or "null")
+    except (metadata.PackageNotFoundError, ValueError):
+        return None
+    url = urlparse(record.get("url", "")) if isinstance(record, dict) else None
+    if url is None or url.scheme != "file" or "dir_info" not in record:
+        return None
+    return Path(unquote(url.path))
 
 
 def machine(embree_isa: str = "auto") -> dict:
@@ -31,11 +52,11 @@ def machine(embree_isa: str = "auto") -> dict:
     def deb(package: str) -> str:
         return run("dpkg-query", "-W", "-f=${Version}", package)
 
-    root = Path(__file__).resolve().parents[2]
-    commit = run("git", "-C", str(root), "rev-parse", "HEAD")
+    root = installed_from()
+    commit = run("git", "-C", str(root), "rev-parse", "HEAD") if root is not None else ""
     # Dirty means uncommitted source changes; the result files themselves do not count.
-    dirty = bool(run("git", "-C", str(root), "status", "--porcelain", "--untracked-files=no",
-                     "--", ".", ":!bench/results"))
+    dirty = bool(commit) and bool(run("git", "-C", str(root), "status", "--porcelain", "--untracked-files=no",
+                                      "--", ".", ":!bench/results"))
     host = host_record(embree_isa)
     return {
         "cpu": host["cpu_model"], "cpu_id": host["cpu_id"], "simd_flags": host["simd_flags"],

@@ -41,8 +41,8 @@ import numpy as np
 from moonbot import _core
 from moonbot.config import Config
 from moonbot.render import SceneDust, build_scene
-from moonbot.scene import compose_scene, intrinsics, orbit_pose
-from moonbot.scene.orbit import orbit_height
+from moonbot.render.view import view_inputs
+from moonbot.scene import compose_scene
 from moonbot.sweep import Task, task_config
 
 @dataclasses.dataclass
@@ -72,14 +72,8 @@ def limit_scene(config: Config, task: Task) -> ProbeView:
     medium = None
     if c.dust.enabled:
         medium = SceneDust(scene, spec, c, [0]).for_view(0).medium  # adds the fragments' mesh and commits
-    azimuth = c.orbit.start_azimuth_deg
-    height = orbit_height(spec.target, c.orbit.radius_m, c.orbit.height_m, azimuth, spec.ground)
-    pose = orbit_pose(spec.target, c.orbit.radius_m, height, azimuth)
-    K = intrinsics(c.camera)
-    camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], c.camera.width, c.camera.height, pose.R, pose.t)
-    s = c.sun
-    sun = _core.Sun(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
-    return ProbeView(c, scene, camera, sun, K, pose, medium)
+    view = view_inputs(c, spec, 0)
+    return ProbeView(c, scene, view.camera, view.sun, view.K, view.pose, medium)
 
 
 def embree_limit(config: Config, task: Task, threads: list[int], bounces: int, repeats: int = 3) -> list[dict]:

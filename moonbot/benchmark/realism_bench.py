@@ -36,13 +36,12 @@ from pathlib import Path
 import numpy as np
 
 from moonbot.benchmark import realism
-from moonbot.benchmark.fingerprint import machine
+from moonbot.benchmark.fingerprint import RESULTS_DIR, machine
 from moonbot.host import machine_slug
 
 SCHEMA_VERSION = 1
-ROOT = Path(__file__).resolve().parents[2]  # the checkout (an editable install)
 HASSELBLAD_HFOV_DEG = 2.0 * math.degrees(math.atan(27.5 / 60.0))  # 55 mm frame behind a 60 mm lens: 49.25°
-DEFAULT_REGIONS = ROOT / "bench" / "realism-photo-rois.csv"
+DEFAULT_REGIONS = Path("bench") / "realism-photo-rois.csv"  # the checkout's, from the working directory
 UNLISTED_PHOTO_REGION = realism.RegionOfInterest(0.03, 0.03, 0.97, 0.97)  # inside the film rebate
 
 
@@ -333,7 +332,7 @@ def run_realism(photos: Path, regions_path: Path | None = None, options: Options
     record["seconds_total"] = time.perf_counter() - start
     # Other processes inflate every time here (provisional on a shared machine); ray counts do not.
     record["load_average_1min"] = {"before": load_before, "after": os.getloadavg()[0]}
-    path = Path(out) if out else results_dir() / f"realism-{machine_slug(record['machine'])}.json"
+    path = Path(out) if out else RESULTS_DIR / f"realism-{machine_slug(record['machine'])}.json"
     path.parent.mkdir(parents=True, exist_ok=True)
     write_sheet(Path(sheet) if sheet else path.parent / "realism-sheet.png", main_renders, photo_measured, ppd)
     tmp = path.with_name(path.name + ".tmp")
@@ -352,11 +351,6 @@ def _json_default(value):
     if isinstance(value, Path):
         return str(value)
     return str(value)
-
-
-def results_dir() -> Path:
-    """bench/results of the checkout, or of the working directory when not run from one."""
-    return (ROOT if (ROOT / "bench").is_dir() else Path.cwd()) / "bench" / "results"
 
 
 SHEET_ROW_PX = 240  # each image's height on the sheet

@@ -43,30 +43,25 @@ import tempfile
 import time
 from pathlib import Path
 
-from moonbot.benchmark.fingerprint import library_versions, machine
+from moonbot.benchmark.fingerprint import RESULTS_DIR, library_versions, machine
 from moonbot.benchmark.levels import LEVELS, level_config
 from moonbot.benchmark.limit import embree_limit, encode_limit, encode_limit_seconds, ray_limit_seconds
 from moonbot.host import machine_slug
 from moonbot.pipeline.stats import read_stats, start_seconds
 
 SCHEMA_VERSION = 2
-ROOT = Path(__file__).resolve().parents[2]  # the checkout (an editable install)
-DEFAULT_CONFIG = ROOT / "configs" / "bench" / "throughput-v1.yaml"
-SWEEP_CONFIG = ROOT / "configs" / "synbag-1.0.yaml"
+# The checkout's configs, relative to the working directory (the checkout when run from it).
+DEFAULT_CONFIG = Path("configs") / "bench" / "throughput-v1.yaml"
+SWEEP_CONFIG = Path("configs") / "synbag-1.0.yaml"
 NODES = (1, 10, 50, 100)
 STAGE_GROUPS = {"scene_build": ("terrain", "compose", "settle", "build_bvh"), "dust": ("dust",),
                 "render": ("render", "amodal", "tonemap"), "encode_write": ("encode_write",)}
 RAY_KINDS = ("camera_rays", "shadow_rays", "bounce_shadow_rays", "bounce_rays", "medium_rays", "amodal_rays")
 
 
-def results_dir() -> Path:
-    """bench/results of the checkout, or of the working directory when not run from one."""
-    return (ROOT if (ROOT / "bench").is_dir() else Path.cwd()) / "bench" / "results"
-
-
 def default_out(m: dict) -> Path:
     """bench/results/<machine slug>-<UTC date>.json."""
-    return results_dir() / f"{machine_slug(m)}-{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d}.json"
+    return RESULTS_DIR / f"{machine_slug(m)}-{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d}.json"
 
 
 def config_identity(path: Path) -> dict:

@@ -1,6 +1,7 @@
 """The BOP layout: object models (models.py), scene_gt_info entries as bop_toolkit defines them
 (gt_info.py), what OUT/tasks holds (inventory.py) and the merge of complete tasks into one BOP
-dataset with YOLO labels and a manifest (merge.py)."""
+dataset with a manifest (merge.py: scene folders in scene_build.py, dataset_info.json in
+dataset_info.py, files and the manifest in dataset_files.py)."""
 
 from moonbot.bop.gt_info import bbox_of, gt_info_entry
 from moonbot.bop.inventory import Inventory, MergeError, SceneTasks, TaskDir, scan_tasks

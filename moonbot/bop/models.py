@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import ConvexHull, cKDTree
 
+from moonbot.atomic_io import atomic_write
 from moonbot.scene.normals import vertex_normals
-from moonbot.writer.staging import atomic_write
 
 # A rotation is a symmetry when it maps the surface onto itself within this fraction of the
 # diameter (the BOP convention the issue names: 1 %).

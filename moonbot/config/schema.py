@@ -234,6 +234,13 @@ class RocksConfig:
         "no rock lies within this distance of a bag's footprint (the site was cleared), metres", lo=0.0, hi=10.0))
 
 
+# The ground a scene stands on: a location (procedural, or `dem`: a site from an imported DEM;
+# moonbot.terrain.location builds them) or an analytic test ground.
+LOCATIONS = ("flat", "hilly", "crater", "dem")
+TEST_GROUNDS = ("plane", "slope")
+LocationName = Literal[LOCATIONS + TEST_GROUNDS]
+
+
 @dataclass(frozen=True)
 class TerrainConfig:
     """The ground (moonbot/terrain/). A procedural location — `flat` (a mare plain), `hilly`,
@@ -241,7 +248,7 @@ class TerrainConfig:
     with `moonbot terrain import`, each meshed from 1 cm at the bags out to the horizon on a
     curved Moon; or an analytic test ground: `plane` (z = 0) or `slope`."""
 
-    location: Literal["flat", "hilly", "crater", "dem", "plane", "slope"] = field(default="flat", metadata=spec(
+    location: LocationName = field(default="flat", metadata=spec(
         "procedural location (flat | hilly | crater), a DEM site (dem) or analytic ground (plane | slope)"))
     seed: int = field(default=0, metadata=spec(
         "terrain seed: a location is the same for every sample of a sweep, and cached per worker",
@@ -806,8 +813,6 @@ SPLIT_AXES = ("meshes", "locations", "bag_counts", "stain_seeds", "dust", "sun_e
 # BOP numbers scenes and images with six digits: ids 0..999999.
 MAX_SCENES = 1_000_000
 MAX_IMAGES_PER_SCENE = 1_000_000
-
-LocationName = Literal["flat", "hilly", "crater", "dem", "plane", "slope"]
 
 
 @dataclass(frozen=True)

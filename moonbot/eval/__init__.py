@@ -1,11 +1,12 @@
 """Evaluation (issue 8): pose-error metrics as the BOP toolkit and the YCB-Video convention define
 them, the BOP results CSV the estimates come in, estimates scored per condition and per visible-pixel
-bin (`moonbot eval`: report.py, plots.py), and a merged dataset's self-consistency."""
+bin (`moonbot eval`: report.py, with matching.py, tables.py, formatting.py and plots.py), and a
+merged dataset's self-consistency."""
 
 from moonbot.eval.metrics import add, adds, auc, match_greedy, recall, translation_error
-from moonbot.eval.report import (DEFAULT_PX_BINS, ConditionRow, EvalError, EvalReport, Evaluation, InstanceResult,
-                                 ModelPoints, PixelRow, Summary, assign_greedy, evaluate, run_eval, summarize, table3,
-                                 table4)
+from moonbot.eval.matching import EvalError, Evaluation, InstanceResult, ModelPoints, assign_greedy, evaluate
+from moonbot.eval.report import EvalReport, run_eval
+from moonbot.eval.tables import DEFAULT_PX_BINS, ConditionRow, PixelRow, Summary, summarize, table3, table4
 from moonbot.eval.results import Estimate, ResultsError, format_estimate, read_results, write_results
 from moonbot.eval.validate import ValidationReport, validate_dataset
 

@@ -1,28 +1,20 @@
-"""`moonbot eval`'s figures as PNG bytes (matplotlib's Agg canvas, no pyplot state): ADD-S against
-visible pixels per instance (the paper's Figure 11) and recall per condition group (Table 3).
-No timestamps or version in the PNG metadata, so the same evaluation gives the same bytes."""
+"""`moonbot eval`'s figures as PNG bytes (moonbot.charts: matplotlib's Agg canvas, no pyplot
+state): ADD-S against visible pixels per instance (the paper's Figure 11) and recall per condition
+group (Table 3). No timestamps or version in the PNG metadata, so the same evaluation gives the
+same bytes."""
 
 from __future__ import annotations
 
-import io
 import math
 from collections.abc import Sequence
 
 import numpy as np
 
-from moonbot.eval.report import ConditionRow, Evaluation, RECALL_FRACTIONS, check_bins
-from moonbot.pipeline.svgchart import COLOURS
+from moonbot.charts import COLOURS, figure, png_bytes
+from moonbot.eval.matching import RECALL_FRACTIONS, Evaluation
+from moonbot.eval.tables import ConditionRow, check_bins
 
 DPI = 110
-
-
-def _png(fig) -> bytes:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    FigureCanvasAgg(fig)
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=DPI, metadata={"Software": None})
-    return buffer.getvalue()
 
 
 def adds_vs_visible_pixels(evaluation: Evaluation, edges: Sequence[float], title: str) -> bytes:
@@ -30,12 +22,11 @@ def adds_vs_visible_pixels(evaluation: Evaluation, edges: Sequence[float], title
     pixels (log x), one colour per mesh; the recall thresholds (10 %, 20 %) as dashed lines, the
     visible-pixel bin edges as dotted ones and the median per bin (all meshes) as a black line.
     Missed instances are crosses on the top edge, errors above the plotted range triangles there."""
-    from matplotlib.figure import Figure
     from matplotlib.ticker import FuncFormatter, NullFormatter
 
     edges = check_bins(edges)
     rows = evaluation.evaluated
-    fig = Figure(figsize=(11, 5.5), layout="constrained")
+    fig = figure(11, 5.5)
     ax = fig.add_subplot()
     matched = [r for r in rows if r.matched]
     y_all = np.array([100 * r.adds_mm / r.diameter_mm for r in matched])
@@ -96,7 +87,7 @@ def adds_vs_visible_pixels(evaluation: Evaluation, edges: Sequence[float], title
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     if not rows:
         ax.text(0.5, 0.5, "no evaluated instances", transform=ax.transAxes, ha="center")
-    return _png(fig)
+    return png_bytes(fig, DPI)
 
 
 def _label(row: ConditionRow) -> str:
@@ -111,10 +102,8 @@ def recall_by_condition(rows: Sequence[ConditionRow], title: str) -> bytes:
     """Horizontal bars of each Table 3 row's ADD-S recall at 20 % of the diameter (the recall at
     10 % as a darker inner bar), condition groups first, then each factor's rows and 'all'; each
     bar annotated with both recalls and the instance count."""
-    from matplotlib.figure import Figure
-
     height = 1.6 + 0.3 * max(len(rows), 1)
-    fig = Figure(figsize=(9, height), layout="constrained")
+    fig = figure(9, height)
     ax = fig.add_subplot()
     levels = ["condition", "mesh", "location", "stain", "dust", "all"]
     palette = {level: COLOURS[k % len(COLOURS)] for k, level in enumerate(levels)}
@@ -137,4 +126,4 @@ def recall_by_condition(rows: Sequence[ConditionRow], title: str) -> bytes:
     ax.set_title(f"Recall by condition: {title}", fontsize=11)
     ax.grid(True, axis="x", color="0.9")
     ax.set_axisbelow(True)
-    return _png(fig)
+    return png_bytes(fig, DPI)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from moonbot.writer.staging import atomic_write
+from moonbot.atomic_io import atomic_write
 
 HEADER = "scene_id,im_id,obj_id,score,R,t,time"
 TIME_TOLERANCE_S = 0.001

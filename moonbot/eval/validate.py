@@ -31,6 +31,8 @@ from moonbot.bop.layout import (SCENE_INDEX_JSON, SCENE_INDEX_PARQUET, SCENE_MET
                                 view_rel)
 from moonbot.bop.models import read_ply
 from moonbot.bop.scene_index import COLUMNS, index_rows
+from moonbot.render.view import core_camera
+from moonbot.scene.orbit import CameraPose
 from moonbot.writer.checksum import file_sha256
 
 EVAL_DIR = "eval"  # moonbot eval's default output folder inside the dataset, not in the manifest
@@ -159,7 +161,7 @@ def render_at_gt(models: dict, instances: list[dict], cam: dict, shape: tuple[in
         scene.add_instance(prototypes[obj], pose, k + 1, (0.5, 0.5, 0.5))
     scene.commit()
     K = np.array(cam["cam_K"], np.float64).reshape(3, 3)
-    camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], shape[1], shape[0], np.eye(3), np.zeros(3))
+    camera = core_camera(K, shape[1], shape[0], CameraPose(np.eye(3), np.zeros(3)))  # poses are model-to-camera
     out = _core.render(scene, camera, _core.Sun(0.0, 90.0, 0.0, 0.0), passes=["depth", "instance"])
     return out["depth"].astype(np.float64), out["instance"]
 

@@ -11,11 +11,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from moonbot.atomic_io import atomic_write
 from moonbot.bop.coco import coco_categories, coco_info, image_info, rgb_name, scene_annotations
 from moonbot.bop.reader import DatasetError, load_json
 from moonbot.bop.toolkit_json import dumps_toolkit_json
 from moonbot.export.scenes import SceneDir, dataset_scenes
-from moonbot.writer.staging import atomic_write
 
 # Split files' image ids: scene_id × this + im_id (BOP image ids are six-digit).
 IMAGE_ID_STRIDE = 1_000_000

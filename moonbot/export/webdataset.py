@@ -39,12 +39,12 @@ from pathlib import Path
 
 import numpy as np
 
+from moonbot.atomic_io import staged_directory
 from moonbot.bop.coco import read_mask, rgb_name
 from moonbot.bop.reader import DatasetError, load_json
 from moonbot.bop.rle import encode_rle
 from moonbot.bop.toolkit_json import dumps_toolkit_json
 from moonbot.export.scenes import SceneDir, dataset_scenes
-from moonbot.writer.staging import staged_directory
 
 SHARD_NAME = "shard-{:06d}.tar"
 KEY_TO_SHARD = "key_to_shard.json"

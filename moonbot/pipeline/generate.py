@@ -28,6 +28,7 @@ from pathlib import Path
 import dask
 from distributed import Client, LocalCluster, WorkerPlugin, as_completed, get_worker
 
+from moonbot.atomic_io import atomic_write
 from moonbot.bop.merge import merge_dataset
 from moonbot.config import Config, ConfigError, config_hash, load_config
 from moonbot.pipeline.heartbeat import Beat, Heartbeat, StallLimit, Watchdog, heartbeat_dir
@@ -35,8 +36,8 @@ from moonbot.pipeline.placements import (TASK_PREFIX, layout_id, place_layout, p
                                          read_record)
 from moonbot.pipeline.stats import collect
 from moonbot.pipeline.tasks import DONE, is_complete, run_task, sweep_temporaries, task_dir
-from moonbot.writer.staging import atomic_write
 from moonbot.sweep import Task, task_config, tasks
+from moonbot.yolo.export import write_yolo
 
 # A worker's death counts against the tasks it held; a few deaths of one task are the cluster's
 # fault (preemption, the out-of-memory killer), more are the task's (dask-distribution.md §1.4).
@@ -214,7 +215,7 @@ def generate(config: Config | str | Path | None, out_dir: Path, *, client: Clien
     if result.rendered or result.complete_before:
         collect(out_dir)
         if merge:
-            result.merge = merge_dataset(out_dir, config=config, progress=progress)
+            result.merge = merge_dataset(out_dir, config=config, progress=progress, exporters=(write_yolo,))
     result.seconds = time.perf_counter() - start
     return result
 

@@ -35,8 +35,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from moonbot.atomic_io import atomic_write
 from moonbot.config import Config
-from moonbot.writer.staging import atomic_write
 
 HEARTBEAT_DIR = "running"
 DEBUG_HANG_ENV = "MOONBOT_DEBUG_HANG_TASK"

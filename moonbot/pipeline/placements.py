@@ -30,12 +30,12 @@ from pathlib import Path
 
 import numpy as np
 
+from moonbot.atomic_io import atomic_write
 from moonbot.config import Config
 from moonbot.scene.compose import place_bags
 from moonbot.scene.placement import Placement
 from moonbot.sweep import Task, task_config
 from moonbot.terrain import get_terrain
-from moonbot.writer.staging import atomic_write
 
 PLACEMENTS_DIR = "placements"
 # The heartbeat name of a layout's placement task (OUT/running/<name>.json) and its Dask key.

@@ -48,10 +48,10 @@ from pathlib import Path
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from moonbot.atomic_io import atomic_write
+from moonbot.charts import COLOURS, bar_panels_svg
 from moonbot.pipeline.placements import read_placements
-from moonbot.pipeline.svgchart import COLOURS, bar_panel, svg_close, svg_open
 from moonbot.pipeline.tasks import is_complete
-from moonbot.writer.staging import atomic_write
 
 # The stages a task times (moonbot.pipeline.views, moonbot.writer.sample), in pipeline order;
 # other stage names a worker reports follow these, sorted.
@@ -531,22 +531,18 @@ def format_summary(s: Summary) -> str:
 def throughput_svg(s: Summary, title: str) -> str:
     """An SVG of samples/s per host (labelled with samples/s per core) and, per host, the seconds a
     sample spends in each stage, stacked in pipeline order."""
-    width = 720
     stages = list(s.stage_share)
     colours = [COLOURS[(STAGE_ORDER.index(k) if k in STAGE_ORDER else len(STAGE_ORDER) + stages.index(k))
                        % len(COLOURS)] for k in stages]
     rate_rows = [(h.host, [h.samples_per_s], f"{_num(h.samples_per_s)} ({_num(h.samples_per_s_per_core)}/core)")
                  for h in s.hosts]
     rate_rows.append(("all hosts", [s.samples_per_s], f"{_num(s.samples_per_s)} ({_num(s.per_core)}/core)"))
-    top = 36
-    rates, height = bar_panel(top, width, "throughput per host", "samples/s", rate_rows, colours=[COLOURS[0]])
-    top += height + 16
     stage_rows = [(h.host, [_ratio(h.stages_s[k], h.samples) for k in stages],
                    f"{_num(_ratio(sum(h.stages_s.values()), h.samples))} s") for h in s.hosts]
-    breakdown, height = bar_panel(top, width, "stage time per sample, per host", "seconds per sample",
-                                  stage_rows, series=stages, colours=colours)
-    out = svg_open(width, top + height + 12, title) + rates + breakdown
-    return svg_close(out)
+    return bar_panels_svg(title, [
+        {"title": "throughput per host", "axis_label": "samples/s", "rows": rate_rows, "colours": [COLOURS[0]]},
+        {"title": "stage time per sample, per host", "axis_label": "seconds per sample", "rows": stage_rows,
+         "series": stages, "colours": colours}]).decode("utf-8")
 
 
 def write_plot(s: Summary, path: Path, title: str) -> None:

@@ -19,13 +19,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from moonbot import __version__
+from moonbot.atomic_io import atomic_write, staged_directory
 from moonbot.config import Config, config_hash
 from moonbot.host import host_record
 from moonbot.pipeline.views import run_views
 from moonbot.scene.placement import Placement
 from moonbot.sweep import Task, task_config
 from moonbot.writer.checksum import file_sha256
-from moonbot.writer.staging import atomic_write, staged_directory
 
 DONE = "DONE.json"
 

@@ -13,13 +13,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from moonbot import __version__
+from moonbot.atomic_io import staged_directory
 from moonbot.config import Config, config_hash
 from moonbot.render import SceneDust, build_light_cache, build_scene, render_view, resolve_exposure
 from moonbot.render.amodal import build_amodal_scenes, render_amodal_masks
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
 from moonbot.scene.orbit import orbit_height
 from moonbot.scene.placement import Placement
-from moonbot.writer import staged_directory, write_sample
+from moonbot.writer import write_sample
 
 
 @dataclass(frozen=True)

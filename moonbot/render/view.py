@@ -10,7 +10,7 @@ import numpy as np
 from moonbot import _core
 from moonbot.config.schema import Config, GrainConfig, PhotometryConfig
 from moonbot.scene.compose import TERRAIN_MESH, SceneSpec
-from moonbot.scene.orbit import CameraPose
+from moonbot.scene.orbit import CameraPose, intrinsics, orbit_height, orbit_pose
 from moonbot.scene.normals import vertex_normals
 
 
@@ -110,6 +110,39 @@ def scene_lights(config: Config) -> tuple[_core.Sun, _core.Sun | None]:
     return sun, earth
 
 
+def core_camera(K: np.ndarray, width: int, height: int, pose: CameraPose) -> _core.Camera:
+    """The core's pinhole camera: intrinsics K (3, 3) in pixels, an image of width × height
+    pixels, and the world-to-camera pose (OpenCV axes: x right, y down, z forward)."""
+    return _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], width, height, pose.R, pose.t)
+
+
+def orbit_view(config: Config, spec: SceneSpec, view: int) -> tuple[np.ndarray, CameraPose]:
+    """K (3, 3) and the world-to-camera pose of orbit view `view` (0: orbit.start_azimuth_deg,
+    then steps of orbit.step_deg), its height kept above the ground as the pipeline places it."""
+    o = config.orbit
+    azimuth = o.start_azimuth_deg + view * o.step_deg
+    height = orbit_height(spec.target, o.radius_m, o.height_m, azimuth, spec.ground)
+    return intrinsics(config.camera), orbit_pose(spec.target, o.radius_m, height, azimuth)
+
+
+@dataclass(frozen=True)
+class ViewInputs:
+    """What the core renders one orbit view with: K (3, 3) px, the world-to-camera pose, the
+    camera at the config's image size, the Sun and the Earth (None without earthshine)."""
+
+    K: np.ndarray
+    pose: CameraPose
+    camera: _core.Camera
+    sun: _core.Sun
+    earth: _core.Sun | None
+
+
+def view_inputs(config: Config, spec: SceneSpec, view: int) -> ViewInputs:
+    """The camera and lights of orbit view `view` of the scene `spec` under `config`."""
+    K, pose = orbit_view(config, spec, view)
+    return ViewInputs(K, pose, core_camera(K, config.camera.width, config.camera.height, pose), *scene_lights(config))
+
+
 def build_light_cache(scene: _core.Scene, config: Config) -> _core.LightCache | None:
     """The task's light cache (render.indirect = cache) over the committed scene's non-moving
     instances, keyed by the dataset seed so that every view of the task reads the same values;
@@ -132,8 +165,7 @@ def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraP
     with `medium` (a dust scene's cloud; moonbot.render.dust) attenuating and scattering the
     sunlight in rgb only. `light_cache` (build_light_cache's, for this scene and config) gives
     the camera hits on the static scene their indirect light in place of per-pixel bounces."""
-    camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], config.camera.width,
-                          config.camera.height, pose.R, pose.t)
+    camera = core_camera(K, config.camera.width, config.camera.height, pose)
     sun, earth = scene_lights(config)
     start = time.perf_counter()
     out = _core.render(scene, camera, sun, spp=config.render.spp, seed=seed,

@@ -484,20 +484,15 @@ def bag_model(meshes: MeshesConfig, name: str) -> BagModel:
                     user.albedo, user.vertex_albedo)
 
 
-# A user mesh whose convex hull holds more than this many times its volume settles as convex
-# parts (moonbot.scene.convex_parts), not as its hull.
-DECOMPOSE_ABOVE_HULL_FIT = 1.2
-
-
 def bag_collision(meshes: MeshesConfig, name: str) -> list[np.ndarray]:
     """The shapes settling collides for the bag mesh `name`: point sets (K, 3) float64, model
     frame, metres, each standing for its convex hull, together holding the whole mesh. A built-in
     variant: one, collision_points. A user mesh: its vertices (one hull) where the hull fits
-    within DECOMPOSE_ABOVE_HULL_FIT of its volume, else its convex parts."""
+    within user_mesh.DECOMPOSE_ABOVE_HULL_FIT of its volume, else its convex parts."""
     entry = meshes.user_mesh(name)
     if entry is None:
         return [variant_collision_points(meshes, meshes.obj_id(name))]
-    from moonbot.scene.user_mesh import load_user_mesh, user_convex_parts
+    from moonbot.scene.user_mesh import DECOMPOSE_ABOVE_HULL_FIT, load_user_mesh, user_convex_parts
 
     user = load_user_mesh(entry)
     if user.report.hull_fit <= DECOMPOSE_ABOVE_HULL_FIT:

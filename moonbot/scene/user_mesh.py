@@ -481,6 +481,11 @@ def _albedo(vertices: np.ndarray, triangles: np.ndarray,
     return tuple(float(c) for c in mean), factor.astype(np.float32)
 
 
+# A user mesh whose convex hull holds more than this many times its volume settles as convex
+# parts (moonbot.scene.convex_parts), not as its hull.
+DECOMPOSE_ABOVE_HULL_FIT = 1.2
+
+
 @functools.lru_cache(maxsize=16)
 def user_convex_parts(entry: UserMeshConfig):
     """The entry's mesh as convex parts for settling (moonbot.scene.convex_parts), cached per
@@ -494,8 +499,6 @@ def user_convex_parts(entry: UserMeshConfig):
 def describe(entry: UserMeshConfig) -> list[str]:
     """Lines telling what reading `entry` repaired and found, and how settling will collide it
     (its hull, or its convex parts with their fit), for `moonbot meshes`."""
-    from moonbot.scene.bag_mesh import DECOMPOSE_ABOVE_HULL_FIT
-
     r = load_user_mesh(entry).report
     lines = [f"{entry.name}: {r.path} ({entry.unit}, up {entry.up_axis}): {r.vertices_read} vertices, "
              f"{r.triangles_read} triangles read",

@@ -77,14 +77,13 @@ class Estimate:
     machine: dict
 
 
-def default_record() -> Path:
-    """The generate benchmark record in the checkout's bench/results/ for a machine like this
-    one (named by the machine slug the benchmarks use: CPU vendor and family, cores); when there
-    is none, the first other machine's record there, if any (provenance() then says it is
-    another machine's)."""
+def default_record(results: Path = Path("bench") / "results") -> Path:
+    """The generate benchmark record in `results` (default: bench/results/ under the working
+    directory, the checkout's when run from it) for a machine like this one (named by the
+    machine slug the benchmarks use: CPU vendor and family, cores); when there is none, the first
+    other machine's record there, if any (provenance() then says it is another machine's)."""
     from moonbot.host import cpu_model, machine_slug
 
-    results = Path(__file__).resolve().parents[2] / "bench" / "results"
     own = results / f"generate-{machine_slug({'cpu': cpu_model(), 'cores': os.cpu_count()})}.json"
     others = sorted(results.glob("generate-*.json"))
     return own if own.exists() or not others else others[0]

@@ -2,7 +2,7 @@
 East-North-Up grid (metres), ready to become a ground.
 
 `import_dem` reads a GeoTIFF (geographic or equirectangular on the 1737.4 km sphere) or a 16-bit
-PNG heightmap through the C++ core (`moonbot._core.import_dem`, cpp/src/dem.cpp), which fills
+PNG heightmap through the C++ core (`moonbot._core.import_dem`, cpp/src/dem_import.cpp), which fills
 voids, crops, and converts to ENU in double precision with GeographicLib. The result is a
 `LocalDem`; `LocalDem.save`/`load` keep it in a `.npz` that is written atomically and byte for
 byte the same for the same content.

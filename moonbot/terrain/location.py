@@ -39,13 +39,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from moonbot import _core
-from moonbot.config.schema import TerrainConfig
+from moonbot.config.schema import LOCATIONS, TerrainConfig
 from moonbot.terrain.craters import CraterField, crater_profile
 from moonbot.terrain.dem import LocalDem
 from moonbot.terrain.ground import GridGround, graded_axis
 from moonbot.terrain.roughness import Roughness, SlopeLaw, slope_law
 
-LOCATIONS = ("flat", "hilly", "crater", "dem")
 LUNAR_RADIUS_M = float(_core.LUNAR_RADIUS)
 CRATER_CELLS = 5  # a crater is kept where its diameter spans at least this many grid cells
 CRATER_REACH = 60.0  # craters of diameter D are sampled within 60·D (~10 pixels across there)

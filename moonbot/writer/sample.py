@@ -13,12 +13,12 @@ from pathlib import Path
 import numpy as np
 
 from moonbot import _core
+from moonbot.atomic_io import atomic_write
 from moonbot.render.amodal import AmodalMasks
 from moonbot.render.exposure import LUMINOUS_EFFICACY_LM_W, Exposure, tonemap
 from moonbot.render.view import RenderedView
 from moonbot.scene.compose import BagInstance
 from moonbot.scene.orbit import CameraPose
-from moonbot.writer.staging import atomic_write
 
 # BOP depth_scale: depth_mm = png_value × DEPTH_SCALE_MM. 1 mm steps, 65.535 m at most.
 DEPTH_SCALE_MM = 1.0

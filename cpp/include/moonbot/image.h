@@ -9,13 +9,9 @@
 #include <variant>
 #include <vector>
 
-namespace moonbot {
+#include "moonbot/io_error.h"
 
-/// A file could not be written or read; the message names the path. Maps to Python's OSError.
-class IoError : public std::runtime_error {
-public:
-    using std::runtime_error::runtime_error;
-};
+namespace moonbot {
 
 /// Maps linear radiance to 8-bit sRGB. `exposure` (sr·m²/W) scales radiance to the dimensionless
 /// signal Reinhard compresses: moonbot passes K_v / L_sat(EV100) (moonbot/render/exposure.py), so

@@ -8,15 +8,13 @@
 
 #include "moonbot/camera.h"
 #include "moonbot/medium.h"
+#include "moonbot/render_limits.h"
 #include "moonbot/scene.h"
 #include "moonbot/sun.h"
 
 namespace moonbot {
 
 class LightCache;
-
-/// The most threads a render may ask for: far above any node, far below what breaks TBB.
-constexpr int kMaxThreads = 1024;
 
 struct RenderSettings {
     int spp = 1;        ///< RGB samples per pixel, 1..65536; 1 = the pixel-centre ray, no jitter
@@ -52,7 +50,6 @@ struct RenderSettings {
 };
 
 constexpr int kMaxLightSamples = 1024;
-constexpr int kMaxBounces = 16;
 
 /// Output buffers, row-major, owned by the caller; a null pointer means the pass is not wanted
 /// and costs nothing. rgb: H×W×3 float32 W/(m²·sr); depth: H×W float32 metres (0 = no hit);
