@@ -28,8 +28,8 @@ APT_PACKAGES=(build-essential pkg-config python3 python3-dev python3-venv
               libembree-dev libopenimageio-dev libglm-dev
               libgeographiclib-dev libtbb-dev zlib1g-dev)
 VENV=.venv
-# What ruff lints and formats: the package, its tests, the benchmarks and the cluster recipes.
-PYTHON_SOURCES=(moonbot tests bench cluster)
+# What ruff lints and formats: the package, its tests, the benchmarks, the cluster recipes, the docs' script.
+PYTHON_SOURCES=(moonbot tests bench cluster docs)
 # The tests that trace rays, re-run under every Embree ISA the CPU offers (`./dev.sh test`).
 ISA_TESTS=(tests/test_render_geometry.py tests/test_lighting.py tests/test_watertight.py tests/test_amodal.py
            tests/test_embree_isa.py)
