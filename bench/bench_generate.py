@@ -17,7 +17,6 @@ Writes bench/results/generate-<machine>.json. Run:
 
 from __future__ import annotations
 
-import datetime
 import json
 import resource
 import sys
@@ -29,6 +28,7 @@ from distributed import Client, LocalCluster
 from moonbot.config import load_config
 from moonbot.pipeline.generate import generate
 from moonbot.pipeline.stats import load_placements
+from moonbot.records.stats import read_stats
 from moonbot.sweep.plan import split_plans
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
@@ -53,20 +53,20 @@ def run(workers: int, threads: int) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         result = generate(config, Path(tmp), workers=workers, threads=threads, progress=None)
         assert not result.failed, result.failed
-        stats = [json.loads(p.read_text()) for p in Path(tmp).glob("tasks/*/stats.json")]
+        stats = [read_stats(p) for p in Path(tmp).glob("tasks/*/stats.json")]
         # The layouts' placing and settling, once each (moonbot.pipeline.placements): stages too.
         placements = load_placements(Path(tmp))
-    starts = [datetime.datetime.fromisoformat(s["started_utc"]).timestamp() for s in stats]
-    ends = [t + s["wall_s"] for t, s in zip(starts, stats)]
-    samples = sum(s["samples"] for s in stats)
+    starts = [s.start_seconds() for s in stats]
+    ends = [t + s.wall_s for t, s in zip(starts, stats)]
+    samples = sum(s.samples for s in stats)
     span = max(ends) - min(starts)
     plans = split_plans(config)
+    stages = [s.stages_s for s in stats] + [p["stages_s"] for p in placements]
     return {"workers": workers, "threads_per_worker": threads, "tasks": len(stats), "samples": samples, "seconds": span,
-            "samples_per_s": samples / span, "core_seconds_per_sample": workers * threads * span / samples, "bytes": sum(s["bytes_written"] for s in stats),
+            "samples_per_s": samples / span, "core_seconds_per_sample": workers * threads * span / samples, "bytes": sum(s.bytes_written for s in stats),
             "megapixel_samples": sum(p.megapixel_samples for p in plans),
             "megapixels": sum(p.megapixels for p in plans), "layouts": len(placements),
-            "stages_s": {k: sum(s["stages_s"].get(k, 0.0) for s in [*stats, *placements])
-                         for k in sorted({k for s in [*stats, *placements] for k in s["stages_s"]})}}
+            "stages_s": {k: sum(s.get(k, 0.0) for s in stages) for k in sorted({k for s in stages for k in s})}}
 
 
 def _peak_rss_mib() -> float:

@@ -193,34 +193,17 @@ def stats(out_dir: Path, reference_path: Path | None, reference_rate: float | No
     """Collect the throughput of a `moonbot generate --out OUT` run: every finished task's
     stats.json into OUT/stats/tasks.jsonl and tasks.parquet; print samples/s overall, per host,
     per worker, per core, the stage breakdown and efficiencies; plot OUT/stats/throughput.svg.
-    Formulas: moonbot/pipeline/stats.py."""
-    from moonbot.pipeline import stats as st
+    Formulas: moonbot/pipeline/stats/aggregate.py."""
+    from moonbot.pipeline.stats import format_summary, run_stats
 
     if reference_path is not None and reference_rate is not None:
         raise click.UsageError("give --reference or --reference-rate, not both")
     try:
-        if (out_dir / "tasks").is_dir():
-            collected = st.collect(out_dir)
-            records, placements = collected.records, collected.placements
-            for d in collected.incomplete:
-                click.echo(f"skipped {d}: not a complete task (no sound DONE.json)", err=True)
-        else:  # task directories gone: what collect wrote before
-            records, placements = st.load(out_dir), st.load_placements(out_dir)
-        if not records:
-            raise click.ClickException(f"{out_dir / 'tasks'}: no finished tasks")
-        reference = None
-        if reference_rate is not None:
-            reference = st.Reference(reference_rate, "--reference-rate")
-        elif reference_path is not None and reference_path.is_dir():
-            reference = st.reference_from_run(reference_path)
-        elif reference_path is not None:
-            reference = st.reference_from_bench(reference_path, max(r["threads"] for r in records))
-        summary = st.summarize(records, reference, placements)
-        (out_dir / "stats").mkdir(parents=True, exist_ok=True)
-        st.write_plot(summary, out_dir / "stats" / "throughput.svg", f"moonbot throughput: {out_dir.name}")
+        summary = run_stats(out_dir, reference_path, reference_rate, on_skipped=lambda d: click.echo(
+            f"skipped {d}: not a complete task (no sound DONE.json)", err=True))
     except (ValueError, OSError) as e:  # StatsError is a ValueError
         raise click.ClickException(str(e)) from None
-    click.echo(st.format_summary(summary))
+    click.echo(format_summary(summary))
     click.echo(f"\nwritten {out_dir / 'stats'}/tasks.jsonl, tasks.parquet, placements.jsonl, throughput.svg")
 
 

@@ -9,6 +9,11 @@ from moonbot.config.schema import BagShape
 from moonbot.scene.bag_mesh import filled_cuboid
 from moonbot.scene.orbit import CameraPose, orbit_pose, pixel_directions
 
+# What the pipeline's view stage adds to gt.json (moonbot.records.gt), for a view written alone.
+VIEW_META = {"view": 0, "camera_azimuth_deg": 0.0, "camera_height_m": 1.0,
+             "sun": {"azimuth_deg": 0.0, "elevation_deg": 10.0, "irradiance_w_m2": 1361.0}, "render_seed": 0,
+             "config_hash": "0" * 64, "moonbot_version": "test"}
+
 
 def box(size: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
     """An exact box centred on the origin: the sharp, unbulged lattice body, coarsely split."""

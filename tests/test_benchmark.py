@@ -157,12 +157,12 @@ def test_compare_plots_beside_its_inputs_not_into_the_working_folder(tmp_path, m
 
 @pytest.mark.parametrize("edit, field", [
     (lambda r: r["runs"][0].pop("samples_per_s"), "runs[0].samples_per_s: missing"),
-    (lambda r: r["runs"][0]["ratio"].update(pipeline="fast"), "runs[0].ratio.pipeline: expected a number"),
+    (lambda r: r["runs"][0]["ratio"].update(pipeline="fast"), "runs[0].ratio.pipeline: must be a number"),
     (lambda r: r["machine"].pop("cpu"), "machine.cpu: missing"),
-    (lambda r: r.update(runs={}), "runs: expected a list"),
-    (lambda r: r["projection"]["levels"][0]["hours"][0].update(nodes=1.5), "hours[0].nodes: expected an integer"),
+    (lambda r: r.update(runs={}), "runs: must be a list"),
+    (lambda r: r["projection"]["levels"][0]["hours"][0].update(nodes=1.5), "hours[0].nodes: must be an integer"),
     (lambda r: r.update(schema_version=SCHEMA_VERSION + 1), f"schema_version: {SCHEMA_VERSION + 1} is newer"),
-    (lambda r: r.update(benchmark="generate"), "benchmark: expected 'throughput'"),
+    (lambda r: r.update(benchmark="generate"), "benchmark: must be one of throughput, got 'generate'"),
 ])
 def test_a_malformed_result_names_the_file_and_field(tmp_path, edit, field):
     record = json.loads(OLD_RESULT.read_text())
@@ -179,7 +179,7 @@ def test_a_malformed_result_names_the_file_and_field(tmp_path, edit, field):
 
 def test_unreadable_results(tmp_path):
     (tmp_path / "text.json").write_text("not json")
-    with pytest.raises(ResultError, match="text.json: not JSON"):
+    with pytest.raises(ResultError, match="text.json: not valid JSON"):
         load_result(tmp_path / "text.json")
     with pytest.raises(ResultError, match="missing.json: cannot read"):
         load_result(tmp_path / "missing.json")

@@ -137,5 +137,5 @@ def test_records_name_the_cpu_and_the_isa(tmp_path):
 
     config = load_config("configs/smoke.yaml", {"render.embree_isa": ISAS[0]})
     task = next(t for t in tasks(config) if t.split == "test")
-    stats = run_task(config, task, tmp_path, threads=1).stats
+    stats = run_task(config, task, tmp_path, threads=1).stats.as_json()
     assert {k: stats[k] for k in record} == {**record, "embree_isa": ISAS[0]}

@@ -19,6 +19,7 @@ from moonbot.render.exposure import (AUTO_MIN_ELEVATION_DEG, EV100_MIN, LUMINOUS
                                      exposure_for_ev100, metered_ev100, saturation_luminance)
 from moonbot.scene.orbit import CameraPose
 from moonbot.writer import RADIANCE_UNIT, finite_radiance, write_sample
+from scenes import VIEW_META
 
 pytestmark = pytest.mark.unit
 
@@ -153,10 +154,12 @@ def view_of(rgb: np.ndarray) -> RenderedView:
 
 
 def write(tmp_path, rgb: np.ndarray, exr: bool, ev100: float = 13.0) -> dict:
+    """write_sample's gt.json record, as the JSON object it wrote."""
     h, w, _ = rgb.shape
     K = np.array([[100.0, 0, w / 2], [0, 100.0, h / 2], [0, 0, 1]])
     pose = CameraPose(R=np.eye(3), t=np.zeros(3))
-    return write_sample(tmp_path, view_of(rgb), exposure_for_ev100(ev100), K, pose, (), 1, {}, {}, exr=exr)
+    return write_sample(tmp_path, view_of(rgb), exposure_for_ev100(ev100), K, pose, (), 1, VIEW_META, {},
+                        exr=exr).as_json()
 
 
 def read_exr(path) -> tuple[np.ndarray, dict]:

@@ -15,6 +15,7 @@ from moonbot.render import RenderedView, resolve_exposure
 from moonbot.render.exposure import add_veiling_glare, exposure_for_ev100, tonemap
 from moonbot.scene.orbit import CameraPose
 from moonbot.writer import write_sample
+from scenes import VIEW_META
 
 pytestmark = pytest.mark.unit
 
@@ -83,6 +84,6 @@ def test_config_default_and_range_and_metadata(tmp_path):
     for name, e in (("on", exposure), ("off", off)):
         out = tmp_path / name
         out.mkdir()
-        gt = write_sample(out, view, e, K, pose, (), 1, {}, {})
-        assert gt["exposure"]["veiling_glare_index"] == e.veiling_glare
+        gt = write_sample(out, view, e, K, pose, (), 1, VIEW_META, {})
+        assert gt.exposure["veiling_glare_index"] == e.veiling_glare
         assert json.loads((out / "gt.json").read_text())["exposure"]["veiling_glare_index"] == e.veiling_glare

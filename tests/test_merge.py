@@ -527,7 +527,7 @@ def test_malformed_task_json_names_the_field(sweep, dataset, tmp_path):
     record["scene_id"] = "zero"
     rewrite(copy / "tasks" / bad, "task.json", json.dumps(record).encode())
     report = merge_dataset(copy, workers=1, progress=None, exporters=(write_yolo,))
-    assert "task.json: field 'scene_id' must be an integer, got 'zero'" in report.invalid[bad]
+    assert "task.json: scene_id: must be an integer, got 'zero'" in report.invalid[bad]
 
 
 def test_contradicting_tasks_stop_the_merge_and_keep_the_dataset(sweep, dataset, tmp_path):
@@ -539,7 +539,7 @@ def test_contradicting_tasks_stop_the_merge_and_keep_the_dataset(sweep, dataset,
     record = load(copy / "tasks" / bad / "task.json")
     record["bags"] = 3
     rewrite(copy / "tasks" / bad, "task.json", json.dumps(record).encode())
-    with pytest.raises(MergeError, match=r"task\.json: field 'bags' is 3, but .*task\.json of the same scene has 2"):
+    with pytest.raises(MergeError, match=r"task\.json: bags: is 3, but .*task\.json of the same scene has 2"):
         merge_dataset(copy, workers=1, progress=None, exporters=(write_yolo,))
     assert (copy / "dataset" / "manifest.json").read_bytes() == (dataset / "manifest.json").read_bytes()
 

@@ -21,6 +21,7 @@ from moonbot.pipeline.heartbeat import DEBUG_HANG_ENV, HEARTBEAT_DIR
 from moonbot.pipeline.placements import (TASK_PREFIX, PlacementError, layout_id, place_layout, placement_for,
                                          placement_path, read_placements)
 from moonbot.pipeline.stats import load_placements, summarize
+from moonbot.records.stats import read_stats
 from moonbot.pipeline.tasks import run_task, task_dir
 from moonbot.scene.compose import place_bags
 from moonbot.sweep import task_config, tasks
@@ -82,7 +83,7 @@ def test_each_layout_is_settled_once_and_the_tasks_bytes_do_not_change(tmp_path)
         for view in d.glob("view_*"):
             assert "settle" not in json.loads((view / "gt.json").read_text())["timings_s"]
     # Counted once per layout in the run's stage totals.
-    summary = summarize([json.loads((d / "stats.json").read_text()) for d in (tmp_path / "two" / "tasks").iterdir()],
+    summary = summarize([read_stats(d / "stats.json") for d in (tmp_path / "two" / "tasks").iterdir()],
                         placements=load_placements(tmp_path / "two"))
     assert summary.placements == 2
     assert summary.stage_seconds_per_sample["settle"] * summary.samples == pytest.approx(

@@ -1,142 +1,43 @@
 """Reading `moonbot bench throughput` results back, and setting several side by side
 (`moonbot bench compare A.json B.json …`): a table and an SVG plot.
 
-The schema: SCHEMA below lists every field a reader relies on, with its type; a result may hold
-more. `schema_version` is checked: versions up to this reader's are accepted (an older version is
-brought up to date by UPGRADES), a newer one is refused. Every problem is reported as
-"<file>: <field>: <what is wrong>"."""
+The result's contract — its fields and their types, its schema_version and how an older version
+is read — is moonbot.records.bench; every problem is reported as "<file>: <field>: <what is
+wrong>"."""
 
 from __future__ import annotations
 
-import copy
 import json
 import math
 from pathlib import Path
 
 from moonbot.atomic_io import atomic_write
-from moonbot.benchmark.throughput import SCHEMA_VERSION, STAGE_GROUPS
+from moonbot.benchmark.throughput import STAGE_GROUPS
 from moonbot.charts import COLOURS, bar_panels_svg
+from moonbot.records.base import RecordError
+from moonbot.records.bench import decode_bench_result, read_bench_result
 
 
 class ResultError(ValueError):
     """A result file that cannot be read or breaks the schema; the message names the file and field."""
 
 
-NUM, INT, STR, LIST, DICT = "a number", "an integer", "a string", "a list", "an object"
-_LOAD = [NUM]  # os.getloadavg(): three numbers
-
-# field → kind, or a nested schema (dict), or [item kind or schema] for a list.
-RUN = {
-    "level": STR, "workers": INT, "threads_per_worker": INT, "tasks": INT, "samples": INT,
-    "views_per_task": NUM, "span_s": NUM, "samples_per_s": NUM, "seconds_per_sample": NUM,
-    "task_wall_s": NUM, "scene_build_s": NUM, "bytes": INT, "bytes_per_sample": NUM,
-    "stages_s": DICT, "stage_groups_s": {g: NUM for g in STAGE_GROUPS},
-    "stage_groups_s_per_sample": {g: NUM for g in STAGE_GROUPS},
-    "rays": {"camera_rays": INT, "shadow_rays": INT, "bounce_rays": INT, "medium_rays": INT, "amodal_rays": INT},
-    "mrays_per_s": NUM, "generate_wall_s": NUM, "load_before": _LOAD, "load_after": _LOAD,
-    "peak_rss_mib": {"workers": [NUM], "max_worker": NUM, "driver": NUM},
-    "limit": {"threads": INT, "embree_s": NUM, "encode_s": NUM, "bounce_cost": STR, "seconds_per_sample": NUM,
-              "encode_raw_mb_per_s": NUM},
-    "ratio": {"render": NUM, "encode": NUM, "render_encode": NUM, "pipeline": NUM},
-}
-EMBREE_ROW = {"task_id": STR, "threads": INT, "camera_rays": INT, "shadow_rays": INT,
-              "intersect_stream_s": NUM, "occluded_stream_s": NUM, "primary_mrays_per_s": NUM,
-              "shadow_mrays_per_s": NUM}
-SCHEMA = {
-    "schema_version": INT, "benchmark": STR,
-    "config": {"file": STR, "name": STR, "version": INT, "sha256": STR},
-    "overrides": DICT, "image": {"width": INT, "height": INT}, "levels": DICT, "tasks": [STR],
-    "workers": [INT], "threads_per_worker": INT,
-    "machine": {"cpu": STR, "cores": INT, "memory_gib": NUM, "os": STR, "python": STR, "compiler": STR,
-                "embree": STR, "openimageio": STR, "tbb": STR, "git_commit": STR, "date": STR},
-    "libraries": DICT, "started_utc": STR, "load_before": _LOAD, "load_after": _LOAD,
-    "terrain_warmup_s": DICT, "runs": [RUN], "embree_limit": [EMBREE_ROW], "encode_limit": DICT,
-    "scaling": [{"level": STR, "workers": INT, "efficiency": NUM}],
-    "projection": {"sweep": STR, "samples": INT, "views_per_task": INT, "image_matches_sweep": bool,
-                   "levels": [{"level": STR, "seconds_per_sample": NUM, "bytes": NUM,
-                               "hours": [{"nodes": INT, "hours": NUM}]}]},
-    "seconds_total": NUM,
-}
-
-
-def _upgrade_1(record: dict) -> dict:
-    """Schema 1 → 2. Version 1's probe traced no bounce rays: its limit counted them at the camera
-    rays' rate (`bounce_cost` says so now) and added a second limit with an assumed incoherent
-    cost, which version 2, measuring them, drops. Returns a new record; `record` is left as it was."""
-    record = copy.deepcopy(record)
-    for run in record.get("runs", []):
-        if isinstance(run.get("limit"), dict):
-            run["limit"]["bounce_cost"] = "camera-ray rate (schema 1: bounce rays not probed)"
-            for key in ("embree_s_bounce_incoherent", "seconds_per_sample_bounce_incoherent"):
-                run["limit"].pop(key, None)
-        if isinstance(run.get("ratio"), dict):
-            for key in ("render_encode_bounce_incoherent", "pipeline_bounce_incoherent"):
-                run["ratio"].pop(key, None)
-    return {**record, "schema_version": 2}
-
-
-# schema_version → a function bringing a record of that version to the next one.
-UPGRADES: dict = {1: _upgrade_1}
-
-
-def _check(value, kind, where: str, path: str) -> None:
-    if isinstance(kind, dict):
-        if not isinstance(value, dict):
-            raise ResultError(f"{path}: {where or 'the file'}: expected {DICT}, got {type(value).__name__}")
-        for name, sub in kind.items():
-            field = f"{where}.{name}" if where else name
-            if name not in value:
-                raise ResultError(f"{path}: {field}: missing")
-            _check(value[name], sub, field, path)
-        return
-    if isinstance(kind, list):
-        if not isinstance(value, list):
-            raise ResultError(f"{path}: {where}: expected {LIST}, got {type(value).__name__}")
-        for i, item in enumerate(value):
-            _check(item, kind[0], f"{where}[{i}]", path)
-        return
-    ok = {NUM: isinstance(value, (int, float)) and not isinstance(value, bool)
-          and (not isinstance(value, float) or math.isfinite(value)),
-          INT: isinstance(value, int) and not isinstance(value, bool),
-          STR: isinstance(value, str), DICT: isinstance(value, dict),
-          bool: isinstance(value, bool)}[kind]
-    if not ok:
-        want = "a boolean" if kind is bool else kind
-        raise ResultError(f"{path}: {where}: expected {want}{' (finite)' if kind == NUM else ''}, "
-                          f"got {value!r}"[:300])
-
-
 def validate(record: object, path: str = "<record>") -> dict:
-    """`record` upgraded to this schema version and checked against SCHEMA; raises ResultError."""
-    if not isinstance(record, dict):
-        raise ResultError(f"{path}: expected a JSON object, got {type(record).__name__}")
-    version = record.get("schema_version")
-    if not isinstance(version, int) or isinstance(version, bool):
-        raise ResultError(f"{path}: schema_version: missing or not an integer ({version!r})")
-    if version > SCHEMA_VERSION:
-        raise ResultError(f"{path}: schema_version: {version} is newer than this moonbot reads "
-                          f"({SCHEMA_VERSION}); update moonbot")
-    if version < 1:
-        raise ResultError(f"{path}: schema_version: must be at least 1, got {version}")
-    if record.get("benchmark") != "throughput":
-        raise ResultError(f"{path}: benchmark: expected 'throughput', got {record.get('benchmark')!r}")
-    while version < SCHEMA_VERSION:
-        record = UPGRADES[version](record)
-        version = record["schema_version"]
-    _check(record, SCHEMA, "", path)
-    return record
+    """`record` (a parsed result of `path`) upgraded to this schema version and checked, as the
+    JSON object the current version writes; raises ResultError."""
+    try:
+        return decode_bench_result(record, path).as_json()
+    except RecordError as e:
+        raise ResultError(str(e)) from None
 
 
 def load_result(path: Path) -> dict:
-    """A result file, validated (see `validate`)."""
-    path = Path(path)
+    """A result file, read and checked (moonbot.records.bench), as the JSON object the current
+    version writes; raises ResultError."""
     try:
-        record = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as e:
-        raise ResultError(f"{path}: cannot read ({e.strerror or e})") from None
-    except ValueError as e:
-        raise ResultError(f"{path}: not JSON ({e})") from None
-    return validate(record, str(path))
+        return read_bench_result(Path(path)).as_json()
+    except RecordError as e:
+        raise ResultError(str(e)) from None
 
 
 # --- presentation -----------------------------------------------------------------------------

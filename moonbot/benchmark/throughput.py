@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import datetime
 import hashlib
-import json
 import os
 import re
 import resource
@@ -47,9 +46,10 @@ from moonbot.benchmark.fingerprint import RESULTS_DIR, library_versions, machine
 from moonbot.benchmark.levels import LEVELS, level_config
 from moonbot.benchmark.limit import embree_limit, encode_limit, encode_limit_seconds, ray_limit_seconds
 from moonbot.host import machine_slug
-from moonbot.pipeline.stats import read_stats, start_seconds
+from moonbot.pipeline.stats.collect import read_task_stats
+from moonbot.records.bench import SCHEMA_VERSION, decode_bench_result, write_bench_result
+from moonbot.records.stats import StatsRecord
 
-SCHEMA_VERSION = 2
 # The checkout's configs, relative to the working directory (the checkout when run from it).
 DEFAULT_CONFIG = Path("configs") / "bench" / "throughput-v1.yaml"
 SWEEP_CONFIG = Path("configs") / "synbag-1.0.yaml"
@@ -80,24 +80,24 @@ def _load() -> list[float]:
     return [round(x, 2) for x in os.getloadavg()]
 
 
-def _sum_stages(stats: list[dict]) -> dict:
-    names = sorted({k for s in stats for k in s["stages_s"]})
-    return {k: sum(s["stages_s"].get(k, 0.0) for s in stats) for k in names}
+def _sum_stages(stats: list[StatsRecord]) -> dict:
+    names = sorted({k for s in stats for k in s.stages_s})
+    return {k: sum(s.stages_s.get(k, 0.0) for s in stats) for k in names}
 
 
 def _groups(stages: dict) -> dict:
     return {g: sum(stages.get(k, 0.0) for k in names) for g, names in STAGE_GROUPS.items()}
 
 
-def summarize_run(level: str, workers: int, threads: int, stats: list[dict]) -> dict:
+def summarize_run(level: str, workers: int, threads: int, stats: list[StatsRecord]) -> dict:
     """One run's figures from its tasks' stats.json records (the module docstring's definitions);
     the limit and ratios are added by `add_limits`."""
-    starts = [start_seconds(s) for s in stats]
-    span = max(t + s["wall_s"] for t, s in zip(starts, stats)) - min(starts)
-    samples = sum(s["samples"] for s in stats)
+    starts = [s.start_seconds() for s in stats]
+    span = max(t + s.wall_s for t, s in zip(starts, stats)) - min(starts)
+    samples = sum(s.samples for s in stats)
     stages = _sum_stages(stats)
     groups = _groups(stages)
-    rays = {k: sum(s.get("rays", {}).get(k, 0) for s in stats) for k in RAY_KINDS}
+    rays = {k: sum((s.rays or {}).get(k, 0) for s in stats) for k in RAY_KINDS}
     traced = rays["camera_rays"] + rays["shadow_rays"] + rays["bounce_rays"] + rays["medium_rays"]
     render_s = stages.get("render", 0.0)
     return {
@@ -105,17 +105,17 @@ def summarize_run(level: str, workers: int, threads: int, stats: list[dict]) -> 
         "samples": samples, "views_per_task": samples / len(stats), "span_s": span,
         "samples_per_s": samples / span if span > 0 else 0.0,
         "seconds_per_sample": span / samples if samples else 0.0,
-        "task_wall_s": sum(s["wall_s"] for s in stats),
+        "task_wall_s": sum(s.wall_s for s in stats),
         "scene_build_s": groups["scene_build"],
-        "bytes": sum(s["bytes_written"] for s in stats),
-        "bytes_per_sample": sum(s["bytes_written"] for s in stats) / samples if samples else 0.0,
+        "bytes": sum(s.bytes_written for s in stats),
+        "bytes_per_sample": sum(s.bytes_written for s in stats) / samples if samples else 0.0,
         "stages_s": stages, "stage_groups_s": groups,
         "stage_groups_s_per_sample": {g: v / samples for g, v in groups.items()} if samples else {},
         "rays": rays,
         "mrays_per_s": traced / render_s / 1e6 if render_s > 0 else 0.0,
-        "tasks_detail": [{"task_id": s["task_id"], "samples": s["samples"], "wall_s": s["wall_s"],
-                          "stage_groups_s": _groups(s["stages_s"]), "rays": s.get("rays", {})}
-                         for s in sorted(stats, key=lambda s: s["task_id"])],
+        "tasks_detail": [{"task_id": s.task_id, "samples": s.samples, "wall_s": s.wall_s,
+                          "stage_groups_s": _groups(s.stages_s), "rays": s.rays or {}}
+                         for s in sorted(stats, key=lambda s: s.task_id)],
     }
 
 
@@ -211,7 +211,7 @@ def _generate_level(client, config, threads: int, png_compression: int, encode: 
         if result.failed:
             raise RuntimeError(f"benchmark tasks failed: {result.failed}")
         task_dirs = sorted(p for p in (Path(tmp) / "tasks").iterdir() if p.is_dir() and not p.name.startswith("."))
-        stats = [read_stats(d / "stats.json", d.name) for d in task_dirs]
+        stats = [read_task_stats(d) for d in task_dirs]
         if encode is None:
             encode = encode_limit(task_dirs, png_compression, repeats)
     return stats, wall, encode
@@ -297,5 +297,5 @@ def run_throughput(config_path: Path | None = None, levels: list[str] | None = N
     record["seconds_total"] = time.perf_counter() - began
     path = Path(out) if out else default_out(m)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(record, indent=2) + "\n")
+    write_bench_result(path, decode_bench_result(record, f"{path} (as measured)"))
     return record, path

@@ -1,37 +1,25 @@
 """What `moonbot generate` left in OUT/tasks, as merge sees it: the complete tasks grouped into
 scenes, and what is missing, unusable or foreign.
 
-A task directory `OUT/tasks/<task_id>/` is complete when its DONE.json (written last) parses
-and every file it lists is there with its size; hidden entries (`.<task_id>.*.tmp`, `.old`:
-an interrupted task's temporaries) are not tasks and are skipped silently. DONE.json's `files`
-maps a path relative to the task directory to `{"bytes": int, "sha256": hex}` (moonbot.pipeline
-.tasks) or to a bare sha256 hex string (accepted too; then sizes are not checked).
-
-task.json must hold, with these types: task_id (str, the directory's name), split (str),
-scene_id, task_in_scene, tasks_per_scene, obj_id, bags, stain_seeds, views_per_task, seed
-(int), mesh, location (str), dust (bool), sun_azimuth_deg, sun_elevation_deg, camera_height_m
-(number), views (list of int, views_per_task of them), config (object), config_hash (str).
+A task directory `OUT/tasks/<task_id>/` is complete when its DONE.json (written last) reads
+and every file it lists is there with its size (moonbot.records.done); hidden entries
+(`.<task_id>.*.tmp`, `.old`: an interrupted task's temporaries) are not tasks and are skipped
+silently. Its task.json (moonbot.records.task) must match DONE.json's checksum and name the
+directory as its task_id.
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
+import functools
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from moonbot.config import Config, config_hash
+from moonbot.records.base import RecordError
+from moonbot.records.done import DONE, FileEntry, complete_files
+from moonbot.records.task import TASK, TaskRecord, read_task
 from moonbot.sweep import task_config, tasks
 
-DONE = "DONE.json"
-TASK = "task.json"
-
-_FIELDS: dict[str, type | tuple[type, ...]] = {
-    "task_id": str, "split": str, "scene_id": int, "task_in_scene": int, "tasks_per_scene": int,
-    "mesh": str, "obj_id": int, "location": str, "bags": int, "stain_seeds": int, "dust": bool,
-    "sun_azimuth_deg": (int, float), "sun_elevation_deg": (int, float), "camera_height_m": (int, float),
-    "views": list, "views_per_task": int, "seed": int, "config": dict, "config_hash": str,
-}
 # Fields every task of one scene shares.
 SCENE_FIELDS = ("split", "scene_id", "mesh", "obj_id", "location", "bags", "stain_seeds", "dust",
                 "tasks_per_scene", "views_per_task", "seed")
@@ -44,16 +32,21 @@ class MergeError(ValueError):
 
 @dataclass(frozen=True)
 class TaskDir:
-    """One complete task: its directory, task.json (`record`) and DONE.json's listing (`files`:
-    path relative to the directory → {"bytes": int or None, "sha256": hex})."""
+    """One complete task: its directory, task.json (`task`) and DONE.json's listing (`files`:
+    path relative to the directory → its size and sha256)."""
 
     path: Path
-    record: dict
-    files: dict
+    task: TaskRecord
+    files: dict[str, FileEntry]
 
     @property
     def task_id(self) -> str:
-        return self.record["task_id"]
+        return self.task.task_id
+
+    @functools.cached_property
+    def record(self) -> dict:
+        """task.json as the JSON object it holds: the values merge copies into the scene files."""
+        return self.task.as_json()
 
 
 @dataclass(frozen=True)
@@ -68,7 +61,7 @@ class SceneTasks:
     @property
     def record(self) -> dict:
         """The scene's shared fields (SCENE_FIELDS), from its first task."""
-        return {k: self.tasks[0].record[k] for k in SCENE_FIELDS}
+        return {k: getattr(self.tasks[0].task, k) for k in SCENE_FIELDS}
 
 
 @dataclass
@@ -87,76 +80,17 @@ class Inventory:
     position: dict[str, int] = field(default_factory=dict)
 
 
-def read_done(directory: Path) -> dict | None:
-    """DONE.json's files of a task directory, normalised to {path: {"bytes": int or None,
-    "sha256": hex}}; None when the task is not complete (no or unreadable marker, a listed file
-    missing or of another size)."""
-    try:
-        done = json.loads((directory / DONE).read_text(encoding="utf-8"))
-        files = {}
-        for name, entry in done["files"].items():
-            if isinstance(entry, str):
-                entry = {"bytes": None, "sha256": entry}
-            size = (directory / name).stat().st_size
-            if entry.get("bytes") is not None and size != entry["bytes"]:
-                return None
-            files[name] = {"bytes": entry.get("bytes"), "sha256": str(entry["sha256"])}
-        return files
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
-        return None
-
-
-def read_task_record(directory: Path, sha256: str | None = None) -> dict:
-    """task.json of a task directory, checked against DONE.json's `sha256` (when given) and field
-    by field. MergeError naming the file and field when one is missing or of the wrong type."""
+def read_task_record(directory: Path, sha256: str | None = None) -> TaskRecord:
+    """task.json of a task directory, checked against DONE.json's `sha256` (when given), field by
+    field, and against the directory's name. MergeError naming the file and field."""
     path = directory / TASK
     try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise MergeError(f"{path}: cannot read ({e.strerror or e})") from None
-    if sha256 is not None and hashlib.sha256(data).hexdigest() != sha256:
-        raise MergeError(f"{path}: sha256 differs from DONE.json's")
-    try:
-        record = json.loads(data.decode("utf-8"))
-    except ValueError as e:
-        raise MergeError(f"{path}: not valid JSON ({e})") from None
-    if not isinstance(record, dict):
-        raise MergeError(f"{path}: must be a JSON object")
-    for name, kind in _FIELDS.items():
-        if name not in record:
-            raise MergeError(f"{path}: field '{name}' is missing")
-        value = record[name]
-        ok = isinstance(value, kind) and not (kind is int and isinstance(value, bool))
-        if kind == (int, float):
-            ok = isinstance(value, (int, float)) and not isinstance(value, bool)
-        if not ok:
-            raise MergeError(f"{path}: field '{name}' must be {_kind_name(kind)}, got {value!r}")
-    if record["task_id"] != directory.name:
-        raise MergeError(f"{path}: field 'task_id' is {record['task_id']!r}, but the directory is {directory.name!r}")
-    for name in ("scene_id", "task_in_scene", "obj_id", "bags", "stain_seeds"):
-        if record[name] < 0:
-            raise MergeError(f"{path}: field '{name}' must be >= 0, got {record[name]}")
-    if not 0 <= record["task_in_scene"] < record["tasks_per_scene"]:
-        raise MergeError(f"{path}: field 'task_in_scene' must be in 0..tasks_per_scene-1 "
-                         f"({record['tasks_per_scene'] - 1}), got {record['task_in_scene']}")
-    views = record["views"]
-    indices = all(isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in views)
-    if not indices or len(set(views)) != len(views):
-        raise MergeError(f"{path}: field 'views' must be distinct orbit indices (ints >= 0), got {views!r}")
-    if len(views) != record["views_per_task"] or not views:
-        raise MergeError(f"{path}: field 'views' has {len(views)} entries, "
-                         f"views_per_task says {record['views_per_task']}")
-    if not record["split"] or not all(c.isalnum() or c in "-_" for c in record["split"]):
-        raise MergeError(f"{path}: field 'split' must be letters, digits, '-' or '_', got {record['split']!r}")
-    for name in ("mesh", "location"):
-        if not record[name] or "/" in record[name] or record[name].startswith("."):
-            raise MergeError(f"{path}: field '{name}' must be a plain name, got {record[name]!r}")
+        record = read_task(path, sha256)
+    except RecordError as e:
+        raise MergeError(str(e)) from None
+    if record.task_id != directory.name:
+        raise MergeError(f"{path}: task_id: is {record.task_id!r}, but the directory is {directory.name!r}")
     return record
-
-
-def _kind_name(kind) -> str:
-    names = {str: "a string", int: "an integer", bool: "true or false", list: "a list", dict: "an object"}
-    return "a number" if kind == (int, float) else names[kind]
 
 
 def scan_tasks(tasks_dir: Path, config: Config | None = None) -> Inventory:
@@ -173,13 +107,13 @@ def scan_tasks(tasks_dir: Path, config: Config | None = None) -> Inventory:
     for directory in entries:
         if not directory.is_dir():
             continue
-        files = read_done(directory)
+        files = complete_files(directory)
         if files is None:
             inventory.invalid[directory.name] = (f"{directory / DONE}: missing, unreadable, or a listed file "
                                                  "is missing or truncated")
             continue
         try:
-            record = read_task_record(directory, files.get(TASK, {}).get("sha256"))
+            record = read_task_record(directory, files[TASK].sha256 if TASK in files else None)
         except MergeError as e:
             inventory.invalid[directory.name] = str(e)
             continue
@@ -196,9 +130,9 @@ def scan_tasks(tasks_dir: Path, config: Config | None = None) -> Inventory:
             if sweep_task is None:
                 continue
             want = config_hash(task_config(config, sweep_task))
-            if task.record["config_hash"] != want:
-                inventory.invalid[task.task_id] = (f"{task.path / TASK}: field 'config_hash' is "
-                                                   f"{task.record['config_hash'][:12]}..., the sweep's config "
+            if task.task.config_hash != want:
+                inventory.invalid[task.task_id] = (f"{task.path / TASK}: config_hash: is "
+                                                   f"{task.task.config_hash[:12]}..., the sweep's config "
                                                    f"gives {want[:12]}... (rendered with another config)")
                 inventory.missing.append(task.task_id)
                 continue
@@ -208,28 +142,29 @@ def scan_tasks(tasks_dir: Path, config: Config | None = None) -> Inventory:
         inventory.position = {task_id: k for k, task_id in enumerate(expected)}
         inventory.missing.sort(key=inventory.position.__getitem__)
     else:
-        order = sorted({t.record["split"] for t in complete})
+        order = sorted({t.task.split for t in complete})
 
-    _check_shared(complete, "config.camera", lambda r: r["config"].get("camera"))
-    _check_shared(complete, "config.meshes", lambda r: r["config"].get("meshes"))
+    _check_shared(complete, "config.camera", lambda r: r.config.get("camera"))
+    _check_shared(complete, "config.meshes", lambda r: r.config.get("meshes"))
     scenes: dict[tuple[str, int], dict[int, TaskDir]] = {}
     for task in complete:
-        r = task.record
-        group = scenes.setdefault((r["split"], r["scene_id"]), {})
-        if r["task_in_scene"] in group:
-            other = group[r["task_in_scene"]]
-            raise MergeError(f"{task.path / TASK}: split {r['split']!r}, scene_id {r['scene_id']} and task_in_scene "
-                             f"{r['task_in_scene']} are also those of {other.path / TASK}")
+        r = task.task
+        group = scenes.setdefault((r.split, r.scene_id), {})
+        if r.task_in_scene in group:
+            other = group[r.task_in_scene]
+            raise MergeError(f"{task.path / TASK}: split {r.split!r}, scene_id {r.scene_id} and task_in_scene "
+                             f"{r.task_in_scene} are also those of {other.path / TASK}")
         first = next(iter(group.values()), None)
         if first is not None:
             for name in SCENE_FIELDS:
-                if r[name] != first.record[name]:
-                    raise MergeError(f"{task.path / TASK}: field '{name}' is {r[name]!r}, but {first.path / TASK} "
-                                     f"of the same scene has {first.record[name]!r}")
-        group[r["task_in_scene"]] = task
+                mine, theirs = getattr(r, name), getattr(first.task, name)
+                if mine != theirs:
+                    raise MergeError(f"{task.path / TASK}: {name}: is {mine!r}, but {first.path / TASK} "
+                                     f"of the same scene has {theirs!r}")
+        group[r.task_in_scene] = task
     for (split, scene_id), group in sorted(scenes.items(), key=lambda kv: (order.index(kv[0][0]), kv[0][1])):
         ordered = tuple(group[k] for k in sorted(group))
-        absent = tuple(k for k in range(ordered[0].record["tasks_per_scene"]) if k not in group)
+        absent = tuple(k for k in range(ordered[0].task.tasks_per_scene) if k not in group)
         inventory.scenes.append(SceneTasks(split, scene_id, ordered, absent))
         if config is None:
             inventory.missing += [f"{split} scene {scene_id:06d} task {k}" for k in absent]
@@ -242,8 +177,8 @@ def _check_shared(complete: list[TaskDir], name: str, get) -> None:
     one set of object models)."""
     if not complete:
         return
-    first = get(complete[0].record)
+    first = get(complete[0].task)
     for task in complete[1:]:
-        if get(task.record) != first:
-            raise MergeError(f"{task.path / TASK}: field '{name}' differs from {complete[0].path / TASK}'s "
+        if get(task.task) != first:
+            raise MergeError(f"{task.path / TASK}: {name}: differs from {complete[0].path / TASK}'s "
                              "(one dataset has one camera and one set of object models)")

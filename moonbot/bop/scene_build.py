@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import json
 import multiprocessing
 import os
 import shutil
@@ -29,8 +28,12 @@ from moonbot import _core
 from moonbot.bop.coco import SCENE_COCO, scene_gt_coco_bytes
 from moonbot.bop.dataset_files import dumps_json, dumps_scene_json, put_bytes, put_png
 from moonbot.bop.gt_info import gt_info_entry
-from moonbot.bop.inventory import TASK as TASK_RECORD, Inventory, MergeError, SceneTasks, TaskDir
+from moonbot.bop.inventory import Inventory, MergeError, SceneTasks, TaskDir
 from moonbot.bop.layout import SCENE_META, bop_split, check_id, scene_rel, view_rel
+from moonbot.records.base import RecordError
+from moonbot.records.done import FileEntry
+from moonbot.records.gt import GT, read_gt
+from moonbot.records.task import TASK as TASK_RECORD
 from moonbot.writer.sheet import colour_mask
 
 # What the per-scene folders hold, in the order a listing shows them.
@@ -78,7 +81,7 @@ class _TaskFiles:
     def __init__(self, task: TaskDir, link: bool) -> None:
         self.task, self.link = task, link
 
-    def _entry(self, rel: str) -> dict:
+    def _entry(self, rel: str) -> FileEntry:
         entry = self.task.files.get(rel)
         if entry is None:
             raise _BadTask(self.task.task_id, f"{self.task.path / rel}: not listed in DONE.json")
@@ -90,7 +93,7 @@ class _TaskFiles:
     def read(self, rel: str) -> bytes:
         entry = self._entry(rel)
         data = (self.task.path / rel).read_bytes()
-        if hashlib.sha256(data).hexdigest() != entry["sha256"]:
+        if hashlib.sha256(data).hexdigest() != entry.sha256:
             raise _BadTask(self.task.task_id, f"{self.task.path / rel}: sha256 differs from DONE.json's")
         return data
 
@@ -98,14 +101,13 @@ class _TaskFiles:
         self.read(rel)  # checks the bytes; the decoder reads them again from the page cache
         return _core.read_image(str(self.task.path / rel))
 
-    def json(self, rel: str) -> dict:
+    def gt(self, rel: str) -> dict:
+        """The view's gt.json `rel`, read and checked by its reader (moonbot.records.gt), as the
+        JSON object it holds."""
         try:
-            data = json.loads(self.read(rel))
-        except ValueError as e:
-            raise _BadTask(self.task.task_id, f"{self.task.path / rel}: not valid JSON ({e})") from None
-        if not isinstance(data, dict):
-            raise _BadTask(self.task.task_id, f"{self.task.path / rel}: must be a JSON object")
-        return data
+            return read_gt(self.task.path / rel, self._entry(rel).sha256).as_json()
+        except RecordError as e:
+            raise _BadTask(self.task.task_id, str(e)) from None
 
     def put(self, rel: str, root: Path, dst_rel: str, entries: dict) -> None:
         """The task's `rel` at root/dst_rel: copied with its sha256 checked, or hard-linked."""
@@ -114,8 +116,8 @@ class _TaskFiles:
         if self.link:
             try:
                 os.link(src, dst)
-                size = entry["bytes"] if entry["bytes"] is not None else src.stat().st_size
-                entries[dst_rel] = (size, entry["sha256"])
+                size = entry.bytes if entry.bytes is not None else src.stat().st_size
+                entries[dst_rel] = (size, entry.sha256)
                 return
             except OSError:
                 pass  # another file system, or no hard links there: copied (and checked) below
@@ -125,22 +127,9 @@ class _TaskFiles:
                 digest.update(chunk)
                 fout.write(chunk)
                 size += len(chunk)
-        if digest.hexdigest() != entry["sha256"]:
+        if digest.hexdigest() != entry.sha256:
             raise _BadTask(self.task.task_id, f"{src}: sha256 differs from DONE.json's")
-        entries[dst_rel] = (size, entry["sha256"])
-
-
-def _field(record: dict, path: Path, task_id: str, name: str, kind, length: int | None = None, where: str = ""):
-    """Field `name` of a gt.json object (`where`: its place in the file, for the message), checked:
-    `kind` (a type or tuple of types, never bool), and for lists `length` numbers."""
-    value = record.get(name)
-    ok = isinstance(value, kind) and not isinstance(value, bool)
-    if ok and length is not None:
-        ok = len(value) == length and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
-    if not ok:
-        what = f"a list of {length} numbers" if length is not None else getattr(kind, "__name__", "a number")
-        raise _BadTask(task_id, f"{path}: field '{where}{name}' must be {what}, got {value!r}")
-    return value
+        entries[dst_rel] = (size, entry.sha256)
 
 
 def _build_scene(job: _SceneJob) -> SceneOutput:
@@ -175,30 +164,15 @@ def _build_scene(job: _SceneJob) -> SceneOutput:
             except ValueError as e:
                 raise _BadTask(task.task_id, f"{task.path / TASK_RECORD}: {e}") from None
             view = f"view_{v:03d}"
-            gt_path = task.path / view / "gt.json"
-            gt = files.json(f"{view}/gt.json")
-            K = _field(gt, gt_path, task.task_id, "cam_K", list, 9)
-            R_w2c = _field(gt, gt_path, task.task_id, "cam_R_w2c", list, 9)
-            t_w2c = _field(gt, gt_path, task.task_id, "cam_t_w2c", list, 3)
-            depth_scale = _field(gt, gt_path, task.task_id, "depth_scale", (int, float))
-            width = _field(gt, gt_path, task.task_id, "width", int)
-            height = _field(gt, gt_path, task.task_id, "height", int)
-            instances = _field(gt, gt_path, task.task_id, "instances", list)
+            gt_path = task.path / view / GT
+            gt = files.gt(f"{view}/{GT}")
+            K, R_w2c, t_w2c = gt["cam_K"], gt["cam_R_w2c"], gt["cam_t_w2c"]
+            depth_scale, width, height, instances = gt["depth_scale"], gt["width"], gt["height"], gt["instances"]
             ids = []
             for k, inst in enumerate(instances):
-                where = f"instances[{k}]."
-                if not isinstance(inst, dict):
-                    raise _BadTask(task.task_id, f"{gt_path}: field 'instances[{k}]' must be an object")
                 if "mask_amodal" not in inst:
-                    raise _BadTask(task.task_id, f"{gt_path}: field '{where}mask_amodal' is missing (rendered "
+                    raise _BadTask(task.task_id, f"{gt_path}: instances[{k}].mask_amodal: missing (rendered "
                                    "before amodal masks were written: render the task again)")
-                for key, kind, n in (("instance_id", int, None), ("obj_id", int, None), ("cam_R_m2c", list, 9),
-                                     ("cam_t_m2c", list, 3), ("mask_amodal", str, None), ("px_count_all", int, None),
-                                     ("bbox_all", list, 4)):
-                    _field(inst, gt_path, task.task_id, key, kind, n, where)
-                if "/" in inst["mask_amodal"] or inst["mask_amodal"].startswith("."):
-                    raise _BadTask(task.task_id, f"{gt_path}: field '{where}mask_amodal' must be a file name in the "
-                                   f"view, got {inst['mask_amodal']!r}")
                 ids.append((inst["instance_id"], inst["obj_id"]))
             if reference_instances is None:
                 reference_instances = ids
@@ -250,7 +224,7 @@ def _build_scene(job: _SceneJob) -> SceneOutput:
             scene_gt_info[im] = image_info
             scene_camera[im] = {"cam_K": K, "depth_scale": depth_scale, "cam_R_w2c": R_w2c, "cam_t_w2c": t_w2c}
             if "site" in gt:  # a dem location: the world frame (cam_R_w2c's) is the site's East-North-Up
-                scene_camera[im]["site"] = _field(gt, gt_path, task.task_id, "site", dict)
+                scene_camera[im]["site"] = gt["site"]
             images_meta[im] = {
                 "task_in_scene": r["task_in_scene"], "view": v,
                 **{key: gt[key] for key in ("camera_azimuth_deg", "camera_height_m", "sun", "render_seed", "dust",

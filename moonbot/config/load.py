@@ -150,20 +150,39 @@ def config_hash(config: Any) -> str:
     return hashlib.sha256(canonical.encode()).hexdigest()
 
 
+# Field metadata marking a `dict[str, Any]` field that keeps, as they are, the keys of the mapping
+# the dataclass does not declare (a file record's fields that no reader interprets), instead of
+# rejecting them as unknown.
+KEEP_UNKNOWN = "keep_unknown"
+
+
 def from_mapping(cls: type, data: Any, path: str = "") -> Any:
-    """Build dataclass `cls` from a mapping, recursively, checking names, types and ranges."""
+    """Build dataclass `cls` from a mapping, recursively, checking names, types and ranges (field
+    metadata: `lo`, `lo_open`, `hi`, and `length` for a tuple); ConfigError names the dotted field
+    path. A field without a default must be given; a key the dataclass does not declare is an
+    error, or kept in its KEEP_UNKNOWN field when it has one. Configs and the file records
+    (moonbot.records) are both read through it."""
     if not isinstance(data, dict):
         raise ConfigError(f"{path or 'config'}: must be a mapping, got {type(data).__name__}")
+    where = f"{path}." if path else ""
     fields = {f.name: f for f in dataclasses.fields(cls)}
-    unknown = sorted(set(data) - set(fields))
-    if unknown:
-        where = f"{path}." if path else ""
+    keeper = next((f.name for f in fields.values() if f.metadata.get(KEEP_UNKNOWN)), None)
+    unknown = sorted(set(data) - set(fields) - {keeper})
+    if unknown and keeper is None:
         raise ConfigError(f"{where}{unknown[0]}: unknown field (known: {', '.join(fields)})")
+    for name, f in fields.items():
+        required = f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
+        if required and name not in data and name != keeper:
+            raise ConfigError(f"{where}{name}: missing")
     hints = typing.get_type_hints(cls)
     values = {}
     for name, value in data.items():
+        if name not in fields or name == keeper:
+            continue
         field_path = f"{path}.{name}" if path else name
         values[name] = _convert(hints[name], value, fields[name].metadata, field_path)
+    if keeper is not None:
+        values[keeper] = {name: data[name] for name in data if name in unknown}
     try:
         return cls(**values)
     except ValueError as e:  # a dataclass's own cross-field checks name the field
@@ -171,8 +190,23 @@ def from_mapping(cls: type, data: Any, path: str = "") -> Any:
 
 
 def _convert(kind: Any, value: Any, meta: typing.Mapping[str, Any], path: str) -> Any:
+    if kind is Any:
+        return value
+    if kind is type(None):
+        if value is not None:
+            raise ConfigError(f"{path}: must be null, got {value!r}")
+        return None
     if dataclasses.is_dataclass(kind):
         return from_mapping(kind, value, path)
+    if kind is dict or get_origin(kind) is dict:
+        # A mapping of names to values of one kind (`dict[str, float]`: seconds per stage); a bare
+        # `dict` or `dict[str, Any]` holds any JSON object as it is.
+        if not isinstance(value, dict):
+            raise ConfigError(f"{path}: must be a mapping, got {type(value).__name__}")
+        key_kind, item_kind = get_args(kind) or (str, Any)
+        if key_kind is not str or not all(isinstance(k, str) for k in value):
+            raise ConfigError(f"{path}: must be a mapping with string keys")
+        return {k: _convert(item_kind, v, meta, f"{path}.{k}") for k, v in value.items()}
     if get_origin(kind) in (typing.Union, types.UnionType):
         # A value of one of several kinds (`float | Literal["auto"]`): the first member whose
         # kind the value has converts it, ranges included; a value of no member's kind names all.
@@ -220,6 +254,10 @@ def _has_kind(kind: Any, value: Any) -> bool:
     """Whether `value` is of the kind a union member converts (before range checks)."""
     if get_origin(kind) is Literal:
         return value in get_args(kind)
+    if dataclasses.is_dataclass(kind) or kind is dict or get_origin(kind) is dict:
+        return isinstance(value, dict)
+    if get_origin(kind) is tuple:
+        return isinstance(value, (list, tuple))
     if kind in (int, float):
         return not isinstance(value, bool) and isinstance(value, (int, float) if kind is float else int)
     return isinstance(value, kind)
@@ -228,7 +266,12 @@ def _has_kind(kind: Any, value: Any) -> bool:
 def _describe(kind: Any) -> str:
     if get_origin(kind) is Literal:
         return " or ".join(map(str, get_args(kind)))
-    return {float: "a number", int: "an integer", str: "a string", bool: "true or false"}.get(kind, str(kind))
+    if dataclasses.is_dataclass(kind) or kind is dict or get_origin(kind) is dict:
+        return "a mapping"
+    if get_origin(kind) is tuple:
+        return "a list"
+    return {float: "a number", int: "an integer", str: "a string", bool: "true or false",
+            type(None): "null"}.get(kind, str(kind))
 
 
 def _check_range(value: float, meta: typing.Mapping[str, Any], path: str) -> Any:

@@ -35,7 +35,8 @@ from moonbot.pipeline.heartbeat import Beat, Heartbeat, StallLimit, Watchdog, he
 from moonbot.pipeline.placements import (TASK_PREFIX, layout_id, place_layout, placement_for, placement_path,
                                          read_record)
 from moonbot.pipeline.stats import collect
-from moonbot.pipeline.tasks import DONE, is_complete, run_task, sweep_temporaries, task_dir
+from moonbot.pipeline.tasks import is_complete, run_task, sweep_temporaries, task_dir
+from moonbot.records.done import DONE, read_done
 from moonbot.sweep import Task, task_config, tasks
 from moonbot.yolo.export import write_yolo
 
@@ -107,7 +108,7 @@ def _run_on_worker(config: Config, task: Task, out_dir: str, threads: int | None
     finally:
         heartbeat.close()
     return {"task_id": outcome.task_id, "skipped": outcome.skipped, "samples": outcome.samples,
-            "seconds": outcome.stats["wall_s"] if outcome.stats else 0.0,
+            "seconds": outcome.stats.wall_s if outcome.stats else 0.0,
             "longest_stage_s": heartbeat.longest_stage_s}
 
 
@@ -380,7 +381,7 @@ class SweepWatch:
             # It finished, but its small result went with a worker that died before the driver
             # read it (the future is "lost"), or is held by a worker that does not answer: the
             # task's directory is the record of what it did.
-            self.result.samples += json.loads((directory / DONE).read_text())["samples"]
+            self.result.samples += read_done(directory / DONE).samples
             self.result.rendered += 1
         elif future.status != "error":
             self.result.failed[task_id] = f"its future ended {future.status!r} without an error or a finished task"

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
-import json
 import os
 import shutil
 import socket
@@ -19,26 +18,27 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from moonbot import __version__
-from moonbot.atomic_io import atomic_write, staged_directory
+from moonbot.atomic_io import staged_directory
 from moonbot.config import Config, config_hash
 from moonbot.host import host_record
 from moonbot.pipeline.views import run_views
+from moonbot.records.done import DONE, DoneRecord, FileEntry, complete_files, read_done, write_done
+from moonbot.records.stats import STATS, StatsRecord, write_stats
+from moonbot.records.task import TASK, TaskRecord, write_task
 from moonbot.scene.placement import Placement
 from moonbot.sweep import Task, task_config
 from moonbot.writer.checksum import file_sha256
-
-DONE = "DONE.json"
 
 
 @dataclass(frozen=True)
 class TaskOutcome:
     """What running a task did: `skipped` if it was complete already; `samples` written (0 if
-    skipped) and its stats.json content (None if skipped)."""
+    skipped) and its stats.json record (None if skipped)."""
 
     task_id: str
     skipped: bool
     samples: int
-    stats: dict | None
+    stats: StatsRecord | None
 
 
 def task_dir(out_dir: Path, task: Task) -> Path:
@@ -49,18 +49,13 @@ def task_dir(out_dir: Path, task: Task) -> Path:
 def is_complete(directory: Path) -> bool:
     """Whether `directory` holds a complete task: DONE.json parses and every file it lists is
     there with its size (checksums are checked by `verify_task`, which reads every byte)."""
-    try:
-        done = json.loads((directory / DONE).read_text())
-        return all((directory / name).stat().st_size == entry["bytes"] for name, entry in done["files"].items())
-    except (OSError, ValueError, KeyError, TypeError):
-        return False
+    return complete_files(directory) is not None
 
 
 def verify_task(directory: Path) -> list[str]:
     """The files of a complete task whose bytes no longer match DONE.json (empty: sound)."""
-    done = json.loads((directory / DONE).read_text())
-    return [name for name, entry in sorted(done["files"].items())
-            if file_sha256(directory / name)[1] != entry["sha256"]]
+    done = read_done(directory / DONE)
+    return [name for name, entry in sorted(done.files.items()) if file_sha256(directory / name)[1] != entry.sha256]
 
 
 def sweep_temporaries(out_dir: Path) -> list[Path]:
@@ -83,20 +78,19 @@ def generate_folder_dataset(path: Path) -> Path | None:
     return None
 
 
-def task_record(config: Config, task: Task, views: list[int]) -> dict:
+def task_record(config: Config, task: Task, views: list[int]) -> TaskRecord:
     """task.json: the task's identity, where its images go in the dataset, and the config it renders."""
     tconfig = task_config(config, task)
-    return {
+    return TaskRecord(
         **{f.name: getattr(task, f.name) for f in dataclasses.fields(task)},
-        "task_id": task.task_id,
-        "obj_id": task.obj_id,
-        "views": views,
-        "views_per_task": len(views),
-        "seed": tconfig.seed,
-        "config": dataclasses.asdict(tconfig),
-        "config_hash": config_hash(tconfig),
-        "moonbot_version": __version__,
-    }
+        task_id=task.task_id,
+        views=tuple(views),
+        views_per_task=len(views),
+        seed=tconfig.seed,
+        config=dataclasses.asdict(tconfig),
+        config_hash=config_hash(tconfig),
+        moonbot_version=__version__,
+    )
 
 
 def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = None, worker: str = "local",
@@ -118,8 +112,7 @@ def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = No
         results = run_views(tconfig, views, staging, threads=threads, on_stage=on_stage, placement=placement)
         if on_stage is not None:
             on_stage("finish task")
-        record = task_record(config, task, views)
-        atomic_write(staging / "task.json", "w", lambda f: f.write(json.dumps(record, indent=2, sort_keys=True) + "\n"))
+        write_task(staging / TASK, task_record(config, task, views))
         stages: dict[str, float] = {}
         rays: dict[str, int] = {}
         for r in results:
@@ -128,28 +121,28 @@ def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = No
             for kind, count in r.rays.items():
                 rays[kind] = rays.get(kind, 0) + int(count)
         wall_s = time.perf_counter() - wall
-        stats = {
-            "task_id": task.task_id, "host": socket.gethostname(), "pid": os.getpid(),
-            # CPU model, id and SIMD flags, and the ISA Embree traced this task's rays in.
-            **host_record(tconfig.render.embree_isa),
-            "cores": os.cpu_count() or 1, "threads": threads or tconfig.render.threads or render_threads_default(), "worker": worker,
-            "started_utc": started.isoformat(), "wall_s": wall_s, "cpu_s": time.process_time() - cpu,
-            "stages_s": stages, "samples": len(results),
+        # CPU model, id and SIMD flags, and the ISA Embree traced this task's rays in.
+        machine = host_record(tconfig.render.embree_isa)
+        stats = StatsRecord(
+            task_id=task.task_id, host=socket.gethostname(), pid=os.getpid(), cpu_model=machine.pop("cpu_model"),
+            cores=os.cpu_count() or 1, threads=threads or tconfig.render.threads or render_threads_default(),
+            worker=worker, started_utc=started.isoformat(), wall_s=wall_s, cpu_s=time.process_time() - cpu,
+            stages_s=stages, samples=len(results),
             # Rays traced, summed over the views (moonbot.pipeline.views.ViewResult.rays).
-            "rays": rays,
+            rays=rays,
             # Everything but stats.json and DONE.json themselves (a few hundred bytes).
-            "bytes_written": sum(p.stat().st_size for p in staging.rglob("*") if p.is_file()),
-            "samples_per_s": len(results) / wall_s if wall_s > 0 else 0.0,
-        }
-        atomic_write(staging / "stats.json", "w", lambda f: f.write(json.dumps(stats, indent=2, sort_keys=True) + "\n"))
+            bytes_written=sum(p.stat().st_size for p in staging.rglob("*") if p.is_file()),
+            samples_per_s=len(results) / wall_s if wall_s > 0 else 0.0,
+            other=machine,
+        )
+        write_stats(staging / STATS, stats)
         # The marker last: its checksums cover every other file, so a task is whole or absent.
         listing = {}
         for p in sorted(staging.rglob("*")):
             if p.is_file():
                 size, sha256 = file_sha256(p)
-                listing[str(p.relative_to(staging))] = {"bytes": size, "sha256": sha256}
-        done = {"task_id": task.task_id, "samples": len(results), "files": listing}
-        atomic_write(staging / DONE, "w", lambda f: f.write(json.dumps(done, indent=2, sort_keys=True) + "\n"))
+                listing[str(p.relative_to(staging))] = FileEntry(sha256=sha256, bytes=size)
+        write_done(staging / DONE, DoneRecord(task_id=task.task_id, samples=len(results), files=listing))
     return TaskOutcome(task.task_id, False, len(results), stats)
 
 

@@ -160,8 +160,8 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
             cache_record = {"vertices_filled": cache_after["vertices"] - cache_before["vertices"],
                             "fill_thread_s": cache_after["fill_seconds"] - cache_before["fill_seconds"],
                             "bytes": cache_after["bytes"]}
-        pixels = {i["instance_id"]: i["px_count_visib"] for i in gt["instances"]}
-        results.append(ViewResult(v, out_dir, gt["timings_s"], rays, pixels, meta.get("dust"), cache_record))
+        pixels = {i.instance_id: i.px_count_visib for i in gt.instances}
+        results.append(ViewResult(v, out_dir, gt.timings_s, rays, pixels, meta.get("dust"), cache_record))
         terrain_s = compose_s = build_s = amodal_build_s = 0.0  # paid once, by the first view
         settle_s = None if settle_s is None else 0.0
     return results

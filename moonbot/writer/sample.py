@@ -4,7 +4,6 @@ optionally rgb.exr (the linear radiance) and each bag's amodal mask (amodal_NNN.
 
 from __future__ import annotations
 
-import json
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -18,6 +17,7 @@ from moonbot.render.amodal import AmodalMasks
 from moonbot.render.exposure import LUMINOUS_EFFICACY_LM_W, Exposure, tonemap
 from moonbot.render.view import RenderedView
 from moonbot.scene.compose import BagInstance
+from moonbot.records.gt import GT, GtRecord, InstanceRecord, write_gt
 from moonbot.scene.orbit import CameraPose
 
 # BOP depth_scale: depth_mm = png_value × DEPTH_SCALE_MM. 1 mm steps, 65.535 m at most.
@@ -71,7 +71,7 @@ def pose_m2c(camera: CameraPose, world_from_model: np.ndarray) -> tuple[np.ndarr
 
 def write_sample(out_dir: Path, view: RenderedView, exposure: Exposure, K: np.ndarray,
                  camera: CameraPose, bags: tuple[BagInstance, ...], png_compression: int,
-                 meta: dict, timings: dict, exr: bool = False, amodal: AmodalMasks | None = None) -> dict:
+                 meta: dict, timings: dict, exr: bool = False, amodal: AmodalMasks | None = None) -> GtRecord:
     """Encodes and writes one view into `out_dir` (which must exist): rgb.png tone-mapped at
     `exposure`, and with `exr` also rgb.exr (linear float32 radiance, W/(m²·sr), zip at
     `png_compression`'s level; its header has `whiteLuminance` = cd/m² of RGB 1.0,
@@ -83,7 +83,8 @@ def write_sample(out_dir: Path, view: RenderedView, exposure: Exposure, K: np.nd
     alone, moonbot.render.amodal) each instance also gets AMODAL_FILE (uint8 0/255, image size)
     and, in gt.json, `mask_amodal` (that file's name), `px_count_all` (its silhouette's pixels on
     bop_toolkit's 3W × 3H canvas) and `bbox_all` ([x, y, w, h] of that silhouette, image pixels,
-    w = max − min; [-1, -1, -1, -1] when empty). Returns the gt.json content."""
+    w = max − min; [-1, -1, -1, -1] when empty). `meta`: the rest of gt.json's fields (moonbot.records.gt),
+    from `view` to `site`. Returns the gt.json record."""
     timings = dict(timings)
     start = time.perf_counter()
     rgb8, invalid_pixels = tonemap(view.rgb, exposure)
@@ -118,40 +119,36 @@ def write_sample(out_dir: Path, view: RenderedView, exposure: Exposure, K: np.nd
     instances = []
     for bag in bags:
         R, t = pose_m2c(camera, bag.world_from_model)
-        instances.append({
-            "instance_id": bag.instance_id,
-            "obj_id": bag.obj_id,
-            "cam_R_m2c": R.reshape(-1).tolist(),
-            "cam_t_m2c": t.tolist(),
-            "px_count_visib": int(np.count_nonzero(view.instance == bag.instance_id)),
-        })
-        if bag.instance_id in amodal_by_id:
-            m = amodal_by_id[bag.instance_id]
-            instances[-1].update({"mask_amodal": AMODAL_FILE.format(instance_id=m.instance_id),
-                                  "px_count_all": m.px_count_all, "bbox_all": list(m.bbox_all)})
-    gt = {
-        "cam_K": K.reshape(-1).tolist(),
-        "width": int(view.depth.shape[1]),
-        "height": int(view.depth.shape[0]),
-        "depth_scale": DEPTH_SCALE_MM,
-        "cam_R_w2c": camera.R.reshape(-1).tolist(),
-        "cam_t_w2c": (camera.t * 1000.0).tolist(),
-        "instances": instances,
-        "exposure": exposure.metadata(),
-        "rgb_invalid_pixels": invalid_pixels,
-        **({"rgb_exr": {"file": "rgb.exr", "unit": RADIANCE_UNIT, "sample_type": "float32",
-                        "compression": f"zip:{png_compression}",
-                        "white_luminance_cd_m2": LUMINOUS_EFFICACY_LM_W}} if exr else {}),
+        m = amodal_by_id.get(bag.instance_id)
+        instances.append(InstanceRecord(
+            instance_id=bag.instance_id,
+            obj_id=bag.obj_id,
+            cam_R_m2c=tuple(R.reshape(-1).tolist()),
+            cam_t_m2c=tuple(t.tolist()),
+            px_count_visib=int(np.count_nonzero(view.instance == bag.instance_id)),
+            mask_amodal=None if m is None else AMODAL_FILE.format(instance_id=m.instance_id),
+            px_count_all=None if m is None else m.px_count_all,
+            bbox_all=None if m is None else tuple(m.bbox_all),
+        ))
+    exr_record = {"file": "rgb.exr", "unit": RADIANCE_UNIT, "sample_type": "float32",
+                  "compression": f"zip:{png_compression}", "white_luminance_cd_m2": LUMINOUS_EFFICACY_LM_W} if exr else None
+    gt = GtRecord(
+        cam_K=tuple(K.reshape(-1).tolist()),
+        width=int(view.depth.shape[1]),
+        height=int(view.depth.shape[0]),
+        depth_scale=DEPTH_SCALE_MM,
+        cam_R_w2c=tuple(camera.R.reshape(-1).tolist()),
+        cam_t_w2c=tuple((camera.t * 1000.0).tolist()),
+        instances=tuple(instances),
+        exposure=exposure.metadata(),
+        rgb_invalid_pixels=invalid_pixels,
+        rgb_exr=exr_record,
         **meta,
-        "timings_s": timings,
-    }
-    _write_text_atomic(out_dir / "gt.json", json.dumps(gt, indent=2) + "\n")
+        timings_s=timings,
+    )
+    write_gt(out_dir / GT, gt)
     return gt
 
 
 def _save_npy_atomic(path: Path, array: np.ndarray) -> None:
     atomic_write(path, "wb", lambda f: np.save(f, array))
-
-
-def _write_text_atomic(path: Path, text: str) -> None:
-    atomic_write(path, "w", lambda f: f.write(text))

@@ -4,13 +4,14 @@ each tile, read back from disk so the sheet shows exactly what was written."""
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
 import numpy as np
 
 from moonbot import _core
+from moonbot.records.base import RecordError
+from moonbot.records.gt import GT, read_gt
 
 _GAP = 2          # pixels between tiles and cells
 _GAP_GREY = 64
@@ -55,9 +56,9 @@ def write_sheet(view_dirs: list[Path], path: Path, png_compression: int = 1) -> 
 def _view_name(view_dir: Path) -> str:
     """"view NNN, az A°" from the view's gt.json (its folder's name alone when that is unreadable)."""
     try:
-        azimuth = json.loads((view_dir / "gt.json").read_text())["camera_azimuth_deg"]
+        azimuth = read_gt(view_dir / GT).camera_azimuth_deg
         return f"{view_dir.name.replace('_', ' ')}, az {azimuth:g}°"
-    except (OSError, ValueError, KeyError, TypeError):
+    except RecordError:
         return view_dir.name.replace("_", " ")
 
 
