@@ -1,7 +1,8 @@
 """Type stubs for the compiled core `moonbot._core` (cpp/bindings). Units: metres, degrees,
 W/m² and W/(m²·sr); frames: world East-North-Up, camera OpenCV (x right, y down, z forward)."""
 
-from typing import Sequence, TypedDict
+from collections.abc import Sequence
+from typing import TypedDict
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
