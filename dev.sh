@@ -5,9 +5,17 @@
 #
 #   ./dev.sh setup     install what is missing, build the core into .venv
 #   ./dev.sh demo      setup, then `moonbot render-one` on the embedded default config
-#   ./dev.sh test      setup, then C++ tests (ctest: release, then ASan+UBSan), pytest,
+#   ./dev.sh test      setup, then lint, C++ tests (ctest: release, then ASan+UBSan), pytest,
 #                      `moonbot generate configs/smoke.yaml` into build/smoke, and validate,
 #                      baseline and eval on that dataset; every stage time-bounded (below)
+#                      (options go to pytest: ./dev.sh test -m unit). Every test is marked
+#                      (pyproject.toml; `.venv/bin/python -m pytest -m unit` runs one kind alone):
+#                        unit         in-process and quick: a function, a render, a command
+#                        integration  generate or merge over real workers (a Dask cluster), SLURM
+#                        slow         besides: the minutes-long sweeps on a real cluster
+#   ./dev.sh lint      setup, then ruff's lint, and the format checks: import order, `ruff format`,
+#                      clang-format over cpp/ (pyproject.toml and .clang-format configure them)
+#   ./dev.sh format    setup, then sort imports and format the Python and C++ code in place
 #   ./dev.sh bench     setup, then the benchmarks in bench/ (results in bench/results/);
 #                      ./dev.sh bench terrain runs bench/bench_terrain.py alone
 #   ./dev.sh throughput  setup, then `moonbot bench throughput` (options passed on; ~6 min on 2 cores)
@@ -20,6 +28,8 @@ APT_PACKAGES=(build-essential pkg-config python3 python3-dev python3-venv
               libembree-dev libopenimageio-dev libglm-dev
               libgeographiclib-dev libtbb-dev zlib1g-dev)
 VENV=.venv
+# What ruff lints and formats: the package, its tests, the benchmarks, the cluster recipes, the docs' script.
+PYTHON_SOURCES=(moonbot tests bench cluster docs)
 # The tests that trace rays, re-run under every Embree ISA the CPU offers (`./dev.sh test`).
 ISA_TESTS=(tests/test_render_geometry.py tests/test_lighting.py tests/test_watertight.py tests/test_amodal.py
            tests/test_embree_isa.py)
@@ -130,6 +140,21 @@ cpp_tests() {
     done
 }
 
+cpp_sources() { find cpp \( -name '*.h' -o -name '*.cpp' \) | LC_ALL=C sort; }
+
+# Lint (it must pass), then the formatting checks (`./dev.sh format` fixes those); all run, any failure fails.
+lint() {
+    local status=0
+    log "ruff check (lint)"
+    "$VENV/bin/ruff" check "${PYTHON_SOURCES[@]}" || status=1
+    log "formatting: import order, ruff format --check, clang-format --dry-run over cpp/"
+    "$VENV/bin/ruff" check --select I --output-format concise "${PYTHON_SOURCES[@]}" || status=1
+    "$VENV/bin/ruff" format --check --output-format concise "${PYTHON_SOURCES[@]}" || status=1
+    cpp_sources | xargs "$VENV/bin/clang-format" --dry-run --Werror || status=1
+    [ "$status" -eq 0 ] && log "lint and formatting clean"
+    return "$status"
+}
+
 case "${1:-}" in
     setup) setup; path_hint ;;
     demo)
@@ -139,8 +164,16 @@ case "${1:-}" in
         log "pictures: out/demo/view_000/rgb.png, depth_preview.png, mask.png"
         path_hint
         ;;
+    lint) setup; lint ;;
+    format)
+        setup
+        "$VENV/bin/ruff" check --select I --fix "${PYTHON_SOURCES[@]}"
+        "$VENV/bin/ruff" format "${PYTHON_SOURCES[@]}"
+        cpp_sources | xargs "$VENV/bin/clang-format" -i
+        ;;
     test)
         setup
+        lint
         cpp_tests
         log "Python tests"
         bounded "$PYTEST_LIMIT_S" "$PY" -m pytest "${@:2}"
@@ -171,7 +204,7 @@ case "${1:-}" in
         "$VENV/bin/moonbot" bench throughput "${@:2}"
         ;;
     *)
-        sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'
+        sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//'
         exit 2
         ;;
 esac

@@ -12,6 +12,8 @@ from moonbot.config import ConfigError, load_config
 
 from scenes import box
 
+pytestmark = pytest.mark.unit
+
 E = 1361.0
 W, H, F = 48, 36, 60.0
 

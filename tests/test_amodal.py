@@ -18,6 +18,8 @@ from moonbot.render import build_amodal_scenes, build_scene, render_amodal_masks
 from moonbot.render.amodal import canvas_window
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
 
+pytestmark = pytest.mark.unit
+
 W, H = 48, 36
 SMALL = {"camera.width": W, "camera.height": H, "render.spp": 1, "render.bounces": 0, "render.light_samples": 1,
          "terrain.location": "plane", "bags.count": 4, "bags.layout": "scattered", "bags.scatter_radius_m": 0.6}

@@ -17,6 +17,8 @@ from moonbot.render import SceneDust, build_scene, render_view
 from moonbot.render.view import regolith, regolith_grain
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
 
+pytestmark = pytest.mark.unit
+
 # Every new look off: the renderer as it was before them.
 OFF = {"terrain.photometry.grain.albedo_rms": 0.0, "terrain.photometry.grain.slope_rms_deg": 0.0,
        "bags.fabric.sheen": 0.0}

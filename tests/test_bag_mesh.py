@@ -13,6 +13,8 @@ import pytest
 
 from moonbot.scene.bag_mesh import FOLDED, SEAMED, BagShape, filled_cuboid, folded_cuboid, seamed_cuboid
 
+pytestmark = pytest.mark.unit
+
 # The unsettled, unwrinkled pillow of the first bodies: the exact-volume tests below hold for it.
 PLAIN = dict(sag_m=0.0, belly_m=0.0, belly_height=0.0, flat_bottom=False, crease_depth_m=0.0, pucker_depth_m=0.0)
 
@@ -182,7 +184,9 @@ def test_folded_ends_gather_the_cross_section():
 
 def _symmetric_under(v, R, tolerance=1e-6):
     """Fraction of vertices that the rotation R maps onto some vertex of the mesh."""
-    key = lambda a: {tuple(p) for p in np.round(a / tolerance).astype(np.int64)}
+    def key(a):
+        return {tuple(p) for p in np.round(a / tolerance).astype(np.int64)}
+
     original = key(v.astype(np.float64))
     rotated = np.round((v.astype(np.float64) @ R.T) / tolerance).astype(np.int64)
     return np.mean([tuple(p) in original for p in rotated])

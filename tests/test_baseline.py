@@ -27,6 +27,8 @@ from moonbot.eval.validate import render_at_gt
 from moonbot.pipeline.generate import generate
 from moonbot.scene.bag_mesh import folded_cuboid
 
+pytestmark = pytest.mark.integration
+
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 # The smoke test split's instances with visible pixels: every one is found within 20 % of the
 # diameter (ADD-S) today; the test holds the baseline to 95 %.

@@ -22,6 +22,8 @@ from moonbot.benchmark.throughput import DEFAULT_CONFIG, SCHEMA_VERSION, scaling
 from moonbot.cli import main
 from moonbot.config.schema import RenderConfig
 
+pytestmark = pytest.mark.unit
+
 OLD_RESULT = Path(__file__).resolve().parent / "data" / "throughput-result-v1.json"
 SVG = "{http://www.w3.org/2000/svg}"
 TINY = ["camera.width=64", "camera.height=48", "orbit.views=1", "bags.settle.enabled=false",

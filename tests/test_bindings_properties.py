@@ -43,6 +43,8 @@ from hypothesis.extra import numpy as hnp
 
 from moonbot import _core
 
+pytestmark = pytest.mark.unit
+
 ALLOWED = (ValueError, TypeError, OSError)
 MAX_SIDE = 32768  # the camera's largest accepted image side (cpp/src/camera.cpp)
 MAX_SPP = 65536  # render's largest accepted sample count (cpp/src/render.cpp)

@@ -26,6 +26,8 @@ from moonbot.pipeline.generate import generate
 from moonbot.sweep import tasks
 from moonbot.sweep.tasks import draw, scene_seed
 
+pytestmark = pytest.mark.integration
+
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 SPLITS = {"train": "train_pbr", "val": "val_pbr", "test": "test"}
 

@@ -17,6 +17,8 @@ from moonbot.bop.models import EVAL_SPACING_MM, SYMMETRY_TOLERANCE, read_ply
 from moonbot.cli import main
 from moonbot.scene.bag_mesh import VARIANTS
 
+pytestmark = pytest.mark.unit
+
 HALF_TURNS = {"x": np.diag([1.0, -1, -1]), "y": np.diag([-1.0, 1, -1]), "z": np.diag([-1.0, -1, 1])}
 
 

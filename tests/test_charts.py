@@ -6,7 +6,11 @@ from __future__ import annotations
 import re
 import xml.etree.ElementTree as ET
 
+import pytest
+
 from moonbot.charts import COLOURS, bar_panels_svg, time_error_plot
+
+pytestmark = pytest.mark.unit
 
 SVG = "{http://www.w3.org/2000/svg}"
 PANELS = [

@@ -11,6 +11,8 @@ from moonbot.scene.bag_mesh import variant_mesh
 from moonbot.scene.collision import (segments_cross_triangles, solids_intersect, surfaces_cross,
                                      vertical_extent, winding_number)
 
+pytestmark = pytest.mark.unit
+
 TRI = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 
 

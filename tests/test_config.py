@@ -12,6 +12,8 @@ from moonbot.config import (Config, ConfigError, config_hash, default_config_pat
                             parse_yaml)
 from moonbot.config.load import parse_yaml_documents
 
+pytestmark = pytest.mark.unit
+
 
 def test_embedded_default_equals_schema_defaults():
     """default.yaml spells out the schema's defaults, so neither can drift from the other."""

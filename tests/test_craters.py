@@ -14,6 +14,8 @@ from moonbot.terrain.craters import (DEPTH_RATIO, DIFFUSION_MAX, EJECTA_CUTOFF, 
                                    crater_profile, crater_reach, depth_ratio, diffuse_radial, expected_count,
                                    fresh_profile, sample_degradation)
 
+pytestmark = pytest.mark.unit
+
 
 def test_sizes_follow_the_cumulative_power_law_within_sampling_error():
     half, density = 200.0, 0.05

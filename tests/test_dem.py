@@ -21,6 +21,8 @@ from moonbot import _core
 from moonbot.cli import main
 from moonbot.terrain.dem import LocalDem, import_dem
 
+pytestmark = pytest.mark.unit
+
 R = 1737400.0  # the lunar reference sphere, metres (SLDEM2015's datum)
 
 

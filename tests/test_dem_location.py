@@ -27,6 +27,8 @@ from moonbot.terrain.dem import LocalDem
 from moonbot.terrain.location import (DEM_CRATER_PIXELS, DemRelief, Location, curvature_drop, dem_site,
                                       location_axis)
 
+pytestmark = pytest.mark.integration
+
 R = 1737400.0
 
 

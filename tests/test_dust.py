@@ -10,6 +10,8 @@ import pytest
 
 from moonbot import _core
 
+pytestmark = pytest.mark.unit
+
 G = 1.62
 
 

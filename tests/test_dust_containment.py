@@ -28,6 +28,8 @@ from moonbot.render.dust import capture_time, dust_seed, ejecta_state, emitter_o
 from moonbot.scene import compose_scene
 from moonbot.scene.compose import TERRAIN_MESH
 
+pytestmark = pytest.mark.unit
+
 # A 3 m terrain square (its 2 m fine tile whole) keeps each scene's build near a second; the
 # default fragments land within a metre of the emitter.
 SMALL = {"dust.enabled": True, "terrain.extent_m": 3.0}

@@ -26,6 +26,8 @@ from moonbot.render import SceneDust, build_scene, params
 from moonbot.render.dust import DUST_NOTE, capture_time, dust_seed, emitter_origin
 from moonbot.scene import compose_scene
 
+pytestmark = pytest.mark.unit
+
 # The fastest scene that still has everything: the analytic plane, a small image, no bounces.
 SMALL = {"terrain.location": "plane", "camera.width": 96, "camera.height": 72, "render.spp": 1,
          "render.bounces": 0}

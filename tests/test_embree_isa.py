@@ -18,6 +18,8 @@ from moonbot import _core
 from moonbot.config import ConfigError, load_config
 from moonbot.host import host_record, simd_flags
 
+pytestmark = pytest.mark.unit
+
 ROOT = Path(__file__).resolve().parents[1]
 ISAS = _core.embree_isas()
 # What "auto" means in this run: `./dev.sh test` re-runs these tests with the variable set.

@@ -10,6 +10,8 @@ import pytest
 
 from moonbot.eval import ResultsError, add, adds, auc, match_greedy, read_results, recall, translation_error
 
+pytestmark = pytest.mark.unit
+
 # A box's corners and face centres, 320 × 200 × 120 mm: symmetric under 180° turns about each axis.
 HALF = np.array([160.0, 100.0, 60.0])
 BOX = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * HALF

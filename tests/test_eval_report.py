@@ -27,6 +27,8 @@ from moonbot.eval.matching import ModelPoints, _Pairs, assign_greedy, evaluate
 from moonbot.eval.tables import check_bins, table3, table4
 from moonbot.eval.validate import ValidationReport, check_manifest
 
+pytestmark = pytest.mark.integration
+
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 TEST_SPLIT = {"name": "test", "meshes": ["sandbag-01", "sandbag-02", "sandbag-03"], "bag_counts": [2],
               "stain_seeds": [0, 15], "dust": [False, True], "sun_elevations_deg": [30.0],
@@ -230,7 +232,7 @@ def test_min_visib_fract_leaves_instances_out(split, models):
 
 def test_adds_in_the_model_frame_equals_metrics_adds(models):
     rng = np.random.default_rng(3)
-    for obj_id, full in models.items():
+    for full in models.values():
         model = replace(full, vertices=full.vertices[::20])  # the identity holds for any point set; fast
         mp = ModelPoints(model)
         for _ in range(2):

@@ -41,7 +41,10 @@ from moonbot.sweep import tasks
 from test_merge import SWEEP
 
 # pycocotools' compiled decoder (2.0.11) calls a NumPy-1 style __array__ that NumPy 2 warns about.
-pytestmark = pytest.mark.filterwarnings("ignore:__array__ implementation doesn't accept a copy keyword:DeprecationWarning")
+pytestmark = [
+    pytest.mark.integration,
+    pytest.mark.filterwarnings("ignore:__array__ implementation doesn't accept a copy keyword:DeprecationWarning"),
+]
 
 
 @pytest.fixture(scope="module")
@@ -158,7 +161,7 @@ def test_scene_gt_coco_loads_in_pycocotools_and_matches_the_masks(dataset):
             assert (image["width"], image["height"]) == (64, 48)
         annotations = iter(data["annotations"])
         expected_id = 1
-        for im, k, obj_id, visib_fract, visible, amodal in instances(scene.path):
+        for im, _, obj_id, visib_fract, visible, amodal in instances(scene.path):
             if not visible.any():
                 continue
             ann = next(annotations)
@@ -230,7 +233,7 @@ def test_split_coco_files_load_and_decode_to_mask_visib(dataset, tmp_path):
         assert len(coco.anns) == scene_anns and sorted(coco.anns) == list(range(1, scene_anns + 1))
         checked = 0
         for scene in scenes:
-            for im, k, obj_id, _, visible, amodal in instances(scene.path):
+            for im, _, obj_id, _, visible, amodal in instances(scene.path):
                 image_id = scene.scene_id * IMAGE_ID_STRIDE + im
                 image = coco.imgs[image_id]
                 assert (image["scene_id"], image["im_id"]) == (scene.scene_id, im)
@@ -298,7 +301,7 @@ def test_shards_read_back_with_webdataset_match_the_bop_files(dataset, tmp_path)
 
 def test_shards_are_deterministic_bytes(dataset, tmp_path):
     a = write_shards(dataset, tmp_path / "a", shard_size=2)
-    b = write_shards(dataset, tmp_path / "b", shard_size=2)
+    write_shards(dataset, tmp_path / "b", shard_size=2)
     assert [(s.split, s.images, s.shards) for s in a] == [("test", 2, 1), ("train", 4, 2)]
     files = sorted(p.relative_to(tmp_path / "a") for p in (tmp_path / "a").rglob("*") if p.is_file())
     assert files == sorted(p.relative_to(tmp_path / "b") for p in (tmp_path / "b").rglob("*") if p.is_file())

@@ -21,6 +21,8 @@ from moonbot.scene.orbit import CameraPose
 from moonbot.writer import RADIANCE_UNIT, finite_radiance, write_sample
 from scenes import VIEW_META
 
+pytestmark = pytest.mark.unit
+
 
 def grey(values) -> np.ndarray:
     """(1, N, 3) float32 grey pixels of the given radiances."""

@@ -17,6 +17,8 @@ from moonbot.scene.orbit import CameraPose
 from moonbot.writer import write_sample
 from scenes import VIEW_META
 
+pytestmark = pytest.mark.unit
+
 
 def test_black_spot_in_a_uniform_field_reads_the_glare_index():
     # ISO 9358: VGI = irradiance in the image of a black spot / that of the bright field around it.

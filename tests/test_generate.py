@@ -25,12 +25,19 @@ from distributed import Client, LocalCluster
 from moonbot.cli import main
 from moonbot.config import load_config
 from moonbot.pipeline.generate import RETRIES, generate, running_tasks
-from moonbot.pipeline.heartbeat import DEBUG_HANG_ENV, HEARTBEAT_DIR, Heartbeat, StallLimit, Watchdog
+from moonbot.pipeline.heartbeat import (DEBUG_HANG_ENV, DEBUG_HOLD_ENV, HEARTBEAT_DIR, Heartbeat, StallLimit, Watchdog,
+                                        heartbeat_dir, release_path)
 from moonbot.pipeline.tasks import DONE, is_complete, verify_task
 from moonbot.sweep import tasks
 
+pytestmark = pytest.mark.integration
+
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 DATA_FILES = ("rgb.png", "depth.png", "depth.npy", "mask.png")
+# Where the interruption tests hold a task (MOONBOT_DEBUG_HOLD_TASK): its first view written, mid-task.
+HOLD_STAGE = "render view 1"
+# The longest wait for a run to reach a point it reaches in seconds: a bound against a hang, not a pace.
+REACH_S = 120
 
 
 @pytest.fixture(scope="module")
@@ -112,40 +119,70 @@ def test_another_config_cannot_join_a_dataset(config_file, tmp_path):
         generate(other, tmp_path, workers=1, merge=False, progress=None)
 
 
-def test_a_worker_killed_mid_run_loses_nothing(reference, config_file, tmp_path):
+def held_beat(out: Path, task_id: str, other_than: str | None = None) -> dict:
+    """The heartbeat of `task_id` once it reports HOLD_STAGE (where MOONBOT_DEBUG_HOLD_TASK holds
+    it) in a run (attempt) other than `other_than`: task_id, attempt, stage, worker, pid, ..."""
+    path = heartbeat_dir(out) / f"{task_id}.json"
+    deadline = time.monotonic() + REACH_S
+    while time.monotonic() < deadline:
+        try:
+            beat = json.loads(path.read_text())
+        except (OSError, ValueError):
+            beat = {}  # not there yet (heartbeats are replaced whole, never half-written)
+        if beat.get("stage") == HOLD_STAGE and beat.get("attempt") != other_than:
+            return beat
+        time.sleep(0.05)
+    raise AssertionError(f"{task_id} did not reach {HOLD_STAGE!r} within {REACH_S} s")
+
+
+def test_a_worker_killed_mid_run_loses_nothing(reference, config_file, tmp_path, monkeypatch):
+    """The worker running a task is SIGKILLed while the task is held in its second view's render
+    (MOONBOT_DEBUG_HOLD_TASK, inherited by the worker processes); the task runs again on another
+    worker process, is let go, and the run ends complete, byte for byte the uninterrupted one."""
     config = load_config(config_file)
+    held = tasks(config)[5].task_id
+    monkeypatch.setenv(DEBUG_HOLD_ENV, f"{held}@{HOLD_STAGE}")
+    beats = []
+
+    def kill_the_holding_worker_then_release():
+        try:
+            beats.append(held_beat(tmp_path, held))
+            os.kill(beats[0]["pid"], signal.SIGKILL)
+            beats.append(held_beat(tmp_path, held, other_than=beats[0]["attempt"]))  # its next run
+        finally:  # whatever happened, the run can end
+            release_path(tmp_path, held).parent.mkdir(parents=True, exist_ok=True)
+            release_path(tmp_path, held).touch()
+
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
                       silence_logs=50) as cluster, Client(cluster) as client:
-        pids = list(client.run(os.getpid).values())
-        killed = []
-
-        def kill_when_busy():
-            # Once the first task is complete, the workers are inside their next ones.
-            deadline = time.monotonic() + 120
-            while time.monotonic() < deadline and not any((tmp_path / "tasks").glob(f"*/{DONE}")):
-                time.sleep(0.05)
-            os.kill(pids[0], signal.SIGKILL)
-            killed.append(pids[0])
-
-        killer = threading.Thread(target=kill_when_busy)
+        killer = threading.Thread(target=kill_the_holding_worker_then_release)
         killer.start()
         result = generate(config, tmp_path, client=client, merge=False, progress=None)
         killer.join()
-    assert killed and result.failed == {}
+    assert len(beats) == 2 and beats[1]["pid"] != beats[0]["pid"]
+    assert result.failed == {} and result.rendered == 8
     assert dataset_data(tmp_path) == reference
 
 
 def test_a_killed_driver_resumes_without_redoing_finished_tasks(reference, config_file, tmp_path):
+    """The driver and its local cluster are SIGKILLed at once while a task is held mid-render
+    (MOONBOT_DEBUG_HOLD_TASK, never released) and at least two others are complete; the rerun
+    with --resume leaves the complete ones alone and ends byte for byte the uninterrupted run."""
+    held = tasks(load_config(config_file))[5].task_id
     command = [sys.executable, "-m", "moonbot.cli", "generate", str(config_file), "--out", str(tmp_path),
                "--workers", "2"]
-    driver = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and len(list((tmp_path / "tasks").glob(f"*/{DONE}"))) < 2:
-        time.sleep(0.05)
-    os.killpg(driver.pid, signal.SIGKILL)  # the driver and its local cluster, at once
-    driver.wait()
+    driver = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
+                              env={**os.environ, DEBUG_HOLD_ENV: f"{held}@{HOLD_STAGE}"})
+    try:
+        held_beat(tmp_path, held)
+        deadline = time.monotonic() + REACH_S
+        while time.monotonic() < deadline and len(list((tmp_path / "tasks").glob(f"*/{DONE}"))) < 2:
+            time.sleep(0.05)
+    finally:
+        os.killpg(driver.pid, signal.SIGKILL)  # the driver and its local cluster, at once
+        driver.wait()
     finished = {p.parent.name: p.stat().st_mtime_ns for p in (tmp_path / "tasks").glob(f"*/{DONE}")}
-    assert 2 <= len(finished) < 8
+    assert len(finished) >= 2 and held not in finished  # the held task cannot have finished
     result = CliRunner().invoke(main, ["generate", str(config_file), "--out", str(tmp_path), "--resume",
                                        "--workers", "2"])
     assert result.exit_code == 0, result.output

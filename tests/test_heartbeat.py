@@ -1,18 +1,22 @@
 """A task's heartbeat and the driver's judgement of a hang (moonbot.pipeline.heartbeat), on real
 files with the driver's clock passed in: the stall limit's numbers, a beat timed from when the
-driver first read it, a new stage as the only progress, and the debug setting that names a task."""
+driver first read it, a new stage as the only progress, and the debug settings that name a task."""
 
 from __future__ import annotations
 
 import json
 import os
+import threading
+import time
 
 import pytest
 
 from moonbot.config import load_config
-from moonbot.pipeline.heartbeat import (DEBUG_HANG_ENV, HEARTBEAT_DIR, RENDER_BUDGET_S_PER_MEGASAMPLE,
+from moonbot.pipeline.heartbeat import (DEBUG_HANG_ENV, DEBUG_HOLD_ENV, HEARTBEAT_DIR, RENDER_BUDGET_S_PER_MEGASAMPLE,
                                         STALL_FACTOR, STALL_FLOOR_S, Heartbeat, StallLimit, Watchdog,
-                                        debug_hang_stage, default_floor_s)
+                                        debug_hang_stage, debug_hold_stage, default_floor_s, release_path)
+
+pytestmark = pytest.mark.unit
 
 
 def test_the_default_limit_is_the_floor_the_render_budget_or_the_slowest_stage_times_the_factor():
@@ -76,3 +80,23 @@ def test_the_debug_hang_names_a_task_and_optionally_a_stage(monkeypatch):
     assert debug_hang_stage("train-000001") == "" and debug_hang_stage("train-000010") is None
     monkeypatch.setenv(DEBUG_HANG_ENV, "train-000001@render view 3")
     assert debug_hang_stage("train-000001") == "render view 3"
+
+
+def test_a_held_task_waits_at_its_stage_until_released(tmp_path, monkeypatch):
+    """MOONBOT_DEBUG_HOLD_TASK=<task>@<stage>: that task reports the stage, then waits there until
+    OUT/running/<task>.release exists; other stages and tasks pass."""
+    monkeypatch.setenv(DEBUG_HOLD_ENV, "train-000001@render view 1")
+    assert debug_hold_stage("train-000001") == "render view 1" and debug_hold_stage("train-000002") is None
+    Heartbeat(tmp_path, "train-000002", "tcp://127.0.0.1:1").stage("render view 1")  # another task: passes
+    beat = Heartbeat(tmp_path, "train-000001", "tcp://127.0.0.1:1")
+    beat.stage("render view 0")  # another stage: passes
+    held = threading.Thread(target=beat.stage, args=("render view 1",), daemon=True)
+    held.start()
+    deadline = time.monotonic() + 60
+    while json.loads(beat.path.read_text())["stage"] != "render view 1" and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert json.loads(beat.path.read_text())["stage"] == "render view 1"  # reported, then held
+    assert held.is_alive()
+    release_path(tmp_path, "train-000001").touch()
+    held.join(timeout=60)
+    assert not held.is_alive()

@@ -10,6 +10,8 @@ from PIL import Image
 
 from moonbot import _core
 
+pytestmark = pytest.mark.unit
+
 
 def test_exr_float_round_trip_is_exact(tmp_path):
     """Linear HDR written by OpenImageIO (zip) reads back bit-exactly with the OpenEXR package,

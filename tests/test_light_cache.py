@@ -21,6 +21,8 @@ from moonbot.scene.bag_mesh import filled_cuboid
 
 from scenes import K_for, camera, translation
 
+pytestmark = pytest.mark.unit
+
 E_SUN = 1361.0
 SUN_ELEVATION = 30.0
 

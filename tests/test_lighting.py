@@ -14,6 +14,8 @@ import trimesh
 
 from moonbot import _core
 
+pytestmark = pytest.mark.unit
+
 E = 1361.0
 
 

@@ -26,6 +26,8 @@ from moonbot.terrain.location import Location, curvature_drop, drawable, locatio
 from moonbot.terrain.rocks import (crater_falloff, golombek_q, rock_poses, rock_prototypes, rocks_per_m2,
                                    sample_rocks)
 
+pytestmark = pytest.mark.unit
+
 R = 1737400.0
 
 

@@ -13,6 +13,8 @@ import pytest
 from moonbot import _core
 from moonbot.config import Config, ConfigError, load_config
 
+pytestmark = pytest.mark.unit
+
 PITCH = 0.0015
 
 

@@ -13,6 +13,8 @@ import pytest
 
 from moonbot import _core
 
+pytestmark = pytest.mark.unit
+
 W, H = 48, 36
 
 

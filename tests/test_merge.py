@@ -36,6 +36,8 @@ from moonbot.yolo.export import write_yolo
 
 from masks import raster
 
+pytestmark = pytest.mark.integration
+
 SWEEP = """
 seed: 3
 camera: {width: 64, height: 48}
@@ -240,7 +242,7 @@ def test_poses_project_into_the_boxes(dataset):
 def test_gt_info_fields_and_scene_meta(dataset):
     for scene in (TRAIN, TEST):
         info = load(dataset / scene / "scene_gt_info.json")
-        for im, entries in info.items():
+        for entries in info.values():
             for e in entries:
                 assert set(e) == {"bbox_obj", "bbox_visib", "px_count_all", "px_count_valid", "px_count_visib",
                                   "visib_fract"}

@@ -13,12 +13,15 @@ import numpy as np
 import pytest
 import trimesh
 
+pytestmark = pytest.mark.unit
+
 PEERS = Path(__file__).resolve().parents[1] / "bench" / "peers"
 sys.path.insert(0, str(PEERS))
 
-from export_scene import PARITY_OVERRIDES, export_scene, parity_config, parity_spec, view_camera  # noqa: E402
+from export_scene import PARITY_OVERRIDES, export_scene, parity_config, parity_spec  # noqa: E402
 from ply import read_ply, write_ply  # noqa: E402
 
+from moonbot.render.view import orbit_view  # noqa: E402
 from moonbot.scene.compose import TERRAIN_MESH  # noqa: E402
 
 
@@ -95,7 +98,7 @@ def test_scene_json_has_camera_sun_and_units(exported):
     assert units["length"] == "m" and units["irradiance"] == "W/m^2" and units["radiance"] == "W/(m^2 sr)"
     cam = scene["camera"]
     assert (cam["width"], cam["height"]) == (64, 48)
-    K, pose = view_camera(config, spec)
+    K, pose = orbit_view(config, spec, 0)
     np.testing.assert_allclose(cam["K"], K)
     assert cam["hfov_deg"] == pytest.approx(config.camera.hfov_deg)
     R, t, c = np.array(cam["R_world_to_cam"]), np.array(cam["t_world_to_cam_m"]), np.array(cam["position_m"])

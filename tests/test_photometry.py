@@ -13,6 +13,8 @@ from moonbot import _core
 from moonbot.config import ConfigError, load_config
 from moonbot.render.view import regolith
 
+pytestmark = pytest.mark.unit
+
 
 def random_geometries(n: int, seed: int = 5) -> np.ndarray:
     """(n, 3) rows of (cos i, cos e, cos g) for two random upper-hemisphere directions."""

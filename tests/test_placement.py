@@ -16,6 +16,8 @@ from moonbot.scene.collision import solids_intersect, surfaces_cross, transform
 from moonbot.scene.placement import _plan_outline, arrange_bags, place_bags, polygons_apart, yaw_tilt_rotation
 from moonbot.terrain.ground import CraterGround, FlatGround, SlopedGround
 
+pytestmark = pytest.mark.unit
+
 MESHES = {k: variant_mesh(MeshesConfig(), k) for k in (1, 3)}
 COLLISION = {k: variant_collision_points(MeshesConfig(), k) for k in (1, 3)}  # as compose_scene settles them
 VERTICES, TRIANGLES = MESHES[1][0].astype(np.float64), MESHES[1][1]

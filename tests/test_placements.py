@@ -27,6 +27,8 @@ from moonbot.scene.compose import place_bags
 from moonbot.sweep import task_config, tasks
 from moonbot.terrain import get_terrain
 
+pytestmark = pytest.mark.integration
+
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 DATA_FILES = ("rgb.png", "depth.png", "depth.npy", "mask.png")
 

@@ -12,8 +12,11 @@ import tomllib
 from pathlib import Path
 
 import click
+import pytest
 
 from moonbot.cli import main
+
+pytestmark = pytest.mark.unit
 
 ROOT = Path(__file__).resolve().parents[1]
 README_PATH = ROOT / "README.md"

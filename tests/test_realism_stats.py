@@ -12,6 +12,8 @@ import pytest
 
 from moonbot.benchmark import realism
 
+pytestmark = pytest.mark.unit
+
 
 def power_law_noise(size: int, beta: float, seed: int) -> np.ndarray:
     """A periodic (size, size) Gaussian field with power spectrum ∝ |f|^-β, zero mean, unit std."""

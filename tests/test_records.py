@@ -22,6 +22,8 @@ from moonbot.records.gt import GT, GtRecord, InstanceRecord, read_gt, write_gt
 from moonbot.records.stats import STATS, StatsRecord, decode_stats, read_stats, write_stats
 from moonbot.records.task import TASK, TaskRecord, read_task, write_task
 
+pytestmark = pytest.mark.unit
+
 V1_TASK = Path(__file__).parent / "data" / "records_v1" / "test-s000001-t00-sandbag-01-plane-b02-st00-dust-el30-az90-h1"
 SHA = "ab" * 32
 

@@ -20,6 +20,8 @@ from moonbot.terrain.location import Location, location_axis
 from moonbot.terrain.rocks import PIXELS_REACH, power_law_per_m2, rock_poses, sample_rocks
 from moonbot.terrain.roughness import slope_law, unresolved_theta_bar_deg
 
+pytestmark = pytest.mark.unit
+
 LAGS = np.array([1, 2, 4, 8, 16, 32, 64])  # cells of the 1 cm tile
 SEEDS = range(12)
 

@@ -11,6 +11,8 @@ from scenes import K_for, camera, ground_and_box, pixel_directions, plane, rotat
 from moonbot import _core
 from moonbot.scene.orbit import CameraPose, orbit_pose
 
+pytestmark = pytest.mark.unit
+
 W, H = 96, 72
 
 

@@ -25,6 +25,8 @@ from moonbot.scene.collision import transform
 from moonbot.scene.bag_mesh import filled_cuboid
 from moonbot.writer import depth_to_png16
 
+pytestmark = pytest.mark.unit
+
 SMALL = ["--set", "camera.width=160", "--set", "camera.height=120", "--set", "render.spp=2"]
 FILES = ("rgb.png", "depth.npy", "depth.png", "depth_preview.png", "mask.png", "amodal_001.png",
          "gt.json")

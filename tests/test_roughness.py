@@ -12,6 +12,8 @@ import pytest
 from moonbot.terrain.roughness import (HAPKE_RMS_PER_TAN, Roughness, SlopeLaw, theta_bar_deg,
                                        unresolved_theta_bar_deg, value_noise_structure)
 
+pytestmark = pytest.mark.unit
+
 MARE = SlopeLaw(rms_slope_deg=3.0, baseline_m=17.0, hurst_coarse=0.9, hurst_fine=0.65, break_m=0.01)
 ROUGH = Roughness(seed=11, law=MARE)
 

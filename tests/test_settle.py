@@ -19,6 +19,8 @@ from moonbot.scene.placement import place_bags
 from moonbot.scene.settle import settle
 from moonbot.terrain.ground import FlatGround, SlopedGround
 
+pytestmark = pytest.mark.unit
+
 SETTLE = SettleConfig()
 MESHES = {k: variant_mesh(MeshesConfig(), k) for k in (1, 2, 3)}
 COLLISION = {k: variant_collision_points(MeshesConfig(), k) for k in (1, 2, 3)}  # as compose_scene settles them

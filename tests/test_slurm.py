@@ -37,6 +37,7 @@ JOB_MEMORY_MB = 4096
 DASK_SCHEDULER_PORT = 8786  # `dask scheduler`'s default
 
 pytestmark = [
+    pytest.mark.integration,
     pytest.mark.slow,
     pytest.mark.skipif(bool(MISSING), reason=f"SLURM is not installed (no {', '.join(MISSING)}): "
                                               f"cluster/slurm/local-cluster.sh install"),

@@ -28,6 +28,8 @@ from moonbot.cli import main
 from moonbot.pipeline import stats
 from moonbot.pipeline.stats import Reference, StatsError
 
+pytestmark = pytest.mark.integration
+
 ROOT = Path(__file__).resolve().parents[1]
 T0 = datetime.datetime(2026, 11, 23, 10, 0, 0, tzinfo=datetime.timezone.utc)
 A = dict(host="node-a", cpu_model="AMD EPYC 7B13", cores=2, threads=1)

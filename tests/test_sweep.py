@@ -17,6 +17,8 @@ from moonbot.config import ConfigError, load_config
 from moonbot.sweep import scene_seed, task_config, tasks
 from moonbot.sweep.plan import split_plans
 
+pytestmark = pytest.mark.unit
+
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 
 

@@ -12,6 +12,8 @@ from moonbot.config.load import ConfigError, load_config
 from moonbot.terrain import make_ground
 from moonbot.terrain.ground import CraterGround, FlatGround, SlopedGround, graded_axis, grid_triangles
 
+pytestmark = pytest.mark.unit
+
 GROUNDS = [FlatGround(size_m=50.0), SlopedGround(slope_deg=30.0, downhill_azimuth_deg=60.0, size_m=50.0),
            CraterGround(diameter_m=8.0, size_m=50.0)]
 

@@ -32,6 +32,8 @@ from moonbot.scene.user_mesh import (DECOMPOSE_ABOVE_HULL_FIT, load_user_mesh, s
                                   up_rotation)
 from moonbot.sweep.tasks import task_config, tasks
 
+pytestmark = pytest.mark.integration
+
 PUBLIC = Path(os.environ.get("MOONBOT_PUBLIC_MESHES", Path(__file__).parent / "data" / "meshes" / "public"))
 
 
@@ -158,7 +160,7 @@ def test_unit_and_up_axis_are_exact(tmp_path):
     # The U's opening points up (+z): the top middle cell is empty.
     assert winding_number(np.array([[0.0, 0.0, 0.1], [0.0, 0.0, -0.1]]), mesh.vertices, mesh.triangles).round(6).tolist() \
         == [0.0, 1.0]
-    for axis, image in (("+x", [0, 0, 1]), ("-x", [0, 0, -1]), ("+y", [0, -1, 0]), ("-y", [0, 1, 0]),
+    for axis, _image in (("+x", [0, 0, 1]), ("-x", [0, 0, -1]), ("+y", [0, -1, 0]), ("-y", [0, 1, 0]),
                         ("+z", [1, 0, 0]), ("-z", [1, 0, 0])):
         R = up_rotation(axis)
         sign, k = (1.0 if axis[0] == "+" else -1.0), "xyz".index(axis[1])

@@ -18,6 +18,8 @@ from moonbot.config import load_config
 from moonbot.eval.validate import validate_dataset
 from moonbot.pipeline.generate import generate
 
+pytestmark = pytest.mark.integration
+
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 
 

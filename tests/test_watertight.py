@@ -22,6 +22,8 @@ from moonbot.scene import compose_scene, intrinsics, orbit_pose
 from moonbot.scene.orbit import orbit_height
 from moonbot.terrain.build import get_terrain
 
+pytestmark = pytest.mark.unit
+
 # Embree's t is float32 along a direction of length ~|point − origin|: a few ulps of 1, divided
 # by the sine of the ray's angle to the surface, which the rays here keep above GRAZING_SIN.
 T_SLACK = 1e-4

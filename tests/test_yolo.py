@@ -15,6 +15,8 @@ from moonbot.yolo import boundary_loops, data_yaml, detect_row, mask_polygon, se
 
 from masks import raster
 
+pytestmark = pytest.mark.unit
+
 
 def area(loop: np.ndarray) -> float:
     x, y = loop[:, 0].astype(float), loop[:, 1].astype(float)

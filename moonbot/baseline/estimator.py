@@ -69,7 +69,7 @@ class Surface:
     tree: cKDTree
 
     @classmethod
-    def sample(cls, model: Model, spacing_mm: float) -> "Surface":
+    def sample(cls, model: Model, spacing_mm: float) -> Surface:
         v, tri = model.vertices.astype(np.float64), model.triangles
         points, faces = sample_surface_faces(v, tri, spacing_mm, seed=model.obj_id)
         normals = np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
@@ -90,7 +90,7 @@ class ModelCloud:
     symmetries: tuple[np.ndarray, ...]
 
     @classmethod
-    def from_model(cls, model: Model) -> "ModelCloud":
+    def from_model(cls, model: Model) -> ModelCloud:
         return cls(model.obj_id, Surface.sample(model, FINE_SPACING_MM), Surface.sample(model, COARSE_SPACING_MM),
                    tuple(S[:3, :3] for S in model.symmetries))
 

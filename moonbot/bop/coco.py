@@ -147,9 +147,9 @@ def scene_coco(scene_dir: Path, dataset_name: str, split: str, obj_ids: Sequence
     width, height = im_size
     coco = {"info": coco_info(dataset_name, split), "licenses": [],
             "categories": coco_categories(dataset_name, obj_ids), "images": [], "annotations": []}
-    for im_id, annotations in scene_annotations(scene_dir, width, height):
+    for im_id, image_annotations in scene_annotations(scene_dir, width, height):
         coco["images"].append(image_info(im_id, rgb_name(scene_dir, im_id), width, height))
-        for annotation in annotations:
+        for annotation in image_annotations:
             coco["annotations"].append({"id": len(coco["annotations"]) + 1, "image_id": im_id, **annotation})
     return coco
 

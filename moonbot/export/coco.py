@@ -71,14 +71,14 @@ def split_coco(dataset: Path, split: str, facts: DatasetFacts | None = None,
         raise DatasetError(f"{dataset}: no scene of split {split!r}")
     for scene in found:
         prefix = scene.path.relative_to(dataset).as_posix()
-        for im_id, annotations in scene_annotations(scene.path, facts.width, facts.height):
+        for im_id, image_annotations in scene_annotations(scene.path, facts.width, facts.height):
             if not 0 <= im_id < IMAGE_ID_STRIDE:
                 raise DatasetError(f"{scene.path / 'scene_gt.json'}: image id {im_id} is not a BOP image id "
                                   f"(0 to {IMAGE_ID_STRIDE - 1})")
             image_id = scene.scene_id * IMAGE_ID_STRIDE + im_id
             image = image_info(image_id, f"{prefix}/{rgb_name(scene.path, im_id)}", facts.width, facts.height)
             coco["images"].append({**image, "scene_id": scene.scene_id, "im_id": im_id})
-            for annotation in annotations:
+            for annotation in image_annotations:
                 coco["annotations"].append({"id": len(coco["annotations"]) + 1, "image_id": image_id,
                                             **annotation})
     return coco

@@ -18,7 +18,11 @@ A debug setting makes one task hang for real, to test all of this on a real clus
 environment variable MOONBOT_DEBUG_HANG_TASK=<task_id> (or <task_id>@<stage>, e.g.
 `train-000003@render view 1`) set where the workers start makes that task block forever at the
 start of its first stage (or of the stage named), after reporting it, in a C call that holds the
-GIL: the worst kind of hang, which only a signal from outside ends.
+GIL: the worst kind of hang, which only a signal from outside ends. Its gentle sibling,
+MOONBOT_DEBUG_HOLD_TASK (the same syntax), holds that task there until the file
+OUT/running/<task_id>.release exists, so that a test can act at a known point of a run (kill the
+task's worker or the driver) and then let the task go on; each later run of the task waits too
+until then.
 """
 
 from __future__ import annotations
@@ -36,6 +40,9 @@ from moonbot.config import Config
 
 HEARTBEAT_DIR = "running"
 DEBUG_HANG_ENV = "MOONBOT_DEBUG_HANG_TASK"
+DEBUG_HOLD_ENV = "MOONBOT_DEBUG_HOLD_TASK"
+# How often a held task looks for its release file, seconds.
+HOLD_POLL_S = 0.05
 
 # The stall limit when --task-timeout is not given: a stage may last STALL_FLOOR_S, or
 # RENDER_BUDGET_S_PER_MEGASAMPLE for each million pixel samples a view renders (a view's render is
@@ -54,6 +61,11 @@ def heartbeat_dir(out_dir: Path) -> Path:
     return Path(out_dir) / HEARTBEAT_DIR
 
 
+def release_path(out_dir: Path, task_id: str) -> Path:
+    """The file whose existence lets a task held by MOONBOT_DEBUG_HOLD_TASK go on."""
+    return heartbeat_dir(out_dir) / f"{task_id}.release"
+
+
 class Heartbeat:
     """The worker's side: `stage(name)` records that the task entered stage `name` (and how long
     the previous one lasted); `close()` removes the file when the task ends, whichever way."""
@@ -68,6 +80,8 @@ class Heartbeat:
         self.longest_stage_s = 0.0  # seconds, over the stages that ended
         self._started = self._stage_started = time.monotonic()
         self._hang_stage = debug_hang_stage(task_id)
+        self._hold_stage = debug_hold_stage(task_id)
+        self._release = release_path(out_dir, task_id)
 
     def stage(self, name: str) -> None:
         now = time.monotonic()
@@ -81,6 +95,9 @@ class Heartbeat:
         atomic_write(self.path, "w", lambda f: f.write(json.dumps(record) + "\n"))
         if self._hang_stage is not None and self._hang_stage in ("", name):
             hang_holding_the_gil()
+        if self._hold_stage is not None and self._hold_stage in ("", name):
+            while not self._release.exists():
+                time.sleep(HOLD_POLL_S)
 
     def close(self) -> None:
         if self.beats:
@@ -101,7 +118,18 @@ def hang_holding_the_gil() -> None:
 def debug_hang_stage(task_id: str) -> str | None:
     """The stage at which MOONBOT_DEBUG_HANG_TASK makes `task_id` hang ("" = its first stage), or
     None when it names another task or is unset."""
-    setting = os.environ.get(DEBUG_HANG_ENV, "")
+    return _debug_stage(DEBUG_HANG_ENV, task_id)
+
+
+def debug_hold_stage(task_id: str) -> str | None:
+    """The stage at which MOONBOT_DEBUG_HOLD_TASK holds `task_id` until its release file exists
+    ("" = its first stage), or None when it names another task or is unset."""
+    return _debug_stage(DEBUG_HOLD_ENV, task_id)
+
+
+def _debug_stage(variable: str, task_id: str) -> str | None:
+    """The stage named by the environment variable `variable` (<task_id>[@<stage>]) for `task_id`."""
+    setting = os.environ.get(variable, "")
     target, _, stage = setting.partition("@")
     return stage.strip() if setting and target.strip() == task_id else None
 

@@ -4,7 +4,7 @@ seconds since the command started, so a run of a minute or more is never silent.
 from __future__ import annotations
 
 import time
-from typing import Callable
+from collections.abc import Callable
 
 
 class StageClock:

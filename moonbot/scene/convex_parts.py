@@ -47,8 +47,8 @@ class _Part:
     faces: np.ndarray
     points: np.ndarray
     hull_volume: float
-    best: tuple[float, "_Part", "_Part"] | None = None  # its best cut: (gain, lower, upper)
-    ahead: tuple[float, "_Part", "_Part"] | None = None  # its best cut looking two deep
+    best: tuple[float, _Part, _Part] | None = None  # its best cut: (gain, lower, upper)
+    ahead: tuple[float, _Part, _Part] | None = None  # its best cut looking two deep
 
 
 def hull_volume(points: np.ndarray) -> float:

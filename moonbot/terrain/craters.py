@@ -156,7 +156,7 @@ class CraterField:
 
     @staticmethod
     def sample(seed: int | list[int], half_size_m: float, density: float = 0.05, d_min: float = 0.5,
-               d_max: float = 50.0) -> "CraterField":
+               d_max: float = 50.0) -> CraterField:
         """A Poisson sample over the square ±half_size_m with N(≥D) = density·D^-2 per m²,
         D in [d_min, d_max] (inverse-CDF sampling of the truncated power law)."""
         if not 0 < d_min < d_max:
@@ -173,13 +173,13 @@ class CraterField:
         degradation = sample_degradation(rng, count)
         return CraterField(centres, diameters, degradation)
 
-    def subset(self, keep: np.ndarray) -> "CraterField":
+    def subset(self, keep: np.ndarray) -> CraterField:
         """The craters selected by a boolean mask or index array."""
         return CraterField(self.centres[keep], self.diameters[keep], self.degradation[keep])
 
     @staticmethod
     def sample_graded(seed: int, half_size: Callable[[float], float], density: float = 0.05,
-                      d_min: float = 0.5, d_max: float = 200.0) -> "CraterField":
+                      d_min: float = 0.5, d_max: float = 200.0) -> CraterField:
         """Craters for a mesh that coarsens away from the origin: diameters in octave bands
         [d, 2d) from d_min up to d_max, each band a Poisson sample (`sample`) over the square
         ±half_size(d) in which the mesh can still draw a crater of the band's smallest size.

@@ -100,7 +100,7 @@ class RockField:
     def __len__(self) -> int:
         return len(self.diameters)
 
-    def subset(self, keep: np.ndarray) -> "RockField":
+    def subset(self, keep: np.ndarray) -> RockField:
         return RockField(self.centres[keep], self.diameters[keep], self.prototype[keep], self.yaw[keep],
                          self.burial[keep])
 
