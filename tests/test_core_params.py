@@ -16,6 +16,8 @@ from moonbot.config.schema import (CloudConfig, EjectaConfig, FabricConfig, Grai
                                    RenderConfig, StainConfig, SunConfig)
 from moonbot.render import params
 
+pytestmark = pytest.mark.unit
+
 # Schema defaults that differ from the C++ struct's on purpose: the config's are the dataset's
 # choices, the struct's the plain model (effects off, or the reference's values).
 DEFAULTS_DIFFER = {  # (struct, struct field): why the schema's default is another

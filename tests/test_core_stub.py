@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.unit
+
 STUB = Path(__file__).resolve().parent.parent / "moonbot" / "_core.pyi"
 
 
