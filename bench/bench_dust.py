@@ -51,7 +51,8 @@ def main() -> int:
     origin[2] = float(spec.ground.height(origin[0], origin[1]))
 
     def run(dt, count=200, t=1.0):
-        return _core.simulate_ejecta(scene, seed=1, time_s=float(t), dt_s=dt, origin=origin, count=count)
+        return _core.simulate_ejecta(scene, _core.EjectaParams(origin=origin, count=count), seed=1, time_s=float(t),
+                                     dt_s=dt)
 
     result = {"schema_version": SCHEMA_VERSION, "machine": machine(), "reference_step_s": REFERENCE_STEP,
               "captures_s": CAPTURES.tolist(), "steps": [], "counts": []}

@@ -131,7 +131,7 @@ def compare_watertight(spec, cameras: list) -> dict:
     leaks() of each, summed,
     the pixels that moved between the two, and the watertight render's second looks."""
     scenes = {w: build_scene(spec, watertight=w) for w in (False, True)}
-    sun = _core.Sun(0.0, 30.0, 0.0)
+    sun = _core.DirectionalLight(0.0, 30.0, 0.0)
     total = {"plain": {"holes": 0, "back_face_bag_pixels": 0}, "watertight": {"holes": 0, "back_face_bag_pixels": 0},
              "moved": 0, "second_look_rays": 0, "pixels": 0}
     for K, R, camera in cameras:

@@ -57,13 +57,13 @@ def main() -> int:
     K = intrinsics(config.camera)
     pose = orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, config.orbit.start_azimuth_deg)
     camera = core_camera(K, config.camera.width, config.camera.height, pose)
-    sun = _core.Sun(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2, 0.0)
+    sun = _core.DirectionalLight(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2, 0.0)
 
     def render(medium):
-        return _core.render(scene, camera, sun, spp=1, seed=1, passes=["rgb"], medium=medium)
+        return _core.render(scene, camera, sun, _core.RenderSettings(spp=1, seed=1), passes=["rgb"], medium=medium)
 
     def medium(voxel, rate=40.0, stride=1):
-        puffs = _core.cloud_puffs(1, CAPTURE_S, origin=origin, rate_per_s=rate)
+        puffs = _core.cloud_puffs(_core.CloudParams(origin=origin, rate_per_s=rate), 1, CAPTURE_S)
         return _core.Medium(puffs, voxel_m=voxel, floor_z=origin[2] - 1.0, march_stride_px=stride)
 
     clear, clear_s = timed(lambda: render(None), args.repeats)

@@ -67,7 +67,7 @@ def default_view():
     K = intrinsics(config.camera)
     pose = orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, 0.0)
     camera = core_camera(K, config.camera.width, config.camera.height, pose)
-    sun = _core.Sun(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2)
+    sun = _core.DirectionalLight(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2)
     return config, scene, camera, sun
 
 
@@ -76,12 +76,13 @@ def spp_sweep(repeats: int, reference_spp: int) -> dict:
     RGB pass (depth and masks do not depend on spp)."""
     config, scene, camera, sun = default_view()
     exposure = exposure_scale(config)
-    ref = _core.render(scene, camera, sun, spp=reference_spp, seed=12345)["rgb"].astype(np.float64)
+    ref = _core.render(scene, camera, sun,
+                       _core.RenderSettings(spp=reference_spp, seed=12345))["rgb"].astype(np.float64)
     ref8 = _core.tonemap_reinhard(ref.astype(np.float32), exposure)[0].astype(np.float64)
     rows = []
     for spp in (1, 2, 4, 8, 16):
-        seconds = median_of(repeats, lambda: _core.render(scene, camera, sun, spp=spp)["seconds"])
-        rgb = _core.render(scene, camera, sun, spp=spp)["rgb"].astype(np.float64)
+        seconds = median_of(repeats, lambda: _core.render(scene, camera, sun, _core.RenderSettings(spp=spp))["seconds"])
+        rgb = _core.render(scene, camera, sun, _core.RenderSettings(spp=spp))["rgb"].astype(np.float64)
         rmse = float(np.sqrt(np.mean((rgb - ref) ** 2)))
         mse8 = float(np.mean((_core.tonemap_reinhard(rgb.astype(np.float32), exposure)[0] - ref8) ** 2))
         rows.append({"spp": spp, "render_s": seconds, "rmse_linear_w_m2_sr": rmse,
@@ -95,8 +96,10 @@ def exact_depth_tradeoff(repeats: int, terrain) -> dict:
     the 2.1 M-triangle terrain, and the worst relative z-depth error on a tilted plane against
     its analytic value, near the origin and kilometres away."""
     scene, camera, sun, _ = terrain
-    timing = {exact: median_of(repeats, lambda: _core.render(
-        scene, camera, sun, passes=["depth", "instance"], exact_depth=exact)["seconds"]) for exact in (True, False)}
+    timing = {exact: median_of(repeats,
+                               lambda: _core.render(scene, camera, sun, _core.RenderSettings(exact_depth=exact),
+                                                    passes=["depth", "instance"])["seconds"])
+              for exact in (True, False)}
     rows = []
     w, h = 160, 120
     K = np.array([[120.0, 0, w / 2], [0, 120.0, h / 2], [0, 0, 1]])
@@ -115,7 +118,8 @@ def exact_depth_tradeoff(repeats: int, terrain) -> dict:
         t = (n @ (world[:3, 3] - pose.center)) / (d @ n)
         row = {"offset_m": offset}
         for exact in (True, False):
-            depth = _core.render(plane_scene, cam, sun, passes=["depth"], exact_depth=exact)["depth"]
+            depth = _core.render(plane_scene, cam, sun, _core.RenderSettings(exact_depth=exact),
+                                 passes=["depth"])["depth"]
             hit = depth > 0
             row[f"max_rel_error_exact_{str(exact).lower()}"] = float(np.max(np.abs(depth[hit] - t[hit]) / t[hit]))
         rows.append(row)
@@ -159,7 +163,7 @@ def terrain_view():
     K = intrinsics(config.camera)
     pose = orbit_pose(world[:3, 3], config.orbit.radius_m, config.orbit.height_m, 0.0)
     camera = core_camera(K, config.camera.width, config.camera.height, pose)
-    sun = _core.Sun(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2)
+    sun = _core.DirectionalLight(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2)
     return scene, camera, sun, {"triangles": int(len(triangles) + len(bag_triangles)),
                                 "terrain_bvh_build_s": build_s}
 
@@ -170,9 +174,11 @@ def against_limit(name: str, scene, camera, sun, repeats: int, extra: dict) -> d
     rows = []
     for threads in (1, 2):
         limit = _core.measure_embree_limit(scene, camera, sun, threads=threads, repeats=repeats)
-        full = median_of(repeats, lambda: _core.render(scene, camera, sun, threads=threads)["seconds"])
-        geometry = median_of(repeats, lambda: _core.render(
-            scene, camera, sun, threads=threads, passes=["depth", "instance"])["seconds"])
+        full = median_of(repeats,
+                         lambda: _core.render(scene, camera, sun, _core.RenderSettings(threads=threads))["seconds"])
+        geometry = median_of(repeats,
+                             lambda: _core.render(scene, camera, sun, _core.RenderSettings(threads=threads),
+                                                  passes=["depth", "instance"])["seconds"])
         raw_full = limit["intersect_stream_s"] + limit["occluded_stream_s"]
         rows.append({
             "threads": threads, **limit,

@@ -40,7 +40,7 @@ def corner_camera(scale: int = 1) -> _core.Camera:
 
 
 # A point Sun: a face's direct light is one value, so a pixel is mixed only where faces meet.
-SUN = _core.Sun(-35.0, 40.0, E, 0.0)
+SUN = _core.DirectionalLight(-35.0, 40.0, E, 0.0)
 
 
 def test_refines_the_edges_and_leaves_the_faces_alone():
@@ -50,9 +50,10 @@ def test_refines_the_edges_and_leaves_the_faces_alone():
     uniform, and all but a few of those it finds well mixed; all refined pixels lie within two
     pixels of a mixed one (a pixel is refined where it or a neighbour disagrees)."""
     scene = floating_box()
-    base = _core.render(scene, corner_camera(), SUN, spp=4, seed=3, passes=["rgb"])
-    adaptive = _core.render(scene, corner_camera(), SUN, spp=4, seed=3, passes=["rgb"], adaptive_spp=32,
-                            adaptive_threshold=0.1)
+    base = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=4, seed=3), passes=["rgb"])
+    adaptive = _core.render(scene, corner_camera(), SUN,
+                            _core.RenderSettings(spp=4, seed=3, adaptive_spp=32, adaptive_threshold=0.1),
+                            passes=["rgb"])
     refined = np.any(base["rgb"] != adaptive["rgb"], axis=-1)
     assert 0 < refined.sum() <= adaptive["refined_pixels"]
     # 28 extra samples, each a camera ray and (on a face toward the Sun) one shadow ray.
@@ -61,7 +62,7 @@ def test_refines_the_edges_and_leaves_the_faces_alone():
                                            - base["shadow_rays"] + adaptive["second_look_rays"]
                                            - base["second_look_rays"])
     # What each pixel holds: 16 × 16 centre rays over it, their radiance (one value per face, 0 for the sky).
-    fine = _core.render(scene, corner_camera(16), SUN, spp=1, passes=["rgb"])["rgb"][..., 1]
+    fine = _core.render(scene, corner_camera(16), SUN, _core.RenderSettings(spp=1), passes=["rgb"])["rgb"][..., 1]
     blocks = fine.reshape(H, 16, W, 16).transpose(0, 2, 1, 3).reshape(H, W, 256)
     uniform = np.all(blocks == blocks[..., :1], axis=-1)
     # Interior: the pixel and its eight neighbours all of one value (a pixel the grid finds
@@ -89,15 +90,17 @@ def test_adaptive_image_comes_close_to_a_high_sample_render():
     disagree (a pixel's own or a neighbour's) leaves the error of 64 samples everywhere (0.039)
     for a fifth of their camera rays."""
     scene = floating_box()
-    reference = _core.render(scene, corner_camera(), SUN, spp=1024, seed=11, passes=["rgb"])["rgb"]
-    base = _core.render(scene, corner_camera(), SUN, spp=4, seed=3, passes=["rgb"])
-    adaptive = _core.render(scene, corner_camera(), SUN, spp=4, seed=3, passes=["rgb"], adaptive_spp=64,
-                            adaptive_threshold=0.1)
+    reference = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=1024, seed=11),
+                             passes=["rgb"])["rgb"]
+    base = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=4, seed=3), passes=["rgb"])
+    adaptive = _core.render(scene, corner_camera(), SUN,
+                            _core.RenderSettings(spp=4, seed=3, adaptive_spp=64, adaptive_threshold=0.1),
+                            passes=["rgb"])
 
     def rel_rmse(out):
         return np.sqrt(np.mean((out["rgb"].astype(np.float64) - reference) ** 2)) / reference.mean()
 
-    brute_force = _core.render(scene, corner_camera(), SUN, spp=64, seed=3, passes=["rgb"])
+    brute_force = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=64, seed=3), passes=["rgb"])
     assert rel_rmse(base) > 0.25
     assert rel_rmse(adaptive) < 0.05
     assert rel_rmse(adaptive) < 1.05 * rel_rmse(brute_force)
@@ -120,19 +123,24 @@ def ground_camera() -> _core.Camera:
     return _core.Camera(F, F, W / 2, H / 2, W, H, R, -R @ centre)
 
 
-DISK_SUN = _core.Sun(-60.0, 12.0, E, 0.533)
+DISK_SUN = _core.DirectionalLight(-60.0, 12.0, E, 0.533)
 QUALITY = {"spp": 4, "light_samples": 2, "bounces": 2}
+
+
+def quality(**settings) -> _core.RenderSettings:
+    """QUALITY's settings with `settings` on top."""
+    return _core.RenderSettings(**QUALITY, **settings)
 
 
 def test_same_bytes_for_any_thread_count_and_the_seed_matters():
     scene = lunar_test_scene()
-    images = [_core.render(scene, ground_camera(), DISK_SUN, seed=seed, threads=threads, adaptive_spp=16,
-                           **QUALITY) for seed, threads in ((5, 1), (5, 2), (6, 2))]
+    images = [_core.render(scene, ground_camera(), DISK_SUN, quality(seed=seed, threads=threads, adaptive_spp=16))
+              for seed, threads in ((5, 1), (5, 2), (6, 2))]
     assert images[0]["refined_pixels"] == images[1]["refined_pixels"] > 0
     assert images[0]["rgb"].tobytes() == images[1]["rgb"].tobytes()
     assert images[0]["rgb"].tobytes() != images[2]["rgb"].tobytes()
     # Depth and labels come from the pixel-centre ray: adaptive sampling leaves them alone.
-    plain = _core.render(scene, ground_camera(), DISK_SUN, seed=5, **QUALITY)
+    plain = _core.render(scene, ground_camera(), DISK_SUN, quality(seed=5))
     for key in ("depth", "instance"):
         assert plain[key].tobytes() == images[0][key].tobytes()
 
@@ -141,9 +149,9 @@ def test_off_is_the_brute_force_path_bit_for_bit():
     """adaptive_spp 0 is today's renderer (the default arguments); with it on, a pixel not refined
     keeps those bytes and a refined one changes."""
     scene = lunar_test_scene()
-    default = _core.render(scene, ground_camera(), DISK_SUN, seed=5, **QUALITY)
-    off = _core.render(scene, ground_camera(), DISK_SUN, seed=5, adaptive_spp=0, adaptive_threshold=0.7, **QUALITY)
-    on = _core.render(scene, ground_camera(), DISK_SUN, seed=5, adaptive_spp=16, **QUALITY)
+    default = _core.render(scene, ground_camera(), DISK_SUN, quality(seed=5))
+    off = _core.render(scene, ground_camera(), DISK_SUN, quality(seed=5, adaptive_spp=0, adaptive_threshold=0.7))
+    on = _core.render(scene, ground_camera(), DISK_SUN, quality(seed=5, adaptive_spp=16))
     assert default["rgb"].tobytes() == off["rgb"].tobytes()
     assert off["refined_pixels"] == off["refinement_rays"] == 0
     changed = np.any(on["rgb"] != off["rgb"], axis=-1)
@@ -162,7 +170,7 @@ def test_off_is_the_brute_force_path_bit_for_bit():
 ])
 def test_bad_settings_name_the_field(kwargs, message):
     with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)").replace("+", r"\+")):
-        _core.render(floating_box(), corner_camera(), SUN, **kwargs)
+        _core.render(floating_box(), corner_camera(), SUN, _core.RenderSettings(**kwargs))
 
 
 @pytest.mark.parametrize(("overrides", "message"), [
@@ -194,15 +202,17 @@ def test_over_the_centre_sample_only_the_edges_are_refined_to_the_error_of_brute
     get 64 jittered samples of their whole radiance, which leaves the error of 64 samples
     everywhere for a small share of their rays."""
     scene = floating_box()
-    reference = _core.render(scene, corner_camera(), SUN, spp=1024, seed=11, passes=["rgb"])["rgb"]
-    plain = _core.render(scene, corner_camera(), SUN, spp=1, seed=3)
-    adaptive = _core.render(scene, corner_camera(), SUN, spp=1, seed=3, adaptive_spp=64, adaptive_threshold=0.1)
-    brute_force = _core.render(scene, corner_camera(), SUN, spp=64, seed=3, passes=["rgb"])
+    reference = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=1024, seed=11),
+                             passes=["rgb"])["rgb"]
+    plain = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=1, seed=3))
+    adaptive = _core.render(scene, corner_camera(), SUN,
+                            _core.RenderSettings(spp=1, seed=3, adaptive_spp=64, adaptive_threshold=0.1))
+    brute_force = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=64, seed=3), passes=["rgb"])
 
     def rel_rmse(out):
         return np.sqrt(np.mean((out["rgb"].astype(np.float64) - reference) ** 2)) / reference.mean()
 
-    fine = _core.render(scene, corner_camera(16), SUN, spp=1, passes=["rgb"])["rgb"][..., 1]
+    fine = _core.render(scene, corner_camera(16), SUN, _core.RenderSettings(spp=1), passes=["rgb"])["rgb"][..., 1]
     blocks = fine.reshape(H, 16, W, 16).transpose(0, 2, 1, 3).reshape(H, W, 256)
     value = np.where(np.all(blocks == blocks[..., :1], axis=-1), blocks[..., 0], np.nan)
     padded = np.pad(value, 1, constant_values=np.nan)
@@ -227,9 +237,10 @@ def test_over_the_centre_sample_the_same_bytes_for_any_thread_count():
     and 2 threads, and the refinement reads the cache (it traces no bounce ray on this static
     scene)."""
     scene = lunar_test_scene()
-    cache = _core.LightCache(scene, DISK_SUN, bounces=2, rays_background=64, seed=1)
-    images = [_core.render(scene, ground_camera(), DISK_SUN, seed=5, threads=threads, spp=1, light_samples=1,
-                           bounces=2, light_cache=cache, adaptive_spp=16, adaptive_threshold=0.5)
+    cache = _core.LightCache(scene, DISK_SUN, settings=_core.LightCacheSettings(bounces=2, rays_background=64, seed=1))
+    images = [_core.render(scene, ground_camera(), DISK_SUN,
+                           _core.RenderSettings(seed=5, threads=threads, spp=1, light_samples=1, bounces=2,
+                                                adaptive_spp=16, adaptive_threshold=0.5), light_cache=cache)
               for threads in (1, 2)]
     assert images[0]["refined_pixels"] == images[1]["refined_pixels"] > 0
     assert images[0]["rgb"].tobytes() == images[1]["rgb"].tobytes()
@@ -241,9 +252,9 @@ def test_with_the_light_cache_refinement_reads_no_cache_and_traces_no_bounces():
     samples are direct light only, so adaptive sampling adds camera and shadow rays alone, and a
     pixel not refined keeps the bytes of the render without it."""
     scene = lunar_test_scene()
-    cache = _core.LightCache(scene, DISK_SUN, bounces=2, rays_background=64, seed=1)
-    off = _core.render(scene, ground_camera(), DISK_SUN, seed=5, light_cache=cache, **QUALITY)
-    on = _core.render(scene, ground_camera(), DISK_SUN, seed=5, light_cache=cache, adaptive_spp=16, **QUALITY)
+    cache = _core.LightCache(scene, DISK_SUN, settings=_core.LightCacheSettings(bounces=2, rays_background=64, seed=1))
+    off = _core.render(scene, ground_camera(), DISK_SUN, quality(seed=5), light_cache=cache)
+    on = _core.render(scene, ground_camera(), DISK_SUN, quality(seed=5, adaptive_spp=16), light_cache=cache)
     assert on["refined_pixels"] > 0
     assert on["bounce_rays"] == off["bounce_rays"]
     added = (on["camera_rays"] - off["camera_rays"]) + (on["shadow_rays"] - off["shadow_rays"]) + (

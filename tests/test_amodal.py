@@ -44,7 +44,7 @@ def poses(spec):
 def test_windows_equal_the_whole_canvas_and_contain_the_visible_part(scene):
     config, spec, full, amodal_scenes = scene
     K = intrinsics(config.camera)
-    sun = _core.Sun(0.0, 90.0, 0.0)
+    sun = _core.DirectionalLight(0.0, 90.0, 0.0)
     behind = truncated = occluded = 0
     for pose in poses(spec):
         masks = render_amodal_masks(amodal_scenes, K, pose, W, H)

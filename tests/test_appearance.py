@@ -76,11 +76,12 @@ def test_grain_config_defaults_and_off():
     with pytest.raises(ConfigError, match=r"terrain\.photometry\.grain\.coarsest_cell_m: must be >= finest"):
         load_config(None, {"terrain.photometry.grain.coarsest_cell_m": 0.0001})
     with pytest.raises(ValueError, match=r"grain\.slope_rms_deg"):
-        _core.RegolithGrain(slope_rms_deg=50.0)
+        _core.RegolithGrain(_core.GrainParams(slope_rms_deg=50.0))
 
 
 def test_grain_mean_is_the_base_albedo_and_far_away_exactly():
-    grain = _core.RegolithGrain(albedo_rms=0.08, slope_rms_deg=15.0, seed=5)
+    params = _core.GrainParams(albedo_rms=0.08, slope_rms_deg=15.0, seed=5)
+    grain = _core.RegolithGrain(params)
     points = np.random.default_rng(1).uniform(-10.0, 10.0, (200_000, 3))
     points[:, 2] *= 0.01
     factor, gradient = grain.eval(points, 0.0)
@@ -91,7 +92,7 @@ def test_grain_mean_is_the_base_albedo_and_far_away_exactly():
     assert np.sqrt(np.mean(gradient[:, 0] ** 2)) == pytest.approx(np.tan(np.radians(15.0)), rel=0.03)
     far_factor, far_gradient = grain.eval(points[:1000], grain.flat_footprint_m)
     assert np.all(far_factor == 1.0) and np.all(far_gradient == 0.0)
-    again, _ = _core.RegolithGrain(albedo_rms=0.08, slope_rms_deg=15.0, seed=5).eval(points[:1000], 0.002)
+    again, _ = _core.RegolithGrain(params).eval(points[:1000], 0.002)
     assert again.tobytes() == grain.eval(points[:1000], 0.002)[0].tobytes()
 
 
@@ -133,7 +134,7 @@ def test_sheen_config_and_errors():
     with pytest.raises(ConfigError, match=r"bags\.fabric\.sheen: must be <= 1\.0"):
         load_config(None, {"bags.fabric.sheen": 1.5})
     with pytest.raises(ValueError, match="sheen_across"):
-        _core.WovenSurface(sheen=0.1, sheen_across=0.0)
+        _core.WovenSurface(fabric=_core.FabricParams(sheen=0.1, sheen_across=0.0))
 
 
 def test_sheen_adds_a_highlight_and_keeps_the_clean_weave_elsewhere():

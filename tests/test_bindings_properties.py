@@ -335,7 +335,7 @@ def test_add_instance_survives_anything(kwargs, background):
         if isinstance(label, int) and 1 <= label <= 255:
             scene.add_instance(0, np.eye(4), label, GREY)  # the label was not consumed
     scene.commit()
-    out = _core.render(scene, down_camera(4, 4), _core.Sun(30, 60), threads=1)
+    out = _core.render(scene, down_camera(4, 4), _core.DirectionalLight(30, 60), _core.RenderSettings(threads=1))
     assert out["depth"].shape == (4, 4)
 
 
@@ -373,7 +373,7 @@ def test_project_survives_anything(points):
 def test_sun_survives_anything(kwargs):
     """Sun(...) never crashes and raises only the allowed types; an accepted Sun has a unit
     direction and the irradiance it was given."""
-    sun, error = attempt(_core.Sun, **kwargs)
+    sun, error = attempt(_core.DirectionalLight, **kwargs)
     if error is None:
         assert np.isclose(np.linalg.norm(sun.direction), 1.0)
         assert sun.irradiance == float(kwargs["irradiance"])
@@ -418,7 +418,7 @@ BAD_SCENES = st.one_of(st.sampled_from(["uncommitted", "stale", "empty"]).map(la
 VALID_RENDER = dict(
     scene=st.builds(ground_scene, st.just(LABEL)),
     camera=small_cameras(),
-    sun=st.builds(_core.Sun, **SUN_FIELDS),
+    sun=st.builds(_core.DirectionalLight, **SUN_FIELDS),
     spp=st.integers(1, 4),
     seed=st.integers(0, 2**64 - 1),
     threads=st.integers(0, 2),
@@ -426,7 +426,7 @@ VALID_RENDER = dict(
                      st.lists(st.sampled_from(PASSES), min_size=1, max_size=3).map(tuple)))
 WILD_RENDER = dict(
     scene=BAD_SCENES,
-    camera=st.one_of(st.sampled_from([None, "camera", 0]), st.builds(_core.Sun, st.just(0), st.just(0))),
+    camera=st.one_of(st.sampled_from([None, "camera", 0]), st.builds(_core.DirectionalLight, st.just(0), st.just(0))),
     sun=st.one_of(st.none(), st.builds(down_camera)),
     spp=st.one_of(st.integers(max_value=0), st.integers(MAX_SPP + 1, 2**70), numpy_scalars().filter(
         lambda s: not (isinstance(s, np.integer) and 4 < s <= MAX_SPP)), JUNK),
@@ -571,7 +571,7 @@ def test_geodesy_survives_anything(frame, enu, geo, drop):
 
 @settings(FUZZ, max_examples=30)
 @given(kwargs=calls(dict(scene=st.builds(ground_scene, st.just(LABEL)), camera=small_cameras(4),
-                         sun=st.builds(_core.Sun, **SUN_FIELDS), threads=st.integers(0, 2),
+                         sun=st.builds(_core.DirectionalLight, **SUN_FIELDS), threads=st.integers(0, 2),
                          repeats=st.integers(1, 2), bounces=st.integers(0, 2)),
                     dict(scene=BAD_SCENES, threads=st.one_of(st.integers(max_value=-1), JUNK),
                          repeats=st.one_of(st.integers(max_value=0), JUNK),
@@ -781,8 +781,8 @@ def test_sun_defects_name_the_field(args, field, data):
                                 st.floats(min_value=1e7, exclude_min=True, allow_infinity=False)),
     }[field]
     values = dict(zip(["azimuth_deg", "elevation_deg", "irradiance"], args))
-    _core.Sun(**values)  # the base call is valid
-    expect_named(field, _core.Sun, **{**values, field: data.draw(bad)})
+    _core.DirectionalLight(**values)  # the base call is valid
+    expect_named(field, _core.DirectionalLight, **{**values, field: data.draw(bad)})
 
 
 @DEFECT
@@ -790,21 +790,27 @@ def test_sun_defects_name_the_field(args, field, data):
 def test_render_defects_name_the_setting(setting, data):
     """render refuses spp outside 1..65536, a negative thread count, an unknown or empty pass
     list, and an uncommitted or instance-less scene, each with ValueError naming it."""
-    kwargs = dict(spp=1, seed=0, threads=1, passes=["rgb", "depth", "instance"])
+    settings = dict(spp=1, seed=0, threads=1)
+    passes = ["rgb", "depth", "instance"]
     scene = ground_scene(3)
     if setting == "spp":
-        kwargs["spp"] = data.draw(st.one_of(st.integers(INT_MIN, 0), st.integers(MAX_SPP + 1, INT_MAX)))
+        settings["spp"] = data.draw(st.one_of(st.integers(INT_MIN, 0), st.integers(MAX_SPP + 1, INT_MAX)))
     elif setting == "threads":
-        kwargs["threads"] = data.draw(st.integers(INT_MIN, -1))
+        settings["threads"] = data.draw(st.integers(INT_MIN, -1))
     elif setting == "passes":
         good = data.draw(st.lists(st.sampled_from(["rgb", "depth", "instance"]), max_size=3))
         unknown = data.draw(st.text(st.characters(exclude_categories=["Cs"]), max_size=6)
                             .filter(lambda p: p not in ("rgb", "depth", "instance")))
-        kwargs["passes"] = data.draw(st.permutations([*good, unknown])) if data.draw(st.booleans()) else []
+        passes = data.draw(st.permutations([*good, unknown])) if data.draw(st.booleans()) else []
     else:
         scene = data.draw(st.sampled_from([lambda: ground_scene(3, commit=False), _stale_scene,
                                            _empty_scene]))()
-    expect_named(setting, _core.render, scene, down_camera(4, 4), _core.Sun(0, 45), **kwargs)
+
+    def call():
+        # A setting out of range is refused where the RenderSettings is made (or, written after, by render).
+        _core.render(scene, down_camera(4, 4), _core.DirectionalLight(0, 45), _core.RenderSettings(**settings),
+                     passes=passes)
+    expect_named(setting, call)
 
 
 @DEFECT
@@ -964,9 +970,9 @@ def test_bad_camera_is_named(field, value):
     expect_named(field, _core.Camera, **{**GOOD_CAMERA, field: value})
 
 
-def _render_call(scene=None, **settings_):
+def _render_call(scene=None, passes=("rgb", "depth", "instance"), **settings_):
     return lambda: _core.render(scene() if scene else ground_scene(4), down_camera(4, 4),
-                                _core.Sun(0, 45), **settings_)
+                                _core.DirectionalLight(0, 45), _core.RenderSettings(**settings_), passes=list(passes))
 
 
 BAD_RENDERS = {
@@ -979,11 +985,11 @@ BAD_RENDERS = {
     "threads--1": (_render_call(threads=-1), "threads"),
     "threads-1025": (_render_call(threads=1025), "threads"),
     "measure_embree_limit-threads-1025": (lambda: _core.measure_embree_limit(
-        ground_scene(4), down_camera(4, 4), _core.Sun(0, 45), threads=1025), "threads"),
+        ground_scene(4), down_camera(4, 4), _core.DirectionalLight(0, 45), threads=1025), "threads"),
     "measure_embree_limit-repeats-0": (lambda: _core.measure_embree_limit(
-        ground_scene(4), down_camera(4, 4), _core.Sun(0, 45), repeats=0), "repeats"),
+        ground_scene(4), down_camera(4, 4), _core.DirectionalLight(0, 45), repeats=0), "repeats"),
     "measure_embree_limit-bounces-17": (lambda: _core.measure_embree_limit(
-        ground_scene(4), down_camera(4, 4), _core.Sun(0, 45), bounces=17), "bounces"),
+        ground_scene(4), down_camera(4, 4), _core.DirectionalLight(0, 45), bounces=17), "bounces"),
     "passes-unknown": (_render_call(passes=["rgb", "normals"]), "passes"),
     "passes-empty-name": (_render_call(passes=[""]), "passes"),
     "passes-empty": (_render_call(passes=[]), "passes"),
@@ -1010,7 +1016,7 @@ BAD_SUNS = {
 @pytest.mark.parametrize(("args", "name"), BAD_SUNS.values(), ids=BAD_SUNS.keys())
 def test_bad_sun_is_named(args, name):
     """Each listed bad Sun raises ValueError naming the argument."""
-    expect_named(name, _core.Sun, *args)
+    expect_named(name, _core.DirectionalLight, *args)
 
 
 BAD_TONEMAPS = {
@@ -1180,11 +1186,14 @@ def test_overflowing_conversion_is_not_fatal(tmp_path, body, name, flags):
 
 
 HUGE_THREAD_COUNTS = {
-    "render-threads-65537": "_core.render(ground_scene(), small_camera(), _core.Sun(0, 45), threads=65537)",
-    "render-threads-10**8": "_core.render(ground_scene(), small_camera(), _core.Sun(0, 45), threads=10**8)",
-    "render-threads-int-max": "_core.render(ground_scene(), small_camera(), _core.Sun(0, 45), threads=2**31 - 1)",
+    "render-threads-65537": "_core.render(ground_scene(), small_camera(), _core.DirectionalLight(0, 45), "
+                            "_core.RenderSettings(threads=65537))",
+    "render-threads-10**8": "_core.render(ground_scene(), small_camera(), _core.DirectionalLight(0, 45), "
+                            "_core.RenderSettings(threads=10**8))",
+    "render-threads-int-max": "_core.render(ground_scene(), small_camera(), _core.DirectionalLight(0, 45), "
+                              "_core.RenderSettings(threads=2**31 - 1))",
     "measure_embree_limit-threads-65537": "_core.measure_embree_limit(ground_scene(), small_camera(), "
-                                          "_core.Sun(0, 45), threads=65537, repeats=1)",
+                                          "_core.DirectionalLight(0, 45), threads=65537, repeats=1)",
 }
 
 
@@ -1294,7 +1303,7 @@ def test_scene_cannot_change_while_rendering():
     def render():
         try:
             for _ in range(5):
-                _core.render(scene, cam, _core.Sun(0, 30), spp=2)
+                _core.render(scene, cam, _core.DirectionalLight(0, 30), _core.RenderSettings(spp=2))
         finally:
             done.set()
 

@@ -170,7 +170,7 @@ def test_a_polar_site_5_km_out_has_its_own_true_north(lat0):
     assert lat_n > relief.site.lat_deg
     assert (lon_n - relief.site.lon_deg + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=1e-9)
     # And the Sun at azimuth 0 shines from the world's +y.
-    np.testing.assert_allclose(_core.Sun(0.0, 20.0).direction,
+    np.testing.assert_allclose(_core.DirectionalLight(0.0, 20.0).direction,
                                [0.0, math.cos(math.radians(20.0)), math.sin(math.radians(20.0))], atol=1e-12)
 
 
@@ -351,7 +351,8 @@ def test_a_polar_site_shadow_falls_to_its_true_south(tmp_path, lat0):
 
     def brightness(sun_azimuth: float, xy: tuple[float, float]) -> float:
         """Mean radiance of the 3 × 3 pixels over a post's top at world `xy`, over the image's median."""
-        rgb = _core.render(scene, camera, _core.Sun(sun_azimuth, 30.0, 1361.0, 0.533), bounces=0)["rgb"]
+        rgb = _core.render(scene, camera, _core.DirectionalLight(sun_azimuth, 30.0, 1361.0, 0.533),
+                           _core.RenderSettings(bounces=0))["rgb"]
         top = float(ground.height(np.array([xy[0]]), np.array([xy[1]]))[0])
         u = size / 2 + f * (xy[0] - centre[0]) / (centre[2] - top)
         v = size / 2 - f * (xy[1] - centre[1]) / (centre[2] - top)

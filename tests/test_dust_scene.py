@@ -22,7 +22,7 @@ from moonbot.cli import main
 from moonbot.config import ConfigError, load_config
 from moonbot.config.schema import MAX_DUST_STEP_S, CloudConfig, DustConfig, EjectaConfig
 from moonbot.pipeline import run_views
-from moonbot.render import SceneDust, build_scene
+from moonbot.render import SceneDust, build_scene, params
 from moonbot.render.dust import DUST_NOTE, capture_time, dust_seed, emitter_origin
 from moonbot.scene import compose_scene
 
@@ -202,20 +202,12 @@ def test_config_defaults_are_the_cores():
     """The dust section's defaults are the core's (the paper's): the same fragments and puffs."""
     scene = build_scene(compose_scene(config()))
     e, c = EjectaConfig(), CloudConfig()
-    ours = _core.simulate_ejecta(scene, 3, 1.1, dt_s=DustConfig().time_step_s, count=e.count,
-                                 spawn_radius_m=e.spawn_radius_m, cone_half_angle_deg=e.cone_half_angle_deg,
-                                 mean_speed_m_s=e.mean_speed_m_s, min_diameter_m=e.min_diameter_m,
-                                 max_diameter_m=e.max_diameter_m, gravity_m_s2=e.gravity_m_s2,
-                                 restitution=e.restitution, friction=e.friction, rest_speed_m_s=e.rest_speed_m_s,
-                                 burst_period_s=e.burst_period_s)
-    core = _core.simulate_ejecta(scene, 3, 1.1)
+    at_zero = np.zeros(3)
+    ours = _core.simulate_ejecta(scene, params.ejecta(e, at_zero), 3, 1.1, dt_s=DustConfig().time_step_s)
+    core = _core.simulate_ejecta(scene, _core.EjectaParams(), 3, 1.1)
     assert all(ours[k].tobytes() == core[k].tobytes() for k in core)
-    ours = _core.cloud_puffs(3, 6.0, box_m=c.box_m, vertical_offset_m=c.vertical_offset_m, axis=c.axis,
-                             cone_half_angle_deg=c.cone_half_angle_deg, speed_m_s=c.speed_m_s,
-                             gravity_m_s2=c.gravity_m_s2, lifetime_s=c.lifetime_s, rate_per_s=c.rate_per_s,
-                             sigma_m=c.sigma_m, growth_m_s=c.growth_m_s, optical_depth=c.optical_depth,
-                             rise_fraction=c.rise_fraction)
-    assert ours.tobytes() == _core.cloud_puffs(3, 6.0).tobytes()
+    ours = _core.cloud_puffs(params.cloud(c, at_zero), 3, 6.0)
+    assert ours.tobytes() == _core.cloud_puffs(_core.CloudParams(), 3, 6.0).tobytes()
     assert MAX_DUST_STEP_S == _core.MAX_DUST_STEP
 
 

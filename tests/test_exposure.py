@@ -141,7 +141,7 @@ def test_invalid_count_does_not_depend_on_the_threads_float_mode():
 
     scene, _ = ground_and_box()
     cam = _core.Camera(50.0, 50.0, 32.0, 24.0, 64, 48, np.eye(3), np.array([0.0, 0.0, 2.0]))
-    _core.render(scene, cam, _core.Sun(120.0, 30.0, 1361.0), spp=1)
+    _core.render(scene, cam, _core.DirectionalLight(120.0, 30.0, 1361.0), _core.RenderSettings(spp=1))
     rgb = np.full((300, 300, 3), 1e-39, np.float32)
     rgb[::2] = -1e-39
     out, invalid = _core.tonemap_reinhard(rgb, 1.0)

@@ -73,7 +73,7 @@ def wall_irradiance(d: float) -> float:
     """Closed form, one bounce: the sunlit wall's radiance ρ·E·(n·s)/π, seen from a horizontal
     floor element d metres from its base, through the view factor of an infinitely long strip of
     height H, F = (1 − d/√(d² + H²))/2: E_ind = ρ·E·(n·s)·F."""
-    sun = _core.Sun(0.0, SUN_ELEVATION, E_SUN)
+    sun = _core.DirectionalLight(0.0, SUN_ELEVATION, E_SUN)
     cos_wall = float(sun.direction[1])  # the wall's normal is +y
     view_factor = 0.5 * (1.0 - d / np.hypot(d, WALL_HEIGHT))
     return WALL_ALBEDO * E_SUN * cos_wall * view_factor
@@ -82,7 +82,8 @@ def wall_irradiance(d: float) -> float:
 @pytest.mark.parametrize("d", [0.25, 0.5, 1.0])
 def test_floor_beside_a_sunlit_wall_matches_the_view_factor_closed_form(d):
     scene, fv = floor_and_wall()
-    cache = _core.LightCache(scene, _core.Sun(0.0, SUN_ELEVATION, E_SUN), bounces=1, rays_background=4096)
+    cache = _core.LightCache(scene, _core.DirectionalLight(0.0, SUN_ELEVATION, E_SUN),
+                             settings=_core.LightCacheSettings(bounces=1, rays_background=4096))
     (irradiance, direction) = cache.vertex(0, floor_vertex(fv, 0.0, d))
     expected = wall_irradiance(d)
     # 4096 stratified rays over a hemisphere the wall cuts with a sharp edge: measured within
@@ -98,8 +99,8 @@ def test_lattice_node_on_the_floor_matches_the_closed_form_too():
     # A 5 cm floor read through a 25 cm lattice: the vertex at (0, 1) stands on a node, so its
     # value is that node's own gather at the surface its probe met.
     scene, fv = floor_and_wall(floor_step=0.05)
-    cache = _core.LightCache(scene, _core.Sun(0.0, SUN_ELEVATION, E_SUN), bounces=1, rays_background=4096,
-                             background_cell_m=0.25)
+    cache = _core.LightCache(scene, _core.DirectionalLight(0.0, SUN_ELEVATION, E_SUN),
+                             settings=_core.LightCacheSettings(bounces=1, rays_background=4096, background_cell_m=0.25))
     (irradiance, _) = cache.vertex(0, floor_vertex(fv, 0.0, 1.0))
     assert irradiance[0] == pytest.approx(wall_irradiance(1.0), rel=0.005)
     s = cache.stats()
@@ -111,9 +112,9 @@ def test_lattice_node_on_the_floor_matches_the_closed_form_too():
 
 
 def test_a_moving_wall_is_invisible_to_the_cache_and_a_static_change_is_refused():
-    sun = _core.Sun(0.0, SUN_ELEVATION, E_SUN)
+    sun = _core.DirectionalLight(0.0, SUN_ELEVATION, E_SUN)
     scene, fv = floor_and_wall(moving_wall=True)
-    cache = _core.LightCache(scene, sun, bounces=2, rays_background=256)
+    cache = _core.LightCache(scene, sun, settings=_core.LightCacheSettings(bounces=2, rays_background=256))
     assert cache.covers(0) and not cache.covers(1)
     (lit, _) = cache.vertex(0, floor_vertex(fv, 0.0, 1.0))
     # Nothing static but a plane, which cannot light itself: no indirect light at all.
@@ -123,20 +124,21 @@ def test_a_moving_wall_is_invisible_to_the_cache_and_a_static_change_is_refused(
     scene.commit()
     cam = camera(K_for(16, 12, 20.0), 16, 12, orbit_pose(np.array([0.0, 1.0, 0.0]), 2.0, 2.0, 0.0))
     with pytest.raises(ValueError, match="light_cache: the scene's static geometry changed"):
-        _core.render(scene, cam, sun, bounces=2, light_cache=cache)
+        _core.render(scene, cam, sun, _core.RenderSettings(bounces=2), light_cache=cache)
     with pytest.raises(ValueError, match="light_cache: built for 2 bounces, the render asks for 1"):
-        _core.render(scene, cam, sun, bounces=1, light_cache=_core.LightCache(scene, sun, bounces=2))
+        _core.render(scene, cam, sun, _core.RenderSettings(bounces=1),
+                     light_cache=_core.LightCache(scene, sun, settings=_core.LightCacheSettings(bounces=2)))
 
 
 def test_bad_settings_name_the_field():
     scene, _ = floor_and_wall()
-    sun = _core.Sun(0.0, SUN_ELEVATION, E_SUN)
+    sun = _core.DirectionalLight(0.0, SUN_ELEVATION, E_SUN)
     with pytest.raises(ValueError, match="bounces: a light cache needs 1..16, got 0"):
-        _core.LightCache(scene, sun, bounces=0)
+        _core.LightCache(scene, sun, settings=_core.LightCacheSettings(bounces=0))
     with pytest.raises(ValueError, match="rays_objects"):
-        _core.LightCache(scene, sun, rays_objects=0)
+        _core.LightCache(scene, sun, settings=_core.LightCacheSettings(rays_objects=0))
     with pytest.raises(ValueError, match="background_cell_m"):
-        _core.LightCache(scene, sun, background_cell_m=-1.0)
+        _core.LightCache(scene, sun, settings=_core.LightCacheSettings(background_cell_m=-1.0))
     with pytest.raises(ConfigError, match="render.indirect: must be one of path, cache"):
         load_config(None, {"render.indirect": "photons"})
     with pytest.raises(ConfigError, match="render.cache_rays_terrain: must be >= 1"):
@@ -155,7 +157,7 @@ def bag_on_floor():
     lift = -float(bv[:, 2].min())
     scene.add_instance(b, translation(0.0, 0.0, lift), 1, (0.6, 0.5, 0.4))
     scene.commit()
-    sun = _core.Sun(60.0, 15.0, E_SUN)  # from the east-north-east: the shadow falls west-south-west
+    sun = _core.DirectionalLight(60.0, 15.0, E_SUN)  # from the east-north-east: the shadow falls west-south-west
     pose = orbit_pose(np.array([-0.35, 0.0, 0.1]), 1.2, 0.8, 190.0)
     return scene, sun, camera(K_for(80, 60, 70.0), 80, 60, pose)
 
@@ -174,18 +176,20 @@ CACHE_TOLERANCES = {(0.0, 0.0): (0.03, 0.03, 0.04), (0.05, 0.02): (0.03, 0.03, 0
 def bag_reference():
     scene, sun, cam = bag_on_floor()
     # Same seed with and without bounces: the direct light cancels sample for sample.
-    indirect = (_core.render(scene, cam, sun, spp=1024, bounces=2, seed=3)["rgb"].astype(np.float64)
-                - _core.render(scene, cam, sun, spp=1024, bounces=0, seed=3)["rgb"])
+    indirect = (_core.render(scene, cam, sun,
+                             _core.RenderSettings(spp=1024, bounces=2, seed=3))["rgb"].astype(np.float64)
+                - _core.render(scene, cam, sun, _core.RenderSettings(spp=1024, bounces=0, seed=3))["rgb"])
     return scene, sun, cam, indirect
 
 
 @pytest.mark.parametrize("cells", list(CACHE_TOLERANCES))
 def test_cache_matches_the_path_tracer_on_a_bag_and_its_shadow(bag_reference, cells):
     scene, sun, cam, indirect_ref = bag_reference
-    direct = _core.render(scene, cam, sun, spp=64, bounces=0, seed=5)
-    cache = _core.LightCache(scene, sun, bounces=2, rays_objects=1024, rays_background=1024,
-                             background_cell_m=cells[0], object_cell_m=cells[1])
-    cached = _core.render(scene, cam, sun, spp=64, bounces=2, seed=5, light_cache=cache)
+    direct = _core.render(scene, cam, sun, _core.RenderSettings(spp=64, bounces=0, seed=5))
+    settings = _core.LightCacheSettings(bounces=2, rays_objects=1024, rays_background=1024,
+                                        background_cell_m=cells[0], object_cell_m=cells[1])
+    cache = _core.LightCache(scene, sun, settings=settings)
+    cached = _core.render(scene, cam, sun, _core.RenderSettings(spp=64, bounces=2, seed=5), light_cache=cache)
     assert cached["bounce_rays"] == 0 and cached["bounce_shadow_rays"] == 0
     indirect = cached["rgb"].astype(np.float64) - direct["rgb"]
     labels = direct["instance"]

@@ -73,11 +73,12 @@ def test_plane_under_the_sun_is_E_f_sin_e_at_every_pixel(model, elevation):
     the disk sampled, inter-reflection on (a plane never sees itself) and Earthshine off. Grazing
     Suns included: no shadow acne (every pixel lit), nothing leaks."""
     albedo = 0.12
-    photometry = _core.Photometry(model, "exponential", 1.8 if model == "lunar-lambert" else 0.0, 0.07)
+    photometry = _core.Photometry(model=model, surge_amplitude=1.8 if model == "lunar-lambert" else 0.0,
+                                  surge_width=0.07)
     scene = plane_scene(albedo, photometry)
     camera, K, R = look_at([1.2, -1.6, 3.0], [0.0, 0.0, 0.0])
-    sun = _core.Sun(200.0, elevation, E, 0.533)
-    out = _core.render(scene, camera, sun, spp=1, light_samples=4, bounces=2)
+    sun = _core.DirectionalLight(200.0, elevation, E, 0.533)
+    out = _core.render(scene, camera, sun, _core.RenderSettings(spp=1, light_samples=4, bounces=2))
     d = pixel_rays(K, R, 64, 48)
     s = sun_vector(200.0, elevation)
     mu_i = s[2]
@@ -91,17 +92,18 @@ def test_plane_under_the_sun_is_E_f_sin_e_at_every_pixel(model, elevation):
 
 @pytest.mark.parametrize("elevation", [-0.3, -1.0, -30.0, -90.0])
 def test_sun_below_the_horizon_is_a_black_finite_image(elevation):
-    scene = plane_scene(0.12, _core.Photometry("lunar-lambert", "exponential", 1.8, 0.07))
+    scene = plane_scene(0.12, _core.Photometry(model="lunar-lambert", surge_amplitude=1.8, surge_width=0.07))
     camera, _, _ = look_at([3.0, -4.0, 1.5], [0.0, 0.0, 0.0])
-    out = _core.render(scene, camera, _core.Sun(10.0, elevation, E, 0.533), spp=4, light_samples=4, bounces=3)
+    out = _core.render(scene, camera, _core.DirectionalLight(10.0, elevation, E, 0.533),
+                       _core.RenderSettings(spp=4, light_samples=4, bounces=3))
     assert np.isfinite(out["rgb"]).all() and (out["rgb"] == 0).all()
     assert out["shadow_rays"] == 0
 
 
 def test_photometry_is_reciprocal_and_conserves_energy():
     rng = np.random.default_rng(3)
-    models = [_core.Photometry("lunar-lambert", phase, b0, 0.07) for phase in ("exponential", "mcewen")
-              for b0 in (0.0, 1.8)]
+    models = [_core.Photometry(model="lunar-lambert", phase=phase, surge_amplitude=b0, surge_width=0.07)
+              for phase in ("exponential", "mcewen") for b0 in (0.0, 1.8)]
     for p in models:
         for _ in range(200):
             a, b = rng.normal(size=3), rng.normal(size=3)
@@ -157,14 +159,16 @@ def test_integrating_sphere_converges_to_the_geometric_series(bounces):
     scene.add_background(mesh, np.eye(4), (rho,) * 3)
     scene.commit()
     camera, _, _ = look_at([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], width=64, height=16, f=60.0)
-    out = _core.render(scene, camera, _core.Sun(0.0, 90.0, E), spp=256, bounces=bounces, seed=11)
+    out = _core.render(scene, camera, _core.DirectionalLight(0.0, 90.0, E),
+                       _core.RenderSettings(spp=256, bounces=bounces, seed=11))
     e1 = rho * E * projected / area
     expected = rho / math.pi * e1 * sum((rho * (1 - f)) ** k for k in range(bounces))
     measured = float(out["rgb"][..., 1].mean())
     assert measured == pytest.approx(expected, rel=0.02)
     # Bounce by bounce the series' next term is visible: more bounces, brighter walls.
     if bounces > 1:
-        fewer = _core.render(scene, camera, _core.Sun(0.0, 90.0, E), spp=256, bounces=bounces - 1, seed=11)
+        fewer = _core.render(scene, camera, _core.DirectionalLight(0.0, 90.0, E),
+                             _core.RenderSettings(spp=256, bounces=bounces - 1, seed=11))
         assert measured > float(fewer["rgb"][..., 1].mean())
 
 
@@ -178,9 +182,10 @@ def test_noise_falls_faster_than_one_over_root_spp():
     scene.add_background(scene.add_mesh(vertices, faces), np.eye(4), (0.5,) * 3)
     scene.commit()
     camera, _, _ = look_at([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], width=32, height=16, f=60.0)
-    sun = _core.Sun(0.0, 90.0, E)
-    reference = _core.render(scene, camera, sun, spp=4096, bounces=1, seed=1)["rgb"][..., 1]
-    rmse = {spp: float(np.sqrt(np.mean((_core.render(scene, camera, sun, spp=spp, bounces=1, seed=2)["rgb"][..., 1]
+    sun = _core.DirectionalLight(0.0, 90.0, E)
+    reference = _core.render(scene, camera, sun, _core.RenderSettings(spp=4096, bounces=1, seed=1))["rgb"][..., 1]
+    rmse = {spp: float(np.sqrt(np.mean((_core.render(scene, camera, sun,
+                                                     _core.RenderSettings(spp=spp, bounces=1, seed=2))["rgb"][..., 1]
                                         - reference) ** 2))) for spp in (4, 16, 64)}
     assert rmse[4] / rmse[16] > 2.0 and rmse[16] / rmse[64] > 2.0
     assert rmse[4] / rmse[64] > 6.0
@@ -207,9 +212,10 @@ def test_soft_shadow_edge_has_the_penumbra_of_the_sun_disk():
     # Looking straight down on the shadow's edge: pixel rows run along y.
     camera, K, R = look_at([0.0, edge, 2.0], [0.0, edge + 1e-9, 0.0], width=16, height=200, f=2000.0)
     lit = E * 0.5 / math.pi * math.sin(math.radians(elevation))
-    hard = _core.render(scene, camera, _core.Sun(0.0, elevation, E, 0.0), spp=1)["rgb"][..., 0] / lit
-    soft = _core.render(scene, camera, _core.Sun(0.0, elevation, E, 0.533), spp=16, light_samples=64,
-                        seed=5)["rgb"][..., 0] / lit
+    hard = _core.render(scene, camera, _core.DirectionalLight(0.0, elevation, E, 0.0),
+                        _core.RenderSettings(spp=1))["rgb"][..., 0] / lit
+    soft = _core.render(scene, camera, _core.DirectionalLight(0.0, elevation, E, 0.533),
+                        _core.RenderSettings(spp=16, light_samples=64, seed=5))["rgb"][..., 0] / lit
     d = pixel_rays(K, R, 16, 200)
     y = (edge + 2.0 * d[..., 1] / -d[..., 2])[:, 8]  # ground y of each row (centre column)
     assert np.all((np.abs(hard) < 1e-6) | (np.abs(hard - 1.0) < 1e-6))
@@ -233,14 +239,14 @@ def test_vertex_albedo_scales_radiance_and_varies_over_a_site():
     s = 100.0
     vertices = np.array([[-s, -s, 0], [s, -s, 0], [s, s, 0], [-s, s, 0]], np.float32)
     camera, _, _ = look_at([1.2, -1.6, 3.0], [0.0, 0.0, 0.0])
-    sun = _core.Sun(200.0, 30.0, E, 0.533)
+    sun = _core.DirectionalLight(200.0, 30.0, E, 0.533)
     images = []
     for factor in (None, np.full(4, 0.5, np.float32)):
         scene = _core.Scene()
         mesh = scene.add_mesh(vertices, np.array([[0, 1, 2], [0, 2, 3]]), vertex_albedo=factor)
         scene.add_background(mesh, np.eye(4), (0.2,) * 3)
         scene.commit()
-        images.append(_core.render(scene, camera, sun, light_samples=4)["rgb"])
+        images.append(_core.render(scene, camera, sun, _core.RenderSettings(light_samples=4))["rgb"])
     np.testing.assert_allclose(images[1], 0.5 * images[0], rtol=1e-6)
     with pytest.raises(ValueError, match="vertex_albedo: must be finite and >= 0"):
         _core.Scene().add_mesh(vertices, np.array([[0, 1, 2]]), vertex_albedo=np.array([1, 1, -1, 1], np.float32))
@@ -260,15 +266,19 @@ def test_effects_not_asked_for_trace_no_rays():
     scene = plane_scene(0.12)
     camera, _, _ = look_at([1.2, -1.6, 3.0], [0.0, 0.0, 0.0])
     hits = 64 * 48
-    direct = _core.render(scene, camera, _core.Sun(200.0, 30.0, E, 0.533), light_samples=3, bounces=0)
+    direct = _core.render(scene, camera, _core.DirectionalLight(200.0, 30.0, E, 0.533),
+                          _core.RenderSettings(light_samples=3, bounces=0))
     assert direct["bounce_rays"] == 0 and direct["shadow_rays"] == 3 * hits
-    point = _core.render(scene, camera, _core.Sun(200.0, 30.0, E, 0.0), light_samples=3)
+    point = _core.render(scene, camera, _core.DirectionalLight(200.0, 30.0, E, 0.0),
+                         _core.RenderSettings(light_samples=3))
     assert point["shadow_rays"] == hits
-    earth = _core.Sun(20.0, 40.0, 0.1, 1.9, (0.85, 0.95, 1.2))
-    with_earth = _core.render(scene, camera, _core.Sun(200.0, 30.0, E, 0.533), light_samples=3, earth=earth)
+    earth = _core.DirectionalLight(20.0, 40.0, 0.1, 1.9, (0.85, 0.95, 1.2))
+    with_earth = _core.render(scene, camera, _core.DirectionalLight(200.0, 30.0, E, 0.533),
+                              _core.RenderSettings(light_samples=3), earth=earth)
     assert with_earth["shadow_rays"] == 4 * hits  # the Earth's one a hit on top of the Sun's three
     assert (with_earth["rgb"] > direct["rgb"]).all()
-    dark = _core.render(scene, camera, _core.Sun(200.0, 30.0, 0.0, 0.533), light_samples=3, bounces=2)
+    dark = _core.render(scene, camera, _core.DirectionalLight(200.0, 30.0, 0.0, 0.533),
+                        _core.RenderSettings(light_samples=3, bounces=2))
     assert dark["shadow_rays"] == 0 and dark["bounce_rays"] == 0 and (dark["rgb"] == 0).all()
 
 
@@ -279,7 +289,7 @@ def test_vertex_normals_shade_a_tessellated_sphere_as_a_sphere():
     sphere = trimesh.creation.icosphere(subdivisions=2)
     vertices = sphere.vertices.astype(np.float32)
     camera, K, R = look_at([0.0, -4.0, 0.0], [0.0, 0.0, 0.0], width=96, height=96, f=120.0)
-    sun = _core.Sun(60.0, 35.0, E)
+    sun = _core.DirectionalLight(60.0, 35.0, E)
     s = sun_vector(60.0, 35.0)
     errors = {}
     for smooth in (False, True):
@@ -321,14 +331,15 @@ def test_lit_slope_is_uniform(slope_deg, incidence):
     # whose zenith angle, signed toward +x, is slope_deg − incidence meets it at that incidence.
     tilt = slope_deg - incidence
     elevation, azimuth = 90.0 - abs(tilt), (90.0 if tilt >= 0 else 270.0)
-    sun = _core.Sun(azimuth, elevation, E)
+    sun = _core.DirectionalLight(azimuth, elevation, E)
     n = ground.plane()[1]
     cos_i = float(np.dot(n, sun.direction))
     assert cos_i == pytest.approx(math.cos(math.radians(incidence)), abs=1e-9)
     # Downhill of the origin, 2.5 m above the slope, looking uphill: the slope fills the view.
     camera, _, _ = look_at((2.0, -1.5, 2.5 + ground.height(2.0, -1.5)), (-0.5, 0.5, ground.height(-0.5, 0.5)),
                            width=160, height=120, f=120.0)
-    out = _core.render(scene, camera, sun, spp=1, seed=0, threads=2, passes=["rgb", "depth"], bounces=0)
+    out = _core.render(scene, camera, sun, _core.RenderSettings(spp=1, seed=0, threads=2, bounces=0),
+                       passes=["rgb", "depth"])
     ground = out["depth"] > 0  # the rest is sky past the steepest slope's contour
     assert ground.mean() > 0.6
     radiance = out["rgb"][ground][:, 0]

@@ -38,7 +38,7 @@ def test_fabric_means_over_a_period():
 
 def test_fabric_far_away_is_the_mean():
     xy = period_grid(16) + [0.123, 0.456]
-    albedo, normal = _core.fabric_eval(xy, np.full(len(xy), 40 * PITCH), albedo=[0.3, 0.3, 0.3])
+    albedo, normal = _core.fabric_eval(xy, np.full(len(xy), 40 * PITCH), _core.FabricParams(albedo=[0.3, 0.3, 0.3]))
     assert np.all(albedo == 0.3)
     assert np.all(normal == [0.0, 0.0, 1.0])
 
@@ -50,8 +50,10 @@ def test_fabric_arguments_are_checked():
         _core.fabric_eval(np.zeros((4, 2)), np.zeros(3))
     with pytest.raises(ValueError, match="footprint: must be finite"):
         _core.fabric_eval(np.zeros((1, 2)), [-1.0])
+    flat = _core.FabricParams()
+    flat.pitch_m = 0.0  # a field written after construction is checked where the core takes it
     with pytest.raises(ValueError, match="pitch_m"):
-        _core.fabric_eval(np.zeros((1, 2)), [0.0], pitch_m=0.0)
+        _core.fabric_eval(np.zeros((1, 2)), [0.0], flat)
     with pytest.raises(ValueError, match="xy: must be a floating-point array"):
         _core.fabric_eval(np.zeros((1, 2), dtype=np.int64), [0.0])
 
@@ -59,7 +61,7 @@ def test_fabric_arguments_are_checked():
 def test_no_stamps_allocate_nothing():
     gc.collect()
     bytes_before, ever_before = _core.stain_mask_bytes(), _core.stain_masks_allocated()
-    assert _core.stain_mask(seed=7, stamps=0) is None
+    assert _core.stain_mask(7, _core.StainParams(stamps=0)) is None
     assert _core.stain_mask_bytes() == bytes_before
     assert _core.stain_masks_allocated() == ever_before
     clean = np.array([[0.55, 0.45, 0.32], [0.1, 0.2, 0.3]])
@@ -69,7 +71,7 @@ def test_no_stamps_allocate_nothing():
 def test_mask_lifetime_is_counted():
     gc.collect()
     bytes_before, ever_before = _core.stain_mask_bytes(), _core.stain_masks_allocated()
-    mask = _core.stain_mask(seed=7, stamps=15, resolution=64)
+    mask = _core.stain_mask(7, _core.StainParams(stamps=15, resolution=64))
     view = np.asarray(mask)
     assert view.shape == (64, 64) and view.dtype == np.float32 and not view.flags.writeable
     assert _core.stain_mask_bytes() == bytes_before + 64 * 64 * 4
@@ -84,7 +86,7 @@ def test_mask_lifetime_is_counted():
 
 def test_one_stamp_is_alpha_times_the_splat():
     r, s, alpha = 128, 0.18, 0.5
-    mask = np.asarray(_core.stain_mask(seed=11, stamps=1, brush_size=s, opacity=alpha, resolution=r))
+    mask = np.asarray(_core.stain_mask(11, _core.StainParams(stamps=1, brush_size=s, opacity=alpha, resolution=r)))
     cu, cv = _core.stamp_centres(11, 1)[0]
     t = (np.arange(r) + 0.5) / r
     du = (t - cu + 0.5) % 1.0 - 0.5  # u wraps
@@ -95,9 +97,9 @@ def test_one_stamp_is_alpha_times_the_splat():
 
 
 def test_same_seed_same_bytes_any_threads():
-    a = np.asarray(_core.stain_mask(seed=3, stamps=90, threads=1))
-    b = np.asarray(_core.stain_mask(seed=3, stamps=90, threads=0))
-    c = np.asarray(_core.stain_mask(seed=4, stamps=90))
+    a = np.asarray(_core.stain_mask(3, _core.StainParams(stamps=90), threads=1))
+    b = np.asarray(_core.stain_mask(3, _core.StainParams(stamps=90), threads=0))
+    c = np.asarray(_core.stain_mask(4, _core.StainParams(stamps=90)))
     assert a.tobytes() == b.tobytes()
     assert a.tobytes() != c.tobytes()
 
@@ -109,13 +111,13 @@ def test_coverage_within_sampling_error(stamps):
     s, r = 0.18, 128
     expected = 1 - (1 - s * s * _core.splat_support_area()) ** stamps
     rows = slice(int(np.ceil(s / 2 * r)), int(r - np.ceil(s / 2 * r)))
-    fractions = [(np.asarray(_core.stain_mask(seed, stamps, resolution=r))[rows] > 0).mean()
+    fractions = [(np.asarray(_core.stain_mask(seed, _core.StainParams(stamps=stamps, resolution=r)))[rows] > 0).mean()
                  for seed in range(100, 120)]
     assert np.mean(fractions) == pytest.approx(expected, abs=0.04)
 
 
 def test_sample_wraps_u_and_clamps_v():
-    mask = _core.stain_mask(seed=5, stamps=40, resolution=32)
+    mask = _core.stain_mask(5, _core.StainParams(stamps=40, resolution=32))
     texels = np.asarray(mask)
     t = (np.arange(32) + 0.5) / 32
     np.testing.assert_allclose(mask.sample(np.column_stack([t + 1.0, np.full(32, t[3])])), texels[3], atol=1e-6)
@@ -126,13 +128,15 @@ def test_sample_wraps_u_and_clamps_v():
 
 def test_stain_arguments_are_checked():
     with pytest.raises(ValueError, match="opacity: must be in"):
-        _core.stain_mask(seed=0, stamps=3, opacity=1.5)
+        _core.StainParams(stamps=3, opacity=1.5)
     with pytest.raises(ValueError, match="brush_size"):
-        _core.stain_mask(seed=0, stamps=3, brush_size=0.0)
+        _core.StainParams(stamps=3, brush_size=0.0)
+    bad = _core.StainParams()
+    bad.stamps = -1  # a field written after construction is checked where the core takes it
     with pytest.raises(ValueError, match="stamps: must be >= 0"):
-        _core.stain_mask(seed=0, stamps=-1)
+        _core.stain_mask(0, bad)
     with pytest.raises(ValueError, match="threads"):
-        _core.stain_mask(seed=0, stamps=1, threads=-2)
+        _core.stain_mask(0, _core.StainParams(stamps=1), threads=-2)
 
 
 def test_config_fields():

@@ -40,7 +40,7 @@ def test_transmittance_matches_the_closed_form_through_one_puff():
     # and toward the Sun, each exp(-optical depth) of the puff along that ray.
     scene, camera = wall_scene(), down_camera()
     centre, sigma, peak = np.array([0.05, -0.03, 0.9]), 0.2, 3.0
-    sun = _core.Sun(30.0, 60.0, 1000.0, 0.0)
+    sun = _core.DirectionalLight(30.0, 60.0, 1000.0, 0.0)
     clear = _core.render(scene, camera, sun)
     medium = _core.Medium([[*centre, sigma, peak]], albedo=(0, 0, 0), voxel_m=0.005)
     dusty = _core.render(scene, camera, sun, medium=medium)
@@ -68,7 +68,7 @@ def test_single_scattering_against_the_sky_matches_the_integral():
     R = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])  # looking east, level
     camera = _core.Camera(40.0, 40.0, W / 2, H / 2, W, H, R, -R @ np.zeros(3))
     centre, sigma, peak = np.array([3.0, 0.0, 0.0]), 0.3, 1e-3
-    sun = _core.Sun(135.0, 20.0, 1000.0, 0.0)  # behind and to the right: scattering at ~118°
+    sun = _core.DirectionalLight(135.0, 20.0, 1000.0, 0.0)  # behind and to the right: scattering at ~118°
     medium = _core.Medium([[*centre, sigma, peak]], albedo=(0.5, 0.5, 0.5), asymmetry=0.6, voxel_m=0.01)
     out = _core.render(scene, camera, sun, medium=medium)
     d = R.T @ (np.linalg.inv(np.array([[40.0, 0, W / 2], [0, 40.0, H / 2], [0, 0, 1]])) @ [W / 2 + 0.5, H / 2 + 0.5, 1])
@@ -92,12 +92,13 @@ def test_a_strided_march_matches_the_closed_form_and_the_full_march():
     camera = _core.Camera(f, f, w / 2, h / 2, w, h, R, -R @ np.array([0.0, 0.0, 2.0]))
     scene = wall_scene()
     centre, sigma, peak = np.array([0.01, -0.02, 0.9]), 0.2, 3.0
-    sun = _core.Sun(30.0, 60.0, 1000.0, 0.0)
+    sun = _core.DirectionalLight(30.0, 60.0, 1000.0, 0.0)
     clear = _core.render(scene, camera, sun)["rgb"][..., 0]
     out = {}
     for stride in (1, 4):
         medium = _core.Medium([[*centre, sigma, peak]], albedo=(0, 0, 0), voxel_m=0.005, march_stride_px=stride)
-        out[stride] = _core.render(scene, camera, sun, medium=medium, threads=2)["rgb"][..., 0] / clear
+        out[stride] = _core.render(scene, camera, sun, _core.RenderSettings(threads=2),
+                                   medium=medium)["rgb"][..., 0] / clear
     K_inv = np.linalg.inv(np.array([[f, 0, w / 2], [0, f, h / 2], [0, 0, 1]]))
     az, el = np.radians(30.0), np.radians(60.0)
     to_sun = np.array([np.sin(az) * np.cos(el), np.cos(az) * np.cos(el), np.sin(el)])
@@ -117,10 +118,10 @@ def test_a_strided_march_matches_the_closed_form_and_the_full_march():
 
 def test_a_medium_without_puffs_is_no_medium():
     scene, camera = wall_scene(), down_camera()
-    sun = _core.Sun(30.0, 40.0, 1000.0, 0.533)
-    kwargs = dict(spp=2, seed=3, light_samples=2, bounces=1)
-    plain = _core.render(scene, camera, sun, **kwargs)
-    empty = _core.render(scene, camera, sun, medium=_core.Medium(np.zeros((0, 5))), **kwargs)
+    sun = _core.DirectionalLight(30.0, 40.0, 1000.0, 0.533)
+    settings = _core.RenderSettings(spp=2, seed=3, light_samples=2, bounces=1)
+    plain = _core.render(scene, camera, sun, settings)
+    empty = _core.render(scene, camera, sun, settings, medium=_core.Medium(np.zeros((0, 5))))
     for key in ("rgb", "depth", "instance"):
         assert plain[key].tobytes() == empty[key].tobytes()
     assert plain["medium_rays"] == empty["medium_rays"] == 0
@@ -128,16 +129,16 @@ def test_a_medium_without_puffs_is_no_medium():
 
 
 def test_dust_renders_the_same_on_one_and_two_threads_and_stays_finite_in_hard_cases():
-    puffs = _core.cloud_puffs(5, 6.0, origin=(0.3, 0.2, 0.0), vertical_offset_m=0.0)
+    puffs = _core.cloud_puffs(_core.CloudParams(origin=(0.3, 0.2, 0.0), vertical_offset_m=0.0), 5, 6.0)
     for offset, elevation in (((0, 0, 0), 30.0), ((0, 0, 0), 0.5), ((3000.0, -2000.0, 500.0), 8.0)):
         shifted = puffs.copy()
         shifted[:, :3] += offset
         scene, camera = wall_scene(offset), down_camera(offset, height=0.4)  # camera inside the cloud
-        sun = _core.Sun(120.0, elevation, 1361.0, 0.533)
+        sun = _core.DirectionalLight(120.0, elevation, 1361.0, 0.533)
         for stride in (1, 4):
             medium = _core.Medium(shifted, voxel_m=0.1, floor_z=offset[2] - 0.5, march_stride_px=stride)
-            one = _core.render(scene, camera, sun, spp=2, seed=9, threads=1, medium=medium)
-            two = _core.render(scene, camera, sun, spp=2, seed=9, threads=2, medium=medium)
+            one = _core.render(scene, camera, sun, _core.RenderSettings(spp=2, seed=9, threads=1), medium=medium)
+            two = _core.render(scene, camera, sun, _core.RenderSettings(spp=2, seed=9, threads=2), medium=medium)
             assert one["rgb"].tobytes() == two["rgb"].tobytes()
             assert np.isfinite(one["rgb"]).all() and (one["rgb"] >= 0).all()
             assert one["medium_rays"] > 0
@@ -160,13 +161,13 @@ def test_medium_arguments_name_the_field():
 
 
 def test_cloud_puffs_are_a_pure_function_of_time():
-    a = _core.cloud_puffs(11, 7.0)
+    a = _core.cloud_puffs(_core.CloudParams(), 11, 7.0)
     assert a.shape[0] == pytest.approx(40 * 5, abs=2)  # rate × lifetime alive
-    np.testing.assert_array_equal(a, _core.cloud_puffs(11, 7.0))
-    assert not np.array_equal(a, _core.cloud_puffs(12, 7.0))
+    np.testing.assert_array_equal(a, _core.cloud_puffs(_core.CloudParams(), 11, 7.0))
+    assert not np.array_equal(a, _core.cloud_puffs(_core.CloudParams(), 12, 7.0))
     # Without gravity each puff drifts in a straight line: 0.1 s later, the puffs still alive
     # moved by at most 0.1 s × 0.7 m/s, and grew by 0.1 s × 0.08 m/s.
-    b = _core.cloud_puffs(11, 7.1)
+    b = _core.cloud_puffs(_core.CloudParams(), 11, 7.1)
     common = min(len(a), len(b)) - 8
     moved = np.linalg.norm(b[:common, :3] - a[4:4 + common, :3], axis=1)
     assert moved.max() <= 0.07 + 1e-12
@@ -174,16 +175,17 @@ def test_cloud_puffs_are_a_pure_function_of_time():
     # Opacity rises then falls: the peak optical depth through a centre stays ≤ the configured one.
     through = a[:, 4] * a[:, 3] * np.sqrt(2 * np.pi)
     assert through.max() <= 0.25 + 1e-12
-    assert len(_core.cloud_puffs(11, 0.0)) == 0  # the first puff, at birth, is transparent: left out
+    # The first puff, at birth, is transparent: left out.
+    assert len(_core.cloud_puffs(_core.CloudParams(), 11, 0.0)) == 0
     with pytest.raises(ValueError, match="lifetime_s"):
-        _core.cloud_puffs(1, 1.0, lifetime_s=0.0)
+        _core.cloud_puffs(_core.CloudParams(lifetime_s=0.0), 1, 1.0)
     with pytest.raises(ValueError, match="time_s"):
-        _core.cloud_puffs(1, -1.0)
+        _core.cloud_puffs(_core.CloudParams(), 1, -1.0)
 
 
 def test_fragment_mesh_is_closed_outward_and_inside_each_fragment():
     scene = wall_scene()
-    state = _core.simulate_ejecta(scene, seed=2, time_s=0.3, count=30)
+    state = _core.simulate_ejecta(scene, _core.EjectaParams(count=30), seed=2, time_s=0.3)
     v, t = state["vertices"].astype(float), state["triangles"]
     assert v.shape == (30 * 12, 3) and t.shape == (30 * 20, 3)
     for f in range(30):
@@ -202,12 +204,13 @@ def test_fragment_mesh_is_closed_outward_and_inside_each_fragment():
 
 def test_moving_a_mesh_rebuilds_it_alone():
     scene = wall_scene()
-    state = _core.simulate_ejecta(scene, seed=2, time_s=0.2, count=10)
+    state = _core.simulate_ejecta(scene, _core.EjectaParams(count=10), seed=2, time_s=0.2)
     mesh = scene.add_mesh(state["vertices"], state["triangles"])
     scene.add_background(mesh, np.eye(4), (0.1, 0.1, 0.1))
     scene.commit()
     before = scene.bvh_builds
-    later = _core.simulate_ejecta(scene, seed=2, time_s=0.4, count=10)  # (collides with the old mesh too)
+    # (It collides with the old mesh too.)
+    later = _core.simulate_ejecta(scene, _core.EjectaParams(count=10), seed=2, time_s=0.4)
     scene.update_mesh(mesh, later["vertices"])
     assert not scene.committed
     scene.commit()

@@ -345,7 +345,7 @@ def test_px_count_all_matches_the_whole_canvas(sweep, dataset):
     spec = compose_scene(from_mapping(Config, load(task / "task.json")["config"]))
     info = load(dataset / TRAIN / "scene_gt_info.json")
     cam = load(dataset / TRAIN / "scene_camera.json")
-    sun = _core.Sun(0.0, 90.0, 0.0)
+    sun = _core.DirectionalLight(0.0, 90.0, 0.0)
     for im in ("0", "1"):
         K = np.array(cam[im]["cam_K"]).reshape(3, 3)
         R = np.array(cam[im]["cam_R_w2c"]).reshape(3, 3)

@@ -33,18 +33,18 @@ def h_2002(w: float, x: float) -> float:
 
 
 def test_hapke_defaults_are_the_lunar_set_normalised_to_one():
-    p = _core.Photometry("hapke", surge_amplitude=1.8, surge_width=0.07)
+    p = _core.Photometry(model="hapke", surge_amplitude=1.8, surge_width=0.07)
     assert p.model == "hapke"
     assert p.shape(1.0, 1.0, 1.0) == pytest.approx(1.0, abs=1e-15)
     assert p.porosity_factor == pytest.approx(1.4405, abs=1e-4)
     # A_N = K·w/8·[p(0)·(1 + B_S0) + H(χ/K)² − 1] for the Sato et al. 2014 set.
     assert p.hapke_normal_albedo == pytest.approx(0.2663, abs=1e-4)
     assert p.hapke_reflectance(1.0, 1.0, 1.0) * math.pi == pytest.approx(p.hapke_normal_albedo, rel=1e-14)
-    assert _core.Photometry("lunar-lambert").hapke_normal_albedo is None
+    assert _core.Photometry(model="lunar-lambert").hapke_normal_albedo is None
 
 
 def test_hapke_reciprocal_and_finite():
-    p = _core.Photometry("hapke", surge_amplitude=1.8, surge_width=0.07, cboe_amplitude=0.5, cboe_width=0.05)
+    p = _core.Photometry(model="hapke", surge_amplitude=1.8, surge_width=0.07, cboe_amplitude=0.5, cboe_width=0.05)
     for mu_i, mu_o, cos_g in random_geometries(5000):
         a, b = p.shape(mu_i, mu_o, cos_g), p.shape(mu_o, mu_i, cos_g)
         assert a == b and math.isfinite(a) and a >= 0.0
@@ -57,7 +57,7 @@ def test_hapke_reciprocal_and_finite():
 def test_hapke_smooth_isotropic_is_the_chandrasekhar_form():
     """θ̄ = 0, no surges, b = 0, φ = 0 (K = 1): r = w/(4π)·μ0/(μ0 + μ)·H(μ0)·H(μ)."""
     for w in (0.1, 0.5, 0.99):
-        p = _core.Photometry("hapke", w=w, b=0.0, roughness_deg=0.0, filling_factor=0.0)
+        p = _core.Photometry(model="hapke", w=w, b=0.0, roughness_deg=0.0, filling_factor=0.0)
         assert p.porosity_factor == 1.0
         for mu_i, mu_o, cos_g in random_geometries(500, seed=9):
             want = w / (4 * math.pi) * mu_i / (mu_i + mu_o) * h_2002(w, mu_i) * h_2002(w, mu_o)

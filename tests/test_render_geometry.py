@@ -36,7 +36,7 @@ def test_mask_boundary_sits_where_K_predicts():
     scene, box_world = ground_and_box(box_size=(0.4, 0.3, 0.2))
     K = K_for(W, H, 100.0)
     pose = orbit_pose(np.zeros(3), 0.0, 2.0, 0.0)  # straight above, 2 m over the ground
-    out = _core.render(scene, camera(K, W, H, pose), _core.Sun(0, 60), passes=["instance", "depth"])
+    out = _core.render(scene, camera(K, W, H, pose), _core.DirectionalLight(0, 60), passes=["instance", "depth"])
     # Intersect each pixel-centre ray with the top plane z = 0.2 and test the face bounds.
     d = pixel_directions(K, pose, W, H)
     c = pose.center
@@ -61,7 +61,7 @@ def test_tilted_plane_depth_is_analytic_z_depth(tilt_deg):
     scene.commit()
     K = K_for(W, H, 60.0)
     pose = orbit_pose(np.array([0.0, 3.0, 0.0]), 2.5, 1.5, 200.0)
-    out = _core.render(scene, camera(K, W, H, pose), _core.Sun(0, 45), passes=["depth"])
+    out = _core.render(scene, camera(K, W, H, pose), _core.DirectionalLight(0, 45), passes=["depth"])
     n = world[:3, :3] @ np.array([0.0, 0.0, 1.0])
     d = pixel_directions(K, pose, W, H)
     t = (n @ (world[:3, 3] - pose.center)) / (d @ n)
@@ -81,7 +81,7 @@ def test_box_seen_head_on_has_its_projected_area():
     R = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])
     eye = np.array([0.0, -0.1 - 1.5, 0.2])
     pose = CameraPose(R=R, t=-R @ eye)
-    out = _core.render(scene, camera(K, W, H, pose), _core.Sun(0, 60), passes=["instance"])
+    out = _core.render(scene, camera(K, W, H, pose), _core.DirectionalLight(0, 60), passes=["instance"])
     z = 1.5
     w_px, h_px = K[0, 0] * size[0] / z, K[1, 1] * size[2] / z
     border = 2 * (w_px + h_px) + 4
@@ -93,7 +93,8 @@ def test_outputs_identical_for_one_and_two_threads():
     scene, _ = ground_and_box()
     K = K_for(W, H, 70.0)
     cam = camera(K, W, H, orbit_pose(np.array([0, 0, 0.2]), 1.0, 0.5, 40.0))
-    runs = [_core.render(scene, cam, _core.Sun(120, 12), spp=8, seed=5, threads=n) for n in (1, 2)]
+    runs = [_core.render(scene, cam, _core.DirectionalLight(120, 12),
+                         _core.RenderSettings(spp=8, seed=5, threads=n)) for n in (1, 2)]
     for name in ("rgb", "depth", "instance"):
         assert runs[0][name].tobytes() == runs[1][name].tobytes(), name
 
@@ -105,17 +106,34 @@ def test_only_requested_passes_cost_rays():
     scene, _ = ground_and_box()
     builds = scene.bvh_builds
     cam = camera(K_for(W, H, 70.0), W, H, orbit_pose(np.array([0, 0, 0.2]), 1.0, 0.5, 40.0))
-    geometry = _core.render(scene, cam, _core.Sun(120, 12), spp=4, passes=["depth", "instance"])
+    geometry = _core.render(scene, cam, _core.DirectionalLight(120, 12), _core.RenderSettings(spp=4),
+                            passes=["depth", "instance"])
     assert set(geometry) >= {"depth", "instance"} and "rgb" not in geometry
     assert geometry["camera_rays"] == W * H and geometry["shadow_rays"] == 0
-    full = _core.render(scene, cam, _core.Sun(120, 12), spp=4)
+    full = _core.render(scene, cam, _core.DirectionalLight(120, 12), _core.RenderSettings(spp=4))
     assert full["camera_rays"] == W * H * (1 + 4)
     assert 0 < full["shadow_rays"] <= W * H * 4
     # Sun below the horizon: the ground faces away (no ray), the box's vertical faces still face
     # it and trace a shadow ray, which the ground blocks. The image is black.
-    night = _core.render(scene, cam, _core.Sun(120, -5), spp=4)
+    night = _core.render(scene, cam, _core.DirectionalLight(120, -5), _core.RenderSettings(spp=4))
     assert night["shadow_rays"] < full["shadow_rays"] / 4 and not night["rgb"].any()
     assert scene.bvh_builds == builds
+
+
+def test_geometry_passes_render_without_a_light():
+    """sun=None renders depth and instance alone, the same as with a light; the passes a light
+    shades (rgb, and what lights it: earth, medium, light_cache) refuse it, naming the argument."""
+    scene, _ = ground_and_box()
+    cam = camera(K_for(W, H, 70.0), W, H, orbit_pose(np.array([0, 0, 0.2]), 1.0, 0.5, 40.0))
+    lit = _core.render(scene, cam, _core.DirectionalLight(120, 12), passes=["depth", "instance"])
+    unlit = _core.render(scene, cam, None, passes=["depth", "instance"])
+    assert unlit["depth"].tobytes() == lit["depth"].tobytes()
+    assert unlit["instance"].tobytes() == lit["instance"].tobytes()
+    assert unlit["shadow_rays"] == 0 and unlit["camera_rays"] == lit["camera_rays"]
+    with pytest.raises(ValueError, match="^sun: is None"):
+        _core.render(scene, cam, None)
+    with pytest.raises(ValueError, match="^sun: is None"):
+        _core.render(scene, cam, None, passes=["depth"], earth=_core.DirectionalLight(0, 30, 1.0))
 
 
 def test_camera_straight_above_is_stable():
@@ -127,7 +145,7 @@ def test_camera_straight_above_is_stable():
         pose = orbit_pose(np.array([0.0, 0.0, 0.2]), 0.0, 1.0, azimuth)
         np.testing.assert_allclose(pose.R @ pose.R.T, np.eye(3), atol=1e-15)
         assert np.linalg.det(pose.R) == pytest.approx(1.0, abs=1e-15)
-        out = _core.render(scene, camera(K, W, H, pose), _core.Sun(120, 12), spp=2)
+        out = _core.render(scene, camera(K, W, H, pose), _core.DirectionalLight(120, 12), _core.RenderSettings(spp=2))
         assert np.isfinite(out["rgb"]).all()
         assert out["instance"][H // 2, W // 2] == 1
         assert out["depth"][H // 2, W // 2] == pytest.approx(1.0 - 0.2, rel=1e-6)
@@ -142,7 +160,8 @@ def test_grazing_sun_on_a_plane_has_no_acne(elevation):
     scene.commit()
     K = K_for(W, H, 70.0)
     pose = orbit_pose(np.zeros(3), 3.0, 1.0, 10.0)
-    out = _core.render(scene, camera(K, W, H, pose), _core.Sun(190, elevation), spp=4)
+    out = _core.render(scene, camera(K, W, H, pose), _core.DirectionalLight(190, elevation),
+                       _core.RenderSettings(spp=4))
     hit = out["depth"] > 0
     expected = 0.12 / np.pi * 1361 * np.sin(np.radians(elevation))
     np.testing.assert_allclose(out["rgb"][hit], expected, rtol=1e-5)
@@ -158,7 +177,7 @@ def test_kilometre_coordinates_render_like_the_origin():
         shift = translation(*offset)
         scene, _ = ground_and_box(box_world=shift @ translation(0, 0, 0.2), ground_world=shift)
         pose = orbit_pose(offset + np.array([0, 0, 0.2]), 1.0, 0.5, 40.0)
-        results.append(_core.render(scene, camera(K, W, H, pose), _core.Sun(120, 30),
+        results.append(_core.render(scene, camera(K, W, H, pose), _core.DirectionalLight(120, 30),
                                     passes=["depth", "instance"]))
     a, b = results
     same = a["instance"] == b["instance"]
@@ -183,7 +202,7 @@ def test_identical_bags_share_one_bvh():
     assert scene.instance_count == 12
     K = K_for(W, H, 30.0)
     pose = orbit_pose(np.zeros(3), 0.0, 3.0, 0.0)
-    out = _core.render(scene, camera(K, W, H, pose), _core.Sun(0, 60), passes=["instance"])
+    out = _core.render(scene, camera(K, W, H, pose), _core.DirectionalLight(0, 60), passes=["instance"])
     assert set(np.unique(out["instance"])) == set(range(12))
 
 
@@ -205,8 +224,8 @@ def test_exact_depth_holds_far_from_the_origin(offset):
     t = (n @ (world[:3, 3] - pose.center)) / (d @ n)
     errors = {}
     for exact in (True, False):
-        out = _core.render(scene, camera(K, W, H, pose), _core.Sun(0, 45), passes=["depth"],
-                           exact_depth=exact)
+        out = _core.render(scene, camera(K, W, H, pose), _core.DirectionalLight(0, 45),
+                           _core.RenderSettings(exact_depth=exact), passes=["depth"])
         hit = out["depth"] > 0
         assert hit.mean() > 0.9
         errors[exact] = np.max(np.abs(out["depth"][hit] - t[hit]) / t[hit])
@@ -220,13 +239,13 @@ def test_embree_limit_probe_traces_the_renderers_rays():
     renderer does, a second generation from those that hit again, and reports positive times."""
     scene, _ = ground_and_box()
     cam = camera(K_for(W, H, 70.0), W, H, orbit_pose(np.array([0, 0, 0.2]), 1.0, 0.5, 40.0))
-    sun = _core.Sun(120, 12)
+    sun = _core.DirectionalLight(120, 12)
     rendered = _core.render(scene, cam, sun)
     limit = _core.measure_embree_limit(scene, cam, sun, threads=1, repeats=1, bounces=2)
     assert limit["camera_rays"] == rendered["camera_rays"] == W * H
     assert limit["shadow_rays"] == rendered["shadow_rays"] > 0
     first, second = limit["bounce_rays"]
-    bounced = _core.render(scene, cam, sun, bounces=1)
+    bounced = _core.render(scene, cam, sun, _core.RenderSettings(bounces=1))
     assert first == bounced["bounce_rays"] == np.count_nonzero(bounced["depth"] > 0)
     # The bounce vertices' shadow rays are told apart from the camera hits'.
     assert rendered["bounce_shadow_rays"] == 0

@@ -275,7 +275,7 @@ def test_the_core_scales_each_channel_by_a_vertex_colour(woven):
     uv = np.tile(np.array([0.0, 0.0, 1.0, 0.0, 1.0, 1.0], np.float32), (len(t), 1))
     R = np.diag([1.0, -1.0, -1.0])  # looking straight down
     view = camera(K_for(16, 12, 20.0), 16, 12, CameraPose(R=R, t=-R @ np.array([0.0, 0.0, 2.0])))
-    sun = _core.Sun(30.0, 40.0, 1361.0, 0.533)
+    sun = _core.DirectionalLight(30.0, 40.0, 1361.0, 0.533)
     colour = np.array([0.25, 0.5, 1.0], np.float32)
     images = []
     for factor in (None, np.tile(colour, (len(v), 1))):
@@ -284,7 +284,8 @@ def test_the_core_scales_each_channel_by_a_vertex_colour(woven):
         scene.add_instance(mesh, np.eye(4), 1, (0.6, 0.6, 0.6),
                            woven=_core.WovenSurface(metres_per_uv=10.0) if woven else None)
         scene.commit()
-        images.append(_core.render(scene, view, sun, spp=1, light_samples=1, seed=1, bounces=0)["rgb"])
+        images.append(_core.render(scene, view, sun,
+                                   _core.RenderSettings(spp=1, light_samples=1, seed=1, bounces=0))["rgb"])
     assert images[0].min() > 0
     np.testing.assert_allclose(images[1], images[0] * colour, rtol=1e-5)
     with pytest.raises(ValueError, match="vertex_albedo"):

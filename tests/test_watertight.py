@@ -158,7 +158,7 @@ def test_the_default_view_at_4096x3072_has_no_depth_holes():
     pose = orbit_pose(spec.target, config.orbit.radius_m, height, azimuth)
     K = intrinsics(config.camera)
     camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], 4096, 3072, pose.R, pose.t)
-    out = _core.render(build_scene(spec), camera, _core.Sun(0.0, 30.0, 0.0), passes=["depth", "instance"])
+    out = _core.render(build_scene(spec), camera, _core.DirectionalLight(0.0, 30.0, 0.0), passes=["depth", "instance"])
     assert not depth_holes(out["depth"], K, pose.R).any()
     bag = out["instance"] > 0
     assert bag.sum() > 100000
@@ -168,7 +168,7 @@ def test_the_default_view_at_4096x3072_has_no_depth_holes():
     alone = _core.Scene()
     alone.add_instance(alone.add_mesh(*spec.meshes[placed.obj_id]), placed.world_from_model, 1, (0.5,) * 3)
     alone.commit()
-    solo = _core.render(alone, camera, _core.Sun(0.0, 30.0, 0.0), passes=["depth"])["depth"]
+    solo = _core.render(alone, camera, _core.DirectionalLight(0.0, 30.0, 0.0), passes=["depth"])["depth"]
     assert (solo[bag] > 0).all()
     assert np.abs(out["depth"][bag] - solo[bag]).max() < 1e-5
 
@@ -188,7 +188,7 @@ def test_a_36_view_orbit_around_five_bags_has_no_depth_holes(location):
         height = orbit_height(spec.target, config.orbit.radius_m, config.orbit.height_m, azimuth, spec.ground)
         pose = orbit_pose(spec.target, config.orbit.radius_m, height, azimuth)
         camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], 640, 480, pose.R, pose.t)
-        out = _core.render(scene, camera, _core.Sun(0.0, 30.0, 0.0), passes=["depth", "instance"])
+        out = _core.render(scene, camera, _core.DirectionalLight(0.0, 30.0, 0.0), passes=["depth", "instance"])
         holes += int(depth_holes(out["depth"], K, pose.R).sum())
     assert config.orbit.views == 36 and holes == 0
 

@@ -80,8 +80,9 @@ def render_moonbot(config, spec, ladder: list[int], threads: int, repeats: int, 
     r = config.render
 
     def render(spp: int, seed: int):
-        return _core.render(scene, camera, sun, spp=spp, seed=seed, threads=threads, exact_depth=r.exact_depth,
-                            light_samples=r.light_samples, bounces=r.bounces)
+        return _core.render(scene, camera, sun,
+                            _core.RenderSettings(spp=spp, seed=seed, threads=threads, exact_depth=r.exact_depth,
+                                                 light_samples=r.light_samples, bounces=r.bounces))
 
     rows = []
     for spp in ladder:

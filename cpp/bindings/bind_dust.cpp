@@ -4,33 +4,76 @@
 
 #include "arrays.h"
 #include "moonbot/dust.h"
+#include "params.h"
 
 namespace moonbot::bindings {
 
+namespace {
+
+py::array_t<double> puff_rows(const std::vector<Puff>& puffs) {
+    py::array_t<double> out({static_cast<py::ssize_t>(puffs.size()), py::ssize_t(5)});
+    auto O = out.mutable_unchecked<2>();
+    for (py::ssize_t i = 0; i < O.shape(0); ++i) {
+        const Puff& f = puffs[static_cast<size_t>(i)];
+        O(i, 0) = f.centre.x, O(i, 1) = f.centre.y, O(i, 2) = f.centre.z;
+        O(i, 3) = f.sigma_m, O(i, 4) = f.peak_extinction;
+    }
+    return out;
+}
+
+std::vector<Puff> puffs_from_rows(const py::handle& given) {
+    const auto rows = converted<double>(as_array(given, "puffs"), "puffs");
+    if (!(rows.ndim() == 2 && rows.shape(1) == 5) && !(rows.ndim() == 1 && rows.shape(0) == 0))
+        fail("puffs", "must be (N, 5) rows of centre x, y, z, sigma, peak extinction; got " + shape_of(rows));
+    std::vector<Puff> puffs;
+    const py::ssize_t n = rows.ndim() == 2 ? rows.shape(0) : 0;
+    for (py::ssize_t i = 0; i < n; ++i) {
+        const double* r = rows.data() + 5 * i;
+        puffs.push_back(Puff{{r[0], r[1], r[2]}, r[3], r[4]});
+    }
+    return puffs;
+}
+
+}  // namespace
+
 void bind_dust(py::module_& m) {
+    ParamsClass<EjectaParams>(m, "EjectaParams",
+                              "Emitter 1, granular ejecta (moonbot/dust.h): world metres, seconds, degrees.")
+        .vec3("origin", &EjectaParams::origin, "centre of the spawn disc (3,), world metres, on the ground")
+        .field("spawn_radius_m", &EjectaParams::spawn_radius_m, "fragments leave from a horizontal disc of this radius, metres, [0, 100]")
+        .field("count", &EjectaParams::count, "fragments per burst, 0..1000000")
+        .field("cone_half_angle_deg", &EjectaParams::cone_half_angle_deg, "launch directions: uniform over this cone about +z, degrees, [0, 90]")
+        .field("mean_speed_m_s", &EjectaParams::mean_speed_m_s, "launch speeds uniform in [0.5, 1.5] x this, m/s, [0, 100]")
+        .field("min_diameter_m", &EjectaParams::min_diameter_m, "fragment diameters uniform in [min, max], metres, > 0")
+        .field("max_diameter_m", &EjectaParams::max_diameter_m, "metres, >= min_diameter_m, <= 1")
+        .field("gravity_m_s2", &EjectaParams::gravity_m_s2, "m/s^2, [0, 100]")
+        .field("restitution", &EjectaParams::restitution, "normal speed kept by a bounce, [0, 0.95]")
+        .field("friction", &EjectaParams::friction, "Coulomb: tangential speed lost <= friction x normal impulse, [0, 10]")
+        .field("rest_speed_m_s", &EjectaParams::rest_speed_m_s, "a bounce leaving less than this puts the fragment at rest, m/s, (0, 10]")
+        .field("burst_period_s", &EjectaParams::burst_period_s, "every fragment is re-launched every period, seconds, (0, 3600]")
+        .done();
+    ParamsClass<CloudParams>(m, "CloudParams", "Emitter 2, the fine-dust cloud (moonbot/dust.h): world metres, seconds, degrees.")
+        .vec3("origin", &CloudParams::origin, "the emitter on the ground (3,), world metres")
+        .vec3("box_m", &CloudParams::box_m, "spawn box east x north x up (3,), metres, each in [0, 1000]")
+        .field("vertical_offset_m", &CloudParams::vertical_offset_m, "the box's centre this far above origin, metres, [-1000, 1000]")
+        .vec3("axis", &CloudParams::axis, "cone axis (3,), world, any length but 0")
+        .field("cone_half_angle_deg", &CloudParams::cone_half_angle_deg, "degrees, [0, 180]")
+        .field("speed_m_s", &CloudParams::speed_m_s, "launch speed of a puff, m/s, [0, 100]")
+        .field("gravity_m_s2", &CloudParams::gravity_m_s2, "m/s^2, [0, 100]")
+        .field("lifetime_s", &CloudParams::lifetime_s, "a puff's life, seconds, (0, 3600]")
+        .field("rate_per_s", &CloudParams::rate_per_s, "puffs born a second, >= 0, rate x lifetime <= 100000")
+        .field("sigma_m", &CloudParams::sigma_m, "a puff's standard deviation at birth, metres, (0, 100]")
+        .field("growth_m_s", &CloudParams::growth_m_s, "growth of that deviation with age, m/s, [0, 100]")
+        .field("optical_depth", &CloudParams::optical_depth, "through a puff's centre at its most opaque, [0, 100]")
+        .field("rise_fraction", &CloudParams::rise_fraction, "opacity rises linearly over this fraction of life, (0, 1)")
+        .done();
     m.def(
         "simulate_ejecta",
-        [](const Scene& scene, uint64_t seed, double time_s, double dt_s, const py::handle& origin, int count,
-           double spawn_radius_m, double cone_half_angle_deg, double mean_speed_m_s, double min_diameter_m,
-           double max_diameter_m, double gravity_m_s2, double restitution, double friction, double rest_speed_m_s,
-           double burst_period_s, int threads) {
-            EjectaParams p;
-            p.origin = vector<3>(origin, "origin");
-            p.count = count;
-            p.spawn_radius_m = spawn_radius_m;
-            p.cone_half_angle_deg = cone_half_angle_deg;
-            p.mean_speed_m_s = mean_speed_m_s;
-            p.min_diameter_m = min_diameter_m;
-            p.max_diameter_m = max_diameter_m;
-            p.gravity_m_s2 = gravity_m_s2;
-            p.restitution = restitution;
-            p.friction = friction;
-            p.rest_speed_m_s = rest_speed_m_s;
-            p.burst_period_s = burst_period_s;
+        [](const Scene& scene, const EjectaParams& params, uint64_t seed, double time_s, double dt_s, int threads) {
             std::vector<Fragment> fragments;
             {
                 py::gil_scoped_release release;
-                fragments = simulate_ejecta(scene, p, seed, time_s, dt_s, threads);
+                fragments = simulate_ejecta(scene, params, seed, time_s, dt_s, threads);
             }
             const auto n = static_cast<py::ssize_t>(fragments.size());
             py::array_t<double> position({n, py::ssize_t(3)}), velocity({n, py::ssize_t(3)}), diameter(n), age(n);
@@ -72,11 +115,7 @@ void bind_dust(py::module_& m) {
             out["resting"] = resting;
             return out;
         },
-        py::arg("scene"), py::arg("seed"), py::arg("time_s"), py::arg("dt_s") = 0.01,
-        py::arg("origin") = py::make_tuple(0.0, 0.0, 0.0), py::arg("count") = 200, py::arg("spawn_radius_m") = 0.1,
-        py::arg("cone_half_angle_deg") = 45.0, py::arg("mean_speed_m_s") = 0.5, py::arg("min_diameter_m") = 0.01,
-        py::arg("max_diameter_m") = 0.02, py::arg("gravity_m_s2") = 1.62, py::arg("restitution") = 0.4,
-        py::arg("friction") = 0.6, py::arg("rest_speed_m_s") = 0.02, py::arg("burst_period_s") = 2.0,
+        py::arg("scene"), py::arg("params"), py::arg("seed"), py::arg("time_s"), py::arg("dt_s") = 0.01,
         py::arg("threads") = 0,
         "Granular ejecta (moonbot/dust.h) of the burst under way at time_s, flown in vacuum under "
         "gravity from launch in steps of at most dt_s and bounced on the scene's geometry (call it "
@@ -89,71 +128,33 @@ void bind_dust(py::module_& m) {
     m.attr("SPAWN_CLEARANCE") = kSpawnClearance;
     m.def(
         "cloud_puffs",
-        [](uint64_t seed, double time_s, const py::handle& origin, const py::handle& box_m, double vertical_offset_m,
-           const py::handle& axis, double cone_half_angle_deg, double speed_m_s, double gravity_m_s2, double lifetime_s,
-           double rate_per_s, double sigma_m, double growth_m_s, double optical_depth, double rise_fraction) {
-            CloudParams p;
-            p.origin = vector<3>(origin, "origin");
-            p.box_m = vector<3>(box_m, "box_m");
-            p.vertical_offset_m = vertical_offset_m;
-            p.axis = vector<3>(axis, "axis");
-            p.cone_half_angle_deg = cone_half_angle_deg;
-            p.speed_m_s = speed_m_s;
-            p.gravity_m_s2 = gravity_m_s2;
-            p.lifetime_s = lifetime_s;
-            p.rate_per_s = rate_per_s;
-            p.sigma_m = sigma_m;
-            p.growth_m_s = growth_m_s;
-            p.optical_depth = optical_depth;
-            p.rise_fraction = rise_fraction;
-            const std::vector<Puff> puffs = cloud_puffs(p, seed, time_s);
-            py::array_t<double> out({static_cast<py::ssize_t>(puffs.size()), py::ssize_t(5)});
-            auto O = out.mutable_unchecked<2>();
-            for (py::ssize_t i = 0; i < O.shape(0); ++i) {
-                const Puff& f = puffs[static_cast<size_t>(i)];
-                O(i, 0) = f.centre.x, O(i, 1) = f.centre.y, O(i, 2) = f.centre.z;
-                O(i, 3) = f.sigma_m, O(i, 4) = f.peak_extinction;
-            }
-            return out;
-        },
-        py::arg("seed"), py::arg("time_s"), py::arg("origin") = py::make_tuple(0.0, 0.0, 0.0),
-        py::arg("box_m") = py::make_tuple(0.7, 2.0, 0.5), py::arg("vertical_offset_m") = -1.7,
-        py::arg("axis") = py::make_tuple(1.0, 0.0, 500.0), py::arg("cone_half_angle_deg") = 45.0,
-        py::arg("speed_m_s") = 0.7, py::arg("gravity_m_s2") = 0.0, py::arg("lifetime_s") = 5.0,
-        py::arg("rate_per_s") = 40.0, py::arg("sigma_m") = 0.15, py::arg("growth_m_s") = 0.08,
-        py::arg("optical_depth") = 0.25, py::arg("rise_fraction") = 0.1,
+        [](const CloudParams& params, uint64_t seed, double time_s) { return puff_rows(cloud_puffs(params, seed, time_s)); },
+        py::arg("params"), py::arg("seed"), py::arg("time_s"),
         "The fine-dust cloud (moonbot/dust.h, emitter 2) at time_s: the puffs alive then, (N, 5) "
         "float64 rows of centre x, y, z (world metres), sigma (metres) and peak extinction (1/m).");
-    py::class_<Medium>(m, "Medium", "Dust as a participating medium (moonbot/medium.h): Gaussian puffs, "
-                                    "their single-scattering albedo and Henyey-Greenstein asymmetry.")
-        .def(py::init([](const py::handle& puffs, const py::handle& albedo, double asymmetry, double voxel_m, double floor_z,
-                         int march_stride_px) {
-                 const auto rows = converted<double>(as_array(puffs, "puffs"), "puffs");
-                 if (!(rows.ndim() == 2 && rows.shape(1) == 5) && !(rows.ndim() == 1 && rows.shape(0) == 0))
-                     fail("puffs", "must be (N, 5) rows of centre x, y, z, sigma, peak extinction; got " + shape_of(rows));
-                 Medium medium;
-                 const py::ssize_t n = rows.ndim() == 2 ? rows.shape(0) : 0;
-                 for (py::ssize_t i = 0; i < n; ++i) {
-                     const double* r = rows.data() + 5 * i;
-                     medium.puffs.push_back(Puff{{r[0], r[1], r[2]}, r[3], r[4]});
-                 }
-                 medium.albedo = vector<3>(albedo, "albedo");
-                 medium.asymmetry = asymmetry;
-                 medium.voxel_m = voxel_m;
-                 medium.floor_z = floor_z;
-                 medium.march_stride_px = march_stride_px;
-                 medium.validate();  // std::invalid_argument → ValueError
-                 return medium;
+    ParamsClass<Medium>(m, "Medium",
+                        "Dust as a participating medium (moonbot/medium.h): Gaussian puffs, their single-scattering "
+                        "albedo and Henyey-Greenstein asymmetry, and how finely a render traces them.")
+        .property(
+            "puffs", [](const Medium& medium) { return puff_rows(medium.puffs); },
+            [](Medium& medium, const py::handle& rows) { medium.puffs = puffs_from_rows(rows); },
+            "(N, 5) float64: centre x, y, z (world metres), sigma (metres, > 0), peak extinction (1/m, >= 0)")
+        .vec3("albedo", &Medium::albedo, "single-scattering albedo (3,), linear RGB, each in [0, 1]")
+        .field("asymmetry", &Medium::asymmetry, "Henyey-Greenstein g, (-1, 1)")
+        .field("voxel_m", &Medium::voxel_m,
+               "spacing of the grid the dust is baked on per render and its march step, metres, [0.001, 100]")
+        .field("floor_z", &Medium::floor_z, "no dust is seen or lit below this height (the ground), metres")
+        .field("march_stride_px", &Medium::march_stride_px,
+               "1, 2, 4 or 8: the pixels between the camera rays that march the dust (the others interpolate)")
+        .done()
+        .def(py::init([](const py::handle& puffs, const py::kwargs& fields) {
+                 py::dict given(fields);
+                 given["puffs"] = puffs;
+                 return py::type::of<Medium>()(**given).cast<Medium>();
              }),
-             py::arg("puffs"), py::arg("albedo") = py::make_tuple(0.55, 0.51, 0.45), py::arg("asymmetry") = 0.7,
-             py::arg("voxel_m") = 0.05, py::arg("floor_z") = -std::numeric_limits<double>::infinity(),
-             py::arg("march_stride_px") = 1,
-             "puffs (N, 5) float: centre x, y, z (world metres), sigma (metres), peak extinction (1/m); "
-             "albedo: single-scattering albedo (3,) in [0, 1]; asymmetry: Henyey-Greenstein g; voxel_m: "
-             "the spacing of the grid the dust is baked on per render and its march step, metres; "
-             "floor_z: no dust is seen or lit below this height (the ground), metres; march_stride_px: 1, 2, 4 "
-             "or 8, the pixels between the camera rays that march the dust (the others interpolate).")
-        .def_property_readonly("puff_count", [](const Medium& m) { return m.puffs.size(); });
+             py::arg("puffs"), "Medium(puffs=puffs, **fields).")
+        .def_property_readonly(
+            "puff_count", [](const Medium& medium) { return medium.puffs.size(); }, "puffs in the medium");
     m.def("henyey_greenstein", &henyey_greenstein, py::arg("cos_theta"), py::arg("g"),
           "Henyey-Greenstein phase function per steradian (g > 0: forward).");
     m.def(

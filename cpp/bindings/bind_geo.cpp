@@ -8,7 +8,9 @@ void bind_geo(py::module_& m) {
     py::class_<LunarFrame>(m, "LunarFrame",
                            "Local East-North-Up frame on the lunar sphere (GeographicLib), metres.")
         .def(py::init<double, double, double, double>(), py::arg("lat0_deg"), py::arg("lon0_deg"),
-             py::arg("h0") = 0.0, py::arg("radius") = kLunarRadius)
+             py::arg("h0") = 0.0, py::arg("radius") = kLunarRadius,
+             "The frame at latitude lat0_deg, longitude lon0_deg (degrees) and height h0 (metres) on a sphere "
+             "of `radius` metres.")
         .def("to_enu", [](const LunarFrame& f, double lat, double lon, double h) {
                 const glm::dvec3 p = f.to_enu(lat, lon, h);
                 return py::make_tuple(p.x, p.y, p.z);

@@ -3,31 +3,38 @@
 #include <pybind11/stl.h>
 
 #include "arrays.h"
+#include "params.h"
 #include "moonbot/light_cache.h"
 
 namespace moonbot::bindings {
 
 void bind_light_cache(py::module_& m) {
+    ParamsClass<LightCacheSettings>(m, "LightCacheSettings", "How a LightCache gathers (moonbot/light_cache.h).")
+        .field("bounces", &LightCacheSettings::bounces,
+               "path vertices after each gather point (as RenderSettings.bounces), 1..16")
+        .field("rays_objects", &LightCacheSettings::rays_objects,
+               "gather rays per vertex (or lattice node) on labelled instances (bags), 1..65536")
+        .field("rays_background", &LightCacheSettings::rays_background,
+               "gather rays per vertex (or lattice node) on background instances (terrain, rocks), 1..65536")
+        .field("background_cell_m", &LightCacheSettings::background_cell_m,
+               "the background's world-space lattice spacing, metres (0 = per vertex)")
+        .field("object_cell_m", &LightCacheSettings::object_cell_m,
+               "the same for labelled instances, metres (0 = per vertex)")
+        .field("seed", &LightCacheSettings::seed, "keys the gather rays")
+        .field("threads", &LightCacheSettings::threads, "worker threads of fill_all, 0 = all")
+        .done();
     py::class_<LightCache>(m, "LightCache",
                            "A world-space cache of indirect light over a committed scene's non-moving instances "
                            "(cpp/include/moonbot/light_cache.h): filled per vertex on first touch by render(), "
                            "shared by every view of the scene.")
-        .def(py::init([](const Scene& scene, const Sun& sun, const std::optional<Sun>& earth, int bounces,
-                         int rays_objects, int rays_background, double background_cell_m, double object_cell_m, uint64_t seed,
-                         int threads) {
-                 return std::make_unique<LightCache>(
-                     scene, Lights{sun, earth},
-                     LightCacheSettings{bounces, rays_objects, rays_background, background_cell_m, object_cell_m, seed,
-                                        threads});
+        .def(py::init([](const Scene& scene, const DirectionalLight& sun, const std::optional<DirectionalLight>& earth,
+                         const LightCacheSettings& settings) {
+                 return std::make_unique<LightCache>(scene, Lights{sun, earth}, settings);
              }),
-             py::arg("scene"), py::arg("sun"), py::arg("earth") = py::none(), py::arg("bounces") = 2,
-             py::arg("rays_objects") = 256, py::arg("rays_background") = 64, py::arg("background_cell_m") = 0.0, py::arg("object_cell_m") = 0.0, py::arg("seed") = 0,
-             py::arg("threads") = 0,
+             py::arg("scene"), py::arg("sun"), py::arg("earth") = py::none(),
+             py::arg("settings") = LightCacheSettings{},
              py::keep_alive<1, 2>(),  // the cache reads the scene's meshes for its whole life
-             "bounces: path vertices after each gather point (as render's bounces, 1..16); rays_objects / "
-             "rays_background: gather rays per vertex on labelled instances (bags) / per vertex or lattice node on "
-             "background (terrain, rocks); background_cell_m: the background's world-space lattice spacing, metres "
-             "(0 = per vertex); object_cell_m: the same for labelled instances; seed: keys the gather rays; threads: of fill_all (0 = all).")
+             "A cache over `scene` for these lights, gathering as `settings` (a LightCacheSettings) says.")
         .def("covers", &LightCache::covers, py::arg("instance"),
              "Whether instance `instance` is cached (it was not moving when the cache was built).")
         .def(

@@ -6,7 +6,8 @@ namespace moonbot::bindings {
 void bind_limit(py::module_& m) {
     m.def(
         "measure_embree_limit",
-        [](const Scene& scene, const Camera& camera, const Sun& sun, int threads, int repeats, int bounces) {
+        [](const Scene& scene, const Camera& camera, const DirectionalLight& sun, int threads, int repeats,
+           int bounces) {
             EmbreeLimit l;
             {
                 py::gil_scoped_release release;

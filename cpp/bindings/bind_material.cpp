@@ -37,13 +37,7 @@ py::array_t<double, py::array::c_style> doubles(const py::handle& obj, const std
 void bind_material(py::module_& m) {
     m.def(
         "fabric_eval",
-        [](const py::object& xy, const py::object& footprint, double pitch_m, double relief_m,
-           double contrast, const py::object& albedo) {
-            FabricParams p;
-            p.pitch_m = pitch_m;
-            p.relief_m = relief_m;
-            p.contrast = contrast;
-            p.albedo = vector<3>(albedo, "albedo");
+        [](const py::object& xy, const py::object& footprint, const FabricParams& p) {
             p.validate();
             const auto pts = doubles(xy, "xy", {-1, 2});
             const auto fp = doubles(footprint, "footprint", {-1});
@@ -67,10 +61,8 @@ void bind_material(py::module_& m) {
             }
             return py::make_tuple(out_albedo, out_normal);
         },
-        py::arg("xy"), py::arg("footprint"), py::arg("pitch_m") = FabricParams{}.pitch_m,
-        py::arg("relief_m") = FabricParams{}.relief_m, py::arg("contrast") = FabricParams{}.contrast,
-        py::arg("albedo") = py::make_tuple(0.55, 0.45, 0.32),
-        "The woven fabric at points xy (N, 2) float64, metres of fabric (x along the warp = tangent, "
+        py::arg("xy"), py::arg("footprint"), py::arg("params") = FabricParams{},
+        "The woven fabric `params` (its pitch, relief, contrast and albedo; sheen plays no part) at points xy (N, 2) float64, metres of fabric (x along the warp = tangent, "
         "y along the weft = bitangent), prefiltered over footprint (N,) metres (Gaussian, "
         "sigma = footprint/2). Returns (albedo (N, 3) linear RGB, normal (N, 3) unit vectors in "
         "the (tangent, bitangent, normal) frame), float64.");
@@ -88,7 +80,7 @@ void bind_material(py::module_& m) {
                                     static_cast<py::ssize_t>(sizeof(float))},
                                    true);
         })
-        .def_property_readonly("resolution", &StainMask::resolution)
+        .def_property_readonly("resolution", &StainMask::resolution, "texels a side")
         .def(
             "sample",
             [](const StainMask& s, const py::object& uv) {
@@ -106,12 +98,7 @@ void bind_material(py::module_& m) {
 
     m.def(
         "stain_mask",
-        [](uint64_t seed, int stamps, double brush_size, double opacity, int resolution, int threads) {
-            StainParams p;
-            p.stamps = stamps;
-            p.brush_size = brush_size;
-            p.opacity = opacity;
-            p.resolution = resolution;
+        [](uint64_t seed, const StainParams& p, int threads) {
             p.validate();
             std::unique_ptr<StainMask> mask;
             {
@@ -120,12 +107,10 @@ void bind_material(py::module_& m) {
             }
             return mask;  // None when stamps == 0
         },
-        py::arg("seed"), py::arg("stamps"), py::arg("brush_size") = StainParams{}.brush_size,
-        py::arg("opacity") = StainParams{}.opacity, py::arg("resolution") = StainParams{}.resolution,
-        py::arg("threads") = 0,
-        "Paints a bag's dirt mask (paper 3.4) from `stamps` splats at centres keyed by `seed`: "
-        "a StainMask, or None when stamps == 0 (nothing allocated). brush_size in UV units; the "
-        "mask does not depend on `threads`.");
+        py::arg("seed"), py::arg("params"), py::arg("threads") = 0,
+        "Paints a bag's dirt mask (paper 3.4) from params.stamps splats (a StainParams) at centres keyed "
+        "by `seed`: a StainMask, or None when stamps == 0 (nothing allocated). The mask does not "
+        "depend on `threads`.");
     m.def(
         "stamp_centres",
         [](uint64_t seed, int stamps) {

@@ -3,18 +3,33 @@
 #include <pybind11/stl.h>
 
 #include "arrays.h"
+#include "params.h"
 #include "moonbot/light_cache.h"
 #include "moonbot/render.h"
 
 namespace moonbot::bindings {
 
 void bind_render(py::module_& m) {
+    ParamsClass<RenderSettings>(m, "RenderSettings", "A render's quality and threads (moonbot/render.h).")
+        .field("spp", &RenderSettings::spp, "RGB samples per pixel, 1..65536; 1 = the pixel-centre ray, no jitter")
+        .field("seed", &RenderSettings::seed, "keys the counter-based generator (with pixel and sample)")
+        .field("threads", &RenderSettings::threads, "worker threads, 0 = all hardware threads, at most 1024")
+        .field("exact_depth", &RenderSettings::exact_depth,
+               "re-solve hit distances in double (exact at kilometre coordinates); False keeps Embree's float32 t")
+        .field("light_samples", &RenderSettings::light_samples, "shadow rays per sample toward the Sun's disk, 1..1024")
+        .field("bounces", &RenderSettings::bounces, "diffuse inter-reflections, 0 (direct light only)..16")
+        .field("adaptive_spp", &RenderSettings::adaptive_spp,
+               "0 = off, else the samples (direct light only past spp) a pixel whose samples disagree is brought "
+               "up to, spp < adaptive_spp <= 65536")
+        .field("adaptive_threshold", &RenderSettings::adaptive_threshold,
+               "relative spread of direct luminance over a pixel's base samples that refines it, >= 0")
+        .done();
     m.def(
         "render",
-        [](const Scene& scene, const Camera& camera, const Sun& sun, int spp, uint64_t seed,
-           int threads, const std::vector<std::string>& passes, bool exact_depth, int light_samples,
-           int bounces, const std::optional<Sun>& earth, const Medium* medium, const LightCache* light_cache,
-           int adaptive_spp, double adaptive_threshold) {
+        [](const Scene& scene, const Camera& camera, const std::optional<DirectionalLight>& sun,
+           const RenderSettings& given, const std::vector<std::string>& passes,
+           const std::optional<DirectionalLight>& earth, const Medium* medium, const LightCache* light_cache) {
+            const RenderSettings settings = given;  // a copy: the Python object may change once the GIL is released
             bool rgb = false, depth = false, instance = false;
             for (const std::string& p : passes) {
                 if (p == "rgb") rgb = true;
@@ -23,6 +38,9 @@ void bind_render(py::module_& m) {
                 else fail("passes", "unknown pass '" + p + "' (rgb, depth, instance)");
             }
             if (!rgb && !depth && !instance) fail("passes", "must name at least one pass");
+            if (!sun && rgb) fail("sun", "is None: only the depth and instance passes render without a light");
+            if (!sun && (earth || medium || light_cache))
+                fail("sun", "is None: earth, medium and light_cache light the rgb pass, which needs a light");
             const auto h = static_cast<py::ssize_t>(camera.height());
             const auto w = static_cast<py::ssize_t>(camera.width());
             // The outputs are allocated as numpy arrays and the core renders straight into them.
@@ -48,9 +66,8 @@ void bind_render(py::module_& m) {
                 // The buffers are owned by `out`, which outlives this block; the scene guards
                 // itself against modification while the render runs.
                 py::gil_scoped_release release;
-                const RenderSettings settings{spp,           seed,    threads,      exact_depth,
-                                              light_samples, bounces, adaptive_spp, adaptive_threshold};
-                stats = render(scene, camera, Lights{sun, earth}, settings, view, medium, light_cache);
+                stats = sun ? render(scene, camera, Lights{*sun, earth}, settings, view, medium, light_cache)
+                            : render_geometry(scene, camera, settings, view);
             }
             out["camera_rays"] = stats.camera_rays;
             out["second_look_rays"] = stats.second_look_rays;
@@ -63,27 +80,20 @@ void bind_render(py::module_& m) {
             out["seconds"] = stats.seconds;
             return out;
         },
-        py::arg("scene"), py::arg("camera"), py::arg("sun"), py::arg("spp") = 1,
-        py::arg("seed") = 0, py::arg("threads") = 0,
-        py::arg("passes") = std::vector<std::string>{"rgb", "depth", "instance"},
-        py::arg("exact_depth") = true, py::arg("light_samples") = 1, py::arg("bounces") = 0,
-        py::arg("earth") = py::none(), py::arg("medium") = nullptr, py::arg("light_cache") = nullptr,
-        py::arg("adaptive_spp") = 0, py::arg("adaptive_threshold") = 0.25,
-        "Render one view. Returns a dict with the requested passes — rgb (H, W, 3) float32 "
-        "W/(m²·sr), depth (H, W) float32 z-depth in metres (0 = no hit), instance (H, W) uint8 "
-        "(0 = background) — and camera_rays, second_look_rays (camera rays traced again where one may have "
-        "slipped through a shared vertex), shadow_rays (bounce_shadow_rays of them from bounce vertices), "
-        "bounce_rays, medium_rays, seconds. exact_depth "
-        "re-solves hit distances in double (exact at kilometre coordinates); False keeps Embree's "
-        "float32 t. light_samples: shadow rays per sample toward each light's disk; bounces: "
-        "diffuse inter-reflections (0 = direct light only); earth: a second light (Earthshine); "
-        "medium: dust (a Medium) attenuating and scattering sunlight in rgb only (medium_rays: its "
-        "shadow rays toward the Sun); light_cache: a LightCache built for this scene, these lights and "
-        "bounces, from which camera hits on the surfaces it covers take their indirect light (no bounce rays); "
-        "adaptive_spp: 0 = off, else the samples (direct light only past spp) "
-        "a pixel whose spp base samples (or a neighbour's) disagree in hit instance, Sun visibility or direct luminance "
-        "(relative spread > adaptive_threshold) is brought up to (refined_pixels: how many; refinement_rays: "
-        "their extra camera, second-look and shadow rays).");
+        py::arg("scene"), py::arg("camera"), py::arg("sun"), py::arg("settings") = RenderSettings{},
+        py::arg("passes") = std::vector<std::string>{"rgb", "depth", "instance"}, py::arg("earth") = py::none(),
+        py::arg("medium") = nullptr, py::arg("light_cache") = nullptr,
+        "Render one view with `settings` (a RenderSettings). Returns a dict with the requested passes: rgb "
+        "(H, W, 3) float32 W/(m^2 sr), depth (H, W) float32 z-depth in metres (0 = no hit), instance (H, W) "
+        "uint8 (0 = background); and the counts camera_rays, second_look_rays (camera rays traced again where "
+        "one may have slipped through a shared vertex), shadow_rays (bounce_shadow_rays of them from bounce "
+        "vertices), bounce_rays, medium_rays (the dust's shadow rays toward the Sun), refined_pixels and "
+        "refinement_rays (adaptive anti-aliasing's pixels and their extra rays), and seconds. sun: the Sun (a "
+        "DirectionalLight), or None for the depth and instance passes alone (nothing is lit, no shadow ray "
+        "traced); earth: a second light (Earthshine); medium: dust (a Medium) attenuating and scattering "
+        "sunlight in rgb only; light_cache: a LightCache built for this scene, these lights and "
+        "settings.bounces, from which camera hits on the surfaces it covers take their indirect light (no "
+        "bounce rays).");
 }
 
 }  // namespace moonbot::bindings

@@ -7,9 +7,10 @@
 #include <pybind11/stl.h>
 
 #include "arrays.h"
+#include "params.h"
 #include "moonbot/camera.h"
 #include "moonbot/scene.h"
-#include "moonbot/sun.h"
+#include "moonbot/light.h"
 
 namespace moonbot::bindings {
 
@@ -18,168 +19,163 @@ namespace {
 Material material(const py::handle& albedo, const Photometry& photometry,
                   const std::optional<WovenSurface>& woven = std::nullopt,
                   std::shared_ptr<const RegolithGrain> grain = nullptr) {
-    return Material{glm::vec3(vector<3>(albedo, "albedo")), photometry, woven, std::move(grain)};
+    return Material{glm::vec3(vector<3>(albedo, "albedo")), validated(photometry), woven, std::move(grain)};
 }
 
-std::shared_ptr<const RegolithGrain> make_grain(double albedo_rms, double slope_rms_deg, double finest_cell_m,
-                                                double coarsest_cell_m, double hurst, uint64_t seed) {
-    GrainParams p;
-    p.albedo_rms = albedo_rms;
-    p.slope_rms_deg = slope_rms_deg;
-    p.finest_cell_m = finest_cell_m;
-    p.coarsest_cell_m = coarsest_cell_m;
-    p.hurst = hurst;
-    p.seed = seed;
-    try {
-        return std::make_shared<const RegolithGrain>(p);
-    } catch (const std::invalid_argument& e) {
-        throw py::value_error(e.what());
-    }
+const char* model_name(Photometry::Model model) {
+    return model == Photometry::Model::Lambert ? "lambert" : model == Photometry::Model::LunarLambert ? "lunar-lambert" : "hapke";
 }
 
-WovenSurface make_woven(double pitch_m, double relief_m, double contrast, double metres_per_uv, int stamps,
-                        double brush_size, double opacity, int resolution, uint64_t stain_seed,
-                        const py::handle& dirt_colour, double sheen, double sheen_along, double sheen_across,
-                        const std::string& stain_mode, double contact_height_m, double deposit_radius_m,
-                        double handled_share, double speckle) {
-    WovenSurface w;
-    w.fabric.pitch_m = pitch_m;
-    w.fabric.relief_m = relief_m;
-    w.fabric.contrast = contrast;
-    w.fabric.sheen = sheen;
-    w.fabric.sheen_along = sheen_along;
-    w.fabric.sheen_across = sheen_across;
-    if (stain_mode == "stamp") w.stain_mode = StainMode::Stamp;
-    else if (stain_mode == "dust") w.stain_mode = StainMode::Dust;
-    else fail("stain_mode", "must be 'stamp' or 'dust', got '" + stain_mode + "'");
-    w.soiling.contact_height_m = contact_height_m;
-    w.soiling.deposit_radius_m = deposit_radius_m;
-    w.soiling.handled_share = handled_share;
-    w.soiling.speckle = speckle;
-    w.metres_per_uv = metres_per_uv;
-    w.stain.stamps = stamps;
-    w.stain.brush_size = brush_size;
-    w.stain.opacity = opacity;
-    w.stain.resolution = resolution;
-    w.stain_seed = stain_seed;
-    w.dirt_colour = vector<3>(dirt_colour, "dirt_colour");
-    try {
-        w.fabric.validate();
-        w.stain.validate();
-        w.soiling.validate();
-    } catch (const std::invalid_argument& e) {
-        throw py::value_error(e.what());
-    }
-    if (!(std::isfinite(metres_per_uv) && metres_per_uv > 0)) fail("metres_per_uv", "must be positive and finite");
-    return w;
+Photometry::Model parse_model(const std::string& model) {
+    if (model == "lambert") return Photometry::Model::Lambert;
+    if (model == "lunar-lambert") return Photometry::Model::LunarLambert;
+    if (model == "hapke") return Photometry::Model::Hapke;
+    fail("model", "must be 'lambert', 'lunar-lambert' or 'hapke', got '" + model + "'");
 }
 
-Photometry make_photometry(const std::string& model, const std::string& phase, double surge_amplitude,
-                           double surge_width, double w, double b, double c, double roughness_deg,
-                           double filling_factor, double cboe_amplitude, double cboe_width) {
-    Photometry p;
-    if (model == "lambert") p.model = Photometry::Model::Lambert;
-    else if (model == "lunar-lambert") p.model = Photometry::Model::LunarLambert;
-    else if (model == "hapke") p.model = Photometry::Model::Hapke;
-    else fail("model", "must be 'lambert', 'lunar-lambert' or 'hapke', got '" + model + "'");
-    if (phase == "exponential") p.phase = Photometry::Phase::Exponential;
-    else if (phase == "mcewen") p.phase = Photometry::Phase::McEwen;
-    else fail("phase", "must be 'exponential' or 'mcewen', got '" + phase + "'");
-    if (!(surge_amplitude >= 0.0 && surge_amplitude <= 10.0)) fail("surge_amplitude", "must be in [0, 10]");
-    if (!(surge_width > 0.0 && surge_width <= 10.0)) fail("surge_width", "must be in (0, 10]");
-    // Hapke's parameters are checked whatever the model, so a bad value never waits silently
-    // for the day someone switches to Hapke. Ranges: photometry.h, Photometry::HapkeParams.
-    if (!(w >= 0.0 && w <= 1.0)) fail("w", "must be in [0, 1]");
-    if (!(b >= 0.0 && b < 1.0)) fail("b", "must be in [0, 1)");
-    if (!(c >= -1.0 && c <= 1.0)) fail("c", "must be in [-1, 1]");
-    if (!(roughness_deg >= 0.0 && roughness_deg <= 60.0)) fail("roughness_deg", "must be in [0, 60]");
-    if (!(filling_factor >= 0.0 && filling_factor <= 0.75)) fail("filling_factor", "must be in [0, 0.75]");
-    if (!(cboe_amplitude >= 0.0 && cboe_amplitude <= 1.0)) fail("cboe_amplitude", "must be in [0, 1]");
-    if (!(cboe_width > 0.0 && cboe_width <= 10.0)) fail("cboe_width", "must be in (0, 10]");
-    if (p.model == Photometry::Model::Hapke) {
-        Photometry::HapkeParams h;
-        h.w = w;
-        h.b = b;
-        h.c = c;
-        h.roughness_rad = roughness_deg * (3.14159265358979323846 / 180.0);
-        h.filling_factor = filling_factor;
-        h.cboe_amplitude = cboe_amplitude;
-        h.cboe_width = cboe_width;
-        return make_hapke(h, surge_amplitude, surge_width);
-    }
-    p.surge_amplitude = surge_amplitude;
-    p.surge_width = surge_width;
-    return p;
+Photometry::Phase parse_phase(const std::string& phase) {
+    if (phase == "exponential") return Photometry::Phase::Exponential;
+    if (phase == "mcewen") return Photometry::Phase::McEwen;
+    fail("phase", "must be 'exponential' or 'mcewen', got '" + phase + "'");
+}
+
+StainMode parse_stain_mode(const std::string& mode) {
+    if (mode == "stamp") return StainMode::Stamp;
+    if (mode == "dust") return StainMode::Dust;
+    fail("stain_mode", "must be 'stamp' or 'dust', got '" + mode + "'");
+}
+
+/// A Hapke parameter of Photometry as a read/write Python attribute.
+template <double Photometry::HapkeParams::*member>
+double get_hapke(const Photometry& p) {
+    return p.hapke.*member;
+}
+template <double Photometry::HapkeParams::*member>
+void set_hapke(Photometry& p, double value) {
+    p.hapke.*member = value;
+}
+
+void bind_photometry(py::module_& m) {
+    using H = Photometry::HapkeParams;
+    ParamsClass<Photometry>(
+        m, "Photometry",
+        "A photometric function: BRDF = albedo/pi * shape(mu_i, mu_o, g) (moonbot/photometry.h). model "
+        "'lambert' | 'lunar-lambert' (McEwen) | 'hapke' (Hapke 2012 with porosity, SHOE, CBOE, roughness; "
+        "shape normalised to 1 at i = e = g = 0). The Hapke fields are read only by 'hapke' but checked "
+        "whatever the model; their defaults are the Sato et al. 2014 lunar set. Ranges: `ranges`.")
+        .property("model", [](const Photometry& p) { return std::string(model_name(p.model)); },
+                  [](Photometry& p, const std::string& v) { p.model = parse_model(v); },
+                  "'lambert' | 'lunar-lambert' | 'hapke'")
+        .property("phase",
+                  [](const Photometry& p) {
+                      return std::string(p.phase == Photometry::Phase::Exponential ? "exponential" : "mcewen");
+                  },
+                  [](Photometry& p, const std::string& v) { p.phase = parse_phase(v); },
+                  "lunar-lambert phase weight L(g): 'exponential' (exp(-g/60 deg)) | 'mcewen' (cubic, clamped)")
+        .field("surge_amplitude", &Photometry::surge_amplitude,
+               "opposition surge 1 + B0/(1 + tan(g/2)/h): B0 (0 = off; Hapke's B_S0)")
+        .field("surge_width", &Photometry::surge_width, "the surge's width h (Hapke's h_S)")
+        .property("w", &get_hapke<&H::w>, &set_hapke<&H::w>, "hapke: single-scattering albedo of a grain")
+        .property("b", &get_hapke<&H::b>, &set_hapke<&H::b>, "hapke: double Henyey-Greenstein lobe width")
+        .property("c", &get_hapke<&H::c>, &set_hapke<&H::c>,
+                  "hapke: double Henyey-Greenstein weight (c > 0: back-scattering)")
+        .property("roughness_deg", [](const Photometry& p) { return p.hapke.roughness_rad / kRadPerDeg; },
+                  [](Photometry& p, double degrees) { p.hapke.roughness_rad = degrees * kRadPerDeg; },
+                  "hapke: mean facet slope theta-bar of Hapke 1984, degrees")
+        .property("filling_factor", &get_hapke<&H::filling_factor>, &set_hapke<&H::filling_factor>,
+                  "hapke: volume fraction of grains phi (porosity factor K; 0: K = 1)")
+        .property("cboe_amplitude", &get_hapke<&H::cboe_amplitude>, &set_hapke<&H::cboe_amplitude>,
+                  "hapke: coherent-backscatter amplitude B_C0")
+        .property("cboe_width", &get_hapke<&H::cboe_width>, &set_hapke<&H::cboe_width>,
+                  "hapke: coherent-backscatter width h_C")
+        .done()
+        .def("shape", [](const Photometry& p, double mu_i, double mu_o, double cos_g) {
+            return photometric_shape(validated(p), mu_i, mu_o, cos_g);
+        }, py::arg("mu_i"), py::arg("mu_o"), py::arg("cos_g"),
+           "BRDF / (albedo/pi) for cosines of incidence and emission (both > 0, else 0) and cos phase.")
+        .def("hapke_reflectance", [](const Photometry& p, double mu_i, double mu_o, double cos_g) {
+            if (p.model != Photometry::Model::Hapke) fail("model", "hapke_reflectance needs model 'hapke'");
+            return mu_i > 0.0 ? mu_i * hapke_brdf(validated(p), mu_i, mu_o, cos_g) : 0.0;
+        }, py::arg("mu_i"), py::arg("mu_o"), py::arg("cos_g"),
+           "Hapke's bidirectional reflectance r(i, e, g) = mu_i * BRDF, per steradian, un-normalised "
+           "(radiance / collimated irradiance).")
+        .def_property_readonly("hapke_normal_albedo", [](const Photometry& p) -> std::optional<double> {
+            if (p.model != Photometry::Model::Hapke) return std::nullopt;
+            return validated(p).hapke.normal_albedo;
+        }, "Hapke's normal albedo A_N = pi * r(0, 0, 0) for these parameters (the shape's normaliser); "
+           "None for other models.")
+        .def_property_readonly("porosity_factor", [](const Photometry& p) -> std::optional<double> {
+            if (p.model != Photometry::Model::Hapke) return std::nullopt;
+            return validated(p).hapke.K;
+        }, "Hapke's porosity factor K(filling_factor); None for other models.");
+    py::dict ranges;
+    for (const ParamRange& r : kPhotometryRanges) ranges[r.field] = py::make_tuple(r.lo, r.hi, r.lo_open, r.hi_open);
+    m.attr("Photometry").attr("ranges") = ranges;
+}
+
+void bind_woven(py::module_& m) {
+    ParamsClass<FabricParams>(m, "FabricParams", "The procedural weave of a bag's cloth (moonbot/fabric.h).")
+        .field("pitch_m", &FabricParams::pitch_m, "weave pitch, metres, > 0")
+        .field("relief_m", &FabricParams::relief_m, "weave relief, metres, >= 0")
+        .field("contrast", &FabricParams::contrast, "albedo contrast between warp and weft, [0, 1]")
+        .vec3("albedo", &FabricParams::albedo, "the tapes' albedo (3,), linear RGB, each in [0, 1]")
+        .field("sheen", &FabricParams::sheen, "weight of the tapes' glossy lobe, [0, 1] (0: matte)")
+        .field("sheen_along", &FabricParams::sheen_along, "GGX roughness along a tape, [0.01, 1]")
+        .field("sheen_across", &FabricParams::sheen_across, "GGX roughness across a tape, [0.01, 1]")
+        .done();
+    ParamsClass<StainParams>(m, "StainParams", "The dirt on a bag (moonbot/stain.h; Dust mode: its deposits).")
+        .field("stamps", &StainParams::stamps, "stamps (Dust mode: deposits), >= 0; 0 = clean, nothing made")
+        .field("brush_size", &StainParams::brush_size, "stamp size, a fraction of the texture")
+        .field("opacity", &StainParams::opacity, "one stamp's coverage at its centre, [0, 1]")
+        .field("resolution", &StainParams::resolution, "stain mask texels a side, [1, 8192]")
+        .done();
+    ParamsClass<SoilingParams>(m, "SoilingParams",
+                               "The shape of Dust mode's regolith dust (moonbot/soiling.h); its deposits and "
+                               "opacity are StainParams' stamps and opacity.")
+        .field("contact_height_m", &SoilingParams::contact_height_m, "the contact band's e-folding height, metres, (0, 1]")
+        .field("deposit_radius_m", &SoilingParams::deposit_radius_m, "mean deposit radius, metres, (0, 1]")
+        .field("handled_share", &SoilingParams::handled_share, "share of deposits near the top, [0, 1]")
+        .field("speckle", &SoilingParams::speckle, "grain strength, [0, 2]")
+        .done();
+    ParamsClass<WovenSurface>(m, "WovenSurface",
+                              "A bag's cloth: the procedural weave (fabric; sheen > 0 adds the tapes' glossy "
+                              "lobe) on the mesh's corner UVs and its dirt, made per instance from stain_seed: "
+                              "stain_mode 'stamp' paints the paper's stain (stain.h), 'dust' gathers regolith dust "
+                              "(soiling.h); 0 stamps = clean, nothing made.")
+        .field("fabric", &WovenSurface::fabric, "the weave (FabricParams)")
+        .field("metres_per_uv", &WovenSurface::metres_per_uv, "fabric metres per atlas UV unit, > 0")
+        .field("stain", &WovenSurface::stain, "the dirt's stamps (StainParams)")
+        .field("stain_seed", &WovenSurface::stain_seed, "keys this instance's dirt")
+        .vec3("dirt_colour", &WovenSurface::dirt_colour, "the dirt's colour (3,), linear RGB, each in [0, 1]")
+        .property("stain_mode",
+                  [](const WovenSurface& w) { return std::string(w.stain_mode == StainMode::Stamp ? "stamp" : "dust"); },
+                  [](WovenSurface& w, const std::string& mode) { w.stain_mode = parse_stain_mode(mode); },
+                  "'stamp' | 'dust'")
+        .field("soiling", &WovenSurface::soiling, "Dust mode's shape (SoilingParams)")
+        .done();
 }
 
 }  // namespace
 
 void bind_scene(py::module_& m) {
-    py::class_<Photometry>(m, "Photometry",
-                           "A photometric function: BRDF = albedo/π · shape(μi, μo, g) (moonbot/photometry.h).")
-        .def(py::init(&make_photometry), py::arg("model") = "lambert", py::arg("phase") = "exponential",
-             py::arg("surge_amplitude") = 0.0, py::arg("surge_width") = 0.07, py::kw_only(),
-             py::arg("w") = 0.32, py::arg("b") = 0.24, py::arg("c") = 0.30, py::arg("roughness_deg") = 23.4,
-             py::arg("filling_factor") = 0.3, py::arg("cboe_amplitude") = 0.0, py::arg("cboe_width") = 1.0,
-             "model 'lambert' | 'lunar-lambert' (McEwen) | 'hapke' (Hapke 2012 with porosity, SHOE, "
-             "CBOE, roughness; shape normalised to 1 at i = e = g = 0); phase weight L(g) 'exponential' "
-             "(exp(-g/60°)) | 'mcewen' (cubic, clamped), lunar-lambert only; opposition surge 1 + B0/(1 + "
-             "tan(g/2)/h) with B0 = surge_amplitude (0 = off), h = surge_width (Hapke's B_S0, h_S). "
-             "Hapke only (keywords): w single-scattering albedo; b, c double Henyey-Greenstein (c > 0 "
-             "back-scattering); roughness_deg mean slope θ̄, degrees; filling_factor φ (porosity "
-             "factor K); cboe_amplitude B_C0, cboe_width h_C. Defaults: Sato et al. 2014 lunar set.")
-        .def("shape", [](const Photometry& p, double mu_i, double mu_o, double cos_g) {
-            return photometric_shape(p, mu_i, mu_o, cos_g);
-        }, py::arg("mu_i"), py::arg("mu_o"), py::arg("cos_g"),
-           "BRDF / (albedo/π) for cosines of incidence and emission (both > 0, else 0) and cos phase.")
-        .def_property_readonly("model", [](const Photometry& p) {
-            return p.model == Photometry::Model::Lambert ? "lambert"
-                   : p.model == Photometry::Model::LunarLambert ? "lunar-lambert" : "hapke";
-        })
-        .def("hapke_reflectance", [](const Photometry& p, double mu_i, double mu_o, double cos_g) {
-            if (p.model != Photometry::Model::Hapke) fail("model", "hapke_reflectance needs model 'hapke'");
-            return mu_i > 0.0 ? mu_i * hapke_brdf(p, mu_i, mu_o, cos_g) : 0.0;
-        }, py::arg("mu_i"), py::arg("mu_o"), py::arg("cos_g"),
-           "Hapke's bidirectional reflectance r(i, e, g) = μi·BRDF, per steradian, un-normalised "
-           "(radiance / collimated irradiance).")
-        .def_property_readonly("hapke_normal_albedo", [](const Photometry& p) -> py::object {
-            if (p.model != Photometry::Model::Hapke) return py::none();
-            return py::float_(p.hapke.normal_albedo);
-        }, "Hapke's normal albedo A_N = π·r(0, 0, 0) for these parameters (the shape's normaliser); "
-           "None for other models.")
-        .def_property_readonly("porosity_factor", [](const Photometry& p) -> py::object {
-            if (p.model != Photometry::Model::Hapke) return py::none();
-            return py::float_(p.hapke.K);
-        }, "Hapke's porosity factor K(filling_factor); None for other models.");
-
-    py::class_<WovenSurface>(m, "WovenSurface",
-                             "A bag's cloth: the procedural weave (fabric.h; sheen > 0 adds the tapes' glossy "
-                             "lobe) on the mesh's corner UVs and its dirt, made per instance from stain_seed: "
-                             "stain_mode 'stamp' paints the paper's stain (stain.h), 'dust' gathers regolith dust "
-                             "(soiling.h); 0 stamps = clean, nothing made.")
-        .def(py::init(&make_woven), py::arg("pitch_m") = 1.5e-3, py::arg("relief_m") = 1.0e-4,
-             py::arg("contrast") = 0.04, py::arg("metres_per_uv") = 1.0, py::arg("stamps") = 0,
-             py::arg("brush_size") = 0.18, py::arg("opacity") = 0.5, py::arg("resolution") = 512,
-             py::arg("stain_seed") = 0, py::arg("dirt_colour") = py::make_tuple(0.12, 0.11, 0.10),
-             py::arg("sheen") = 0.0, py::arg("sheen_along") = FabricParams{}.sheen_along,
-             py::arg("sheen_across") = FabricParams{}.sheen_across, py::arg("stain_mode") = "stamp",
-             py::arg("contact_height_m") = SoilingParams{}.contact_height_m,
-             py::arg("deposit_radius_m") = SoilingParams{}.deposit_radius_m,
-             py::arg("handled_share") = SoilingParams{}.handled_share, py::arg("speckle") = SoilingParams{}.speckle);
-
+    bind_photometry(m);
+    bind_woven(m);
+    ParamsClass<GrainParams>(m, "GrainParams", "Regolith's granular micro-texture (moonbot/regolith_texture.h).")
+        .field("albedo_rms", &GrainParams::albedo_rms, "relative RMS of the unfiltered albedo factor, [0, 0.5]")
+        .field("slope_rms_deg", &GrainParams::slope_rms_deg, "1-D RMS slope of the unfiltered relief, degrees, [0, 45]")
+        .field("finest_cell_m", &GrainParams::finest_cell_m, "smallest lattice cell, metres, > 0")
+        .field("coarsest_cell_m", &GrainParams::coarsest_cell_m, "largest lattice cell, metres, >= finest, <= 1")
+        .field("hurst", &GrainParams::hurst, "relief amplitude grows as cell^hurst, [0, 1]")
+        .field("seed", &GrainParams::seed, "keys the lattices")
+        .done();
     py::class_<RegolithGrain, std::shared_ptr<RegolithGrain>>(
         m, "RegolithGrain",
         "Regolith's granular micro-texture (regolith_texture.h): octaves of value noise of cells "
         "finest_cell_m·2^k up to coarsest_cell_m (metres), an albedo factor of relative RMS albedo_rms "
         "and relief of 1-D RMS slope slope_rms_deg (degrees), prefiltered over each pixel's footprint.")
-        .def(py::init([](double albedo_rms, double slope_rms_deg, double finest_cell_m, double coarsest_cell_m,
-                         double hurst, uint64_t seed) {
-                 return std::const_pointer_cast<RegolithGrain>(
-                     make_grain(albedo_rms, slope_rms_deg, finest_cell_m, coarsest_cell_m, hurst, seed));
-             }),
-             py::arg("albedo_rms") = 0.0, py::arg("slope_rms_deg") = 0.0, py::arg("finest_cell_m") = 1e-3,
-             py::arg("coarsest_cell_m") = 1.6e-2, py::arg("hurst") = 0.6, py::arg("seed") = 0)
-        .def_property_readonly("octaves", &RegolithGrain::octaves)
+        .def(py::init([](const GrainParams& params) { return std::make_shared<RegolithGrain>(params); }),
+             py::arg("params"), "Its octaves laid out; ValueError naming the field on bad params.")
+        .def_property_readonly("octaves", &RegolithGrain::octaves, "octaves of value noise, finest to coarsest cell")
         .def_property_readonly("flat_footprint_m", &RegolithGrain::flat_footprint_m,
                                "footprints (metres) at or above this give exactly the mean")
         .def(
@@ -352,9 +348,9 @@ void bind_scene(py::module_& m) {
             "traces them), watertight as the renderer's camera rays are: (t (N,) float64 in units of |direction|, inf on a miss; instance (N,) int64, -1 on a "
             "miss; primitive (N,) int64, the triangle's index in its mesh, -1 on a miss). For checking the "
             "traversal itself; renders resolve hits in double on top of this.")
-        .def_property_readonly("committed", &Scene::committed)
-        .def_property_readonly("mesh_count", &Scene::mesh_count)
-        .def_property_readonly("instance_count", &Scene::instance_count)
+        .def_property_readonly("committed", &Scene::committed, "commit() has run since the last change")
+        .def_property_readonly("mesh_count", &Scene::mesh_count, "prototype meshes added")
+        .def_property_readonly("instance_count", &Scene::instance_count, "instances added, labelled and background")
         .def_property_readonly("bvh_builds", &Scene::bvh_builds,
                                "BVH builds so far: one per mesh plus one per commit.");
 
@@ -368,8 +364,8 @@ void bind_scene(py::module_& m) {
              py::arg("height"), py::arg("R"), py::arg("t"),
              "Intrinsics in pixels; R (3, 3) and t (3,) metres map world to camera: "
              "x_cam = R x_world + t.")
-        .def_property_readonly("width", &Camera::width)
-        .def_property_readonly("height", &Camera::height)
+        .def_property_readonly("width", &Camera::width, "pixels")
+        .def_property_readonly("height", &Camera::height, "pixels")
         .def_property_readonly("center", [](const Camera& c) {
             const glm::dvec3 p = c.center();
             return py::array_t<double>(3, &p.x);
@@ -393,20 +389,29 @@ void bind_scene(py::module_& m) {
             "Project world points (N, 3) metres to (u, v, z): pixel coordinates with pixel "
             "centres at +0.5, and z-depth in metres.");
 
-    py::class_<Sun>(m, "Sun",
-                    "A distant disk light (the Sun, or the Earth for Earthshine): azimuth clockwise from "
-                    "North, elevation, irradiance W/m², angular diameter (0 = point), linear RGB tint.")
+    py::class_<DirectionalLight>(m, "DirectionalLight",
+                                 "A distant disk light, the Sun or the Earth (Earthshine): azimuth clockwise from "
+                                 "North (0 = +y, 90 = +x) and elevation above the horizon, degrees; irradiance, "
+                                 "W/m^2 on a surface facing it (default: the Sun's at 1 au); angular diameter of its "
+                                 "disk, degrees (0 = a point); linear RGB tint of the irradiance.")
         .def(py::init([](double az, double el, double irradiance, double diameter, const py::handle& color) {
-                 return Sun(az, el, irradiance, diameter, vector<3>(color, "color"));
+                 return DirectionalLight(az, el, irradiance, diameter, vector<3>(color, "color"));
              }),
-             py::arg("azimuth_deg"), py::arg("elevation_deg"), py::arg("irradiance") = 1361.0,
-             py::arg("angular_diameter_deg") = 0.0, py::arg("color") = py::make_tuple(1.0, 1.0, 1.0))
-        .def_property_readonly("direction", [](const Sun& s) {
+             py::arg("azimuth_deg"), py::arg("elevation_deg"), py::arg("irradiance") = kSolarIrradiance,
+             py::arg("angular_diameter_deg") = 0.0, py::arg("color") = py::make_tuple(1.0, 1.0, 1.0),
+             "ValueError naming the field: elevation in [-90, 90], irradiance in [0, 1e7], angular diameter in "
+             "[0, 10], each color channel in [0, 10].")
+        .def_property_readonly("direction", [](const DirectionalLight& s) {
             const glm::dvec3 d = s.direction();
             return py::array_t<double>(3, &d.x);
-        }, "Unit vector toward the Sun, world ENU.")
-        .def_property_readonly("irradiance", &Sun::irradiance)
-        .def_property_readonly("angular_diameter_deg", &Sun::angular_diameter_deg);
+        }, "Unit vector toward the light, world ENU, (3,) float64.")
+        .def_property_readonly("azimuth_deg", &DirectionalLight::azimuth_deg, "clockwise from North, degrees")
+        .def_property_readonly("elevation_deg", &DirectionalLight::elevation_deg, "above the horizon, degrees")
+        .def_property_readonly("irradiance", &DirectionalLight::irradiance, "W/m^2")
+        .def_property_readonly("color", [](const DirectionalLight& s) {
+            return py::make_tuple(s.color().x, s.color().y, s.color().z);
+        }, "linear RGB tint")
+        .def_property_readonly("angular_diameter_deg", &DirectionalLight::angular_diameter_deg);
 }
 
 }  // namespace moonbot::bindings

@@ -160,27 +160,31 @@ struct LightCache::Impl {
     }
 };
 
+void LightCacheSettings::validate() const {
+    if (bounces < 1 || bounces > kMaxBounces)
+        throw std::invalid_argument("bounces: a light cache needs 1.." + std::to_string(kMaxBounces) + ", got " +
+                                    std::to_string(bounces));
+    if (rays_objects < 1 || rays_objects > kMaxGatherRays)
+        throw std::invalid_argument("rays_objects: must be in 1.." + std::to_string(kMaxGatherRays) + ", got " +
+                                    std::to_string(rays_objects));
+    if (rays_background < 1 || rays_background > kMaxGatherRays)
+        throw std::invalid_argument("rays_background: must be in 1.." + std::to_string(kMaxGatherRays) +
+                                    ", got " + std::to_string(rays_background));
+    if (!(background_cell_m >= 0.0) || !std::isfinite(background_cell_m))
+        throw std::invalid_argument("background_cell_m: must be finite and >= 0, got " +
+                                    std::to_string(background_cell_m));
+    if (!(object_cell_m >= 0.0) || !std::isfinite(object_cell_m))
+        throw std::invalid_argument("object_cell_m: must be finite and >= 0, got " +
+                                    std::to_string(object_cell_m));
+    if (threads < 0 || threads > kMaxThreads)
+        throw std::invalid_argument("threads: must be in 0.." + std::to_string(kMaxThreads) +
+                                    " (0 = all), got " + std::to_string(threads));
+}
+
 LightCache::LightCache(const Scene& scene, const Lights& lights, const LightCacheSettings& settings)
     : m_scene(scene), m_lights(lights), m_settings(settings), m_revision(scene.static_revision()),
       m_impl(std::make_unique<Impl>()) {
-    if (settings.bounces < 1 || settings.bounces > kMaxBounces)
-        throw std::invalid_argument("bounces: a light cache needs 1.." + std::to_string(kMaxBounces) + ", got " +
-                                    std::to_string(settings.bounces));
-    if (settings.rays_objects < 1 || settings.rays_objects > kMaxGatherRays)
-        throw std::invalid_argument("rays_objects: must be in 1.." + std::to_string(kMaxGatherRays) + ", got " +
-                                    std::to_string(settings.rays_objects));
-    if (settings.rays_background < 1 || settings.rays_background > kMaxGatherRays)
-        throw std::invalid_argument("rays_background: must be in 1.." + std::to_string(kMaxGatherRays) +
-                                    ", got " + std::to_string(settings.rays_background));
-    if (!(settings.background_cell_m >= 0.0) || !std::isfinite(settings.background_cell_m))
-        throw std::invalid_argument("background_cell_m: must be finite and >= 0, got " +
-                                    std::to_string(settings.background_cell_m));
-    if (!(settings.object_cell_m >= 0.0) || !std::isfinite(settings.object_cell_m))
-        throw std::invalid_argument("object_cell_m: must be finite and >= 0, got " +
-                                    std::to_string(settings.object_cell_m));
-    if (settings.threads < 0 || settings.threads > kMaxThreads)
-        throw std::invalid_argument("threads: must be in 0.." + std::to_string(kMaxThreads) +
-                                    " (0 = all), got " + std::to_string(settings.threads));
+    settings.validate();
     if (!scene.committed())
         throw std::invalid_argument("scene: not committed (call commit() after adding geometry)");
     Impl& m = *m_impl;

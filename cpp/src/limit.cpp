@@ -185,7 +185,7 @@ int sun_rays(const InstanceData* instances, const RayHit* traced, const glm::dve
 
 }  // namespace
 
-EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const Sun& sun,
+EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const DirectionalLight& sun,
                                  int threads, int repeats, int bounces) {
     if (repeats < 1) throw std::invalid_argument("repeats: must be >= 1");
     if (bounces < 0 || bounces > kMaxBounces)

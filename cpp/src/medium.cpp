@@ -73,40 +73,60 @@ DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& s
     // that every Sun ray runs along a grid line.
     detail::orthonormal_basis(m_sun, m_axis[0], m_axis[1]);
     m_axis[2] = m_sun;
-    const std::vector<Puff>& puffs = medium.puffs;
+    std::vector<glm::dvec3> centre;
+    const std::vector<double> reach = bound_puffs(centre);
+    if (!lay_out_nodes()) {  // nothing that counts
+        m_n[0] = m_n[1] = m_n[2] = 0;
+        return;
+    }
+    const std::vector<float> extinction = bake_extinction(reach, centre);
+    integrate_sun_depth(extinction);
+    const std::vector<float> visible = shade_from_sun(extinction, scene);
+    pack_lookup(extinction, visible);
+    mark_empty_blocks(extinction);
+}
+
+std::vector<double> DustGrid::bound_puffs(std::vector<glm::dvec3>& centre) {
+    const std::vector<Puff>& puffs = m_medium.puffs;
     m_reach.resize(puffs.size());
     std::vector<double> reach(puffs.size());  // m_reach, but 0 for the puffs the grid leaves out
-    std::vector<glm::dvec3> centre(puffs.size());
+    centre.resize(puffs.size());
     m_lo = glm::dvec3(INFINITY), m_hi = glm::dvec3(-INFINITY);
     for (size_t p = 0; p < puffs.size(); ++p) {
         reach[p] = m_reach[p] = puff_reach(puffs[p]);
         centre[p] = frame(puffs[p].centre);
         // A puff wholly under the floor is never seen or lit.
-        if (reach[p] <= 0.0 || puffs[p].centre.z + reach[p] <= medium.floor_z) {
+        if (reach[p] <= 0.0 || puffs[p].centre.z + reach[p] <= m_medium.floor_z) {
             reach[p] = 0.0;
             continue;
         }
         m_lo = glm::min(m_lo, centre[p] - reach[p]);
         m_hi = glm::max(m_hi, centre[p] + reach[p]);
     }
-    if (!(m_lo.x < m_hi.x && m_lo.y < m_hi.y && m_lo.z < m_hi.z)) {  // nothing that counts
-        m_n[0] = m_n[1] = m_n[2] = 0;
-        return;
-    }
+    return reach;
+}
+
+bool DustGrid::lay_out_nodes() {
+    if (!(m_lo.x < m_hi.x && m_lo.y < m_hi.y && m_lo.z < m_hi.z)) return false;
     const glm::dvec3 extent = m_hi - m_lo;
-    m_h = std::max(medium.voxel_m, std::max({extent.x, extent.y, extent.z}) / (kMaxGridNodes - 1));
+    m_h = std::max(m_medium.voxel_m, std::max({extent.x, extent.y, extent.z}) / (kMaxGridNodes - 1));
     for (int a = 0; a < 3; ++a) {
         m_n[a] = std::max(2, static_cast<int>(std::ceil(extent[a] / m_h)) + 1);
         m_hi[a] = m_lo[a] + (m_n[a] - 1) * m_h;
     }
-    const size_t count = static_cast<size_t>(m_n[0]) * m_n[1] * m_n[2];
-    std::vector<float> extinction(count, 0.0f), visible(count, 1.0f);
-    m_sun_depth.assign(count, 0.0f);
+    return true;
+}
 
-    // Extinction: an isotropic Gaussian is separable in any orthonormal frame, so each puff adds
+size_t DustGrid::node_count() const { return static_cast<size_t>(m_n[0]) * m_n[1] * m_n[2]; }
+
+std::vector<float> DustGrid::bake_extinction(const std::vector<double>& reach,
+                                             const std::vector<glm::dvec3>& centre) const {
+    // An isotropic Gaussian is separable in any orthonormal frame, so each puff adds
     // peak·g0[i]·g1[j]·g2[k] over the nodes of its reach: no transcendental per node. Lines along
     // the Sun (i, j) in parallel, each summing the puffs in their fixed order: the same bits
     // whatever the threads.
+    const std::vector<Puff>& puffs = m_medium.puffs;
+    std::vector<float> extinction(node_count(), 0.0f);
     tbb::parallel_for(0, m_n[1], [&](int j) {
         std::vector<double> g0, g2;
         const double v = m_lo.y + j * m_h;
@@ -141,9 +161,13 @@ DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& s
             }
         }
     });
+    return extinction;
+}
 
-    // Optical depth toward the Sun: along each grid line, from the Sun's end (k = n − 1, where
-    // nothing lies beyond) back, by the trapezoid rule.
+void DustGrid::integrate_sun_depth(const std::vector<float>& extinction) {
+    // Along each grid line, from the Sun's end (k = n − 1, where nothing lies beyond) back, by the
+    // trapezoid rule.
+    m_sun_depth.assign(node_count(), 0.0f);
     tbb::parallel_for(0, m_n[1], [&](int j) {
         for (int i = 0; i < m_n[0]; ++i) {
             double depth = 0.0;
@@ -153,11 +177,14 @@ DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& s
             }
         }
     });
+}
 
-    // Geometric shade: one ray toward the Sun's centre from each node with dust (nodes without
-    // any only blend into empty space). A node whose ray meets the back of a surface first is
-    // inside the ground or a bag, where no dust is ever seen: it counts as lit, so that the dust
-    // just above the ground is not dimmed by interpolating toward it.
+std::vector<float> DustGrid::shade_from_sun(const std::vector<float>& extinction, const Scene& scene) {
+    // One ray toward the Sun's centre from each node with dust (nodes without any only blend into
+    // empty space). A node whose ray meets the back of a surface first is inside the ground or a
+    // bag, where no dust is ever seen: it counts as lit, so that the dust just above the ground is
+    // not dimmed by interpolating toward it.
+    std::vector<float> visible(node_count(), 1.0f);
     std::atomic<uint64_t> rays{0};
     tbb::parallel_for(0, m_n[2], [&](int k) {
         std::vector<RayHit> batch(static_cast<size_t>(m_n[0]));
@@ -167,7 +194,7 @@ DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& s
             for (int i = 0; i < m_n[0]; ++i) {
                 if (!(extinction[node(i, j, k)] > 1e-6f)) continue;
                 const glm::dvec3 point = world(glm::dvec3(m_lo.x + i * m_h, m_lo.y + j * m_h, m_lo.z + k * m_h));
-                if (point.z < medium.floor_z) continue;
+                if (point.z < m_medium.floor_z) continue;
                 detail::set_ray(batch[static_cast<size_t>(n)], point, m_sun);
                 which[static_cast<size_t>(n++)] = i;
             }
@@ -184,14 +211,21 @@ DustGrid::DustGrid(const Medium& medium, const Scene& scene, const glm::dvec3& s
         }
     });
     m_shadow_rays = rays;
-    // What the march reads per step: the extinction and the Sun's light left at each node.
+    return visible;
+}
+
+void DustGrid::pack_lookup(const std::vector<float>& extinction, const std::vector<float>& visible) {
+    const size_t count = node_count();
     m_lookup.resize(2 * count);
     for (size_t n = 0; n < count; ++n) {
         m_lookup[2 * n] = extinction[n];
         m_lookup[2 * n + 1] = visible[n] * static_cast<float>(std::exp(-double(m_sun_depth[n])));
     }
-    // The empty blocks: block b spans cells kBlock·b .. kBlock·b + kBlock − 1, so nodes
-    // kBlock·b .. kBlock·(b + 1), the faces shared with its neighbours included.
+}
+
+void DustGrid::mark_empty_blocks(const std::vector<float>& extinction) {
+    // Block b spans cells kBlock·b .. kBlock·b + kBlock − 1, so nodes kBlock·b .. kBlock·(b + 1),
+    // the faces shared with its neighbours included.
     for (int a = 0; a < 3; ++a) m_blocks[a] = (m_n[a] - 2) / kBlock + 1;
     m_empty.assign(static_cast<size_t>(m_blocks[0]) * m_blocks[1] * m_blocks[2], 1);
     tbb::parallel_for(0, m_blocks[2], [&](int bk) {

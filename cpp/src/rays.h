@@ -16,7 +16,7 @@
 #include "moonbot/camera.h"
 #include "moonbot/sampler.h"
 #include "moonbot/scene.h"
-#include "moonbot/sun.h"
+#include "moonbot/light.h"
 #include "orthonormal_basis.h"
 
 namespace moonbot::detail {
@@ -198,7 +198,7 @@ struct LightData {
 /// shines, then the Earth, if present.
 inline std::vector<LightData> light_table(const Lights& lights) {
     std::vector<LightData> table;
-    auto add = [&](const Sun& l) {
+    auto add = [&](const DirectionalLight& l) {
         if (l.irradiance() <= 0.0) return;
         LightData d;
         d.dir = l.direction();

@@ -821,14 +821,47 @@ private:
 
 }  // namespace
 
-RenderStats render(const Scene& scene, const Camera& camera, const Sun& sun,
+RenderStats render(const Scene& scene, const Camera& camera, const DirectionalLight& sun,
                    const RenderSettings& settings, const FrameView& out) {
     return render(scene, camera, Lights{sun, std::nullopt}, settings, out);
 }
 
+void RenderSettings::validate() const {
+    if (light_samples < 1 || light_samples > kMaxLightSamples)
+        throw std::invalid_argument("light_samples: must be in 1.." + std::to_string(kMaxLightSamples) + ", got " +
+                                    std::to_string(light_samples));
+    if (bounces < 0 || bounces > kMaxBounces)
+        throw std::invalid_argument("bounces: must be in 0.." + std::to_string(kMaxBounces) + ", got " +
+                                    std::to_string(bounces));
+    if (spp < 1 || spp > kMaxSpp)
+        throw std::invalid_argument("spp: must be in 1.." + std::to_string(kMaxSpp) + ", got " +
+                                    std::to_string(spp));
+    if (adaptive_spp != 0) {
+        if (adaptive_spp <= spp || adaptive_spp > kMaxSpp)
+            throw std::invalid_argument("adaptive_spp: must be 0 (off) or in spp + 1.." + std::to_string(kMaxSpp) +
+                                        " = " + std::to_string(spp + 1) + ".." + std::to_string(kMaxSpp) +
+                                        ", got " + std::to_string(adaptive_spp));
+    }
+    if (!(adaptive_threshold >= 0.0) || !std::isfinite(adaptive_threshold))
+        throw std::invalid_argument("adaptive_threshold: must be a finite number >= 0, got " +
+                                    std::to_string(adaptive_threshold));
+    if (threads < 0 || threads > kMaxThreads)
+        throw std::invalid_argument("threads: must be in 0.." + std::to_string(kMaxThreads) +
+                                    " (0 = all), got " + std::to_string(threads));
+}
+
+RenderStats render_geometry(const Scene& scene, const Camera& camera, const RenderSettings& settings,
+                            const FrameView& out) {
+    if (out.rgb) throw std::invalid_argument("rgb: render_geometry renders depth and instance only");
+    // The renderer reads its lights only to shade rgb, which is not asked for here: any light will
+    // do, and none of it is used.
+    const DirectionalLight unused(0.0, 90.0, 0.0);
+    return render(scene, camera, Lights{unused, std::nullopt}, settings, out);
+}
+
 namespace {
 
-bool same_light(const Sun& a, const Sun& b) {
+bool same_light(const DirectionalLight& a, const DirectionalLight& b) {
     return a.direction() == b.direction() && a.irradiance() == b.irradiance() &&
            a.half_angle() == b.half_angle() && a.color() == b.color();
 }
@@ -853,27 +886,7 @@ void check_light_cache(const LightCache& cache, const Scene& scene, const Lights
 RenderStats render(const Scene& scene, const Camera& camera, const Lights& lights,
                    const RenderSettings& settings, const FrameView& out, const Medium* medium,
                    const LightCache* light_cache) {
-    if (settings.light_samples < 1 || settings.light_samples > kMaxLightSamples)
-        throw std::invalid_argument("light_samples: must be in 1.." + std::to_string(kMaxLightSamples) + ", got " +
-                                    std::to_string(settings.light_samples));
-    if (settings.bounces < 0 || settings.bounces > kMaxBounces)
-        throw std::invalid_argument("bounces: must be in 0.." + std::to_string(kMaxBounces) + ", got " +
-                                    std::to_string(settings.bounces));
-    if (settings.spp < 1 || settings.spp > kMaxSpp)
-        throw std::invalid_argument("spp: must be in 1.." + std::to_string(kMaxSpp) + ", got " +
-                                    std::to_string(settings.spp));
-    if (settings.adaptive_spp != 0) {
-        if (settings.adaptive_spp <= settings.spp || settings.adaptive_spp > kMaxSpp)
-            throw std::invalid_argument("adaptive_spp: must be 0 (off) or in spp + 1.." + std::to_string(kMaxSpp) +
-                                        " = " + std::to_string(settings.spp + 1) + ".." + std::to_string(kMaxSpp) +
-                                        ", got " + std::to_string(settings.adaptive_spp));
-    }
-    if (!(settings.adaptive_threshold >= 0.0) || !std::isfinite(settings.adaptive_threshold))
-        throw std::invalid_argument("adaptive_threshold: must be a finite number >= 0, got " +
-                                    std::to_string(settings.adaptive_threshold));
-    if (settings.threads < 0 || settings.threads > kMaxThreads)
-        throw std::invalid_argument("threads: must be in 0.." + std::to_string(kMaxThreads) +
-                                    " (0 = all), got " + std::to_string(settings.threads));
+    settings.validate();
     const Scene::ReadLock lock(scene);  // before the checks, so they stay true during the render
     if (!scene.committed())
         throw std::invalid_argument("scene: not committed (call commit() after adding geometry)");
@@ -936,7 +949,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     return stats;
 }
 
-Frame render_frame(const Scene& scene, const Camera& camera, const Sun& sun,
+Frame render_frame(const Scene& scene, const Camera& camera, const DirectionalLight& sun,
                    const RenderSettings& settings) {
     return render_frame(scene, camera, Lights{sun, std::nullopt}, settings);
 }

@@ -14,17 +14,24 @@ void check_material(const Material& m) {
         if (!(m.albedo[c] >= 0.0f && m.albedo[c] <= 1.0f))
             throw std::invalid_argument("albedo: each channel must be in [0, 1], got " +
                                         std::to_string(m.albedo[c]));
-    if (!m.woven) return;
-    const WovenSurface& w = *m.woven;
-    w.fabric.validate();
-    w.stain.validate();
-    if (w.stain_mode == StainMode::Dust) w.soiling.validate();
-    if (!(std::isfinite(w.metres_per_uv) && w.metres_per_uv > 0))
+    m.photometry.validate();
+    if (m.woven) m.woven->validate();
+}
+
+}  // namespace
+
+void WovenSurface::validate() const {
+    fabric.validate();
+    stain.validate();
+    soiling.validate();
+    if (!(std::isfinite(metres_per_uv) && metres_per_uv > 0))
         throw std::invalid_argument("metres_per_uv: must be positive and finite");
     for (int c = 0; c < 3; ++c)
-        if (!(w.dirt_colour[c] >= 0.0 && w.dirt_colour[c] <= 1.0))
+        if (!(dirt_colour[c] >= 0.0 && dirt_colour[c] <= 1.0))
             throw std::invalid_argument("dirt_colour: each channel must be in [0, 1]");
 }
+
+namespace {
 
 // Transforms go to Embree in float32; a finite double beyond float32's range would become
 // infinite there (and the narrowing is undefined behaviour). 1e9 m is far beyond any scene.

@@ -1,5 +1,7 @@
 #include <cmath>
+#include <functional>
 #include <stdexcept>
+#include <string>
 
 #include "check.h"
 #include "fixtures.h"
@@ -102,4 +104,41 @@ TEST_CASE(ejecta_never_enter_a_box_nor_the_ground_however_fast) {
         }
     }
     CHECK(bounced > 1000);
+}
+
+namespace {
+
+std::string rejection(const std::function<void()>& validate) {
+    try {
+        validate();
+    } catch (const std::invalid_argument& e) {
+        return e.what();
+    }
+    return "";
+}
+
+}  // namespace
+
+TEST_CASE(dust_params_validate_names_the_field) {
+    CHECK(rejection([] { EjectaParams{}.validate(); }).empty());
+    CHECK(rejection([] { CloudParams{}.validate(); }).empty());
+    CHECK(rejection([] { Medium{}.validate(); }).empty());
+    EjectaParams e;
+    e.restitution = 0.96;
+    CHECK(rejection([&] { e.validate(); }).rfind("restitution: must be in [0, 0.95]", 0) == 0);
+    e = EjectaParams{};
+    e.min_diameter_m = 0.03;  // above max_diameter_m
+    CHECK(rejection([&] { e.validate(); }).rfind("min_diameter_m: ", 0) == 0);
+    CloudParams c;
+    c.axis = glm::dvec3(0.0);
+    CHECK(rejection([&] { c.validate(); }).rfind("axis: ", 0) == 0);
+    c = CloudParams{};
+    c.rise_fraction = 1.0;
+    CHECK(rejection([&] { c.validate(); }).rfind("rise_fraction: must be in (0, 1)", 0) == 0);
+    Medium m;
+    m.march_stride_px = 3;
+    CHECK(rejection([&] { m.validate(); }).rfind("march_stride_px: ", 0) == 0);
+    m = Medium{};
+    m.puffs.push_back(Puff{glm::dvec3(0.0), -1.0, 1.0});
+    CHECK(rejection([&] { m.validate(); }).rfind("puffs: sigma_m", 0) == 0);
 }

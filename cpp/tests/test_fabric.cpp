@@ -1,8 +1,10 @@
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 #include "check.h"
 #include "moonbot/fabric.h"
+#include "moonbot/scene.h"
 
 using namespace moonbot;
 
@@ -311,4 +313,28 @@ TEST_CASE(cloth_sheen_mixes_the_two_tape_directions) {
     bad = p;
     bad.sheen_along = 0.0;
     CHECK_THROWS(std::invalid_argument, bad.validate());
+}
+
+TEST_CASE(woven_surface_validate_names_the_field) {
+    WovenSurface w;
+    w.validate();  // the defaults are valid
+    auto rejection = [](const WovenSurface& s) -> std::string {
+        try {
+            s.validate();
+        } catch (const std::invalid_argument& e) {
+            return e.what();
+        }
+        return "";
+    };
+    w.metres_per_uv = 0.0;
+    CHECK(rejection(w).rfind("metres_per_uv: ", 0) == 0);
+    w = WovenSurface{};
+    w.fabric.sheen_across = 0.0;
+    CHECK(rejection(w).rfind("sheen_across: ", 0) == 0);
+    w = WovenSurface{};
+    w.dirt_colour.y = 1.5;
+    CHECK(rejection(w).rfind("dirt_colour: ", 0) == 0);
+    w = WovenSurface{};
+    w.stain.opacity = 2.0;
+    CHECK(rejection(w).find("opacity") != std::string::npos);
 }

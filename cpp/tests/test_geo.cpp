@@ -2,7 +2,7 @@
 
 #include "check.h"
 #include "moonbot/geo.h"
-#include "moonbot/sun.h"
+#include "moonbot/light.h"
 
 using namespace moonbot;
 
@@ -49,13 +49,13 @@ TEST_CASE(curvature_drop_small_distance_is_exact) {
 }
 
 TEST_CASE(sun_direction_convention) {
-    const Sun north(0.0, 0.0, 1361.0), east(90.0, 0.0, 1361.0), up(0.0, 90.0, 1361.0);
+    const DirectionalLight north(0.0, 0.0, 1361.0), east(90.0, 0.0, 1361.0), up(0.0, 90.0, 1361.0);
     CHECK_NEAR(north.direction().y, 1.0, 1e-15);
     CHECK_NEAR(east.direction().x, 1.0, 1e-15);
     CHECK_NEAR(up.direction().z, 1.0, 1e-15);
-    CHECK_THROWS(std::invalid_argument, Sun(0.0, 91.0, 1.0));
-    CHECK_THROWS(std::invalid_argument, Sun(0.0, 10.0, -1.0));
-    CHECK_THROWS(std::invalid_argument, Sun(NAN, 10.0, 1.0));
+    CHECK_THROWS(std::invalid_argument, DirectionalLight(0.0, 91.0, 1.0));
+    CHECK_THROWS(std::invalid_argument, DirectionalLight(0.0, 10.0, -1.0));
+    CHECK_THROWS(std::invalid_argument, DirectionalLight(NAN, 10.0, 1.0));
 }
 
 TEST_CASE(curvature_drop_matches_the_exact_sphere) {

@@ -1,4 +1,6 @@
 #include <cstring>
+#include <stdexcept>
+#include <string>
 
 #include "check.h"
 #include "fixtures.h"
@@ -44,7 +46,7 @@ TEST_CASE(moving_a_static_mesh_makes_it_moving_and_bumps_the_revision) {
     scene.commit();
     CHECK(scene.instance(b).moving);
     CHECK(scene.static_revision() == before + 1);
-    const LightCache cache(scene, Lights{Sun(0, 30, 1361), std::nullopt}, LightCacheSettings{});
+    const LightCache cache(scene, Lights{DirectionalLight(0, 30, 1361), std::nullopt}, LightCacheSettings{});
     CHECK(cache.covers(0) && !cache.covers(b));
 }
 
@@ -53,7 +55,7 @@ TEST_CASE(cache_values_do_not_depend_on_threads_or_fill_order) {
     scene.add_background(fixtures::add_plane_mesh(scene, 5.0f), identity(), Material{glm::vec3(0.3f)});
     scene.add_instance(fixtures::add_box_mesh(scene, 0.6f, 0.4f, 0.3f), identity(), 1, Material{glm::vec3(0.6f)});
     scene.commit();
-    const Lights lights{Sun(120, 20, 1361, 0.53), std::nullopt};
+    const Lights lights{DirectionalLight(120, 20, 1361, 0.53), std::nullopt};
     LightCacheSettings one;
     one.threads = 1;
     one.rays_objects = one.rays_background = 64;
@@ -74,4 +76,25 @@ TEST_CASE(cache_values_do_not_depend_on_threads_or_fill_order) {
     const Frame f2 = render_frame(scene, cam, lights, r2, nullptr, &b);
     CHECK(std::memcmp(f1.rgb.data(), f2.rgb.data(), f1.rgb.size() * sizeof(float)) == 0);
     CHECK(f1.stats.bounce_rays == 0);
+}
+
+TEST_CASE(light_cache_settings_validate_names_the_field) {
+    LightCacheSettings{}.validate();  // the defaults are valid
+    auto rejection = [](const LightCacheSettings& s) -> std::string {
+        try {
+            s.validate();
+        } catch (const std::invalid_argument& e) {
+            return e.what();
+        }
+        return "";
+    };
+    LightCacheSettings s;
+    s.bounces = 0;
+    CHECK(rejection(s).rfind("bounces: a light cache needs 1..", 0) == 0);
+    s = LightCacheSettings{};
+    s.rays_background = 0;
+    CHECK(rejection(s).rfind("rays_background: ", 0) == 0);
+    s = LightCacheSettings{};
+    s.object_cell_m = -1.0;
+    CHECK(rejection(s).rfind("object_cell_m: ", 0) == 0);
 }

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "check.h"
@@ -392,4 +394,68 @@ TEST_CASE(phase_curves_report) {
         }
         std::printf("  %6.1f   %21.4f %13.4f | %23.4f %13.4f\n", g, hm, lm, hn, ln);
     }
+}
+
+namespace {
+
+/// The message validate() throws for `p`, or "" when it accepts it.
+std::string rejection(const Photometry& p) {
+    try {
+        p.validate();
+    } catch (const std::invalid_argument& e) {
+        return e.what();
+    }
+    return "";
+}
+
+/// `p` with field `name` (a kPhotometryRanges name, in its units) set to `value`.
+Photometry with_field(Photometry p, const std::string& name, double value) {
+    if (name == "surge_amplitude") p.surge_amplitude = value;
+    else if (name == "surge_width") p.surge_width = value;
+    else if (name == "w") p.hapke.w = value;
+    else if (name == "b") p.hapke.b = value;
+    else if (name == "c") p.hapke.c = value;
+    else if (name == "roughness_deg") p.hapke.roughness_rad = value * kRadPerDeg;
+    else if (name == "filling_factor") p.hapke.filling_factor = value;
+    else if (name == "cboe_amplitude") p.hapke.cboe_amplitude = value;
+    else if (name == "cboe_width") p.hapke.cboe_width = value;
+    else throw std::logic_error("no field " + name);
+    return p;
+}
+
+}  // namespace
+
+TEST_CASE(photometry_validate_checks_every_range_at_its_bounds) {
+    CHECK(rejection(Photometry{}).empty());
+    CHECK(rejection(lunar_hapke()).empty());
+    for (const ParamRange& r : kPhotometryRanges) {
+        const std::string prefix = std::string(r.field) + ": must be in ";
+        for (Photometry::Model model : {Photometry::Model::Lambert, Photometry::Model::Hapke}) {
+            Photometry base;
+            base.model = model;  // the Hapke fields are checked whatever the model
+            // A closed bound is accepted exactly (roughness too, through degrees → radians);
+            // an open one, and anything beyond either, is refused with the field named.
+            CHECK(rejection(with_field(base, r.field, r.lo)).empty() != r.lo_open);
+            CHECK(rejection(with_field(base, r.field, r.hi)).empty() != r.hi_open);
+            for (double bad : {r.lo - 1e-9, r.hi + 1e-9, std::nan("")}) {
+                const std::string message = rejection(with_field(base, r.field, bad));
+                CHECK(message.rfind(prefix, 0) == 0);
+            }
+        }
+    }
+    CHECK(rejection(with_field(Photometry{}, "w", 1.5)) == "w: must be in [0, 1], got 1.5");
+    CHECK(rejection(with_field(Photometry{}, "b", 1.0)) == "b: must be in [0, 1), got 1");
+    CHECK(rejection(with_field(Photometry{}, "cboe_width", 0.0)) == "cboe_width: must be in (0, 10], got 0");
+}
+
+TEST_CASE(validated_derives_hapke_fields_as_make_hapke_does) {
+    Photometry p;
+    p.model = Photometry::Model::Hapke;
+    p.surge_amplitude = 1.8;
+    const Photometry v = validated(p);
+    const Photometry m = make_hapke(Photometry::HapkeParams{}, 1.8, 0.07);
+    CHECK(v.hapke.K == m.hapke.K && v.hapke.chi == m.hapke.chi && v.hapke.normal_albedo == m.hapke.normal_albedo);
+    CHECK(v.hapke.normal_albedo > 0.0);
+    p.hapke.w = 2.0;
+    CHECK_THROWS(std::invalid_argument, validated(p));
 }

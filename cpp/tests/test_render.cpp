@@ -36,7 +36,7 @@ TEST_CASE(plane_depth_matches_analytic_z_depth) {
     // Tilted view: depth varies across the image.
     const Camera cam = fixtures::look_at({0.3, -1.1, 0.9}, {0.0, 0.5, 0.0}, 80, 60, 60.0);
     RenderSettings settings;
-    const Frame f = render_frame(scene, cam, Sun(120, 30, 1361), settings);
+    const Frame f = render_frame(scene, cam, DirectionalLight(120, 30, 1361), settings);
     int checked = 0;
     for (int y = 0; y < f.height; ++y)
         for (int x = 0; x < f.width; ++x) {
@@ -57,7 +57,7 @@ TEST_CASE(lit_plane_radiance_is_albedo_over_pi_times_e_sin_el) {
                              Material{glm::vec3(0.12f, 0.2f, 0.3f)});
         scene.commit();
         const Camera cam = fixtures::look_at({0, 0, 1.0}, {0, 0, 0}, 32, 32, 20.0);
-        const Frame f = render_frame(scene, cam, Sun(77, el, 1361), RenderSettings{});
+        const Frame f = render_frame(scene, cam, DirectionalLight(77, el, 1361), RenderSettings{});
         const double e = 1361 * std::sin(el * kPi / 180);
         for (size_t i = 0; i < f.depth.size(); ++i) {
             CHECK_NEAR(f.rgb[3 * i + 0], 0.12 / kPi * e, 1e-5 * e);
@@ -71,7 +71,7 @@ TEST_CASE(sun_below_horizon_is_black_and_traces_no_shadow_rays) {
     scene.add_background(fixtures::add_plane_mesh(scene, 50.0f), identity(), Material{});
     scene.commit();
     const Camera cam = fixtures::look_at({0, 0, 1.0}, {0, 0, 0}, 16, 16, 20.0);
-    const Frame f = render_frame(scene, cam, Sun(0, -3, 1361), RenderSettings{});
+    const Frame f = render_frame(scene, cam, DirectionalLight(0, -3, 1361), RenderSettings{});
     for (float v : f.rgb) CHECK(v == 0.0f);
     CHECK(f.stats.shadow_rays == 0);
 }
@@ -84,7 +84,7 @@ TEST_CASE(box_casts_a_shadow_and_is_labelled) {
     scene.commit();
     // Looking straight down from 3 m; Sun from the east at 45°: the shadow falls to the west.
     const Camera cam = fixtures::look_at({0, 0, 3.0}, {0, 0, 0}, 101, 101, 50.0);
-    const Frame f = render_frame(scene, cam, Sun(90, 45, 1000), RenderSettings{});
+    const Frame f = render_frame(scene, cam, DirectionalLight(90, 45, 1000), RenderSettings{});
     auto at = [&](double wx, double wy) {
         const glm::dvec3 p = cam.project({wx, wy, 0.0});
         return static_cast<size_t>(int(p.y)) * f.width + static_cast<size_t>(int(p.x));
@@ -103,8 +103,8 @@ TEST_CASE(bytes_identical_for_one_and_two_threads) {
     scene.commit();
     const Camera cam = fixtures::look_at({0.8, 0.5, 0.6}, {0, 0, 0.05}, 67, 45, 40.0);
     RenderSettings one{4, 11, 1}, two{4, 11, 2};
-    const Frame a = render_frame(scene, cam, Sun(200, 12, 1361), one);
-    const Frame b = render_frame(scene, cam, Sun(200, 12, 1361), two);
+    const Frame a = render_frame(scene, cam, DirectionalLight(200, 12, 1361), one);
+    const Frame b = render_frame(scene, cam, DirectionalLight(200, 12, 1361), two);
     CHECK(std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float)) == 0);
     CHECK(std::memcmp(a.depth.data(), b.depth.data(), a.depth.size() * sizeof(float)) == 0);
     CHECK(a.instance == b.instance);
@@ -116,7 +116,7 @@ TEST_CASE(only_requested_passes_cost_rays) {
     scene.commit();
     const uint64_t builds = scene.bvh_builds();
     const Camera cam = fixtures::look_at({0, 0, 1.0}, {0, 0, 0}, 24, 16, 20.0);
-    const Sun sun(0, 30, 1361);
+    const DirectionalLight sun(0, 30, 1361);
     std::vector<float> depth(24 * 16);
     const RenderStats geometry_only = render(scene, cam, sun, RenderSettings{}, {nullptr, depth.data(), nullptr});
     CHECK(geometry_only.camera_rays == 24 * 16);
@@ -145,10 +145,11 @@ TEST_CASE(bad_scene_input_throws) {
     scene.add_instance(m, identity(), 1, Material{});
     CHECK_THROWS(std::invalid_argument, scene.add_instance(m, identity(), 1, Material{}));  // duplicate
     const Camera cam = fixtures::look_at({0, 0, 1.0}, {0, 0, 0}, 4, 4, 2.0);
-    CHECK_THROWS(std::invalid_argument, render_frame(scene, cam, Sun(0, 30, 1), RenderSettings{}));  // not committed
+    // Not committed:
+    CHECK_THROWS(std::invalid_argument, render_frame(scene, cam, DirectionalLight(0, 30, 1), RenderSettings{}));
     scene.commit();
-    CHECK_THROWS(std::invalid_argument, render_frame(scene, cam, Sun(0, 30, 1), RenderSettings{0, 0, 0}));
-    CHECK_THROWS(std::invalid_argument, render_frame(scene, cam, Sun(0, 30, 1), RenderSettings{1, 0, -1}));
+    CHECK_THROWS(std::invalid_argument, render_frame(scene, cam, DirectionalLight(0, 30, 1), RenderSettings{0, 0, 0}));
+    CHECK_THROWS(std::invalid_argument, render_frame(scene, cam, DirectionalLight(0, 30, 1), RenderSettings{1, 0, -1}));
 }
 
 TEST_CASE(scene_refuses_changes_while_a_render_holds_it) {
@@ -180,7 +181,7 @@ TEST_CASE(tile_records_change_no_bit_against_a_per_pixel_reference) {
     scene.add_instance(box, glm::translate(identity(), glm::dvec3(-0.7, 0.4, 0.0)), 9, Material{glm::vec3(0.3f)});
     scene.commit();
     const Camera cam = fixtures::look_at({1.1, -0.9, 0.7}, {0.0, 0.0, 0.1}, 83, 61, 70.0);
-    const Sun sun(120, 12, 1361);
+    const DirectionalLight sun(120, 12, 1361);
     const int w = cam.width(), h = cam.height();
     const glm::dvec3 o = cam.center(), l = sun.direction();
     constexpr double kInvPi = 0.31830988618379067154, kShadowBias = 2e-5;
@@ -264,7 +265,7 @@ TEST_CASE(adaptive_refines_edges_only_and_leaves_other_pixels_bit_identical) {
     scene.add_instance(fixtures::add_box_mesh(scene, 0.3f, 0.2f, 0.1f), identity(), 1, Material{glm::vec3(0.5f)});
     scene.commit();
     const Camera cam = fixtures::look_at({0.8, 0.5, 0.6}, {0, 0, 0.05}, 67, 45, 40.0);
-    const Sun sun(200, 12, 1361, 0.533);
+    const DirectionalLight sun(200, 12, 1361, 0.533);
     RenderSettings off{4, 11, 1};
     off.light_samples = 2;
     off.bounces = 1;
@@ -298,7 +299,7 @@ TEST_CASE(adaptive_settings_are_checked) {
         s.adaptive_spp = adaptive_spp;
         s.adaptive_threshold = threshold;
         try {
-            render_frame(scene, cam, Sun(0, 30, 1361), s);
+            render_frame(scene, cam, DirectionalLight(0, 30, 1361), s);
         } catch (const std::invalid_argument& e) {
             return std::string(e.what());
         }
@@ -310,4 +311,45 @@ TEST_CASE(adaptive_settings_are_checked) {
     CHECK(message(4, 8, -1.0).rfind("adaptive_threshold:", 0) == 0);
     CHECK(message(4, 8, 0.0).empty());
     CHECK(message(4, 0, 0.25).empty());
+}
+
+TEST_CASE(render_geometry_needs_no_light_and_matches_a_lit_render) {
+    Scene scene;
+    const uint32_t plane = fixtures::add_plane_mesh(scene, 200.0f);
+    scene.add_background(plane, identity(), Material{glm::vec3(0.12f)});
+    scene.commit();
+    const Camera cam = fixtures::look_at({0.3, -1.1, 0.9}, {0.0, 0.5, 0.0}, 40, 30, 60.0);
+    const Frame lit = render_frame(scene, cam, DirectionalLight(120, 30, 1361), RenderSettings{});
+    const size_t n = static_cast<size_t>(cam.width()) * cam.height();
+    std::vector<float> depth(n);
+    std::vector<uint8_t> instance(n);
+    const RenderStats stats = render_geometry(scene, cam, RenderSettings{}, {nullptr, depth.data(), instance.data()});
+    CHECK(depth == lit.depth && instance == lit.instance);
+    CHECK(stats.shadow_rays == 0 && stats.camera_rays == lit.stats.camera_rays);
+    std::vector<float> rgb(3 * n);
+    CHECK_THROWS(std::invalid_argument, render_geometry(scene, cam, RenderSettings{}, {rgb.data(), nullptr, nullptr}));
+}
+
+TEST_CASE(render_settings_validate_names_the_field) {
+    RenderSettings{}.validate();  // the defaults are valid
+    auto rejection = [](const RenderSettings& s) -> std::string {
+        try {
+            s.validate();
+        } catch (const std::invalid_argument& e) {
+            return e.what();
+        }
+        return "";
+    };
+    RenderSettings s;
+    s.spp = 0;
+    CHECK(rejection(s).rfind("spp: must be in 1..", 0) == 0);
+    s = RenderSettings{};
+    s.adaptive_spp = 1;  // not above spp
+    CHECK(rejection(s).rfind("adaptive_spp: ", 0) == 0);
+    s = RenderSettings{};
+    s.adaptive_threshold = NAN;
+    CHECK(rejection(s).rfind("adaptive_threshold: ", 0) == 0);
+    s = RenderSettings{};
+    s.threads = kMaxThreads + 1;
+    CHECK(rejection(s).rfind("threads: ", 0) == 0);
 }

@@ -162,7 +162,7 @@ def render_at_gt(models: dict, instances: list[dict], cam: dict, shape: tuple[in
     scene.commit()
     K = np.array(cam["cam_K"], np.float64).reshape(3, 3)
     camera = core_camera(K, shape[1], shape[0], CameraPose(np.eye(3), np.zeros(3)))  # poses are model-to-camera
-    out = _core.render(scene, camera, _core.Sun(0.0, 90.0, 0.0, 0.0), passes=["depth", "instance"])
+    out = _core.render(scene, camera, None, passes=["depth", "instance"])
     return out["depth"].astype(np.float64), out["instance"]
 
 

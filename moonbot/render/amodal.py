@@ -39,8 +39,6 @@ WINDOW_MARGIN_PX = 1
 # A vertex this close to the camera plane (metres, along the optical axis) or behind it makes the
 # projection unbounded: the whole canvas is rendered instead of a window.
 MIN_WINDOW_DEPTH_M = 1e-6
-# An unlit Sun: the instance pass traces camera rays only, but render() takes a light.
-_NO_SUN = _core.Sun(0.0, 90.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -149,8 +147,8 @@ def render_amodal_masks(scenes: AmodalScenes, K: np.ndarray, pose: CameraPose, w
         if window is not None:
             x0, y0, x1, y1 = window
             camera = _core.Camera(fx, fy, cx - x0, cy - y0, x1 - x0, y1 - y0, pose.R, pose.t)
-            out = _core.render(bag.scene, camera, _NO_SUN, passes=["instance"], threads=threads,
-                               exact_depth=False)
+            out = _core.render(bag.scene, camera, None, _core.RenderSettings(threads=threads, exact_depth=False),
+                               passes=["instance"])
             hit = out["instance"] == bag.instance_id
             rays = int(out["camera_rays"])
             count = int(np.count_nonzero(hit))

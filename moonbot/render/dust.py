@@ -21,6 +21,7 @@ import numpy as np
 
 from moonbot import _core
 from moonbot.config.schema import Config, DustConfig
+from moonbot.render import params
 from moonbot.render.view import regolith, regolith_grain
 from moonbot.scene.compose import SceneSpec
 
@@ -56,18 +57,13 @@ def emitter_origin(spec: SceneSpec, dust: DustConfig) -> np.ndarray:
 
 
 def ejecta_state(scene: _core.Scene, dust: DustConfig, seed: int, origin: np.ndarray, time_s: float,
-                 threads: int = 0) -> _core.EjectaState:
+                 threads: int = 0) -> dict:
     """The ejecta of `dust.ejecta` thrown from `origin` ((3,) world metres) at `time_s` seconds
     after the emitter starts, flown on `scene` (committed, without the fragments' own mesh) in
     steps of `dust.time_step_s`: `_core.simulate_ejecta`'s state, every fragment of the burst
     (none is ever dropped)."""
-    e = dust.ejecta
-    return _core.simulate_ejecta(
-        scene, seed, time_s, dt_s=dust.time_step_s, origin=tuple(float(x) for x in origin), count=e.count,
-        spawn_radius_m=e.spawn_radius_m, cone_half_angle_deg=e.cone_half_angle_deg, mean_speed_m_s=e.mean_speed_m_s,
-        min_diameter_m=e.min_diameter_m, max_diameter_m=e.max_diameter_m, gravity_m_s2=e.gravity_m_s2,
-        restitution=e.restitution, friction=e.friction, rest_speed_m_s=e.rest_speed_m_s,
-        burst_period_s=e.burst_period_s, threads=threads)
+    return _core.simulate_ejecta(scene, params.ejecta(dust.ejecta, origin), seed, time_s, dt_s=dust.time_step_s,
+                                 threads=threads)
 
 
 @dataclass(frozen=True)
@@ -131,17 +127,11 @@ class SceneDust:
                 self._scene.update_mesh(self._mesh, vertices)
                 self._scene.commit()
             self._current = view
-        puffs = _core.cloud_puffs(
-            self._seed, t, origin=tuple(self._origin), box_m=c.box_m, vertical_offset_m=c.vertical_offset_m,
-            axis=c.axis, cone_half_angle_deg=c.cone_half_angle_deg, speed_m_s=c.speed_m_s,
-            gravity_m_s2=c.gravity_m_s2, lifetime_s=c.lifetime_s, rate_per_s=c.rate_per_s, sigma_m=c.sigma_m,
-            growth_m_s=c.growth_m_s, optical_depth=c.optical_depth, rise_fraction=c.rise_fraction)
+        puffs = _core.cloud_puffs(params.cloud(c, self._origin), self._seed, t)
         # No puff alive (no rate, no opacity, or not yet born): no medium to trace.
         # Dust more than a metre under the emitter's ground is never seen or lit: the core's grid
         # stops there (the default plume rises from 1.7 m below).
-        medium = (_core.Medium(puffs, albedo=c.albedo, asymmetry=c.asymmetry, voxel_m=c.voxel_m,
-                               floor_z=float(self._origin[2]) - FLOOR_DEPTH_M, march_stride_px=c.march_stride_px)
-                  if len(puffs) else None)
+        medium = params.medium(c, puffs, float(self._origin[2]) - FLOOR_DEPTH_M) if len(puffs) else None
         seconds += time.perf_counter() - start
         meta = {"capture_time_s": t, "fragments": fragments, "puffs": int(len(puffs)),
                 "emitter_m": self._origin.tolist(), "note": DUST_NOTE}

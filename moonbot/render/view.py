@@ -9,6 +9,7 @@ import numpy as np
 
 from moonbot import _core
 from moonbot.config.schema import Config, GrainConfig, PhotometryConfig
+from moonbot.render import params
 from moonbot.scene.compose import TERRAIN_MESH, SceneSpec
 from moonbot.scene.orbit import CameraPose, intrinsics, orbit_height, orbit_pose
 from moonbot.scene.normals import vertex_normals
@@ -65,13 +66,7 @@ def build_scene(spec: SceneSpec, embree_isa: str = "auto", watertight: bool = Tr
     f, st = spec.fabric, spec.stain
     for bag in spec.bags:
         # Zero stain seeds: the core paints and allocates no mask (principle 3).
-        woven = _core.WovenSurface(pitch_m=f.pitch_m, relief_m=f.relief_m, contrast=f.contrast,
-                                   metres_per_uv=spec.bag_metres_per_uv, stamps=st.seeds,
-                                   brush_size=st.brush_size, opacity=st.opacity, resolution=st.resolution,
-                                   stain_seed=bag.stain_seed, dirt_colour=st.dirt_colour, sheen=f.sheen,
-                                   sheen_along=f.sheen_along, sheen_across=f.sheen_across, stain_mode=st.mode,
-                                   contact_height_m=st.contact_height_m, deposit_radius_m=st.deposit_radius_m,
-                                   handled_share=st.handled_share, speckle=st.speckle)
+        woven = params.woven(f, st, spec.bag_metres_per_uv, bag.stain_seed)
         scene.add_instance(mesh_index[bag.obj_id], bag.world_from_model, bag.instance_id, bag.albedo, woven=woven)
     scene.commit()
     return scene
@@ -82,10 +77,7 @@ def regolith(config: PhotometryConfig, normal_albedo: float) -> tuple[_core.Phot
     normal albedo (reflectance at zero incidence, emission and phase). The core's BRDF is
     A/π·shape, so A = normal albedo / shape(1, 1, 1): Lambert's shape is 1 there, Lunar-Lambert's
     1 + B0 (the full opposition surge) and Hapke's 1 (it is normalised by its own normal albedo)."""
-    photometry = _core.Photometry(
-        config.model, config.phase, config.surge_amplitude, config.surge_width,
-        w=config.w, b=config.b, c=config.c, roughness_deg=config.roughness_deg,
-        filling_factor=config.filling_factor, cboe_amplitude=config.cboe_amplitude, cboe_width=config.cboe_width)
+    photometry = params.photometry(config)
     # i = e = g = 0: cos i = cos e = cos g = 1.
     return photometry, (normal_albedo / photometry.shape(1.0, 1.0, 1.0),) * 3
 
@@ -95,18 +87,16 @@ def regolith_grain(config: GrainConfig) -> _core.RegolithGrain | None:
     when the config turns it off (then no texture code runs)."""
     if not config.enabled:
         return None
-    return _core.RegolithGrain(albedo_rms=config.albedo_rms, slope_rms_deg=config.slope_rms_deg,
-                               finest_cell_m=config.finest_cell_m, coarsest_cell_m=config.coarsest_cell_m,
-                               hurst=config.hurst, seed=config.seed)
+    return _core.RegolithGrain(params.grain(config))
 
 
-def scene_lights(config: Config) -> tuple[_core.Sun, _core.Sun | None]:
+def scene_lights(config: Config) -> tuple[_core.DirectionalLight, _core.DirectionalLight | None]:
     """The config's Sun, and the Earth as a second light where earthshine is on (else None: no
     second light, no shadow rays toward it; principle 3)."""
     s = config.sun
-    sun = _core.Sun(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
-    earth = (_core.Sun(s.earth_azimuth_deg, s.earth_elevation_deg, s.earth_irradiance_w_m2, EARTH_DIAMETER_DEG,
-                       s.earth_color) if s.earthshine else None)
+    sun = _core.DirectionalLight(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
+    earth = (_core.DirectionalLight(s.earth_azimuth_deg, s.earth_elevation_deg, s.earth_irradiance_w_m2,
+                                    EARTH_DIAMETER_DEG, s.earth_color) if s.earthshine else None)
     return sun, earth
 
 
@@ -133,8 +123,8 @@ class ViewInputs:
     K: np.ndarray
     pose: CameraPose
     camera: _core.Camera
-    sun: _core.Sun
-    earth: _core.Sun | None
+    sun: _core.DirectionalLight
+    earth: _core.DirectionalLight | None
 
 
 def view_inputs(config: Config, spec: SceneSpec, view: int) -> ViewInputs:
@@ -152,10 +142,7 @@ def build_light_cache(scene: _core.Scene, config: Config) -> _core.LightCache | 
     if r.indirect != "cache" or r.bounces == 0:
         return None
     sun, earth = scene_lights(config)
-    return _core.LightCache(scene, sun, earth, bounces=r.bounces, rays_objects=r.cache_rays_bags,
-                            rays_background=r.cache_rays_terrain, background_cell_m=r.cache_terrain_cell_m,
-                            object_cell_m=r.cache_bag_cell_m,
-                            seed=config.seed, threads=r.threads)
+    return _core.LightCache(scene, sun, earth, params.light_cache_settings(r, config.seed))
 
 
 def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraPose,
@@ -168,11 +155,8 @@ def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraP
     camera = core_camera(K, config.camera.width, config.camera.height, pose)
     sun, earth = scene_lights(config)
     start = time.perf_counter()
-    out = _core.render(scene, camera, sun, spp=config.render.spp, seed=seed,
-                       threads=config.render.threads, exact_depth=config.render.exact_depth,
-                       light_samples=config.render.light_samples, bounces=config.render.bounces, earth=earth,
-                       medium=medium, light_cache=light_cache, adaptive_spp=config.render.refinement_spp,
-                       adaptive_threshold=config.render.adaptive_threshold)
+    out = _core.render(scene, camera, sun, params.render_settings(config.render, seed), earth=earth, medium=medium,
+                       light_cache=light_cache)
     stats = {"camera_rays": out["camera_rays"], "second_look_rays": out["second_look_rays"],
              "shadow_rays": out["shadow_rays"], "bounce_shadow_rays": out["bounce_shadow_rays"],
              "bounce_rays": out["bounce_rays"], "medium_rays": out["medium_rays"],

@@ -23,7 +23,7 @@
 #include <glm/glm.hpp>
 
 #include "moonbot/scene.h"
-#include "moonbot/sun.h"
+#include "moonbot/light.h"
 
 namespace moonbot {
 
@@ -50,6 +50,10 @@ struct LightCacheSettings {
     double object_cell_m = 0.0;
     uint64_t seed = 0;  ///< keys the gather rays' random numbers (with instance, vertex, ray)
     int threads = 0;    ///< worker threads of fill_all; 0 = all
+
+    /// Throws std::invalid_argument naming the first field out of its range (LightCache's
+    /// constructor calls it).
+    void validate() const;
 };
 
 constexpr int kMaxGatherRays = 65536;

@@ -114,6 +114,24 @@ private:
     size_t block(int i, int j, int k) const {
         return (static_cast<size_t>(k) * m_blocks[1] + j) * m_blocks[0] + i;
     }
+    // The constructor's steps, in order.
+    /// Each puff's reach (m_reach) and centre in the grid frame; the box of those the grid holds
+    /// (m_lo, m_hi). Returns the reaches with 0 for the puffs the grid leaves out.
+    std::vector<double> bound_puffs(std::vector<glm::dvec3>& centre);
+    /// The node spacing and counts over that box; false when no puff counts (an empty box).
+    bool lay_out_nodes();
+    /// The extinction k at every node, 1/m.
+    std::vector<float> bake_extinction(const std::vector<double>& reach, const std::vector<glm::dvec3>& centre) const;
+    /// m_sun_depth from the extinction.
+    void integrate_sun_depth(const std::vector<float>& extinction);
+    /// Per node, 0 where the geometry shades it from the Sun, else 1 (counts m_shadow_rays).
+    std::vector<float> shade_from_sun(const std::vector<float>& extinction, const Scene& scene);
+    /// m_lookup: the extinction and the sunlight left (visibility × exp(−τ_sun)) side by side.
+    void pack_lookup(const std::vector<float>& extinction, const std::vector<float>& visible);
+    /// m_blocks and m_empty.
+    void mark_empty_blocks(const std::vector<float>& extinction);
+    size_t node_count() const;
+
     glm::dvec3 frame(const glm::dvec3& world_point) const;  // world → grid frame (a rotation)
     glm::dvec3 world(const glm::dvec3& frame_point) const;
     double trilinear(const std::vector<float>& field, const glm::dvec3& frame_point) const;

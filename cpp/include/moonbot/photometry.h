@@ -22,6 +22,36 @@
 
 namespace moonbot {
 
+/// The values a parameter may take: [lo, hi], either end open where said.
+struct ParamRange {
+    const char* field;
+    double lo, hi;
+    bool lo_open, hi_open;
+
+    constexpr bool contains(double value) const {
+        return (lo_open ? value > lo : value >= lo) && (hi_open ? value < hi : value <= hi);
+    }
+};
+
+/// Photometry's ranges, checked by Photometry::validate() whatever the model, so a bad Hapke value
+/// never waits silently for the day someone switches to Hapke. Units as Python sets them:
+/// roughness_deg in degrees (stored as HapkeParams::roughness_rad).
+inline constexpr ParamRange kPhotometryRanges[] = {
+    {"surge_amplitude", 0.0, 10.0, false, false},
+    {"surge_width", 0.0, 10.0, true, false},
+    {"w", 0.0, 1.0, false, false},
+    {"b", 0.0, 1.0, false, true},
+    {"c", -1.0, 1.0, false, false},
+    {"roughness_deg", 0.0, 60.0, false, false},
+    {"filling_factor", 0.0, 0.75, false, false},
+    {"cboe_amplitude", 0.0, 1.0, false, false},
+    {"cboe_width", 0.0, 10.0, true, false},
+};
+
+/// Degrees to radians, the one factor by which roughness_deg becomes HapkeParams::roughness_rad
+/// (validate() compares in radians with the same factor, so a value at a bound stays in range).
+constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
+
 struct Photometry {
     enum class Model : uint8_t {
         Lambert,       ///< shape = 1
@@ -60,6 +90,10 @@ struct Photometry {
         double chi = 1.0;            ///< χ(θ̄) = 1/√(1 + π tan²θ̄)
         double normal_albedo = 0.0;  ///< A_N = π·f_Hapke(i = e = g = 0): the normaliser of shape
     } hapke;
+
+    /// Throws std::invalid_argument naming the first field outside its kPhotometryRanges range
+    /// ("w: must be in [0, 1], got 1.2"). Checks the Hapke fields whatever the model.
+    void validate() const;
 };
 
 namespace photometry_detail {
@@ -267,7 +301,7 @@ inline double hapke_brdf(const Photometry& p, double mu_i, double mu_o, double c
 }
 
 /// A Hapke Photometry with its derived fields set. Angles in radians; ranges as documented on
-/// Photometry::HapkeParams (checked by the Python binding, not here). The SHOE pair is the
+/// Photometry::HapkeParams (checked by Photometry::validate(), not here). The SHOE pair is the
 /// Photometry's surge_amplitude (B_S0) and surge_width (h_S).
 inline Photometry make_hapke(Photometry::HapkeParams h, double shoe_amplitude, double shoe_width) {
     Photometry p;
@@ -281,6 +315,13 @@ inline Photometry make_hapke(Photometry::HapkeParams h, double shoe_amplitude, d
     // Normal albedo: the radiance factor π·r/μ0 at i = e = g = 0, where S = 1 and μ0e = μe = χ.
     p.hapke.normal_albedo = 3.14159265358979323846 * hapke_brdf(p, 1.0, 1.0, 1.0);
     return p;
+}
+
+/// `p` validated (Photometry::validate()) and, for Hapke, with its derived fields computed from the
+/// others (make_hapke): what a Material holds.
+inline Photometry validated(const Photometry& p) {
+    p.validate();
+    return p.model == Photometry::Model::Hapke ? make_hapke(p.hapke, p.surge_amplitude, p.surge_width) : p;
 }
 
 /// shape(μi, μo, g): the BRDF divided by albedo/π, for cosines of incidence μi and emission μo

@@ -10,7 +10,7 @@
 #include "moonbot/medium.h"
 #include "moonbot/render_limits.h"
 #include "moonbot/scene.h"
-#include "moonbot/sun.h"
+#include "moonbot/light.h"
 
 namespace moonbot {
 
@@ -47,6 +47,9 @@ struct RenderSettings {
     int adaptive_spp = 0;
     /// The relative spread of direct luminance over a pixel's base samples that refines it; ≥ 0.
     double adaptive_threshold = 0.25;
+
+    /// Throws std::invalid_argument naming the first field out of its range (render() calls it).
+    void validate() const;
 };
 
 constexpr int kMaxLightSamples = 1024;
@@ -108,8 +111,12 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
                    const RenderSettings& settings, const FrameView& out, const Medium* medium = nullptr,
                    const LightCache* light_cache = nullptr);
 /// The same, lit by the Sun alone.
-RenderStats render(const Scene& scene, const Camera& camera, const Sun& sun,
+RenderStats render(const Scene& scene, const Camera& camera, const DirectionalLight& sun,
                    const RenderSettings& settings, const FrameView& out);
+/// The geometric passes alone, depth and instance (`out.rgb` must be null, else
+/// std::invalid_argument): nothing is shaded, so no light is given and no shadow ray is traced.
+RenderStats render_geometry(const Scene& scene, const Camera& camera, const RenderSettings& settings,
+                            const FrameView& out);
 
 /// The same, into owned buffers (for C++ callers and tests).
 struct Frame {
@@ -121,7 +128,7 @@ struct Frame {
 Frame render_frame(const Scene& scene, const Camera& camera, const Lights& lights,
                    const RenderSettings& settings, const Medium* medium = nullptr,
                    const LightCache* light_cache = nullptr);
-Frame render_frame(const Scene& scene, const Camera& camera, const Sun& sun,
+Frame render_frame(const Scene& scene, const Camera& camera, const DirectionalLight& sun,
                    const RenderSettings& settings);
 
 }  // namespace moonbot

@@ -40,6 +40,10 @@ struct WovenSurface {
     SoilingParams soiling;  ///< Dust mode's shape (its deposits and opacity are taken from `stain`)
     /// Set by Scene::add_instance in Dust mode with stamps > 0: this instance's dust.
     std::shared_ptr<const Soiling> dust;
+
+    /// Throws std::invalid_argument naming the field: fabric, stain and soiling (each their
+    /// validate()), metres_per_uv positive and finite, each dirt_colour channel in [0, 1].
+    void validate() const;
 };
 
 /// A surface: `albedo` linear RGB in [0, 1] and the photometric function that shapes it (the

@@ -1,11 +1,12 @@
-#include "moonbot/sun.h"
+#include "moonbot/light.h"
 
 #include <cmath>
 #include <stdexcept>
 
 namespace moonbot {
 
-Sun::Sun(double azimuth_deg, double elevation_deg, double irradiance, double angular_diameter_deg, glm::dvec3 color)
+DirectionalLight::DirectionalLight(double azimuth_deg, double elevation_deg, double irradiance,
+                                   double angular_diameter_deg, glm::dvec3 color)
     : m_azimuth_deg(azimuth_deg), m_elevation_deg(elevation_deg), m_irradiance(irradiance),
       m_angular_diameter_deg(angular_diameter_deg), m_color(color) {
     if (!std::isfinite(azimuth_deg)) throw std::invalid_argument("azimuth_deg: must be finite");
