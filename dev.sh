@@ -98,7 +98,7 @@ python_env() {
         local start=$SECONDS
         log "installing the build tools into $VENV (pip, scikit-build-core, pybind11, cmake, ninja)"
         "$PY" -m pip install -q --upgrade pip
-        "$PY" -m pip install -q "scikit-build-core>=0.10" "pybind11>=2.12" "cmake>=3.25" ninja
+        "$PY" -m pip install -q "scikit-build-core>=0.10" "pybind11==3.1.0" "cmake>=3.25" ninja  # pinned: the generated _core.pyi (tests/test_core_stub.py) follows its version
         if compgen -G "build/cp*-*" >/dev/null; then  # scikit-build-core's build/{wheel_tag}
             log "building moonbot into $VENV: compiling what changed in cpp/ (incremental in build/)"
         else
