@@ -35,7 +35,7 @@ ISA_TESTS=(tests/test_render_geometry.py tests/test_lighting.py tests/test_water
            tests/test_embree_isa.py)
 PY="$VENV/bin/python"
 # What the first compile of the core (./dev.sh setup) and of each C++ test build (./dev.sh test) takes
-# on a 2-core machine, minutes, said before they start (README "Set up and run" has the timings).
+# on a 2-core machine, minutes, said before they start (bench/results/README.md "Set-up time" has the timings).
 FIRST_BUILD_MIN=4
 FIRST_TEST_BUILD_MIN=2
 # Bounds on `./dev.sh test`, so that a hang fails CI with a stack instead of eating its 90 minutes:

@@ -1,4 +1,4 @@
-"""What accuracy costs in time (issue 5; principle 1): each lighting quality knob against the
+"""What accuracy costs in time: each lighting quality knob against the
 error it leaves, on the three procedural locations at a low and a high Sun.
 
 For every scene (flat, hilly, crater × Sun elevation 5°, 22°; default camera, view 0 of the

@@ -1,4 +1,4 @@
-"""What the zero-shot baseline's knobs cost (issue 8; principle 1): its ICP settings (points and
+"""What the zero-shot baseline's knobs cost: its ICP settings (points and
 iterations of the coarse pass over every hypothesis and of the fine pass over the best few)
 against the pose error they leave, on the instances of a generated dataset's test split.
 

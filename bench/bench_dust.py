@@ -1,4 +1,4 @@
-"""What the ejecta simulation's knobs cost (issue 6; principle 1): the time step against the
+"""What the ejecta simulation's knobs cost: the time step against the
 error it leaves, and the fragment count against time.
 
 Free flight is exact at any step (closed-form parabolas), so the step only decides how finely

@@ -1,4 +1,4 @@
-"""Generation throughput (issue 7; principle 1): samples/s of `moonbot generate` on this machine
+"""Generation throughput: samples/s of `moonbot generate` on this machine
 with 1 worker on 1 core, 1 worker with 2 render threads and 2 worker processes (scaling efficiency), the peak resident memory of a worker on the
 heaviest scene of the sweep (crater, 11 bags, dust; target under 2 GiB), and the projection of
 the full SynBag-1.0 sweep onto N such machines.

@@ -1,4 +1,4 @@
-"""What the dust medium's knobs cost (issue 6; principle 1): the grid spacing `voxel_m` (the
+"""What the dust medium's knobs cost: the grid spacing `voxel_m` (the
 dust is baked on it per view and camera rays march it in steps of it) and the march's pixel
 stride `march_stride_px` (every S-th pixel's ray marches, the others interpolate) against the
 error they leave in the image, and the cloud's puff rate against time.

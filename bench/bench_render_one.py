@@ -4,11 +4,11 @@ Measures, on this machine:
   1. render-one's stages (compose, BVH build, render, tone map, encode + write) on the embedded
      default config, median over repeats;
   2. what samples per pixel cost: time per frame against RMSE / PSNR versus a high-spp reference
-     of the same view (principle 1: accuracy against time);
+     of the same view (accuracy against time);
   3. our render time against raw Embree time for exactly the same rays (`measure_embree_limit`:
      pixel-centre camera rays and the Sun shadow rays from their hits, as 64-ray streams and one
      ray at a time), on the default scene and on a 2.1 M-triangle terrain like the reference's
-     (`../shared/reference/performance-limits.md`), on 1 and 2 threads.
+     (docs/design.md), on 1 and 2 threads.
 
 Writes bench/results/render-one-<machine>.json and prints a table.
 Run: ./dev.sh bench   (or .venv/bin/python bench/bench_render_one.py [--repeats N])

@@ -1,4 +1,4 @@
-"""The render stage against Embree alone, scene by scene (issue 9; principle 1): where the gap to
+"""The render stage against Embree alone, scene by scene: where the gap to
 `moonbot bench throughput`'s limit is, without the pipeline around it.
 
 For each task of configs/bench/throughput-v1.yaml and each quality level, view 0 is built as the

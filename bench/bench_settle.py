@@ -1,4 +1,4 @@
-"""What placing and settling bags costs, and what its knobs buy (issue 3; principle 1).
+"""What placing and settling bags costs, and what its knobs buy.
 
 Measures, on this machine:
   1. per scene (ground × layout × mesh, the sweep's bag counts 1, 5, 8, 11): the geometric

@@ -1,5 +1,4 @@
-"""What building a location costs, what the cache saves, and what the grid's growth buys
-(issue 4; principle 1).
+"""What building a location costs, what the cache saves, and what the grid's growth buys.
 
 Measures, on this machine:
   1. per location (flat, hilly, crater, dem; default config): triangles, rocks (instances and the
@@ -9,7 +8,7 @@ Measures, on this machine:
      of the process's resident set over building terrain + BVH (MB). The `dem` row reads a
      6 km square LocalDem at 5 m spacing made here from the hilly location's relief (what it
      costs depends on the DEM's size, not its content); with `--dem FILE.npz --site E N
-     --extent M` a real imported DEM is measured as well (README: Kepler crater, LOLA);
+     --extent M` a real imported DEM is measured as well (docs/physics.md "Terrain": Kepler crater, LOLA);
   2. the grid's `growth` knob on the flat location, camera 0.2 m above the target so the horizon
      is in view: triangles and build + BVH + render time against the error of the depth image
      (median and 99th percentile of |Δz|/z over pixels, and the share of pixels off by > 1 %)

@@ -1,4 +1,4 @@
-"""The zero-shot baseline (issue 8): poses recovered from a model rendered at a known pose (camera
+"""The zero-shot baseline: poses recovered from a model rendered at a known pose (camera
 straight above, oblique, near grazing, a sliver left by occlusion), and over the smoke dataset's
 test split the recall this test states, the same poses on 1 and 2 workers, blindness to the
 ground truth, and errors that name the file or field."""

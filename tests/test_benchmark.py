@@ -1,4 +1,4 @@
-"""`moonbot bench` (issue 9): the quality levels are valid configs; a tiny real throughput run
+"""`moonbot bench`: the quality levels are valid configs; a tiny real throughput run
 (the fixed benchmark config at 64×48, one view a task, one level, one worker, coarse terrain, no
 settling) writes a result with every field of the schema; `compare` reads that result and the
 committed one of an earlier run (tests/data/throughput-result-v1.json, which every later reader

@@ -3,7 +3,7 @@ and merged, then its paths, names and ids checked against the rules bop_toolkit'
 builds its paths with; the dataset-level index against every scene's scene_meta.json; the
 by_condition/ view's links; the evaluation targets; and the val split the sweep draws from train.
 A second test loads the same dataset with bop_toolkit itself where it is importable (it is not
-on PyPI; the README says how to install and register a dataset with it)."""
+on PyPI; docs/dataset-format.md says how to install and register a dataset with it)."""
 
 from __future__ import annotations
 
@@ -206,7 +206,7 @@ def test_readers_and_yolo_see_the_three_splits(smoke):
 
 def test_bop_toolkit_loads_the_dataset(smoke):
     """bop_toolkit's dataset_params and loaders on the dataset, given its path and name (the
-    dataset folder is named `moonbot`, registered as the README shows)."""
+    dataset folder is named `moonbot`, registered as docs/dataset-format.md shows)."""
     dataset_params = pytest.importorskip("bop_toolkit_lib.dataset_params")
     inout = pytest.importorskip("bop_toolkit_lib.inout")
     root = smoke.parent / "bop"
@@ -216,7 +216,7 @@ def test_bop_toolkit_loads_the_dataset(smoke):
     try:
         model_params = dataset_params.get_model_params(str(root), "moonbot", "eval")
     except (ValueError, KeyError):
-        pytest.skip("bop_toolkit does not know the dataset 'moonbot': register it as the README shows")
+        pytest.skip("bop_toolkit does not know the dataset 'moonbot': register it as docs/dataset-format.md shows")
     assert model_params["obj_ids"] == sorted(read_models(smoke, "models_eval"))
     for kind in ("models", "models_eval"):  # the meshes, and the surface samples the error scripts use
         template = dataset_params.get_model_params(str(root), "moonbot", kind.partition("_")[2] or None)["model_tpath"]

@@ -1,4 +1,4 @@
-"""Granular ejecta (moonbot/dust.h, issue 6): free flight is the exact parabola at any time step,
+"""Granular ejecta (moonbot/dust.h): free flight is the exact parabola at any time step,
 bounces never add energy, fragments come to rest on a plane in finite time without sinking,
 nothing tunnels through a zero-thickness surface at the largest step, and the state is the same
 on 1 and 2 threads."""

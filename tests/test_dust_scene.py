@@ -1,4 +1,4 @@
-"""Dust in a scene (issue 6, the Python side): a scene without dust runs no dust code and renders
+"""Dust in a scene (the Python side): a scene without dust runs no dust code and renders
 the same bytes whatever its dust settings; ejecta are opaque background geometry (depth and masks),
 the cloud changes RGB only; each view rebuilds only the ejecta's BVH; outputs do not depend on
 the thread count nor on which other views were rendered; `render-one --dust` writes the dust
@@ -95,7 +95,7 @@ def _value(config, dotted: str):
 
 
 def test_a_scene_without_dust_runs_no_dust_code(tmp_path, monkeypatch):
-    """Principle 3: with dust off — by default, or off with every other dust value changed — no
+    """A scene runs only what it calls for: with dust off — by default, or off with every other dust value changed — no
     simulation, no puffs, no medium is made or traced, no fragment mesh joins the scene, no dust
     stage is timed and gt.json has no dust record; and both render the same bytes."""
     assert set(CHANGED) == _leaves(DustConfig, "dust.") - {"dust.enabled"}

@@ -1,4 +1,4 @@
-"""Pose metrics and the results CSV (moonbot/eval, issue 8) on hand-made cases with known answers:
+"""Pose metrics and the results CSV (moonbot/eval) on hand-made cases with known answers:
 identity → 0, a translation by d → ADD = d, a symmetric object turned by its symmetry → ADD-S 0
 while ADD > 0, strict recall thresholds, the toolkit's greedy matching, the AUC's trapezoids, and
 malformed results rejected with their line number."""

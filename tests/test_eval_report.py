@@ -1,4 +1,4 @@
-"""`moonbot eval` (issue 8, items 2 and 4) on a freshly generated smoke test split — three meshes,
+"""`moonbot eval` on a freshly generated smoke test split — three meshes,
 clean and stained, clear and dusty, two bags a scene: ground truth given back scores perfectly; a
 translation by d costs ADD = d; a turn by the model's symmetry costs ADD-S nothing but ADD much;
 a dropped estimate is a miss; of two estimates for one instance the higher-scored one matches; a

@@ -52,7 +52,7 @@ def test_auto_ev100_is_the_closed_form(albedo, elevation, irradiance):
 
 
 def test_auto_reproduces_the_reference_values():
-    """lunar-physics.md §2.1: regolith of albedo 0.12 is EV100 ≈ 14.2 at 30° (Apollo's sunlit
+    """docs/physics.md: regolith of albedo 0.12 is EV100 ≈ 14.2 at 30° (Apollo's sunlit
     f/11, 1/250 s, ISO 160 is 14.2) and ≈ 12.7 at 10°; the default config (12°) is 12.98."""
     assert auto_ev100(0.12, 30.0, 1361.0) == pytest.approx(14.24, abs=0.005)
     assert auto_ev100(0.12, 10.0, 1361.0) == pytest.approx(12.72, abs=0.005)

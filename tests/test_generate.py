@@ -1,4 +1,4 @@
-"""`moonbot generate` on real Dask clusters (issue 7): a LocalCluster of worker processes, an
+"""`moonbot generate` on real Dask clusters: a LocalCluster of worker processes, an
 external `dask scheduler` with two `dask worker` processes on loopback, a worker SIGKILLed in the
 middle of a run, a driver killed and rerun, a task that hangs. Whatever happens, every task ends
 complete exactly once (or, hung, is reported with its stage) and the data are byte-identical to an

@@ -1,4 +1,4 @@
-"""Lighting against closed forms (issue 5): a plane under the Sun gives E·f·sin(e) at every
+"""Lighting against closed forms: a plane under the Sun gives E·f·sin(e) at every
 pixel for Lambert and Lunar-Lambert; grazing Suns leave no acne and no leaks; a Sun below the
 horizon gives a black, finite image; the photometric functions are reciprocal and conserve
 energy; inter-reflection inside an integrating sphere converges bounce by bounce to the
@@ -261,7 +261,7 @@ def test_vertex_albedo_scales_radiance_and_varies_over_a_site():
 
 
 def test_effects_not_asked_for_trace_no_rays():
-    """Principle 3: no bounce ray without bounces, no shadow ray toward an Earth that is not
+    """A scene runs only what it calls for: no bounce ray without bounces, no shadow ray toward an Earth that is not
     there, and one shadow ray a hit toward a point Sun however many disk samples are asked."""
     scene = plane_scene(0.12)
     camera, _, _ = look_at([1.2, -1.6, 3.0], [0.0, 0.0, 0.0])

@@ -52,7 +52,7 @@ def test_curvature_drop_is_the_sphere_to_1e6_and_zero_when_off():
     np.testing.assert_allclose(curvature_drop(d)[2:], exact[2:], rtol=1e-6)
     np.testing.assert_allclose(curvature_drop(d), d * d / (2 * R) * (1 + d * d / (4 * R * R)), rtol=1e-9)
     np.testing.assert_allclose(curvature_drop(d), [_core.curvature_drop(x) for x in d], rtol=1e-14)
-    assert curvature_drop(np.array([2000.0]))[0] == pytest.approx(1.15, abs=0.005)  # lunar-physics.md §3.2: 1.15 m
+    assert curvature_drop(np.array([2000.0]))[0] == pytest.approx(1.15, abs=0.005)  # docs/physics.md: 1.15 m
 
     on = make_ground(bare(small(extent_m=2000.0, growth=1.3)))
     v, _ = on.mesh()

@@ -181,7 +181,7 @@ def render_bag(stain_seeds: int, opacity: float = 0.5):
 
 
 def test_clean_bags_allocate_no_mask_and_match_a_blank_stain_bit_for_bit():
-    """Zero stain seeds paint and allocate nothing (principle 3), and the image is the same bytes
+    """Zero stain seeds paint and allocate nothing, and the image is the same bytes
     as bags whose 15 stamps have zero opacity (masks allocated, all zero): lerp(clean, 0, 0) is
     clean exactly. With opacity the stain shows."""
     gc.collect()

@@ -1,4 +1,4 @@
-"""The dust as a medium and as moving geometry (moonbot/medium.h, moonbot/dust.h, issue 6): the
+"""The dust as a medium and as moving geometry (moonbot/medium.h, moonbot/dust.h): the
 baked grid's transmittance matches the puffs' closed-form integrals, scattering follows the
 phase function, a strided march matches the full one, a puff-free medium is no medium
 (bit-identical, nothing traced), renders are the

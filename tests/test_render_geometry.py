@@ -100,7 +100,7 @@ def test_outputs_identical_for_one_and_two_threads():
 
 
 def test_only_requested_passes_cost_rays():
-    """Principle 3: a depth/instance-only render traces one camera ray per pixel and no shadow
+    """A scene runs only what it calls for: a depth/instance-only render traces one camera ray per pixel and no shadow
     ray; the RGB pass adds spp camera rays and at most one shadow ray per sample; rendering
     never rebuilds a BVH."""
     scene, _ = ground_and_box()

@@ -1,4 +1,4 @@
-"""The sweep (moonbot/sweep, issue 7): configs/synbag-1.0.yaml is the paper's sweep exactly, tasks
+"""The sweep (moonbot/sweep): configs/synbag-1.0.yaml is the paper's sweep exactly, tasks
 come in a fixed order with unique names, a scene's seed follows its layout alone, a task's config
 carries its identity, bad sweeps are refused naming the field, and `moonbot plan` prints it all
 without rendering."""

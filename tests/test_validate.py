@@ -1,4 +1,4 @@
-"""`moonbot validate` (issue 8, first slice) passes on a freshly generated smoke dataset and fails,
+"""`moonbot validate` passes on a freshly generated smoke dataset and fails,
 naming the file and the check, on each corruption: a flipped mask, a depth PNG in the wrong unit,
 a truncated file, an edited count, an unlisted file, a shifted pose."""
 

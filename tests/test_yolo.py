@@ -1,6 +1,6 @@
 """YOLO polygons of instance masks (moonbot.yolo): traced boundaries fill exactly the mask,
 thinning keeps the extent, pieces and holes are joined into one ring, rows and YAML follow the
-Ultralytics rules (`../shared/reference/bop-format.md` §5)."""
+Ultralytics rules (docs.ultralytics.com/datasets/detect and /segment)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""moonbot against Mitsuba 3 and Blender Cycles on the same scene, at equal image error (issue 9).
+"""moonbot against Mitsuba 3 and Blender Cycles on the same scene, at equal image error.
 
 One command:
 

@@ -1,4 +1,4 @@
-"""Exports moonbot's embedded default scene once, for rendering by other renderers (issue 9 item 3).
+"""Exports moonbot's embedded default scene once, for rendering by other renderers .
 
 moonbot's own code composes the scene (`compose_scene`: the default `flat` location's terrain,
 the settled bag, the rocks left after clearing the site) and places the camera of orbit view 0

@@ -20,8 +20,7 @@ Timing: `load_s` is building the meshes and `mi.load_dict` (BVH); every spp up t
 times, each timed from `mi.render` until the image is in a numpy array, median reported; a
 larger spp is rendered once, timed. A frame of more than --chunk spp is rendered in chunks
 (distinct seeds, averaged): one render's wavefront is width × height × spp lanes. Depth and object index: a separate `aov` integrator pass (depth, shape_index) at
-1 spp, timed the same way (Mitsuba's AOVs per sample would multiply the RGB render's cost, see
-../shared/reference/performance-limits.md). Mitsuba's depth is the distance along the ray; it
+1 spp, timed the same way (Mitsuba's AOVs per sample would multiply the RGB render's cost: docs/design.md). Mitsuba's depth is the distance along the ray; it
 is written as z-depth (× the cosine to the optical axis at the pixel centre).
 
 Writes OUT_DIR/rgb_sppN.npy (H, W, 3) float32, depth.npy (H, W) float32 z metres (0 = no hit),

@@ -39,7 +39,7 @@ static_assert(kInvalidId == RTC_INVALID_GEOMETRY_ID, "kInvalidId mirrors Embree"
 namespace {
 
 // Embree's stream calls take at most this many rays at a time in our use; 64 is the width the
-// performance reference measured as fastest on AVX2 (reference/performance-limits.md).
+// performance reference measured as fastest on AVX2 (docs/design.md).
 constexpr size_t kStream = 64;
 
 // Embree's packet types and entry points by width, so one template serves 8 and 16.
@@ -235,7 +235,7 @@ uint32_t Accel::add_prototype(const float* vertices, size_t n_vertices, const ui
     RTCScene scene = rtcNewScene(device);
     if (!scene) throw_device_error(device, "rtcNewScene");
     // MEDIUM: HIGH gave no measurable trace speed-up on this CPU and builds 40 % slower
-    // (reference/performance-limits.md, BVH build table).
+    // (docs/design.md, BVH build table).
     rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_MEDIUM);
     if (m_watertight) rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
     RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);

@@ -897,7 +897,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     const int w = camera.width(), h = camera.height();
     const int tiles_x = (w + kTile - 1) / kTile, tiles_y = (h + kTile - 1) / kTile;
     if (medium) medium->validate();
-    // A medium without puffs is no medium: nothing of the dust's runs (principle 3).
+    // A medium without puffs is no medium: nothing of the dust's runs.
     std::optional<DustGrid> dust;
     tbb::task_arena arena(settings.threads > 0 ? settings.threads : tbb::task_arena::automatic);
     if (medium && !medium->puffs.empty() && out.rgb)

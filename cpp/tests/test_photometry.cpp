@@ -18,7 +18,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 
-/// The lunar set of Sato et al. 2014 (lunar-physics.md §1.2): w 0.32, b 0.24, c 0.30,
+/// The lunar set of Sato et al. 2014 (docs/physics.md): w 0.32, b 0.24, c 0.30,
 /// B_S0 1.8, h_S 0.07, B_C0 0, θ̄ 23.4°, φ 0.3.
 Photometry lunar_hapke(double w = 0.32, double roughness_deg = 23.4, double filling = 0.3, double shoe = 1.8,
                        double b = 0.24, double c = 0.30, double cboe = 0.0, double cboe_width = 1.0) {

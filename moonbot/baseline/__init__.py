@@ -1,4 +1,4 @@
-"""The zero-shot pose baseline (issue 8): principal-axes hypotheses refined by point-to-plane ICP
+"""The zero-shot pose baseline: principal-axes hypotheses refined by point-to-plane ICP
 against the object's mesh, from depth, a visible mask and K (estimator.py), run over a dataset
 split into a BOP results CSV (run.py)."""
 

@@ -1,5 +1,5 @@
-"""A zero-shot pose estimator from the mesh, the depth, one instance mask and K, with no training
-(issue 8): the paper verifies its data with FoundationPose in unseen-object mode; this is the
+"""A zero-shot pose estimator from the mesh, the depth, one instance mask and K, with no training:
+the paper verifies its data with FoundationPose in unseen-object mode; this is the
 classical counterpart that runs anywhere and shows the annotations are consistent.
 
 1. The instance's visible pixels are back-projected with their depth (camera frame, mm; pixel

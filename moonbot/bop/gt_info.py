@@ -1,5 +1,5 @@
 """scene_gt_info.json entries as bop_toolkit's scripts/calc_gt_info.py defines them
-(`../shared/reference/bop-format.md` §1.5), from moonbot's masks instead of a re-render:
+(as bop_toolkit's scripts/calc_gt_info.py computes it), from moonbot's masks instead of a re-render:
 
 - `px_count_all`: pixels of the instance's silhouette rendered alone on a 3W × 3H canvas (so the
   part cut off by the image border counts) — computed when the view is rendered

@@ -1,4 +1,4 @@
-"""Reading a merged moonbot dataset (moonbot merge's tree, bop-format.md): its splits' scenes with
+"""Reading a merged moonbot dataset (moonbot merge's tree, docs/dataset-format.md): its splits' scenes with
 their conditions and BOP annotations, each image's metric depth and visible masks, and the object
 models with their models_info.json. The evaluation and the baseline read through here.
 
@@ -146,7 +146,7 @@ class Model:
 
 
 def read_models(dataset: Path, kind: str = "models_eval") -> dict[int, Model]:
-    """The dataset's models of one kind ('models' or 'models_eval', bop-format.md §1.2) by obj_id.
+    """The dataset's models of one kind ('models' or 'models_eval', docs/dataset-format.md) by obj_id.
     Raises DatasetError naming the file."""
     folder = Path(dataset) / kind
     info = load_json(folder / "models_info.json")

@@ -1,7 +1,7 @@
 """The configuration schema. Every field states its unit and its valid range; the loader
 (`moonbot.config.load`) enforces both and names the offending field on error.
 
-Frames and units follow DESIGN.md: world is local East-North-Up in metres, angles in degrees,
+Frames and units follow docs/design.md: world is local East-North-Up in metres, angles in degrees,
 Sun azimuth clockwise from North.
 """
 
@@ -64,7 +64,7 @@ class SunConfig:
         "Earthshine: the Earth's elevation, degrees", lo=-90.0, hi=90.0))
     earth_irradiance_w_m2: float = field(default=0.1, metadata=spec(
         "Earthshine: irradiance facing a full Earth, W/m^2 (reflected visible ~0.07-0.14, i.e. "
-        "5e-5 to 1e-4 of sunlight; lunar-physics.md §2)", lo=0.0, hi=10.0))
+        "5e-5 to 1e-4 of sunlight; docs/physics.md)", lo=0.0, hi=10.0))
     earth_color: tuple[float, float, float] = field(default=(0.85, 0.95, 1.2), metadata=spec(
         "Earthshine: linear RGB tint relative to sunlight (bluish: Rayleigh and oceans)", lo=0.0, hi=10.0, length=3))
 
@@ -119,7 +119,7 @@ class GrainConfig:
 
 @dataclass(frozen=True)
 class PhotometryConfig:
-    """How regolith (terrain and rocks) reflects: moonbot/photometry.h, lunar-physics.md §1.
+    """How regolith (terrain and rocks) reflects: moonbot/photometry.h, docs/physics.md
 
     Whatever the model, terrain.albedo is the normal albedo (reflectance at zero incidence,
     emission and phase, opposition surge included); the model sets only the angular shape.
@@ -196,7 +196,7 @@ class RoughnessConfig:
 @dataclass(frozen=True)
 class CratersConfig:
     """Small craters (moonbot/terrain/craters.py): cumulative density N(>=D) = density·D^-2
-    per m² (lunar-physics.md §4.2), degraded simple-crater profiles."""
+    per m² (docs/physics.md), degraded simple-crater profiles."""
 
     density: float = field(default=0.05, metadata=spec(
         "C in N(>=D) = C·D^-2 per m^2, D in metres (Apollo 15 mare fit 0.0336, up to ~0.08)", lo=0.0, hi=10.0))
@@ -259,7 +259,7 @@ class TerrainConfig:
     photometry: PhotometryConfig = field(default_factory=PhotometryConfig)
     albedo_variation: float = field(default=0.2, metadata=spec(
         "procedural locations: albedo varies by up to this fraction at 50-400 m wavelengths (mature and "
-        "immature soil; lunar-physics.md §6: ±20 %)", lo=0.0, hi=0.9))
+        "immature soil; docs/physics.md: ±20 %)", lo=0.0, hi=0.9))
     ejecta_brightening: float = field(default=0.5, metadata=spec(
         "crater: fresh ejecta are brighter by this fraction at the rim, falling as (r/R)^-3 (+50-100 %)",
         lo=0.0, hi=2.0))
@@ -484,7 +484,7 @@ class SettleConfig:
     gravity_m_s2: float = field(default=1.62, metadata=spec("gravity, m/s^2 (the Moon: 1.62)", lo=0.01, hi=100.0))
     friction: float = field(default=0.75, metadata=spec(
         "Coulomb friction of fabric on regolith and on fabric (tan 37°, regolith's nominal internal "
-        "friction angle, lunar-physics.md)", lo=0.0, hi=5.0))
+        "friction angle, docs/physics.md)", lo=0.0, hi=5.0))
     rolling_friction_m: float = field(default=0.005, metadata=spec(
         "rolling and torsional friction as a lever arm, metres: a filled bag flattens against its "
         "support and does not rock or spin freely (a rigid bulged box would rock for seconds)",
@@ -556,7 +556,7 @@ class StainConfig:
     opacity: float = field(default=0.5, metadata=spec(
         "mask added by one stamp at the splat's centre (overlaps add, then clamp at 1)", lo=0.0, hi=1.0))
     dirt_colour: tuple[float, float, float] = field(default=(0.12, 0.11, 0.10), metadata=spec(
-        "linear RGB of fully stained fabric: regolith dust (lunar-physics.md section 6)",
+        "linear RGB of fully stained fabric: regolith dust (docs/physics.md)",
         lo=0.0, hi=1.0, length=3))
     resolution: int = field(default=512, metadata=spec(
         "mask texels per side (512: 2 mm texels on the default bag, 1 MiB per bag)", lo=1, hi=8192))
@@ -686,7 +686,7 @@ class EjectaConfig:
     """Emitter 1, granular ejecta (paper 3.2; cpp/include/moonbot/dust.h): rock fragments thrown
     up from a disc around the emitter in bursts, flying in vacuum and bouncing on everything in
     the scene until they rest. Opaque regolith geometry: background (label 0) in the masks, and
-    in depth. Numbers: lunar-physics.md §5."""
+    in depth. Numbers: docs/physics.md"""
 
     count: int = field(default=200, metadata=spec(
         "fragments per burst (0 = no ejecta: none simulated, no mesh)", lo=0, hi=1000000))
@@ -785,7 +785,7 @@ class CloudConfig:
 
 @dataclass(frozen=True)
 class DustConfig:
-    """Dust stirred up beside the work site, as a rover would (paper 3.2; issue 6): granular
+    """Dust stirred up beside the work site, as a rover would (paper 3.2): granular
     ejecta (`ejecta`, opaque fragments) and a fine-dust cloud (`cloud`, a medium in RGB only).
     Off, a scene runs no dust code, builds no dust geometry and traces no medium. Both emitters
     stand on the ground `emitter_offset_m` from the target bag's centre; each view has its own
@@ -817,7 +817,7 @@ MAX_IMAGES_PER_SCENE = 1_000_000
 
 @dataclass(frozen=True)
 class SplitConfig:
-    """One split of the sweep (paper 4.2, DESIGN.md "The SynBag-1.0 sweep"): its scenes are every
+    """One split of the sweep (paper 4.2, docs/scaling.md "The SynBag-1.0 sweep"): its scenes are every
     combination of meshes × locations × bag counts × stain seeds × dust, in that nesting order,
     and each scene is rendered in one task per Sun elevation × Sun azimuth × camera height (each
     task the orbit's views). An empty list takes the base config's single value."""

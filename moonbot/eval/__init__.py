@@ -1,4 +1,4 @@
-"""Evaluation (issue 8): pose-error metrics as the BOP toolkit and the YCB-Video convention define
+"""Evaluation: pose-error metrics as the BOP toolkit and the YCB-Video convention define
 them, the BOP results CSV the estimates come in, estimates scored per condition and per visible-pixel
 bin (`moonbot eval`: report.py, with matching.py, tables.py, formatting.py and plots.py), and a
 merged dataset's self-consistency."""

@@ -1,4 +1,4 @@
-"""Pose errors and their summaries (../shared/reference/bop-format.md §3). Poses map model points
+"""Pose errors and their summaries (bop_toolkit's pose_error.py; docs/evaluation.md). Poses map model points
 to the camera: x_cam = R·x + t, R (3, 3) float64, t (3,) in the model's units (mm in BOP);
 `points` (N, 3) are the model's evaluation points (models_eval/ vertices), same units.
 

@@ -1,4 +1,4 @@
-"""The BOP results CSV (bop_toolkit inout.load_bop_results; bop-format.md §1.9): the header
+"""The BOP results CSV (bop_toolkit inout.load_bop_results; docs/dataset-format.md): the header
 `scene_id,im_id,obj_id,score,R,t,time`, then one estimate a line — R nine space-separated floats
 (row-major, model to camera), t three floats in mm, score a float (higher is better), time the
 seconds spent on the whole image (the same for every row of one image, within 1 ms; −1 = unknown)."""

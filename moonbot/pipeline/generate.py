@@ -1,5 +1,5 @@
-"""`moonbot generate`: the sweep's tasks sharded over a Dask cluster (../shared/reference/
-dask-distribution.md). Each task runs on a worker process with one Dask thread while the C++
+"""`moonbot generate`: the sweep's tasks sharded over a Dask cluster (why it is built
+this way: docs/scaling.md). Each task runs on a worker process with one Dask thread while the C++
 core uses the cores; the filesystem is the record of what is done, so a rerun (or --resume)
 submits only the tasks without a complete directory, and the dataset's bytes never depend on
 which worker ran what, in which order, or how often a task was retried. The bags of a scene are
@@ -41,7 +41,7 @@ from moonbot.sweep import Task, task_config, tasks
 from moonbot.yolo.export import write_yolo
 
 # A worker's death counts against the tasks it held; a few deaths of one task are the cluster's
-# fault (preemption, the out-of-memory killer), more are the task's (dask-distribution.md §1.4).
+# fault (preemption, the out-of-memory killer), more are the task's (docs/scaling.md).
 ALLOWED_FAILURES = 5
 # A task that raises (a transient I/O error), or hangs, is tried this many more times before it
 # is reported.

@@ -73,7 +73,7 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
     stage("compose scene")
     start = time.perf_counter()
     spec = compose_scene(config, placement)
-    # Settling is its own stage, present only in scenes that settle here (principle 3).
+    # Settling is its own stage, present only in scenes that settle here.
     settle_s = spec.placement.settle_seconds if placement is None else None
     terrain_s = spec.terrain_seconds  # 0 when this process had the terrain cached
     compose_s = time.perf_counter() - start - (settle_s or 0.0) - terrain_s

@@ -1,8 +1,8 @@
-"""The dust of one scene (paper 3.2, issue 6) through `moonbot._core`: granular ejecta as one
+"""The dust of one scene (paper 3.2) through `moonbot._core`: granular ejecta as one
 moving mesh of opaque regolith fragments, and the fine-dust cloud as a medium for the renderer.
 
 Only a scene whose config turns dust on builds a `SceneDust`; without it nothing here runs (no
-simulation, no fragment mesh, no medium: principle 3). Every view has its own capture time,
+simulation, no fragment mesh, no medium). Every view has its own capture time,
 `warmup_s + view × view_interval_s` (the orbit index, so a view renders the same alone or in its
 orbit). The ejecta collide with the scene, so every capture is simulated before the fragments'
 own mesh joins it; the mesh is then added once, from the first view's state, and each later view

@@ -4,7 +4,7 @@ Renders are linear RGB radiance in W/(m²·sr) of sunlight (a grey surface refle
 spectrum unchanged). Photometry and a camera model turn that into a sensor signal:
 
 1. Luminance. L_v = K_sun · L_e, with K_sun = 1.27e5 lx / 1361 W/m² = 93.3 lm/W the luminous
-   efficacy of sunlight above an atmosphere (lunar-physics.md §2: solar illuminance ≈ 1.27e5 lx at
+   efficacy of sunlight above an atmosphere (docs/physics.md: solar illuminance ≈ 1.27e5 lx at
    1361 W/m²). Darula, Kittler & Gueymard (2005, Solar Energy 79:559) give 133.8 klx instead,
    98.3 lm/W: 0.08 EV brighter, below any exposure choice made here.
 2. Saturation-based exposure (ISO 12232's saturation speed S = 78 / H_sat with the focal-plane
@@ -22,7 +22,7 @@ configured Sun, L = ρ·E_v·sin(elevation)/π, reads as the meter's mid-grey, E
 log2(L · 100 / K). That grey lands at v = 0.125/1.2 = 0.104 of saturation, i.e. sRGB code 87
 after Reinhard. ρ is what the orbit camera sees (`regolith_reflectance`): the regolith's
 photometric function at the camera's depression angle, averaged over the camera's azimuth from
-the Sun; for a Lambertian, the albedo itself, which reproduces lunar-physics.md §2.1: ρ = 0.12
+the Sun; for a Lambertian, the albedo itself, which reproduces docs/physics.md: ρ = 0.12
 gives EV100 14.24 at 30° (Apollo's sunlit f/11, 1/250 s, ISO 160 is 14.2) and 12.72 at 10°.
 Lunar-Lambert regolith of normal albedo 0.12 looks darker than that Lambertian away from zero
 phase, and the meter follows it.

@@ -15,7 +15,7 @@ from moonbot.scene.orbit import CameraPose, intrinsics, orbit_height, orbit_pose
 from moonbot.scene.normals import vertex_normals
 
 
-# The Earth seen from the Moon: 2·asin(6371 km / 384 400 km) = 1.90° (lunar-physics.md §2).
+# The Earth seen from the Moon: 2·asin(6371 km / 384 400 km) = 1.90° (docs/physics.md).
 EARTH_DIAMETER_DEG = 1.9
 
 
@@ -65,7 +65,7 @@ def build_scene(spec: SceneSpec, embree_isa: str = "auto", watertight: bool = Tr
         scene.add_background(mesh_index[key], pose, albedo, photometry, grain=grain)
     f, st = spec.fabric, spec.stain
     for bag in spec.bags:
-        # Zero stain seeds: the core paints and allocates no mask (principle 3).
+        # Zero stain seeds: the core paints and allocates no mask.
         woven = params.woven(f, st, spec.bag_metres_per_uv, bag.stain_seed)
         scene.add_instance(mesh_index[bag.obj_id], bag.world_from_model, bag.instance_id, bag.albedo, woven=woven)
     scene.commit()
@@ -92,7 +92,7 @@ def regolith_grain(config: GrainConfig) -> _core.RegolithGrain | None:
 
 def scene_lights(config: Config) -> tuple[_core.DirectionalLight, _core.DirectionalLight | None]:
     """The config's Sun, and the Earth as a second light where earthshine is on (else None: no
-    second light, no shadow rays toward it; principle 3)."""
+    second light, no shadow rays toward it)."""
     s = config.sun
     sun = _core.DirectionalLight(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
     earth = (_core.DirectionalLight(s.earth_azimuth_deg, s.earth_elevation_deg, s.earth_irradiance_w_m2,
@@ -137,7 +137,7 @@ def build_light_cache(scene: _core.Scene, config: Config) -> _core.LightCache | 
     """The task's light cache (render.indirect = cache) over the committed scene's non-moving
     instances, keyed by the dataset seed so that every view of the task reads the same values;
     empty until views touch it. None where render.indirect is path or render.bounces is 0: no
-    indirect light is asked of a cache, so none is built (principle 3)."""
+    indirect light is asked of a cache, so none is built."""
     r = config.render
     if r.indirect != "cache" or r.bounces == 0:
         return None

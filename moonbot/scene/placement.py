@@ -1,4 +1,4 @@
-"""Placing bags on the ground (issue 3). Poses are exact rigid transforms (world-from-model,
+"""Placing bags on the ground. Poses are exact rigid transforms (world-from-model,
 (4, 4) float64, metres), deterministic from the scene seed. World frame: East-North-Up; a bag's
 model frame has x along its length, z up.
 

@@ -1,4 +1,4 @@
-"""Tasks of a sweep (paper 4.2; DESIGN.md "The SynBag-1.0 sweep"). A task is one scene lit by
+"""Tasks of a sweep (paper 4.2; docs/scaling.md "The SynBag-1.0 sweep"). A task is one scene lit by
 one Sun (azimuth, elevation) and seen from one camera height: the orbit's views, rendered by one
 worker in one go. Scenes of a split are every combination of its meshes × locations × bag counts
 × stain seeds × dust, nested in that order; the tasks of a scene every Sun elevation × Sun

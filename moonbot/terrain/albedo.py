@@ -1,4 +1,4 @@
-"""How regolith's albedo varies over a site (lunar-physics.md §1.3, §6): by about ±20 % at
+"""How regolith's albedo varies over a site (docs/physics.md): by about ±20 % at
 low spatial frequency (mature and immature soil, mare and highland material mixing), and by
 +50–100 % on the fresh ejecta of a young crater.
 

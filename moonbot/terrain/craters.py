@@ -2,7 +2,7 @@
 they add to the ground (metres, world East-North-Up), deterministic from a seed.
 
 Sizes follow the empirical equilibrium of small lunar craters, a cumulative density
-N(≥D) = C·D^-2 per m² with D in metres and C ≈ 0.05 (lunar-physics.md §4.2: 0.0336 for an
+N(≥D) = C·D^-2 per m² with D in metres and C ≈ 0.05 (docs/physics.md: 0.0336 for an
 Apollo 15 mare fit up to ~0.08; Trask 1966's standard equilibrium is 0.079; Minton et al. 2019,
 Xiao & Werner 2015). The D^-2 steady state holds from metres down to the 13 cm craters counted
 at Surveyor 7 (Shoemaker et al. 1969, JGR 74:6081; Moore, Boyce & Hahn 1980 find it for 1–100 m,
@@ -37,7 +37,7 @@ from functools import cache
 import numpy as np
 from scipy.spatial import cKDTree
 
-# Fresh simple crater proportions (lunar-physics.md §4.1): depth and rim height over diameter,
+# Fresh simple crater proportions (docs/physics.md): depth and rim height over diameter,
 # and the ejecta thickness law's exponent; `terrain.CraterGround` uses the same.
 DEPTH_RATIO = 0.13
 RIM_RATIO = 0.036

@@ -9,7 +9,7 @@ gradient; the renderer reads the mesh.
 - `FlatGround`: z = 0; `SlopedGround`: a plane falling at `slope_deg` toward
   `downhill_azimuth_deg` (clockwise from North), through the origin. Exact analytic test
   grounds, meshed with two triangles (the renderer resolves hits in double precision).
-- `CraterGround`: a bare fresh simple crater (lunar-physics.md §4.1): a parabolic bowl of depth
+- `CraterGround`: a bare fresh simple crater (docs/physics.md): a parabolic bowl of depth
   0.13·D below a rim of height 0.036·D (Pike 1977; Stopar et al. 2017 for D < 400 m), an ejecta
   blanket falling off as (r/R)^-3 outside (McGetchin et al. 1973). Its rim crest is a sharp
   ridge (the profile is continuous there, its slope is not): the hard case for placement and

@@ -29,7 +29,7 @@ to unit longest horizontal extent: lobed boulders (an 80-face icosphere whose ra
 given a few broad random lobes and cut by three random fracture planes) and angular clasts (the
 convex hull of 14 random points: a dozen or two large faces). The renderer shades their facets
 flat, so every edge is sharp. Each rock is an instance of one of them: random yaw, scale D, sunk
-into the ground by 10–70 % of its height (lunar-physics.md §4.3; Apollo 12 rocks show the line
+into the ground by 10–70 % of its height (docs/physics.md; Apollo 12 rocks show the line
 between their buried and their exposed, micro-cratered parts).
 """
 

@@ -1,5 +1,5 @@
-"""YOLO label rows and dataset YAMLs in the Ultralytics layout (`../shared/reference/bop-format.md`
-§5; docs.ultralytics.com/datasets/detect and /segment):
+"""YOLO label rows and dataset YAMLs in the Ultralytics layout
+(docs.ultralytics.com/datasets/detect and /segment):
 
     <root>/data.yaml
     <root>/images/<split>/<name>.png

@@ -1,5 +1,5 @@
 """One polygon per instance mask, as Ultralytics' segmentation labels need
-(`../shared/reference/bop-format.md` §5): the mask's boundary traced along pixel edges, thinned
+(Ultralytics' segment format): the mask's boundary traced along pixel edges, thinned
 by Douglas–Peucker, and every piece (separate components, holes) joined into a single ring.
 
 Coordinates are continuous pixel coordinates: pixel (x, y) is the square [x, x+1) × [y, y+1), so

@@ -1,7 +1,7 @@
 // A lunar digital elevation model as a raster of heights: a GeoTIFF, a 16-bit PNG heightmap whose
 // georeference the caller states, or heights in memory, read lazily window by window. Heights are
 // metres above the 1737.4 km sphere (SLDEM2015 and the LOLA products are relative to it;
-// lunar-physics.md §3.1); voids read as NaN. Windows are in pixels, column u and row v, integers
+// docs/physics.md); voids read as NaN. Windows are in pixels, column u and row v, integers
 // at pixel centres, row 0 the file's first (northernmost for north-up rasters) row; the
 // georeference (dem_georef.h) maps them to latitude/longitude.
 #pragma once

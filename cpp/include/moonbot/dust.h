@@ -1,6 +1,6 @@
 // Granular ejecta (paper 3.2, emitter 1): rock fragments thrown up beside the work site, as a
 // rover's wheels would, flying in vacuum under lunar gravity and bouncing on the terrain until
-// their energy is spent. Numbers: ../shared/reference/lunar-physics.md §5.
+// their energy is spent. Numbers and sources: docs/physics.md.
 //
 // Kinematics are exact: with no drag a fragment's flight is a parabola, so each step advances it
 // in closed form (p + v·dt + ½·g·dt², v + g·dt) and the time step only sets how finely contacts

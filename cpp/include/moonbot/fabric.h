@@ -32,7 +32,7 @@
 
 namespace moonbot {
 
-/// The weave's parameters. Defaults (DESIGN.md "Physical model"; lunar-physics.md §6):
+/// The weave's parameters. Defaults (docs/physics.md):
 /// - `pitch_m` 1.5 mm, centre to centre of neighbouring yarns: a tightly woven cloth, finer than
 ///   the 10 × 10 tapes per inch (2.54 mm) of a common polypropylene sandbag; at the paper's
 ///   8192 px/m texture a thread spans 12 px, "fine, uniform" but resolved up close.

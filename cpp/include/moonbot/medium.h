@@ -1,6 +1,6 @@
 // The fine dust as a participating medium: a sum of Gaussian puffs whose extinction is integrated
 // in closed form along any ray (Beer–Lambert transmittance), lit by the Sun through single
-// scattering with a forward Henyey–Greenstein phase function. Numbers: lunar-physics.md §5.1.
+// scattering with a forward Henyey–Greenstein phase function. Numbers: docs/physics.md
 // The medium changes radiance only: depth and labels stay those of the geometry.
 #pragma once
 
@@ -39,7 +39,7 @@ constexpr double kPuffReach = 5.0;
 /// The dust grid has at most this many nodes along an axis (a wider cloud gets coarser voxels).
 constexpr int kMaxGridNodes = 512;
 
-/// What a render needs to trace the dust. Defaults: lunar-physics.md §5.1 (forward HG g = 0.7,
+/// What a render needs to trace the dust. Defaults: docs/physics.md (forward HG g = 0.7,
 /// grain single-scattering albedo ω ≈ 0.55, reddened like regolith, R:G:B ≈ 1 : 0.92 : 0.82).
 struct Medium {
     std::vector<Puff> puffs;

@@ -1,7 +1,7 @@
 // Photometric functions: how bright a surface looks for given incidence, emission and phase
 // angles. Regolith is not Lambertian: it is a dark, porous powder whose single scattering gives
 // the Lommel-Seeliger law, and its shadow hiding brightens it sharply toward zero phase (the
-// opposition surge). Numbers and sources: ../shared/reference/lunar-physics.md §1.
+// opposition surge). Numbers and sources: docs/physics.md.
 //
 // Every model here is a BRDF f = (albedo/π)·shape(μi, μo, g) in sr⁻¹, reciprocal (shape is
 // symmetric in μi and μo and depends on the directions only through them and g), so the same
@@ -60,7 +60,7 @@ struct Photometry {
     };
     /// The Lunar-Lambert phase weight L(g): how much of the Lommel-Seeliger law is mixed in.
     enum class Phase : uint8_t {
-        Exponential,  ///< L(g) = exp(−g/60°): positive at every phase (lunar-physics.md §1.4)
+        Exponential,  ///< L(g) = exp(−g/60°): positive at every phase (docs/physics.md)
         McEwen,       ///< McEwen's cubic in g (degrees), clamped to [0, 1] (it turns negative past ~105°)
     };
     Model model = Model::Lambert;

@@ -52,7 +52,7 @@ double splat(double lu, double lv);
 /// ½∫R(θ)²dθ = π·0.55²(1 + ½Σa_m²) plus the droplets' πρ², over the 4 of p-space. ≈ 0.2515.
 double splat_support_area();
 
-/// The dirt painting parameters. Defaults (see README "Bag appearance"):
+/// The dirt painting parameters. Defaults (see docs/physics.md "Bags"):
 /// - `stamps` N ≥ 0 (the paper's "seeds", swept over 0, 15, 30, 90; 0, clean, by default);
 /// - `brush_size` s = 0.18 UV units, in (0, 0.5]: a 19 cm square on the default bag's atlas
 ///   (1.04 m per UV unit) whose blob is ~10 cm across; one stamp then covers s²·0.2515 of the
