@@ -101,12 +101,27 @@ CONVERGED = {"spp": 1024, "halves_seeds": (1, 2)}
 # (spp, adaptive_spp, adaptive_threshold, light_samples); adaptive_spp 0: brute force, today's
 # path tracer. Base spp 1 is the pixel-centre sample, refined where its 3×3 neighbourhood disagrees.
 ADAPTIVE_LEVELS = [
-    (4, 0, 0.25, 2), (8, 0, 0.25, 2), (16, 0, 0.25, 2), (32, 0, 0.25, 2), (64, 0, 0.25, 2),
-    (4, 16, 0.25, 2), (4, 32, 0.25, 2), (4, 64, 0.25, 2),
-    (4, 32, 0.1, 2), (4, 32, 0.5, 2), (4, 32, 1.0, 2),
-    (2, 16, 0.25, 2), (2, 32, 0.25, 2), (8, 64, 0.25, 2),
+    (4, 0, 0.25, 2),
+    (8, 0, 0.25, 2),
+    (16, 0, 0.25, 2),
+    (32, 0, 0.25, 2),
+    (64, 0, 0.25, 2),
+    (4, 16, 0.25, 2),
+    (4, 32, 0.25, 2),
+    (4, 64, 0.25, 2),
+    (4, 32, 0.1, 2),
+    (4, 32, 0.5, 2),
+    (4, 32, 1.0, 2),
+    (2, 16, 0.25, 2),
+    (2, 32, 0.25, 2),
+    (8, 64, 0.25, 2),
     (2, 16, 0.5, 1),
-    (1, 16, 1.0, 1), (1, 32, 1.0, 1), (1, 16, 0.5, 1), (1, 32, 0.5, 1), (1, 64, 0.5, 1), (1, 32, 0.25, 1),
+    (1, 16, 1.0, 1),
+    (1, 32, 1.0, 1),
+    (1, 16, 0.5, 1),
+    (1, 32, 0.5, 1),
+    (1, 64, 0.5, 1),
+    (1, 32, 0.25, 1),
 ]
 # Sample points on the Sun's disk for the visibility V that defines the region masks.
 SUN_DISK_POINTS = 64
@@ -145,9 +160,11 @@ def errors(rgb: np.ndarray, reference: np.ndarray, exposure: float) -> dict:
     a = _core.tonemap_reinhard(rgb.astype(np.float32), exposure)[0].astype(np.float64)
     b = _core.tonemap_reinhard(reference.astype(np.float32), exposure)[0].astype(np.float64)
     rmse8 = float(np.sqrt(np.mean((a - b) ** 2)))
-    return {"rel_rmse": rmse / mean if mean > 0 else float("nan"),
-            "psnr_linear_db": 20 * np.log10(peak / rmse) if rmse > 0 else float("inf"),
-            "psnr_8bit_db": 20 * np.log10(255.0 / rmse8) if rmse8 > 0 else float("inf")}
+    return {
+        "rel_rmse": rmse / mean if mean > 0 else float("nan"),
+        "psnr_linear_db": 20 * np.log10(peak / rmse) if rmse > 0 else float("inf"),
+        "psnr_8bit_db": 20 * np.log10(255.0 / rmse8) if rmse8 > 0 else float("inf"),
+    }
 
 
 def sun_visibility(config, scene, spec, depth: np.ndarray) -> np.ndarray:
@@ -187,17 +204,30 @@ def converged_reference(config, scene, spec, fresh: bool, medium=None) -> dict:
     rgb (H, W, 3), half_difference (H, W, 3: the halves' difference), depth, instance, visibility.
     Cached in build/ under the config's hash."""
     # Pinned, not the config's: the quality knobs' defaults may move without the reference's key.
-    half = with_render(config, spp=CONVERGED["spp"] // 2, adaptive_spp=0, threads=0, adaptive_threshold=0.5,
-                       light_samples=2, indirect="cache")
+    half = with_render(
+        config,
+        spp=CONVERGED["spp"] // 2,
+        adaptive_spp=0,
+        threads=0,
+        adaptive_threshold=0.5,
+        light_samples=2,
+        indirect="cache",
+    )
     key = config_hash(with_render(half, threads=0))[:16]
     path = REFERENCE_CACHE / f"{config.terrain.location}-{config.sun.elevation_deg:g}-{config.camera.width}-{key}.npz"
     if path.exists() and not fresh:
         with np.load(path) as f:
             return dict(f)
-    halves = [render(half, scene, spec, 1, seed=seed, full=True, medium=medium)[0] for seed in CONVERGED["halves_seeds"]]
+    halves = [
+        render(half, scene, spec, 1, seed=seed, full=True, medium=medium)[0] for seed in CONVERGED["halves_seeds"]
+    ]
     a, b = (h.rgb.astype(np.float64) for h in halves)
-    ref = {"rgb": ((a + b) / 2).astype(np.float32), "half_difference": (a - b).astype(np.float32),
-           "depth": halves[0].depth, "instance": halves[0].instance}
+    ref = {
+        "rgb": ((a + b) / 2).astype(np.float32),
+        "half_difference": (a - b).astype(np.float32),
+        "depth": halves[0].depth,
+        "instance": halves[0].instance,
+    }
     ref["visibility"] = sun_visibility(config, scene, spec, ref["depth"]).astype(np.float32)
     REFERENCE_CACHE.mkdir(parents=True, exist_ok=True)
     partial = path.with_suffix(".partial.npz")
@@ -210,8 +240,13 @@ def region_masks(ref: dict) -> dict[str, np.ndarray]:
     """REGIONS as (H, W) bool masks of the reference's pixel-centre buffers."""
     v, bag, hit = ref["visibility"], ref["instance"] > 0, ref["depth"] > 0
     lit, dark, penumbra = hit & (v == 1), hit & (v == 0), hit & (v > 0) & (v < 1)
-    return {"sunlit_ground": lit & ~bag, "shadowed_ground": dark & ~bag, "sunlit_bag": lit & bag,
-            "shadowed_bag": dark & bag, "penumbra": penumbra}
+    return {
+        "sunlit_ground": lit & ~bag,
+        "shadowed_ground": dark & ~bag,
+        "sunlit_bag": lit & bag,
+        "shadowed_bag": dark & bag,
+        "penumbra": penumbra,
+    }
 
 
 def region_errors(rgb: np.ndarray, ref: dict, masks: dict[str, np.ndarray]) -> dict:
@@ -219,49 +254,82 @@ def region_errors(rgb: np.ndarray, ref: dict, masks: dict[str, np.ndarray]) -> d
     reference image's mean, and its share of the image's squared error."""
     error = rgb - ref["rgb"].astype(np.float64)
     mean = float(ref["rgb"].mean())
-    total = float(np.sum(error ** 2))
+    total = float(np.sum(error**2))
     out = {}
     for name, mask in masks.items():
         e = error[mask]
         if e.size == 0:
             out[name] = {"fraction": 0.0}
             continue
-        out[name] = {"fraction": float(mask.mean()), "bias": float(e.mean()) / mean, "noise": float(e.std()) / mean,
-                     "share_of_squared_error": float(np.sum(e ** 2)) / total if total > 0 else 0.0}
+        out[name] = {
+            "fraction": float(mask.mean()),
+            "bias": float(e.mean()) / mean,
+            "noise": float(e.std()) / mean,
+            "share_of_squared_error": float(np.sum(e**2)) / total if total > 0 else 0.0,
+        }
     return out
 
 
-def adaptive_rows(config, scene, spec, exposure: float, repeats: int, fresh_reference: bool,
-                  indirect: str = "path", levels: list[tuple] = ADAPTIVE_LEVELS, medium=None) -> list[dict]:
+def adaptive_rows(
+    config,
+    scene,
+    spec,
+    exposure: float,
+    repeats: int,
+    fresh_reference: bool,
+    indirect: str = "path",
+    levels: list[tuple] = ADAPTIVE_LEVELS,
+    medium=None,
+) -> list[dict]:
     """The adaptive curve of one scene against its converged reference (module docstring)."""
     location, elevation = config.terrain.location, config.sun.elevation_deg
     start = time.perf_counter()
     ref = converged_reference(config, scene, spec, fresh_reference, medium)
     mean = float(ref["rgb"].mean())
     reference_noise = float(np.sqrt(np.mean(ref["half_difference"].astype(np.float64) ** 2)) / 2) / mean
-    rows = [{"location": location, "sun_elevation_deg": elevation, "knob": "adaptive",
-             "level": f"reference {CONVERGED['spp']}", "seconds": time.perf_counter() - start,
-             "reference_rel_noise": reference_noise}]
+    rows = [
+        {
+            "location": location,
+            "sun_elevation_deg": elevation,
+            "knob": "adaptive",
+            "level": f"reference {CONVERGED['spp']}",
+            "seconds": time.perf_counter() - start,
+            "reference_rel_noise": reference_noise,
+        }
+    ]
     masks = region_masks(ref)
     one_thread = with_render(config, threads=1, indirect=indirect)
     cache = build_light_cache(scene, one_thread)
     if cache is not None:
         render(one_thread, scene, spec, 1, light_cache=cache, medium=medium)  # fills what view 0 touches
     for spp, cap, threshold, light_samples in levels:
-        level = with_render(one_thread, spp=spp, adaptive_spp=cap, adaptive_threshold=threshold,
-                            light_samples=light_samples)
+        level = with_render(
+            one_thread, spp=spp, adaptive_spp=cap, adaptive_threshold=threshold, light_samples=light_samples
+        )
         out, seconds = render(level, scene, spec, repeats, full=True, light_cache=cache, medium=medium)
         rgb = out.rgb.astype(np.float64)
         e = errors(rgb, ref["rgb"].astype(np.float64), exposure)
         rays = sum(out.stats[k] for k in ("camera_rays", "second_look_rays", "shadow_rays", "bounce_rays"))
-        rows.append({"location": location, "sun_elevation_deg": elevation, "knob": "adaptive",
-                     "level": adaptive_label(spp, cap, threshold, light_samples), "spp": spp, "adaptive_spp": cap,
-                     "adaptive_threshold": threshold, "light_samples": light_samples, "seconds": seconds, **e,
-                     # the error left once the reference's own noise is taken out (they add in squares)
-                     "rel_rmse_vs_truth": float(np.sqrt(max(e["rel_rmse"] ** 2 - reference_noise ** 2, 0.0))),
-                     "rays": int(rays), "refined_pixels": int(out.stats["refined_pixels"]),
-                     "refinement_rays": int(out.stats["refinement_rays"]),
-                     "regions": region_errors(rgb, ref, masks)})
+        rows.append(
+            {
+                "location": location,
+                "sun_elevation_deg": elevation,
+                "knob": "adaptive",
+                "level": adaptive_label(spp, cap, threshold, light_samples),
+                "spp": spp,
+                "adaptive_spp": cap,
+                "adaptive_threshold": threshold,
+                "light_samples": light_samples,
+                "seconds": seconds,
+                **e,
+                # the error left once the reference's own noise is taken out (they add in squares)
+                "rel_rmse_vs_truth": float(np.sqrt(max(e["rel_rmse"] ** 2 - reference_noise**2, 0.0))),
+                "rays": int(rays),
+                "refined_pixels": int(out.stats["refined_pixels"]),
+                "refinement_rays": int(out.stats["refinement_rays"]),
+                "regions": region_errors(rgb, ref, masks),
+            }
+        )
     return rows
 
 
@@ -270,11 +338,24 @@ def adaptive_label(spp: int, cap: int, threshold: float, light_samples: int = 2)
     return label if light_samples == 2 else f"{label} ls{light_samples}"
 
 
-def scene_rows(location: str, elevation: float, width: int, repeats: int, knobs: list[str],
-               fresh_reference: bool, direct_only: bool = False, indirect: str = "path",
-               dust: bool = False) -> list[dict]:
-    overrides = {"terrain.location": location, "sun.elevation_deg": elevation,
-                 "camera.width": width, "camera.height": width * 3 // 4, "dust.enabled": dust}
+def scene_rows(
+    location: str,
+    elevation: float,
+    width: int,
+    repeats: int,
+    knobs: list[str],
+    fresh_reference: bool,
+    direct_only: bool = False,
+    indirect: str = "path",
+    dust: bool = False,
+) -> list[dict]:
+    overrides = {
+        "terrain.location": location,
+        "sun.elevation_deg": elevation,
+        "camera.width": width,
+        "camera.height": width * 3 // 4,
+        "dust.enabled": dust,
+    }
     config = load_config(None, overrides)
     spec = compose_scene(config)
     scene = build_scene(spec)
@@ -296,12 +377,27 @@ def scene_rows(location: str, elevation: float, width: int, repeats: int, knobs:
         if knob not in knobs:
             continue
         reference, ref_s = render(knob_config(knob, REFERENCE[knob]), scene, spec, 1)
-        rows.append({"location": location, "sun_elevation_deg": elevation, "knob": knob,
-                     "level": f"reference {REFERENCE[knob]}", "seconds": ref_s})
+        rows.append(
+            {
+                "location": location,
+                "sun_elevation_deg": elevation,
+                "knob": knob,
+                "level": f"reference {REFERENCE[knob]}",
+                "seconds": ref_s,
+            }
+        )
         for level in levels:
             rgb, seconds = render(knob_config(knob, level), scene, spec, repeats)
-            rows.append({"location": location, "sun_elevation_deg": elevation, "knob": knob, "level": level,
-                         "seconds": seconds, **errors(rgb, reference, exposure)})
+            rows.append(
+                {
+                    "location": location,
+                    "sun_elevation_deg": elevation,
+                    "knob": knob,
+                    "level": level,
+                    "seconds": seconds,
+                    **errors(rgb, reference, exposure),
+                }
+            )
     return rows
 
 
@@ -313,8 +409,10 @@ def print_rows(rows: list[dict]) -> None:
             print(f"{r['knob']:<14} {r['level']:>12} {1e3 * r['seconds']:>8.0f}{noise}")
             continue
         refined = f"{r['refined_pixels']:>8}" if "refined_pixels" in r else ""
-        print(f"{r['knob']:<14} {str(r['level']):>12} {1e3 * r['seconds']:>8.1f} {r['rel_rmse']:>9.4f} "
-              f"{r['psnr_linear_db']:>8.1f}  {r['psnr_8bit_db']:>9.1f} {refined}")
+        print(
+            f"{r['knob']:<14} {str(r['level']):>12} {1e3 * r['seconds']:>8.1f} {r['rel_rmse']:>9.4f} "
+            f"{r['psnr_linear_db']:>8.1f}  {r['psnr_8bit_db']:>9.1f} {refined}"
+        )
 
 
 def knob_summary(rows: list[dict], knob: str, levels: list) -> tuple[list, list]:
@@ -326,18 +424,26 @@ def knob_summary(rows: list[dict], knob: str, levels: list) -> tuple[list, list]
         at = [r for r in rows if r["knob"] == knob and r["level"] == level]
         t = statistics.median(r["seconds"] for r in at)
         e = statistics.median(r["rel_rmse"] for r in at)
-        row = {"knob": knob, "level": level, "median_seconds": t, "median_rel_rmse": e,
-               "median_psnr_8bit_db": statistics.median(r["psnr_8bit_db"] for r in at)}
+        row = {
+            "knob": knob,
+            "level": level,
+            "median_seconds": t,
+            "median_rel_rmse": e,
+            "median_psnr_8bit_db": statistics.median(r["psnr_8bit_db"] for r in at),
+        }
         if knob == "adaptive":
             row["median_rel_rmse_vs_truth"] = statistics.median(r["rel_rmse_vs_truth"] for r in at)
             row["max_rel_rmse"] = max(r["rel_rmse"] for r in at)
             row["median_rays"] = statistics.median(r["rays"] for r in at)
             row["median_refined_pixels"] = statistics.median(r["refined_pixels"] for r in at)
-            row["regions"] = {name: {q: statistics.median(r["regions"][name][q] for r in at
-                                                          if q in r["regions"][name])
-                                     for q in ("bias", "noise", "share_of_squared_error")
-                                     if any(q in r["regions"][name] for r in at)}
-                              for name in REGIONS}
+            row["regions"] = {
+                name: {
+                    q: statistics.median(r["regions"][name][q] for r in at if q in r["regions"][name])
+                    for q in ("bias", "noise", "share_of_squared_error")
+                    if any(q in r["regions"][name] for r in at)
+                }
+                for name in REGIONS
+            }
         summary.append(row)
         curve.append((t, e, str(level)))
     return summary, curve
@@ -350,19 +456,27 @@ def adaptive_curves(rows: list[dict]) -> dict[str, list]:
     for spp, cap, threshold, light_samples in ADAPTIVE_LEVELS:
         name = "brute force spp" if cap == 0 else f"adaptive base {spp}, threshold {threshold:g}"
         groups.setdefault(name, []).append(adaptive_label(spp, cap, threshold, light_samples))
-    groups["adaptive 4/32, threshold"] = [adaptive_label(4, 32, t) for s, c, t, _ in ADAPTIVE_LEVELS if (s, c) == (4, 32)]
+    groups["adaptive 4/32, threshold"] = [
+        adaptive_label(4, 32, t) for s, c, t, _ in ADAPTIVE_LEVELS if (s, c) == (4, 32)
+    ]
     curves = {}
     for name, labels in groups.items():
         points = [p for p in knob_summary(rows, "adaptive", labels)[1]]
         if len(points) > 1:
             curves[name] = points
     return curves
+
+
 CACHE_KNOBS = {"path_spp": [1, 2, 4, 8, 16], "cache_rays": [8, 16, 32, 64, 128]}
 
 
 def scene_setup(location: str, elevation: float, width: int):
-    overrides = {"terrain.location": location, "sun.elevation_deg": elevation,
-                 "camera.width": width, "camera.height": width * 3 // 4}
+    overrides = {
+        "terrain.location": location,
+        "sun.elevation_deg": elevation,
+        "camera.width": width,
+        "camera.height": width * 3 // 4,
+    }
     config = load_config(None, overrides)
     spec = compose_scene(config)
     return config, spec, build_scene(spec)
@@ -373,8 +487,10 @@ def path_reference(config, scene, spec, location: str, elevation: float, spp: in
     same seed (their difference is the reference indirect light), linear RGB float64, read from
     build/bench_accuracy/ when computed before for this scene, size and render settings."""
     r = config.render
-    key = (f"{location}-{elevation:g}-{config.camera.width}x{config.camera.height}-spp{spp}-b{r.bounces}"
-           f"-ls{r.light_samples}")
+    key = (
+        f"{location}-{elevation:g}-{config.camera.width}x{config.camera.height}-spp{spp}-b{r.bounces}"
+        f"-ls{r.light_samples}"
+    )
     path = REFERENCE_CACHE / f"{key}.npz"
     if path.exists():
         with np.load(path) as f:
@@ -397,12 +513,15 @@ def regions(direct: np.ndarray, labels: np.ndarray) -> dict[str, np.ndarray]:
     """Pixel masks: ground and bag faces, sunlit (direct light > 0 in the reference) or shadowed."""
     lit = direct.sum(axis=2) > 0
     ground, bag = labels == 0, labels > 0
-    return {"ground_sunlit": ground & lit, "ground_shadowed": ground & ~lit, "bag_sunlit": bag & lit,
-            "bag_shadowed": bag & ~lit}
+    return {
+        "ground_sunlit": ground & lit,
+        "ground_shadowed": ground & ~lit,
+        "bag_sunlit": bag & lit,
+        "bag_shadowed": bag & ~lit,
+    }
 
 
-def bias_and_noise(first: np.ndarray, second: np.ndarray, reference: np.ndarray,
-                   masks: dict[str, np.ndarray]) -> dict:
+def bias_and_noise(first: np.ndarray, second: np.ndarray, reference: np.ndarray, masks: dict[str, np.ndarray]) -> dict:
     """Per region: bias (mean of the first estimate minus the reference) and noise (RMS of the two
     estimates' difference over √2), both relative to the reference's mean there; indirect light
     only (each argument is a render minus its bounce-free twin)."""
@@ -411,10 +530,14 @@ def bias_and_noise(first: np.ndarray, second: np.ndarray, reference: np.ndarray,
         if mask.sum() == 0:
             continue
         mean = float(reference[mask].mean())
-        out[name] = {"pixels": int(mask.sum()), "reference_mean": mean,
-                     "bias": float((first[mask] - reference[mask]).mean()) / mean if mean > 0 else float("nan"),
-                     "noise": float(np.sqrt(np.mean((first[mask] - second[mask]) ** 2) / 2)) / mean
-                     if mean > 0 else float("nan")}
+        out[name] = {
+            "pixels": int(mask.sum()),
+            "reference_mean": mean,
+            "bias": float((first[mask] - reference[mask]).mean()) / mean if mean > 0 else float("nan"),
+            "noise": float(np.sqrt(np.mean((first[mask] - second[mask]) ** 2) / 2)) / mean
+            if mean > 0
+            else float("nan"),
+        }
     return out
 
 
@@ -424,26 +547,42 @@ def light_cache_rows(location: str, elevation: float, width: int, repeats: int, 
     start = time.perf_counter()
     reference, reference_direct = path_reference(config, scene, spec, location, elevation, reference_spp)
     base = {"location": location, "sun_elevation_deg": elevation}
-    rows = [{**base, "knob": "reference", "level": f"path {reference_spp} spp",
-             "seconds": time.perf_counter() - start}]
+    rows = [{**base, "knob": "reference", "level": f"path {reference_spp} spp", "seconds": time.perf_counter() - start}]
     for spp in CACHE_KNOBS["path_spp"]:
         times = []
         for _ in range(repeats):
             rgb, out = render_with(with_render(config, spp=spp, indirect="path"), scene, spec)
             times.append(out.stats["core_seconds"])
-        rows.append({**base, "knob": "path_spp", "level": spp, "seconds": statistics.median(times),
-                     "bounce_rays": out.stats["bounce_rays"], **errors(rgb, reference, exposure)})
+        rows.append(
+            {
+                **base,
+                "knob": "path_spp",
+                "level": spp,
+                "seconds": statistics.median(times),
+                "bounce_rays": out.stats["bounce_rays"],
+                **errors(rgb, reference, exposure),
+            }
+        )
     for rays in CACHE_KNOBS["cache_rays"]:
         cached = with_render(config, indirect="cache", cache_rays_terrain=rays, cache_rays_bags=4 * rays)
         cache = build_light_cache(scene, cached)
         rgb, cold = render_with(cached, scene, spec, cache=cache)
         filled = cache.stats()
         warm = [render_with(cached, scene, spec, cache=cache)[1].stats["core_seconds"] for _ in range(repeats)]
-        rows.append({**base, "knob": "cache_rays", "level": rays, "seconds": statistics.median(warm),
-                     "seconds_cold": cold.stats["core_seconds"], "fill_thread_seconds": filled["fill_seconds"],
-                     "cache": {k: filled[k] for k in ("vertices", "nodes", "probe_rays", "gather_rays",
-                                                      "shadow_rays", "bytes")},
-                     **errors(rgb, reference, exposure)})
+        rows.append(
+            {
+                **base,
+                "knob": "cache_rays",
+                "level": rays,
+                "seconds": statistics.median(warm),
+                "seconds_cold": cold.stats["core_seconds"],
+                "fill_thread_seconds": filled["fill_seconds"],
+                "cache": {
+                    k: filled[k] for k in ("vertices", "nodes", "probe_rays", "gather_rays", "shadow_rays", "bytes")
+                },
+                **errors(rgb, reference, exposure),
+            }
+        )
     # Bias and noise of the indirect light per region, at the defaults of each mode.
     reference_indirect = reference - reference_direct
     labels = render_with(config, scene, spec)[1].instance
@@ -454,12 +593,26 @@ def light_cache_rows(location: str, elevation: float, width: int, repeats: int, 
     cached = with_render(config, indirect="cache")
     caches = [build_light_cache(scene, dataclasses.replace(cached, seed=config.seed + k)) for k in (0, 1)]
     cache = [render_with(cached, scene, spec, seed=7, cache=c)[0] - direct[7] for c in caches]
-    rows.append({**base, "knob": "regions", "level": "path", "spp": config.render.spp,
-                 "regions": bias_and_noise(path[0], path[1], reference_indirect, masks)})
-    rows.append({**base, "knob": "regions", "level": "cache", "spp": config.render.spp,
-                 "cache_rays_terrain": config.render.cache_rays_terrain,
-                 "cache_rays_bags": config.render.cache_rays_bags,
-                 "regions": bias_and_noise(cache[0], cache[1], reference_indirect, masks)})
+    rows.append(
+        {
+            **base,
+            "knob": "regions",
+            "level": "path",
+            "spp": config.render.spp,
+            "regions": bias_and_noise(path[0], path[1], reference_indirect, masks),
+        }
+    )
+    rows.append(
+        {
+            **base,
+            "knob": "regions",
+            "level": "cache",
+            "spp": config.render.spp,
+            "cache_rays_terrain": config.render.cache_rays_terrain,
+            "cache_rays_bags": config.render.cache_rays_bags,
+            "regions": bias_and_noise(cache[0], cache[1], reference_indirect, masks),
+        }
+    )
     return rows
 
 
@@ -478,21 +631,36 @@ def orbit_rows(location: str, elevation: float, width: int, views: int) -> dict:
         before = cache.stats()
         out = render_view(scene, config, K, pose, seed=v, light_cache=cache)
         after = cache.stats()
-        per_view.append({"view": v, "seconds": out.stats["core_seconds"],
-                         "vertices_filled": after["vertices"] - before["vertices"],
-                         "fill_thread_seconds": after["fill_seconds"] - before["fill_seconds"]})
+        per_view.append(
+            {
+                "view": v,
+                "seconds": out.stats["core_seconds"],
+                "vertices_filled": after["vertices"] - before["vertices"],
+                "fill_thread_seconds": after["fill_seconds"] - before["fill_seconds"],
+            }
+        )
         if v % 6 == 0:  # today's path tracer on the same view, for the comparison
             path = render_view(scene, with_render(config, indirect="path"), K, pose, seed=v)
             path_seconds.append(path.stats["core_seconds"])
-    return {"location": location, "sun_elevation_deg": elevation, "views": per_view,
-            "cache": cache.stats(), "render_seconds_total": sum(v["seconds"] for v in per_view),
-            "path_seconds_median_every_6th_view": statistics.median(path_seconds)}
+    return {
+        "location": location,
+        "sun_elevation_deg": elevation,
+        "views": per_view,
+        "cache": cache.stats(),
+        "render_seconds_total": sum(v["seconds"] for v in per_view),
+        "path_seconds_median_every_6th_view": statistics.median(path_seconds),
+    }
 
 
 def light_cache_main(args) -> int:
-    result = {"schema_version": SCHEMA_VERSION, "machine": machine(), "width": args.width,
-              "reference": f"path {args.reference_spp} spp", "defaults": dataclasses.asdict(load_config(None).render),
-              "rows": []}
+    result = {
+        "schema_version": SCHEMA_VERSION,
+        "machine": machine(),
+        "width": args.width,
+        "reference": f"path {args.reference_spp} spp",
+        "defaults": dataclasses.asdict(load_config(None).render),
+        "rows": [],
+    }
     start = time.perf_counter()
     for location in LOCATIONS:
         for elevation in ELEVATIONS:
@@ -502,8 +670,10 @@ def light_cache_main(args) -> int:
             for r in rows:
                 if r["knob"] in CACHE_KNOBS:
                     cold = f"  cold {1e3 * r['seconds_cold']:.0f} ms" if "seconds_cold" in r else ""
-                    print(f"{r['knob']:<11} {str(r['level']):>5} {1e3 * r['seconds']:>8.1f} ms "
-                          f"rel RMSE {r['rel_rmse']:.4f}{cold}")
+                    print(
+                        f"{r['knob']:<11} {str(r['level']):>5} {1e3 * r['seconds']:>8.1f} ms "
+                        f"rel RMSE {r['rel_rmse']:.4f}{cold}"
+                    )
                 elif r["knob"] == "regions":
                     cells = "  ".join(f"{k} {v['bias']:+.3f}/{v['noise']:.3f}" for k, v in r["regions"].items())
                     print(f"{r['level']:<6} bias/noise  {cells}")
@@ -515,9 +685,19 @@ def light_cache_main(args) -> int:
             t = statistics.median(r["seconds"] for r in rows)
             e = statistics.median(r["rel_rmse"] for r in rows)
             curve.append((t, e, str(level)))
-            summary.append({"knob": knob, "level": level, "median_seconds": t, "median_rel_rmse": e,
-                            **({"median_seconds_cold": statistics.median(r["seconds_cold"] for r in rows)}
-                               if knob == "cache_rays" else {})})
+            summary.append(
+                {
+                    "knob": knob,
+                    "level": level,
+                    "median_seconds": t,
+                    "median_rel_rmse": e,
+                    **(
+                        {"median_seconds_cold": statistics.median(r["seconds_cold"] for r in rows)}
+                        if knob == "cache_rays"
+                        else {}
+                    ),
+                }
+            )
         curves[knob] = curve
     result["summary"] = summary
     if args.orbit_views:
@@ -526,14 +706,21 @@ def light_cache_main(args) -> int:
     RESULTS.mkdir(exist_ok=True)
     out = RESULTS / f"accuracy-light-cache-{machine_slug(result['machine'])}.json"
     out.write_text(json.dumps(result, indent=2, default=str) + "\n")
-    time_error_plot(out.with_suffix(".svg"), f"Indirect light: per-pixel paths vs the light cache "
-                    f"({result['machine']['git_commit'][:7]}, {args.width} px, median of 6 scenes; cache warm)",
-                    curves, "core render seconds per view", "RMSE / mean vs path reference")
+    time_error_plot(
+        out.with_suffix(".svg"),
+        f"Indirect light: per-pixel paths vs the light cache "
+        f"({result['machine']['git_commit'][:7]}, {args.width} px, median of 6 scenes; cache warm)",
+        curves,
+        "core render seconds per view",
+        "RMSE / mean vs path reference",
+    )
     print("\nmedian over scenes:")
     for s in summary:
         cold = f" (cold {1e3 * s['median_seconds_cold']:.0f} ms)" if "median_seconds_cold" in s else ""
-        print(f"{s['knob']:<11} {str(s['level']):>5} {1e3 * s['median_seconds']:>8.1f} ms "
-              f"{s['median_rel_rmse']:>8.4f}{cold}")
+        print(
+            f"{s['knob']:<11} {str(s['level']):>5} {1e3 * s['median_seconds']:>8.1f} ms "
+            f"{s['median_rel_rmse']:>8.4f}{cold}"
+        )
     print(f"\nwritten {out} in {result['seconds_total']:.0f} s")
     return 0
 
@@ -542,38 +729,86 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--width", type=int, default=320, help="image width, pixels (height = 3/4 of it)")
     parser.add_argument("--repeats", type=int, default=3, help="renders per level, timed by their median")
-    parser.add_argument("--knobs", nargs="+", choices=[*KNOBS, "adaptive"], default=[*KNOBS, "adaptive"],
-                        help="the curves to measure (default: all)")
-    parser.add_argument("--fresh-reference", action="store_true",
-                        help="render the adaptive curve's converged references again, not from build/")
-    parser.add_argument("--direct-only", action="store_true",
-                        help="the adaptive curve with bounces 0, its reference too (direct light alone)")
-    parser.add_argument("--indirect", choices=["path", "cache"], default="path",
-                        help="the adaptive curve's levels: indirect light from bounce paths or the light cache")
-    parser.add_argument("--dust", action="store_true",
-                        help="the scenes with dust stirred up (ejecta fragments and the fine-dust cloud of view 0)")
-    parser.add_argument("--elevations", type=float, nargs="+", default=list(ELEVATIONS),
-                        help="Sun elevations, degrees (default: 5 22)")
-    parser.add_argument("--light-cache", action="store_true",
-                        help="the indirect-light study (per-pixel paths vs the light cache) instead of the knobs")
+    parser.add_argument(
+        "--knobs",
+        nargs="+",
+        choices=[*KNOBS, "adaptive"],
+        default=[*KNOBS, "adaptive"],
+        help="the curves to measure (default: all)",
+    )
+    parser.add_argument(
+        "--fresh-reference",
+        action="store_true",
+        help="render the adaptive curve's converged references again, not from build/",
+    )
+    parser.add_argument(
+        "--direct-only",
+        action="store_true",
+        help="the adaptive curve with bounces 0, its reference too (direct light alone)",
+    )
+    parser.add_argument(
+        "--indirect",
+        choices=["path", "cache"],
+        default="path",
+        help="the adaptive curve's levels: indirect light from bounce paths or the light cache",
+    )
+    parser.add_argument(
+        "--dust",
+        action="store_true",
+        help="the scenes with dust stirred up (ejecta fragments and the fine-dust cloud of view 0)",
+    )
+    parser.add_argument(
+        "--elevations", type=float, nargs="+", default=list(ELEVATIONS), help="Sun elevations, degrees (default: 5 22)"
+    )
+    parser.add_argument(
+        "--light-cache",
+        action="store_true",
+        help="the indirect-light study (per-pixel paths vs the light cache) instead of the knobs",
+    )
     parser.add_argument("--reference-spp", type=int, default=1024, help="--light-cache: the path reference's spp")
-    parser.add_argument("--orbit-views", type=int, default=0,
-                        help="--light-cache: also render this many orbit views of hilly, 22°, with one cache")
+    parser.add_argument(
+        "--orbit-views",
+        type=int,
+        default=0,
+        help="--light-cache: also render this many orbit views of hilly, 22°, with one cache",
+    )
     args = parser.parse_args()
     if args.light_cache:
         return light_cache_main(args)
     defaults = load_config(None).render
-    result = {"schema_version": SCHEMA_VERSION, "machine": machine(), "width": args.width, "knobs": args.knobs,
-              "direct_only": args.direct_only, "indirect": args.indirect, "dust": args.dust, "elevations": args.elevations,
-              "reference": REFERENCE, "converged_reference": CONVERGED,
-              "defaults": {"spp": defaults.spp, "light_samples": defaults.light_samples,
-                           "bounces": defaults.bounces, "earthshine": False},
-              "rows": []}
+    result = {
+        "schema_version": SCHEMA_VERSION,
+        "machine": machine(),
+        "width": args.width,
+        "knobs": args.knobs,
+        "direct_only": args.direct_only,
+        "indirect": args.indirect,
+        "dust": args.dust,
+        "elevations": args.elevations,
+        "reference": REFERENCE,
+        "converged_reference": CONVERGED,
+        "defaults": {
+            "spp": defaults.spp,
+            "light_samples": defaults.light_samples,
+            "bounces": defaults.bounces,
+            "earthshine": False,
+        },
+        "rows": [],
+    }
     start = time.perf_counter()
     for location in LOCATIONS:
         for elevation in args.elevations:
-            rows = scene_rows(location, elevation, args.width, args.repeats, args.knobs, args.fresh_reference,
-                              args.direct_only, args.indirect, args.dust)
+            rows = scene_rows(
+                location,
+                elevation,
+                args.width,
+                args.repeats,
+                args.knobs,
+                args.fresh_reference,
+                args.direct_only,
+                args.indirect,
+                args.dust,
+            )
             result["rows"] += rows
             print(f"\n{location}, Sun {elevation:g}°")
             print_rows(rows)
@@ -599,22 +834,36 @@ def main() -> int:
     written = [out]
     if curves:
         written.append(out.with_suffix(".svg"))
-        time_error_plot(written[-1], f"Lighting quality: render time against error ({commit}, {args.width} px, "
-                        "median of 6 scenes)", curves, "core render seconds per view", "RMSE / mean vs reference")
+        time_error_plot(
+            written[-1],
+            f"Lighting quality: render time against error ({commit}, {args.width} px, median of 6 scenes)",
+            curves,
+            "core render seconds per view",
+            "RMSE / mean vs reference",
+        )
     if "adaptive" in args.knobs:
         written.append(out.with_name(out.stem + "-adaptive.svg"))
         scenes = len(LOCATIONS) * len(args.elevations)
-        time_error_plot(written[-1], f"Adaptive anti-aliasing against brute force ({commit}, {args.width} px, "
-                        f"one thread, median of {scenes} scenes)", adaptive_curves(result["rows"]),
-                        "core seconds per view", f"RMSE / mean vs {CONVERGED['spp']} spp")
+        time_error_plot(
+            written[-1],
+            f"Adaptive anti-aliasing against brute force ({commit}, {args.width} px, "
+            f"one thread, median of {scenes} scenes)",
+            adaptive_curves(result["rows"]),
+            "core seconds per view",
+            f"RMSE / mean vs {CONVERGED['spp']} spp",
+        )
     print("\nmedian over scenes:")
     for s in summary:
-        print(f"{s['knob']:<14} {str(s['level']):>12} {1e3 * s['median_seconds']:>8.1f} ms "
-              f"{s['median_rel_rmse']:>8.4f} {s['median_psnr_8bit_db']:>6.1f} dB")
+        print(
+            f"{s['knob']:<14} {str(s['level']):>12} {1e3 * s['median_seconds']:>8.1f} ms "
+            f"{s['median_rel_rmse']:>8.4f} {s['median_psnr_8bit_db']:>6.1f} dB"
+        )
         for name, q in s.get("regions", {}).items():
             if q:
-                print(f"{'':>30} {name:<16} bias {q['bias']:+.4f} noise {q['noise']:.4f} "
-                      f"share {q['share_of_squared_error']:.2f}")
+                print(
+                    f"{'':>30} {name:<16} bias {q['bias']:+.4f} noise {q['noise']:.4f} "
+                    f"share {q['share_of_squared_error']:.2f}"
+                )
     print(f"\nwritten {', '.join(p.name for p in written)} in {result['seconds_total']:.0f} s")
     return 0
 

@@ -48,7 +48,9 @@ def main() -> int:
     args = parser.parse_args()
 
     models = read_models(args.dataset, "models")
-    evaluation = {obj: ModelPoints(model, workers=-1) for obj, model in read_models(args.dataset, "models_eval").items()}
+    evaluation = {
+        obj: ModelPoints(model, workers=-1) for obj, model in read_models(args.dataset, "models_eval").items()
+    }
     clouds = {obj: ModelCloud.from_model(model) for obj, model in models.items()}
     images = [(scene, im) for scene in scenes(args.dataset, args.split) for im in sorted(scene.images)]
     if args.images and args.images < len(images):
@@ -61,8 +63,14 @@ def main() -> int:
                 cases.append((scene, im, inst, depth_mm))
     print(f"{len(images)} images, {len(cases)} instances with visible pixels")
 
-    result = {"machine": machine(), "dataset": str(args.dataset), "split": args.split, "images": len(images),
-              "instances": len(cases), "levels": []}
+    result = {
+        "machine": machine(),
+        "dataset": str(args.dataset),
+        "split": args.split,
+        "images": len(images),
+        "instances": len(cases),
+        "levels": [],
+    }
     load_before = os.getloadavg()
     print(f"{'level':>8} {'ms/inst':>8} {'median':>8} {'p90':>8} {'R@10%':>6} {'R@20%':>6} {'none':>5}")
     for name, settings in LEVELS.items():
@@ -79,21 +87,33 @@ def main() -> int:
                 errors.append(evaluation[inst.obj_id].adds(found.R, found.t, inst.R, inst.t))
         errors = np.array(errors)
         diameters = np.array([evaluation[inst.obj_id].diameter for _, _, inst, _ in cases])
-        row = {"level": name, "settings": vars(settings), "seconds_per_instance": seconds / len(cases),
-               "median_adds_mm": float(np.median(errors)), "p90_adds_mm": float(np.percentile(errors, 90)),
-               "recall_10": float(np.mean(errors < 0.1 * diameters)),
-               "recall_20": float(np.mean(errors < 0.2 * diameters)), "no_estimate": none}
+        row = {
+            "level": name,
+            "settings": vars(settings),
+            "seconds_per_instance": seconds / len(cases),
+            "median_adds_mm": float(np.median(errors)),
+            "p90_adds_mm": float(np.percentile(errors, 90)),
+            "recall_10": float(np.mean(errors < 0.1 * diameters)),
+            "recall_20": float(np.mean(errors < 0.2 * diameters)),
+            "no_estimate": none,
+        }
         result["levels"].append(row)
-        print(f"{name:>8} {1e3 * row['seconds_per_instance']:>8.0f} {row['median_adds_mm']:>8.2f} "
-              f"{row['p90_adds_mm']:>8.1f} {row['recall_10']:>6.3f} {row['recall_20']:>6.3f} {none:>5}")
+        print(
+            f"{name:>8} {1e3 * row['seconds_per_instance']:>8.0f} {row['median_adds_mm']:>8.2f} "
+            f"{row['p90_adds_mm']:>8.1f} {row['recall_10']:>6.3f} {row['recall_20']:>6.3f} {none:>5}"
+        )
     result["load_average_before_after"] = [load_before[0], os.getloadavg()[0]]
     RESULTS.mkdir(exist_ok=True)
     out_path = RESULTS / f"baseline-{machine_slug(result['machine'])}.json"
     out_path.write_text(json.dumps(result, indent=2) + "\n")
     curve = [(r["seconds_per_instance"], max(1.0 - r["recall_20"], 1e-4), r["level"]) for r in result["levels"]]
-    time_error_plot(out_path.with_suffix(".svg"), f"Baseline ICP settings against pose error "
-                    f"({result['machine']['git_commit'][:7]}, {len(cases)} instances)", {"ICP": curve},
-                    "estimator seconds per instance", "1 - recall at 20 % ADD-S")
+    time_error_plot(
+        out_path.with_suffix(".svg"),
+        f"Baseline ICP settings against pose error ({result['machine']['git_commit'][:7]}, {len(cases)} instances)",
+        {"ICP": curve},
+        "estimator seconds per instance",
+        "1 - recall at 20 % ADD-S",
+    )
     print(f"\nwritten {out_path} and {out_path.with_suffix('.svg').name}")
     return 0
 

@@ -51,11 +51,18 @@ def main() -> int:
     origin[2] = float(spec.ground.height(origin[0], origin[1]))
 
     def run(dt, count=200, t=1.0):
-        return _core.simulate_ejecta(scene, _core.EjectaParams(origin=origin, count=count), seed=1, time_s=float(t),
-                                     dt_s=dt)
+        return _core.simulate_ejecta(
+            scene, _core.EjectaParams(origin=origin, count=count), seed=1, time_s=float(t), dt_s=dt
+        )
 
-    result = {"schema_version": SCHEMA_VERSION, "machine": machine(), "reference_step_s": REFERENCE_STEP,
-              "captures_s": CAPTURES.tolist(), "steps": [], "counts": []}
+    result = {
+        "schema_version": SCHEMA_VERSION,
+        "machine": machine(),
+        "reference_step_s": REFERENCE_STEP,
+        "captures_s": CAPTURES.tolist(),
+        "steps": [],
+        "counts": [],
+    }
     reference = [run(REFERENCE_STEP, t=t)["position"] for t in CAPTURES]
     print(f"{'dt s':>7} {'ms/capture':>11} {'median err mm':>14} {'p95 err mm':>11} {'bounces':>8}")
     for dt in STEPS:
@@ -66,12 +73,18 @@ def main() -> int:
             seconds.append(s)
             bounces.append(out["bounces"].mean())
         err = np.concatenate(errors)
-        row = {"dt_s": dt, "seconds_per_capture": statistics.median(seconds),
-               "median_error_m": float(np.median(err)), "p95_error_m": float(np.percentile(err, 95)),
-               "mean_bounces": float(np.mean(bounces))}
+        row = {
+            "dt_s": dt,
+            "seconds_per_capture": statistics.median(seconds),
+            "median_error_m": float(np.median(err)),
+            "p95_error_m": float(np.percentile(err, 95)),
+            "mean_bounces": float(np.mean(bounces)),
+        }
         result["steps"].append(row)
-        print(f"{dt:>7} {1e3 * row['seconds_per_capture']:>11.2f} {1e3 * row['median_error_m']:>14.3f} "
-              f"{1e3 * row['p95_error_m']:>11.3f} {row['mean_bounces']:>8.2f}")
+        print(
+            f"{dt:>7} {1e3 * row['seconds_per_capture']:>11.2f} {1e3 * row['median_error_m']:>14.3f} "
+            f"{1e3 * row['p95_error_m']:>11.3f} {row['mean_bounces']:>8.2f}"
+        )
     print(f"\n{'count':>6} {'ms/capture':>11}")
     for count in COUNTS:
         _, s = timed(lambda: run(0.01, count=count), args.repeats)
@@ -81,9 +94,13 @@ def main() -> int:
     out = RESULTS / f"dust-{machine_slug(result['machine'])}.json"
     out.write_text(json.dumps(result, indent=2) + "\n")
     curve = [(r["seconds_per_capture"], r["p95_error_m"], f"{r['dt_s']:g}") for r in result["steps"]]
-    time_error_plot(out.with_suffix(".svg"), f"Ejecta: time step against position error "
-                    f"({result['machine']['git_commit'][:7]}, 200 fragments)", {"dt, s": curve},
-                    "simulation seconds per capture", "p95 position error vs 0.25 ms, m")
+    time_error_plot(
+        out.with_suffix(".svg"),
+        f"Ejecta: time step against position error ({result['machine']['git_commit'][:7]}, 200 fragments)",
+        {"dt, s": curve},
+        "simulation seconds per capture",
+        "p95 position error vs 0.25 ms, m",
+    )
     print(f"\nwritten {out} and {out.with_suffix('.svg').name}")
     return 0
 

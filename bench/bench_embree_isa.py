@@ -62,9 +62,11 @@ def speed(repeats: int, threads: int) -> list[dict]:
     rows = []
     for task in tasks(config):
         c = task_config(config, task)
-        c = dataclasses.replace(c, bags=dataclasses.replace(c.bags, settle=dataclasses.replace(c.bags.settle,
-                                                                                               enabled=False)),
-                                render=dataclasses.replace(c.render, threads=threads))
+        c = dataclasses.replace(
+            c,
+            bags=dataclasses.replace(c.bags, settle=dataclasses.replace(c.bags.settle, enabled=False)),
+            render=dataclasses.replace(c.render, threads=threads),
+        )
         spec = compose_scene(c)
         K, pose = orbit_view(c, spec, 0)
         seed = view_seed(c.seed, 0)
@@ -82,10 +84,21 @@ def speed(repeats: int, threads: int) -> list[dict]:
                 seconds[key].append(out.stats["core_seconds"])
                 second_looks[key] = int(out.stats.get("second_look_rays", 0))
         for (isa, watertight), s in seconds.items():
-            rows.append({"task_id": task.task_id, "embree_isa": isa, "watertight": watertight, "render_s": s,
-                         "render_median_s": statistics.median(s), "second_look_rays": second_looks[(isa, watertight)]})
-            print(f"{task.task_id[:40]:<40} {isa:<7} {'watertight' if watertight else 'plain':<10} "
-                  f"{statistics.median(s):.3f} s (min {min(s):.3f})", flush=True)
+            rows.append(
+                {
+                    "task_id": task.task_id,
+                    "embree_isa": isa,
+                    "watertight": watertight,
+                    "render_s": s,
+                    "render_median_s": statistics.median(s),
+                    "second_look_rays": second_looks[(isa, watertight)],
+                }
+            )
+            print(
+                f"{task.task_id[:40]:<40} {isa:<7} {'watertight' if watertight else 'plain':<10} "
+                f"{statistics.median(s):.3f} s (min {min(s):.3f})",
+                flush=True,
+            )
     return rows
 
 
@@ -95,8 +108,8 @@ def leaks(depth: np.ndarray, instance: np.ndarray, K: np.ndarray, R: np.ndarray)
     ids = np.pad(instance, 1)
     h, w = depth.shape
     neighbours = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx]
-    around = np.stack([d[1 + dy:1 + dy + h, 1 + dx:1 + dx + w] for dy, dx in neighbours])
-    same = np.stack([ids[1 + dy:1 + dy + h, 1 + dx:1 + dx + w] for dy, dx in neighbours]) == instance
+    around = np.stack([d[1 + dy : 1 + dy + h, 1 + dx : 1 + dx + w] for dy, dx in neighbours])
+    same = np.stack([ids[1 + dy : 1 + dy + h, 1 + dx : 1 + dx + w] for dy, dx in neighbours]) == instance
     inner = np.zeros_like(depth, bool)
     inner[1:-1, 1:-1] = True
     holes = depth_holes(depth, K, R)
@@ -115,8 +128,16 @@ def leak_counts() -> dict:
     cameras = [(view.K, view.pose.R, view.camera)]
     out["default_4096x3072"] = compare_watertight(spec, cameras)
     for location in ("flat", "hilly"):
-        c = load_config(None, {"terrain.location": location, "bags.count": 5, "bags.layout": "scattered",
-                               "camera.width": 640, "camera.height": 480})
+        c = load_config(
+            None,
+            {
+                "terrain.location": location,
+                "bags.count": 5,
+                "bags.layout": "scattered",
+                "camera.width": 640,
+                "camera.height": 480,
+            },
+        )
         spec = compose_scene(c)
         views = [view_inputs(c, spec, v) for v in range(c.orbit.views)]
         cameras = [(view.K, view.pose.R, view.camera) for view in views]
@@ -132,8 +153,13 @@ def compare_watertight(spec, cameras: list) -> dict:
     the pixels that moved between the two, and the watertight render's second looks."""
     scenes = {w: build_scene(spec, watertight=w) for w in (False, True)}
     sun = _core.DirectionalLight(0.0, 30.0, 0.0)
-    total = {"plain": {"holes": 0, "back_face_bag_pixels": 0}, "watertight": {"holes": 0, "back_face_bag_pixels": 0},
-             "moved": 0, "second_look_rays": 0, "pixels": 0}
+    total = {
+        "plain": {"holes": 0, "back_face_bag_pixels": 0},
+        "watertight": {"holes": 0, "back_face_bag_pixels": 0},
+        "moved": 0,
+        "second_look_rays": 0,
+        "pixels": 0,
+    }
     for K, R, camera in cameras:
         r = {w: _core.render(scenes[w], camera, sun, passes=["depth", "instance"]) for w in scenes}
         for w, name in ((False, "plain"), (True, "watertight")):
@@ -153,9 +179,16 @@ def main() -> int:
     if args.repeats < 1:
         parser.error("--repeats: must be at least 1")
     threads = os.cpu_count() or 1
-    record = {"schema_version": SCHEMA_VERSION, "benchmark": "embree-isa", "config": CONFIG.name,
-              "machine": machine(), "libraries": library_versions(), "threads": threads,
-              "repeats": args.repeats, "load_before": list(os.getloadavg())}
+    record = {
+        "schema_version": SCHEMA_VERSION,
+        "benchmark": "embree-isa",
+        "config": CONFIG.name,
+        "machine": machine(),
+        "libraries": library_versions(),
+        "threads": threads,
+        "repeats": args.repeats,
+        "load_before": list(os.getloadavg()),
+    }
     record["leaks"] = leak_counts()
     record["speed"] = speed(args.repeats, threads)
     record["load_after"] = list(os.getloadavg())

@@ -41,11 +41,26 @@ NODES = [1, 10, 50, 100]
 
 
 def throughput_config():
-    return load_config(ROOT / "configs" / "synbag-1.0.yaml", {
-        "orbit.views": VIEWS, "orbit.step_deg": 360.0 / VIEWS,
-        "sweep.splits": [{"name": "train", "meshes": ["sandbag-01"], "locations": ["flat"], "bag_counts": [1],
-                          "stain_seeds": [0], "dust": [False, True], "sun_elevations_deg": [12.0],
-                          "sun_azimuths_deg": [120.0], "camera_heights_m": [0.5]}]})
+    return load_config(
+        ROOT / "configs" / "synbag-1.0.yaml",
+        {
+            "orbit.views": VIEWS,
+            "orbit.step_deg": 360.0 / VIEWS,
+            "sweep.splits": [
+                {
+                    "name": "train",
+                    "meshes": ["sandbag-01"],
+                    "locations": ["flat"],
+                    "bag_counts": [1],
+                    "stain_seeds": [0],
+                    "dust": [False, True],
+                    "sun_elevations_deg": [12.0],
+                    "sun_azimuths_deg": [120.0],
+                    "camera_heights_m": [0.5],
+                }
+            ],
+        },
+    )
 
 
 def run(workers: int, threads: int) -> dict:
@@ -62,11 +77,20 @@ def run(workers: int, threads: int) -> dict:
     span = max(ends) - min(starts)
     plans = split_plans(config)
     stages = [s.stages_s for s in stats] + [p["stages_s"] for p in placements]
-    return {"workers": workers, "threads_per_worker": threads, "tasks": len(stats), "samples": samples, "seconds": span,
-            "samples_per_s": samples / span, "core_seconds_per_sample": workers * threads * span / samples, "bytes": sum(s.bytes_written for s in stats),
-            "megapixel_samples": sum(p.megapixel_samples for p in plans),
-            "megapixels": sum(p.megapixels for p in plans), "layouts": len(placements),
-            "stages_s": {k: sum(s.get(k, 0.0) for s in stages) for k in sorted({k for s in stages for k in s})}}
+    return {
+        "workers": workers,
+        "threads_per_worker": threads,
+        "tasks": len(stats),
+        "samples": samples,
+        "seconds": span,
+        "samples_per_s": samples / span,
+        "core_seconds_per_sample": workers * threads * span / samples,
+        "bytes": sum(s.bytes_written for s in stats),
+        "megapixel_samples": sum(p.megapixel_samples for p in plans),
+        "megapixels": sum(p.megapixels for p in plans),
+        "layouts": len(placements),
+        "stages_s": {k: sum(s.get(k, 0.0) for s in stages) for k in sorted({k for s in stages for k in s})},
+    }
 
 
 def _peak_rss_mib() -> float:
@@ -76,47 +100,84 @@ def _peak_rss_mib() -> float:
 def heaviest_task_memory() -> dict:
     """Peak RSS of a fresh worker process after one task of the crater location with 11 bags and
     dust at full quality (VIEWS views: the light cache grows with the views it serves)."""
-    config = load_config(ROOT / "configs" / "synbag-1.0.yaml", {
-        "orbit.views": VIEWS, "orbit.step_deg": 360.0 / VIEWS,
-        "sweep.splits": [{"name": "train", "meshes": ["sandbag-03"], "locations": ["crater"], "bag_counts": [11],
-                          "stain_seeds": [90], "dust": [True], "sun_elevations_deg": [12.0],
-                          "sun_azimuths_deg": [120.0], "camera_heights_m": [0.5]}]})
-    with tempfile.TemporaryDirectory() as tmp, \
-            LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0",
-                         silence_logs=40) as cluster, Client(cluster) as client:
+    config = load_config(
+        ROOT / "configs" / "synbag-1.0.yaml",
+        {
+            "orbit.views": VIEWS,
+            "orbit.step_deg": 360.0 / VIEWS,
+            "sweep.splits": [
+                {
+                    "name": "train",
+                    "meshes": ["sandbag-03"],
+                    "locations": ["crater"],
+                    "bag_counts": [11],
+                    "stain_seeds": [90],
+                    "dust": [True],
+                    "sun_elevations_deg": [12.0],
+                    "sun_azimuths_deg": [120.0],
+                    "camera_heights_m": [0.5],
+                }
+            ],
+        },
+    )
+    with (
+        tempfile.TemporaryDirectory() as tmp,
+        LocalCluster(
+            n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=40
+        ) as cluster,
+        Client(cluster) as client,
+    ):
         before = max(client.run(_peak_rss_mib).values())
         result = generate(config, Path(tmp), client=client, progress=None)
         assert not result.failed, result.failed
         peak = max(client.run(_peak_rss_mib).values())
-    return {"scene": "crater, 11 bags of sandbag-03, 90 stain seeds, dust", "views": VIEWS,
-            "worker_peak_rss_mib_before": before, "worker_peak_rss_mib": peak, "target_mib": 2048}
+    return {
+        "scene": "crater, 11 bags of sandbag-03, 90 stain seeds, dust",
+        "views": VIEWS,
+        "worker_peak_rss_mib_before": before,
+        "worker_peak_rss_mib": peak,
+        "target_mib": 2048,
+    }
 
 
 def main() -> int:
-    record = {"schema_version": SCHEMA_VERSION, "benchmark": "generate", "machine": machine(),
-              "views_per_task": VIEWS, "runs": []}
+    record = {
+        "schema_version": SCHEMA_VERSION,
+        "benchmark": "generate",
+        "machine": machine(),
+        "views_per_task": VIEWS,
+        "runs": [],
+    }
     for workers, threads in ((1, 1), (1, 2), (2, 1)):
         row = run(workers, threads)
         record["runs"].append(row)
-        print(f"{workers} worker(s) × {threads} render thread(s): {row['samples']} samples in {row['seconds']:.1f} s = "
-              f"{row['samples_per_s']:.3f} samples/s, {row['core_seconds_per_sample']:.2f} core-s a sample; {row['bytes'] / row['samples'] / 1e6:.2f} MB a sample")
+        print(
+            f"{workers} worker(s) × {threads} render thread(s): {row['samples']} samples in {row['seconds']:.1f} s = "
+            f"{row['samples_per_s']:.3f} samples/s, {row['core_seconds_per_sample']:.2f} core-s a sample; {row['bytes'] / row['samples'] / 1e6:.2f} MB a sample"
+        )
     one, threaded, two = record["runs"]
     # Against one worker on one core: what a second worker process, or a second render thread, buys.
     record["scaling_efficiency_2_workers"] = two["samples_per_s"] / (2 * one["samples_per_s"])
     record["scaling_efficiency_2_threads"] = threaded["samples_per_s"] / (2 * one["samples_per_s"])
-    print(f"scaling efficiency on 2 cores: 2 workers {record['scaling_efficiency_2_workers']:.2f}, "
-          f"1 worker × 2 threads {record['scaling_efficiency_2_threads']:.2f}")
+    print(
+        f"scaling efficiency on 2 cores: 2 workers {record['scaling_efficiency_2_workers']:.2f}, "
+        f"1 worker × 2 threads {record['scaling_efficiency_2_threads']:.2f}"
+    )
     memory = heaviest_task_memory()
     record["memory"] = memory
-    print(f"worker peak RSS on {memory['scene']}: {memory['worker_peak_rss_mib']:.0f} MiB "
-          f"(target {memory['target_mib']} MiB)")
+    print(
+        f"worker peak RSS on {memory['scene']}: {memory['worker_peak_rss_mib']:.0f} MiB "
+        f"(target {memory['target_mib']} MiB)"
+    )
     sweep = split_plans(load_config(ROOT / "configs" / "synbag-1.0.yaml"))
     best = max(record["runs"], key=lambda r: r["samples_per_s"])
     scale = sum(p.megapixel_samples for p in sweep) / best["megapixel_samples"]
     sweep_seconds_one_node = best["seconds"] * scale
     record["projection"] = [{"nodes": n, "hours": sweep_seconds_one_node / n / 3600} for n in NODES]
-    record["projection_note"] = ("linear in nodes of this machine's kind, each run as the fastest layout measured "
-                                 "here; the scheduler's ~1 ms a task is negligible next to a task")
+    record["projection_note"] = (
+        "linear in nodes of this machine's kind, each run as the fastest layout measured "
+        "here; the scheduler's ~1 ms a task is negligible next to a task"
+    )
     for p in record["projection"]:
         print(f"full SynBag-1.0 sweep on {p['nodes']:>3} node(s): {p['hours']:.1f} h")
     RESULTS.mkdir(exist_ok=True)

@@ -23,8 +23,11 @@ from moonbot.config import load_config
 from moonbot.render import build_scene, render_view
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
 
-OFF = {"terrain.photometry.grain.albedo_rms": 0.0, "terrain.photometry.grain.slope_rms_deg": 0.0,
-       "bags.fabric.sheen": 0.0}
+OFF = {
+    "terrain.photometry.grain.albedo_rms": 0.0,
+    "terrain.photometry.grain.slope_rms_deg": 0.0,
+    "bags.fabric.sheen": 0.0,
+}
 VARIANTS = {
     "off": OFF,
     "grain": {**OFF, "terrain.photometry.grain.albedo_rms": 0.08, "terrain.photometry.grain.slope_rms_deg": 12.5},
@@ -62,8 +65,12 @@ def main() -> None:
         base = statistics.median(seconds["off"])
         for name in VARIANTS:
             median = statistics.median(seconds[name])
-            results[f"{view_name}/{name}"] = {"median_s": median, "ratio_to_off": median / base,
-                                             "seconds": seconds[name], **stats[name]}
+            results[f"{view_name}/{name}"] = {
+                "median_s": median,
+                "ratio_to_off": median / base,
+                "seconds": seconds[name],
+                **stats[name],
+            }
             print(f"{view_name:8s} {name:8s} {median:7.3f} s  x{median / base:5.3f}  {stats[name]}")
     results["load_average"] = os.getloadavg()
     print("load average", results["load_average"])

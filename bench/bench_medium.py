@@ -69,35 +69,57 @@ def main() -> int:
     clear, clear_s = timed(lambda: render(None), args.repeats)
     scale = float(clear["rgb"].mean())
     reference = render(medium(REFERENCE_VOXEL))
-    result = {"schema_version": SCHEMA_VERSION, "machine": machine(), "capture_s": CAPTURE_S,
-              "clear_seconds": clear_s, "reference_voxel_m": REFERENCE_VOXEL,
-              "reference_medium_rays": reference["medium_rays"], "voxels": [], "strides": [], "rates": []}
+    result = {
+        "schema_version": SCHEMA_VERSION,
+        "machine": machine(),
+        "capture_s": CAPTURE_S,
+        "clear_seconds": clear_s,
+        "reference_voxel_m": REFERENCE_VOXEL,
+        "reference_medium_rays": reference["medium_rays"],
+        "voxels": [],
+        "strides": [],
+        "rates": [],
+    }
     print(f"dust-free render {1e3 * clear_s:.0f} ms; reference grid: {reference['medium_rays']} shadow rays")
     print(f"{'voxel m':>8} {'ms/view':>8} {'rms rel':>9} {'p99 rel':>9} {'bias':>9} {'shadow rays':>12}")
     for voxel in VOXELS:
         out, s = timed(lambda: render(medium(voxel)), args.repeats)
         diff = np.abs(out["rgb"] - reference["rgb"]) / scale
-        row = {"voxel_m": voxel, "seconds_per_view": s, "rms_relative_error": float(np.sqrt((diff ** 2).mean())),
-               "p99_relative_error": float(np.percentile(diff, 99)),
-               "bias_relative": float((out["rgb"] - reference["rgb"]).mean() / scale),
-               "medium_rays": out["medium_rays"]}
+        row = {
+            "voxel_m": voxel,
+            "seconds_per_view": s,
+            "rms_relative_error": float(np.sqrt((diff**2).mean())),
+            "p99_relative_error": float(np.percentile(diff, 99)),
+            "bias_relative": float((out["rgb"] - reference["rgb"]).mean() / scale),
+            "medium_rays": out["medium_rays"],
+        }
         result["voxels"].append(row)
-        print(f"{voxel:>8} {1e3 * s:>8.0f} {row['rms_relative_error']:>9.2e} {row['p99_relative_error']:>9.2e} "
-              f"{row['bias_relative']:>9.2e} {row['medium_rays']:>12}")
-    print(f"\n{'stride':>7} {'ms/view':>8} {'rms rel':>9} {'p99 rel':>9} {'rms vs 1':>9} {'max vs 1':>9}  (voxel 0.05 m)")
+        print(
+            f"{voxel:>8} {1e3 * s:>8.0f} {row['rms_relative_error']:>9.2e} {row['p99_relative_error']:>9.2e} "
+            f"{row['bias_relative']:>9.2e} {row['medium_rays']:>12}"
+        )
+    print(
+        f"\n{'stride':>7} {'ms/view':>8} {'rms rel':>9} {'p99 rel':>9} {'rms vs 1':>9} {'max vs 1':>9}  (voxel 0.05 m)"
+    )
     full = render(medium(0.05))
     for stride in STRIDES:
         out, s = timed(lambda: render(medium(0.05, stride=stride)), args.repeats)
         diff = np.abs(out["rgb"] - reference["rgb"]) / scale
         apart = np.abs(out["rgb"] - full["rgb"]) / scale
-        row = {"march_stride_px": stride, "voxel_m": 0.05, "seconds_per_view": s,
-               "rms_relative_error": float(np.sqrt((diff ** 2).mean())),
-               "p99_relative_error": float(np.percentile(diff, 99)),
-               "rms_relative_to_stride_1": float(np.sqrt((apart ** 2).mean())),
-               "max_relative_to_stride_1": float(apart.max())}
+        row = {
+            "march_stride_px": stride,
+            "voxel_m": 0.05,
+            "seconds_per_view": s,
+            "rms_relative_error": float(np.sqrt((diff**2).mean())),
+            "p99_relative_error": float(np.percentile(diff, 99)),
+            "rms_relative_to_stride_1": float(np.sqrt((apart**2).mean())),
+            "max_relative_to_stride_1": float(apart.max()),
+        }
         result["strides"].append(row)
-        print(f"{stride:>7} {1e3 * s:>8.0f} {row['rms_relative_error']:>9.2e} {row['p99_relative_error']:>9.2e} "
-              f"{row['rms_relative_to_stride_1']:>9.2e} {row['max_relative_to_stride_1']:>9.2e}")
+        print(
+            f"{stride:>7} {1e3 * s:>8.0f} {row['rms_relative_error']:>9.2e} {row['p99_relative_error']:>9.2e} "
+            f"{row['rms_relative_to_stride_1']:>9.2e} {row['max_relative_to_stride_1']:>9.2e}"
+        )
     print(f"\n{'rate/s':>7} {'puffs':>6} {'ms/view':>8}")
     for rate in RATES:
         m = medium(0.05, rate)
@@ -109,10 +131,14 @@ def main() -> int:
     out_path.write_text(json.dumps(result, indent=2) + "\n")
     curve = [(r["seconds_per_view"], r["rms_relative_error"], f"{r['voxel_m']:g}") for r in result["voxels"]]
     strides = [(r["seconds_per_view"], r["rms_relative_error"], f"S{r['march_stride_px']}") for r in result["strides"]]
-    time_error_plot(out_path.with_suffix(".svg"), f"Dust medium: grid spacing and march stride against image error "
-                    f"({result['machine']['git_commit'][:7]}, 640x480, 1 spp)",
-                    {"voxel_m (stride 1)": curve, "march_stride_px (voxel 0.05 m)": strides},
-                    "render seconds per view", "RMS error / mean radiance")
+    time_error_plot(
+        out_path.with_suffix(".svg"),
+        f"Dust medium: grid spacing and march stride against image error "
+        f"({result['machine']['git_commit'][:7]}, 640x480, 1 spp)",
+        {"voxel_m (stride 1)": curve, "march_stride_px (voxel 0.05 m)": strides},
+        "render seconds per view",
+        "RMS error / mean radiance",
+    )
     print(f"\nwritten {out_path} and {out_path.with_suffix('.svg').name}")
     return 0
 

@@ -56,8 +56,13 @@ def stage_timings(repeats: int) -> dict:
                 per_stage.setdefault(stage, []).append(seconds)
     medians = {stage: statistics.median(v) for stage, v in per_stage.items()}
     medians["total"] = sum(medians.values())
-    return {"config": "embedded default", "width": config.camera.width,
-            "height": config.camera.height, "spp": config.render.spp, "median_s": medians}
+    return {
+        "config": "embedded default",
+        "width": config.camera.width,
+        "height": config.camera.height,
+        "spp": config.render.spp,
+        "median_s": medians,
+    }
 
 
 def default_view():
@@ -76,8 +81,9 @@ def spp_sweep(repeats: int, reference_spp: int) -> dict:
     RGB pass (depth and masks do not depend on spp)."""
     config, scene, camera, sun = default_view()
     exposure = exposure_scale(config)
-    ref = _core.render(scene, camera, sun,
-                       _core.RenderSettings(spp=reference_spp, seed=12345))["rgb"].astype(np.float64)
+    ref = _core.render(scene, camera, sun, _core.RenderSettings(spp=reference_spp, seed=12345))["rgb"].astype(
+        np.float64
+    )
     ref8 = _core.tonemap_reinhard(ref.astype(np.float32), exposure)[0].astype(np.float64)
     rows = []
     for spp in (1, 2, 4, 8, 16):
@@ -85,9 +91,15 @@ def spp_sweep(repeats: int, reference_spp: int) -> dict:
         rgb = _core.render(scene, camera, sun, _core.RenderSettings(spp=spp))["rgb"].astype(np.float64)
         rmse = float(np.sqrt(np.mean((rgb - ref) ** 2)))
         mse8 = float(np.mean((_core.tonemap_reinhard(rgb.astype(np.float32), exposure)[0] - ref8) ** 2))
-        rows.append({"spp": spp, "render_s": seconds, "rmse_linear_w_m2_sr": rmse,
-                     "rel_rmse_linear": rmse / float(np.sqrt(np.mean(ref ** 2))),
-                     "psnr_8bit_db": float("inf") if mse8 == 0 else 10 * np.log10(255**2 / mse8)})
+        rows.append(
+            {
+                "spp": spp,
+                "render_s": seconds,
+                "rmse_linear_w_m2_sr": rmse,
+                "rel_rmse_linear": rmse / float(np.sqrt(np.mean(ref**2))),
+                "psnr_8bit_db": float("inf") if mse8 == 0 else 10 * np.log10(255**2 / mse8),
+            }
+        )
     return {"reference_spp": reference_spp, "rows": rows}
 
 
@@ -96,10 +108,15 @@ def exact_depth_tradeoff(repeats: int, terrain) -> dict:
     the 2.1 M-triangle terrain, and the worst relative z-depth error on a tilted plane against
     its analytic value, near the origin and kilometres away."""
     scene, camera, sun, _ = terrain
-    timing = {exact: median_of(repeats,
-                               lambda: _core.render(scene, camera, sun, _core.RenderSettings(exact_depth=exact),
-                                                    passes=["depth", "instance"])["seconds"])
-              for exact in (True, False)}
+    timing = {
+        exact: median_of(
+            repeats,
+            lambda: _core.render(
+                scene, camera, sun, _core.RenderSettings(exact_depth=exact), passes=["depth", "instance"]
+            )["seconds"],
+        )
+        for exact in (True, False)
+    }
     rows = []
     w, h = 160, 120
     K = np.array([[120.0, 0, w / 2], [0, 120.0, h / 2], [0, 0, 1]])
@@ -118,8 +135,9 @@ def exact_depth_tradeoff(repeats: int, terrain) -> dict:
         t = (n @ (world[:3, 3] - pose.center)) / (d @ n)
         row = {"offset_m": offset}
         for exact in (True, False):
-            depth = _core.render(plane_scene, cam, sun, _core.RenderSettings(exact_depth=exact),
-                                 passes=["depth"])["depth"]
+            depth = _core.render(plane_scene, cam, sun, _core.RenderSettings(exact_depth=exact), passes=["depth"])[
+                "depth"
+            ]
             hit = depth > 0
             row[f"max_rel_error_exact_{str(exact).lower()}"] = float(np.max(np.abs(depth[hit] - t[hit]) / t[hit]))
         rows.append(row)
@@ -164,8 +182,7 @@ def terrain_view():
     pose = orbit_pose(world[:3, 3], config.orbit.radius_m, config.orbit.height_m, 0.0)
     camera = core_camera(K, config.camera.width, config.camera.height, pose)
     sun = _core.DirectionalLight(config.sun.azimuth_deg, config.sun.elevation_deg, config.sun.irradiance_w_m2)
-    return scene, camera, sun, {"triangles": int(len(triangles) + len(bag_triangles)),
-                                "terrain_bvh_build_s": build_s}
+    return scene, camera, sun, {"triangles": int(len(triangles) + len(bag_triangles)), "terrain_bvh_build_s": build_s}
 
 
 def against_limit(name: str, scene, camera, sun, repeats: int, extra: dict) -> dict:
@@ -174,20 +191,28 @@ def against_limit(name: str, scene, camera, sun, repeats: int, extra: dict) -> d
     rows = []
     for threads in (1, 2):
         limit = _core.measure_embree_limit(scene, camera, sun, threads=threads, repeats=repeats)
-        full = median_of(repeats,
-                         lambda: _core.render(scene, camera, sun, _core.RenderSettings(threads=threads))["seconds"])
-        geometry = median_of(repeats,
-                             lambda: _core.render(scene, camera, sun, _core.RenderSettings(threads=threads),
-                                                  passes=["depth", "instance"])["seconds"])
+        full = median_of(
+            repeats, lambda: _core.render(scene, camera, sun, _core.RenderSettings(threads=threads))["seconds"]
+        )
+        geometry = median_of(
+            repeats,
+            lambda: _core.render(
+                scene, camera, sun, _core.RenderSettings(threads=threads), passes=["depth", "instance"]
+            )["seconds"],
+        )
         raw_full = limit["intersect_stream_s"] + limit["occluded_stream_s"]
-        rows.append({
-            "threads": threads, **limit,
-            "render_full_s": full, "render_geometry_s": geometry,
-            "ratio_full_vs_stream": full / raw_full,
-            "ratio_geometry_vs_stream": geometry / limit["intersect_stream_s"],
-            "ratio_full_vs_single": full / (limit["intersect_single_s"] + limit["occluded_single_s"]),
-            "mrays_per_s_full": (limit["camera_rays"] + limit["shadow_rays"]) / full / 1e6,
-        })
+        rows.append(
+            {
+                "threads": threads,
+                **limit,
+                "render_full_s": full,
+                "render_geometry_s": geometry,
+                "ratio_full_vs_stream": full / raw_full,
+                "ratio_geometry_vs_stream": geometry / limit["intersect_stream_s"],
+                "ratio_full_vs_single": full / (limit["intersect_single_s"] + limit["occluded_single_s"]),
+                "mrays_per_s_full": (limit["camera_rays"] + limit["shadow_rays"]) / full / 1e6,
+            }
+        )
     return {"scene": name, **extra, "rows": rows}
 
 
@@ -195,7 +220,9 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeats", type=int, default=9, help="timed repeats per figure (median)")
     parser.add_argument("--reference-spp", type=int, default=256)
-    parser.add_argument("--out", type=Path, default=None, help="result file (default: bench/results/render-one-<machine>.json)")
+    parser.add_argument(
+        "--out", type=Path, default=None, help="result file (default: bench/results/render-one-<machine>.json)"
+    )
     args = parser.parse_args()
 
     m = machine()
@@ -216,28 +243,37 @@ def main() -> int:
     limits = [against_limit("default (flat patch + sandbag-01)", scene, camera, sun, args.repeats, {})]
     terrain = terrain_view()
     t_scene, t_camera, t_sun, t_extra = terrain
-    limits.append(against_limit("terrain 2.1 M triangles + sandbag-01", t_scene, t_camera, t_sun,
-                                args.repeats, t_extra))
+    limits.append(
+        against_limit("terrain 2.1 M triangles + sandbag-01", t_scene, t_camera, t_sun, args.repeats, t_extra)
+    )
     result["embree_limit"] = limits
     print("\nour render vs Embree alone on the same rays (spp 1; ms, median):")
-    print(f"  {'scene':<44} {'thr':>3} {'cam rays':>9} {'shadow':>8} {'E1 isect':>8} {'E1M isect':>9} "
-          f"{'E1M occl':>8} {'ours full':>9} {'ours geo':>8} {'full/raw':>8} {'geo/raw':>7}")
+    print(
+        f"  {'scene':<44} {'thr':>3} {'cam rays':>9} {'shadow':>8} {'E1 isect':>8} {'E1M isect':>9} "
+        f"{'E1M occl':>8} {'ours full':>9} {'ours geo':>8} {'full/raw':>8} {'geo/raw':>7}"
+    )
     for block in limits:
         for r in block["rows"]:
-            print(f"  {block['scene']:<44} {r['threads']:>3} {r['camera_rays']:>9} {r['shadow_rays']:>8} "
-                  f"{1e3 * r['intersect_single_s']:>8.2f} {1e3 * r['intersect_stream_s']:>9.2f} "
-                  f"{1e3 * r['occluded_stream_s']:>8.2f} {1e3 * r['render_full_s']:>9.2f} "
-                  f"{1e3 * r['render_geometry_s']:>8.2f} {r['ratio_full_vs_stream']:>8.2f} "
-                  f"{r['ratio_geometry_vs_stream']:>7.2f}")
+            print(
+                f"  {block['scene']:<44} {r['threads']:>3} {r['camera_rays']:>9} {r['shadow_rays']:>8} "
+                f"{1e3 * r['intersect_single_s']:>8.2f} {1e3 * r['intersect_stream_s']:>9.2f} "
+                f"{1e3 * r['occluded_stream_s']:>8.2f} {1e3 * r['render_full_s']:>9.2f} "
+                f"{1e3 * r['render_geometry_s']:>8.2f} {r['ratio_full_vs_stream']:>8.2f} "
+                f"{r['ratio_geometry_vs_stream']:>7.2f}"
+            )
 
     result["exact_depth"] = exact_depth_tradeoff(args.repeats, terrain)
     e = result["exact_depth"]
-    print("\nrender.exact_depth: geometry pass on the terrain "
-          f"{1e3 * e['terrain_geometry_pass_s']['exact']:.2f} ms exact vs "
-          f"{1e3 * e['terrain_geometry_pass_s']['embree_t']:.2f} ms with Embree's t; worst relative depth error:")
+    print(
+        "\nrender.exact_depth: geometry pass on the terrain "
+        f"{1e3 * e['terrain_geometry_pass_s']['exact']:.2f} ms exact vs "
+        f"{1e3 * e['terrain_geometry_pass_s']['embree_t']:.2f} ms with Embree's t; worst relative depth error:"
+    )
     for r in e["plane_error"]:
-        print(f"  {r['offset_m']:>7.0f} m from the origin: exact {r['max_rel_error_exact_true']:.1e}, "
-              f"Embree's t {r['max_rel_error_exact_false']:.1e}")
+        print(
+            f"  {r['offset_m']:>7.0f} m from the origin: exact {r['max_rel_error_exact_true']:.1e}, "
+            f"Embree's t {r['max_rel_error_exact_false']:.1e}"
+        )
 
     out = args.out or RESULTS / f"render-one-{machine_slug(m)}.json"
     out.parent.mkdir(parents=True, exist_ok=True)

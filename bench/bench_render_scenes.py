@@ -61,9 +61,11 @@ class Profile:
         if self.enabled:
             self._dir = tempfile.TemporaryDirectory()
             self._data = Path(self._dir.name) / "perf.data"
-            self._proc = subprocess.Popen(["perf", "record", "-q", "-F", "999", "-p", str(os.getpid()),
-                                           "-o", str(self._data)],
-                                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            self._proc = subprocess.Popen(
+                ["perf", "record", "-q", "-F", "999", "-p", str(os.getpid()), "-o", str(self._data)],
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+            )
             time.sleep(0.5)  # perf takes a moment to attach; renders before that go unsampled
         return self
 
@@ -72,8 +74,9 @@ class Profile:
             return
         self._proc.send_signal(signal.SIGINT)
         self._proc.wait(timeout=60)
-        report = subprocess.run(["perf", "report", "-i", str(self._data), "--stdio", "--sort", "dso"],
-                                capture_output=True, text=True).stdout
+        report = subprocess.run(
+            ["perf", "report", "-i", str(self._data), "--stdio", "--sort", "dso"], capture_output=True, text=True
+        ).stdout
         for line in report.splitlines():
             m = re.match(r"\s+([0-9.]+)%\s+(\S+)", line)
             if m:
@@ -96,10 +99,20 @@ def measure(level: str, task, repeats: int, threads: int, perf: bool) -> dict:
     rays = {k: int(out.stats[k]) for k in RAY_KINDS}
     limit_s = ray_limit_seconds(rays, row, c.render.bounces)
     median = statistics.median(seconds)
-    return {"task_id": task.task_id, "dust": c.dust.enabled, "bags": c.bags.count, "rays": rays,
-            "render_s": seconds, "render_median_s": median, "render_min_s": min(seconds),
-            "limit_s": limit_s, "ratio": median / limit_s, "ratio_fastest": min(seconds) / limit_s,
-            "perf_dso_percent": profile.shares, "probe": row}
+    return {
+        "task_id": task.task_id,
+        "dust": c.dust.enabled,
+        "bags": c.bags.count,
+        "rays": rays,
+        "render_s": seconds,
+        "render_median_s": median,
+        "render_min_s": min(seconds),
+        "limit_s": limit_s,
+        "ratio": median / limit_s,
+        "ratio_fastest": min(seconds) / limit_s,
+        "perf_dso_percent": profile.shares,
+        "probe": row,
+    }
 
 
 def main() -> int:
@@ -111,12 +124,20 @@ def main() -> int:
     levels = [lv for lv in args.levels.split(",") if lv]
     unknown = [lv for lv in levels if lv not in LEVELS]
     if unknown or args.repeats < 1:
-        parser.error(f"--levels: unknown {unknown} (known: {', '.join(LEVELS)})" if unknown
-                     else "--repeats: must be at least 1")
+        parser.error(
+            f"--levels: unknown {unknown} (known: {', '.join(LEVELS)})" if unknown else "--repeats: must be at least 1"
+        )
     threads = os.cpu_count() or 1
-    record = {"schema_version": SCHEMA_VERSION, "benchmark": "render-scenes", "config": CONFIG.name,
-              "machine": machine(), "libraries": library_versions(), "threads": threads,
-              "repeats": args.repeats, "levels": {}}
+    record = {
+        "schema_version": SCHEMA_VERSION,
+        "benchmark": "render-scenes",
+        "config": CONFIG.name,
+        "machine": machine(),
+        "libraries": library_versions(),
+        "threads": threads,
+        "repeats": args.repeats,
+        "levels": {},
+    }
     bench_tasks = tasks(level_config(CONFIG, levels[0], {}))
     for level in levels:
         rows = [measure(level, t, args.repeats, threads, args.perf) for t in bench_tasks]
@@ -125,9 +146,11 @@ def main() -> int:
         for r in rows:
             shares = r["perf_dso_percent"]
             embree = next((v for k, v in shares.items() if "embree" in k), None)
-            print(f"{level:<8} {r['task_id'][:40]:<40} render {r['render_median_s']:.3f} s (fastest "
-                  f"{r['render_min_s']:.3f}), Embree limit {r['limit_s']:.3f} s: {r['ratio']:.2f}×"
-                  + (f", Embree {embree:.0f} % of samples" if embree is not None else ""))
+            print(
+                f"{level:<8} {r['task_id'][:40]:<40} render {r['render_median_s']:.3f} s (fastest "
+                f"{r['render_min_s']:.3f}), Embree limit {r['limit_s']:.3f} s: {r['ratio']:.2f}×"
+                + (f", Embree {embree:.0f} % of samples" if embree is not None else "")
+            )
         print(f"{level:<8} all four: {render:.3f} s against {limit:.3f} s = {render / limit:.2f}×")
     RESULTS.mkdir(exist_ok=True)
     out = RESULTS / f"render-scenes-{machine_slug(record['machine'])}.json"

@@ -46,10 +46,17 @@ GROUNDS = {
     "crater rim": CraterGround(),
 }
 SCENES = [  # (ground, layout, count, obj_id)
-    ("flat", "single", 1, 1), ("flat", "scattered", 5, 1), ("flat", "scattered", 8, 1),
-    ("flat", "stacked", 11, 1), ("flat", "stacked", 11, 3),
-    ("slope 30°", "single", 1, 1), ("slope 30°", "scattered", 5, 1), ("slope 30°", "stacked", 5, 1),
-    ("crater rim", "single", 1, 1), ("crater rim", "scattered", 5, 1), ("crater rim", "scattered", 5, 3),
+    ("flat", "single", 1, 1),
+    ("flat", "scattered", 5, 1),
+    ("flat", "scattered", 8, 1),
+    ("flat", "stacked", 11, 1),
+    ("flat", "stacked", 11, 3),
+    ("slope 30°", "single", 1, 1),
+    ("slope 30°", "scattered", 5, 1),
+    ("slope 30°", "stacked", 5, 1),
+    ("crater rim", "single", 1, 1),
+    ("crater rim", "scattered", 5, 1),
+    ("crater rim", "scattered", 5, 3),
 ]
 KNOB_SCENES = [("flat", "stacked", 11, 1), ("slope 30°", "scattered", 5, 1), ("crater rim", "scattered", 5, 1)]
 
@@ -59,16 +66,26 @@ def geometric(scene, config: SettleConfig):
     v, t = variant_mesh(MeshesConfig(), obj_id)
     bags = BagsConfig(count=count, layout=layout, settle=config)
     start = time.perf_counter()
-    poses = place_bags(v, t, count, layout, seed=0, ground=GROUNDS[ground_name], yaw_deg=bags.yaw_deg,
-                       gap_m=bags.gap_m, radius_m=bags.scatter_radius_m,
-                       clearance_m=config.margin_m + config.drop_m)
+    poses = place_bags(
+        v,
+        t,
+        count,
+        layout,
+        seed=0,
+        ground=GROUNDS[ground_name],
+        yaw_deg=bags.yaw_deg,
+        gap_m=bags.gap_m,
+        radius_m=bags.scatter_radius_m,
+        clearance_m=config.margin_m + config.drop_m,
+    )
     return v, t, poses, time.perf_counter() - start
 
 
 def displacement_mm(vertices, a, b) -> float:
     """Largest distance (mm) any vertex moves between two lists of poses."""
-    return 1e3 * max(float(np.linalg.norm(transform(vertices, p) - transform(vertices, q), axis=1).max())
-                     for p, q in zip(a, b))
+    return 1e3 * max(
+        float(np.linalg.norm(transform(vertices, p) - transform(vertices, q), axis=1).max()) for p, q in zip(a, b)
+    )
 
 
 def scene_costs(repeats: int) -> list[dict]:
@@ -85,17 +102,27 @@ def scene_costs(repeats: int) -> list[dict]:
             start = time.perf_counter()
             check_placement(v, t, result.poses, ground)
             check_s.append(time.perf_counter() - start)
-        rest = place_bags(v, t, scene[2], scene[1], seed=0, ground=ground, yaw_deg=20.0,
-                          clearance_m=config.margin_m)
-        rows.append({"ground": scene[0], "layout": scene[1], "count": scene[2], "obj_id": scene[3],
-                     "place_s": statistics.median(place_s), "settle_s": statistics.median(settle_s),
-                     "check_s": statistics.median(check_s), "simulated_s": result.simulated_s,
-                     "steps": result.steps,
-                     "settling_moves_mm": displacement_mm(v, rest, result.poses)})
+        rest = place_bags(v, t, scene[2], scene[1], seed=0, ground=ground, yaw_deg=20.0, clearance_m=config.margin_m)
+        rows.append(
+            {
+                "ground": scene[0],
+                "layout": scene[1],
+                "count": scene[2],
+                "obj_id": scene[3],
+                "place_s": statistics.median(place_s),
+                "settle_s": statistics.median(settle_s),
+                "check_s": statistics.median(check_s),
+                "simulated_s": result.simulated_s,
+                "steps": result.steps,
+                "settling_moves_mm": displacement_mm(v, rest, result.poses),
+            }
+        )
         r = rows[-1]
-        print(f"{r['ground']:>10} {r['layout']:>9} {r['count']:>2} × obj {r['obj_id']}: place {r['place_s']:.3f} s, "
-              f"settle {r['settle_s']:.3f} s ({r['simulated_s']:.2f} s simulated, {r['steps']} steps), "
-              f"check {r['check_s']:.3f} s; settling moves a vertex up to {r['settling_moves_mm']:.1f} mm")
+        print(
+            f"{r['ground']:>10} {r['layout']:>9} {r['count']:>2} × obj {r['obj_id']}: place {r['place_s']:.3f} s, "
+            f"settle {r['settle_s']:.3f} s ({r['simulated_s']:.2f} s simulated, {r['steps']} steps), "
+            f"check {r['check_s']:.3f} s; settling moves a vertex up to {r['settling_moves_mm']:.1f} mm"
+        )
     return rows
 
 
@@ -109,12 +136,22 @@ def knob_curve(knob: str, values: list[float], reference: float, scenes, extra: 
         for value in values:
             config = dataclasses.replace(base, **{knob: value})
             result = settle(v, poses, ground, config)
-            rows.append({"ground": scene[0], "layout": scene[1], "count": scene[2], knob: value,
-                         "settle_s": result.seconds, "steps": result.steps,
-                         "error_mm": displacement_mm(v, ref.poses, result.poses)})
+            rows.append(
+                {
+                    "ground": scene[0],
+                    "layout": scene[1],
+                    "count": scene[2],
+                    knob: value,
+                    "settle_s": result.seconds,
+                    "steps": result.steps,
+                    "error_mm": displacement_mm(v, ref.poses, result.poses),
+                }
+            )
             r = rows[-1]
-            print(f"{r['ground']:>10} {r['layout']:>9} {r['count']:>2}  {knob} = {value:<7g} "
-                  f"settle {r['settle_s']:.3f} s, {r['steps']:>5} steps, error {r['error_mm']:.2f} mm")
+            print(
+                f"{r['ground']:>10} {r['layout']:>9} {r['count']:>2}  {knob} = {value:<7g} "
+                f"settle {r['settle_s']:.3f} s, {r['steps']:>5} steps, error {r['error_mm']:.2f} mm"
+            )
     return rows
 
 
@@ -124,8 +161,13 @@ def plot(result: dict, path: Path) -> None:
         for row in result[key]:
             name = f"{knob}, {row['ground']} {row['layout']} {row['count']}"
             curves.setdefault(name, []).append((row["settle_s"], row["error_mm"], f"{row[knob]:g}"))
-    time_error_plot(path, f"Settling: time against error ({result['machine']['git_commit'][:7]})", curves,
-                    x_label="settle wall-clock, s", y_label="largest vertex displacement from the reference, mm")
+    time_error_plot(
+        path,
+        f"Settling: time against error ({result['machine']['git_commit'][:7]})",
+        curves,
+        x_label="settle wall-clock, s",
+        y_label="largest vertex displacement from the reference, mm",
+    )
 
 
 def main() -> int:
@@ -141,11 +183,11 @@ def main() -> int:
     print("Per scene (medians):")
     result["scenes"] = scene_costs(args.repeats)
     print("\ntimestep_s against a 0.25 ms reference (contact_time_s 0.02 s):")
-    result["timestep"] = knob_curve("timestep_s", [0.0005, 0.001, 0.002, 0.004, 0.008], 0.00025,
-                                    KNOB_SCENES, {})
+    result["timestep"] = knob_curve("timestep_s", [0.0005, 0.001, 0.002, 0.004, 0.008], 0.00025, KNOB_SCENES, {})
     print("\nground_step_m on the crater rim against a 5 mm reference:")
-    result["ground_step"] = knob_curve("ground_step_m", [0.01, 0.02, 0.05], 0.005,
-                                       [s for s in KNOB_SCENES if s[0] == "crater rim"], {})
+    result["ground_step"] = knob_curve(
+        "ground_step_m", [0.01, 0.02, 0.05], 0.005, [s for s in KNOB_SCENES if s[0] == "crater rim"], {}
+    )
     RESULTS.mkdir(exist_ok=True)
     out = RESULTS / f"settle-{machine_slug(result['machine'])}.json"
     out.write_text(json.dumps(result, indent=2) + "\n")

@@ -22,9 +22,9 @@ from __future__ import annotations
 
 import argparse
 import gc
-import tempfile
 import json
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -68,8 +68,15 @@ def synthetic_dem(path: Path) -> Path:
     e = (np.arange(1201) - 600) * 5.0
     E, N = np.meshgrid(e, e)
     heights = location.surface(E, N, np.full(E.shape, 5.0))
-    return LocalDem(heights=heights, spacing_m=5.0, lat_deg=0.0, lon_deg=0.0, h0_m=0.0, curvature=False,
-                    source={"made_by": "bench_terrain.synthetic_dem (hilly relief, 5 m)"}).save(path)
+    return LocalDem(
+        heights=heights,
+        spacing_m=5.0,
+        lat_deg=0.0,
+        lon_deg=0.0,
+        h0_m=0.0,
+        curvature=False,
+        source={"made_by": "bench_terrain.synthetic_dem (hilly relief, 5 m)"},
+    ).save(path)
 
 
 def location_row(location: str, overrides: dict | None = None, label: str | None = None) -> dict:
@@ -92,11 +99,23 @@ def location_row(location: str, overrides: dict | None = None, label: str | None
     _, render_s = view(config, spec, scene)
     v, t = terrain.mesh
     rock_triangles = sum(len(spec.meshes[key][1]) for key, _ in spec.rocks)
-    craters = len(Location(config.terrain, location_axis(config.terrain)).craters.diameters) \
-        if location != "dem" else None
-    return {"location": label or location, "triangles": int(len(t)), "vertices": int(len(v)),
-            "rocks": len(spec.rocks), "rock_triangles": rock_triangles, "craters": craters, "build_s": build_s, "cached_s": cached_s, "bvh_s": bvh_s,
-            "render_view_s": render_s, "mesh_mb": (v.nbytes + t.nbytes) / 2**20, "rss_growth_mb": grown}
+    craters = (
+        len(Location(config.terrain, location_axis(config.terrain)).craters.diameters) if location != "dem" else None
+    )
+    return {
+        "location": label or location,
+        "triangles": int(len(t)),
+        "vertices": int(len(v)),
+        "rocks": len(spec.rocks),
+        "rock_triangles": rock_triangles,
+        "craters": craters,
+        "build_s": build_s,
+        "cached_s": cached_s,
+        "bvh_s": bvh_s,
+        "render_view_s": render_s,
+        "mesh_mb": (v.nbytes + t.nbytes) / 2**20,
+        "rss_growth_mb": grown,
+    }
 
 
 def growth_rows() -> list[dict]:
@@ -112,16 +131,26 @@ def growth_rows() -> list[dict]:
         out, render_s = view(config, spec, scene)
         total = time.perf_counter() - start
         depth = out.depth.astype(np.float64)
-        row = {"growth": growth, "triangles": int(len(terrain.mesh[1])), "build_s": terrain.build_seconds,
-               "build_bvh_render_s": total, "render_view_s": render_s}
+        row = {
+            "growth": growth,
+            "triangles": int(len(terrain.mesh[1])),
+            "build_s": terrain.build_seconds,
+            "build_bvh_render_s": total,
+            "render_view_s": render_s,
+        }
         if reference is None:
             reference = depth
         else:
             both = (depth > 0) & (reference > 0)
             rel = np.abs(depth[both] - reference[both]) / reference[both]
-            row.update({"depth_rel_err_median": float(np.median(rel)), "depth_rel_err_p99": float(np.percentile(rel, 99)),
-                        "pixels_off_1pct": float(np.mean(rel > 0.01)),
-                        "hit_mismatch": float(np.mean((depth > 0) != (reference > 0)))})
+            row.update(
+                {
+                    "depth_rel_err_median": float(np.median(rel)),
+                    "depth_rel_err_p99": float(np.percentile(rel, 99)),
+                    "pixels_off_1pct": float(np.mean(rel > 0.01)),
+                    "hit_mismatch": float(np.mean((depth > 0) != (reference > 0))),
+                }
+            )
         rows.append(row)
         del scene, spec, terrain
     return rows
@@ -130,42 +159,74 @@ def growth_rows() -> list[dict]:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dem", type=Path, help="also measure this LocalDem (moonbot terrain import)")
-    parser.add_argument("--site", type=float, nargs=2, default=(0.0, 0.0), metavar=("E", "N"),
-                        help="its work site, metres east and north of its origin")
+    parser.add_argument(
+        "--site",
+        type=float,
+        nargs=2,
+        default=(0.0, 0.0),
+        metavar=("E", "N"),
+        help="its work site, metres east and north of its origin",
+    )
     parser.add_argument("--extent", type=float, default=2000.0, help="terrain.extent_m for it, metres")
     args = parser.parse_args()
     result = {"schema_version": SCHEMA_VERSION, "machine": machine(), "locations": [], "growth": []}
-    print(f"{'location':<12} {'triangles':>10} {'rocks':>6} {'build':>7} {'cached':>8} {'bvh':>6} {'render':>7} "
-          f"{'mesh':>7} {'rss+':>7}")
+    print(
+        f"{'location':<12} {'triangles':>10} {'rocks':>6} {'build':>7} {'cached':>8} {'bvh':>6} {'render':>7} "
+        f"{'mesh':>7} {'rss+':>7}"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         runs = [(name, {}, None) for name in ("flat", "hilly", "crater")]
         runs.append(("dem", {"terrain.dem_file": str(synthetic_dem(Path(tmp) / "hilly5m.npz"))}, "dem 5 m"))
         if args.dem is not None:
-            runs.append(("dem", {"terrain.dem_file": str(args.dem), "terrain.dem_site_m": list(args.site),
-                                 "terrain.extent_m": args.extent}, f"dem {args.dem.stem}"))
+            runs.append(
+                (
+                    "dem",
+                    {
+                        "terrain.dem_file": str(args.dem),
+                        "terrain.dem_site_m": list(args.site),
+                        "terrain.extent_m": args.extent,
+                    },
+                    f"dem {args.dem.stem}",
+                )
+            )
         for location, overrides, label in runs:
             r = location_row(location, overrides, label)
             if location == "dem":
                 dem = LocalDem.load(overrides["terrain.dem_file"])
-                r.update({"dem_nodes": list(dem.shape), "dem_spacing_m": dem.spacing_m,
-                          "dem_source": dem.source, "extent_m": overrides.get("terrain.extent_m", 2000.0),
-                          "site_m": overrides.get("terrain.dem_site_m", [0.0, 0.0])})
+                r.update(
+                    {
+                        "dem_nodes": list(dem.shape),
+                        "dem_spacing_m": dem.spacing_m,
+                        "dem_source": dem.source,
+                        "extent_m": overrides.get("terrain.extent_m", 2000.0),
+                        "site_m": overrides.get("terrain.dem_site_m", [0.0, 0.0]),
+                    }
+                )
             result["locations"].append(r)
-            print(f"{r['location']:<12} {r['triangles']:>10} {r['rocks']:>6} {r['build_s']:>6.2f}s {1e6 * r['cached_s']:>6.1f}µs "
-                f"{r['bvh_s']:>5.2f}s {1e3 * r['render_view_s']:>5.0f}ms {r['mesh_mb']:>5.0f}MB {r['rss_growth_mb']:>5.0f}MB")
+            print(
+                f"{r['location']:<12} {r['triangles']:>10} {r['rocks']:>6} {r['build_s']:>6.2f}s {1e6 * r['cached_s']:>6.1f}µs "
+                f"{r['bvh_s']:>5.2f}s {1e3 * r['render_view_s']:>5.0f}ms {r['mesh_mb']:>5.0f}MB {r['rss_growth_mb']:>5.0f}MB"
+            )
     print(f"\n{'growth':>6} {'triangles':>10} {'build+bvh+render':>17} {'|Δz|/z med':>11} {'p99':>8} {'>1 %':>7}")
     result["growth"] = growth_rows()
     for r in result["growth"]:
-        err = (f"{r['depth_rel_err_median']:>11.2e} {r['depth_rel_err_p99']:>8.2e} {100 * r['pixels_off_1pct']:>6.2f}%"
-               if "depth_rel_err_median" in r else f"{'reference':>11}")
+        err = (
+            f"{r['depth_rel_err_median']:>11.2e} {r['depth_rel_err_p99']:>8.2e} {100 * r['pixels_off_1pct']:>6.2f}%"
+            if "depth_rel_err_median" in r
+            else f"{'reference':>11}"
+        )
         print(f"{r['growth']:>6} {r['triangles']:>10} {r['build_bvh_render_s']:>16.2f}s {err}")
     RESULTS.mkdir(exist_ok=True)
     out = RESULTS / f"terrain-{machine_slug(result['machine'])}.json"
     out.write_text(json.dumps(result, indent=2) + "\n")
     curve = [(r["build_bvh_render_s"], r["depth_rel_err_p99"], f"{r['growth']}") for r in result["growth"][1:]]
-    time_error_plot(out.with_suffix(".svg"), f"Terrain grid growth: time against depth error "
-                    f"({result['machine']['git_commit'][:7]})", {"flat, growth": curve},
-                    "build + BVH + one view, s", "p99 |Δz|/z vs growth 1.01")
+    time_error_plot(
+        out.with_suffix(".svg"),
+        f"Terrain grid growth: time against depth error ({result['machine']['git_commit'][:7]})",
+        {"flat, growth": curve},
+        "build + BVH + one view, s",
+        "p99 |Δz|/z vs growth 1.01",
+    )
     print(f"\nwritten {out} and {out.with_suffix('.svg').name}")
     return 0
 

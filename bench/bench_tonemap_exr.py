@@ -42,8 +42,15 @@ from fingerprint import machine, machine_slug  # bench/ is on sys.path when run 
 
 RESULTS = Path(__file__).resolve().parent / "results"
 # gt.json's fields from the view stage (moonbot.records.gt), for the views this writes alone.
-VIEW_META = {"view": 0, "camera_azimuth_deg": 0.0, "camera_height_m": 0.0, "sun": {}, "render_seed": 0,
-             "config_hash": "", "moonbot_version": "bench"}
+VIEW_META = {
+    "view": 0,
+    "camera_azimuth_deg": 0.0,
+    "camera_height_m": 0.0,
+    "sun": {},
+    "render_seed": 0,
+    "config_hash": "",
+    "moonbot_version": "bench",
+}
 SCHEMA_VERSION = 1
 
 
@@ -60,8 +67,9 @@ def median_of(repeats: int, fn) -> float:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeats", type=int, default=21, help="timed repeats per figure (median)")
-    parser.add_argument("--out", type=Path, default=None,
-                        help="result file (default: bench/results/tonemap-exr-<machine>.json)")
+    parser.add_argument(
+        "--out", type=Path, default=None, help="result file (default: bench/results/tonemap-exr-<machine>.json)"
+    )
     args = parser.parse_args()
     m = machine()
     print(f"machine  {m['cpu']}, {m['cores']} cores, {m['memory_gib']} GiB, {m['os']}, commit {m['git_commit'][:12]}")
@@ -75,15 +83,28 @@ def main() -> int:
     rgb = view.rgb
     exposure = resolve_exposure(config)
     rgb8, invalid = _core.tonemap_reinhard(rgb, exposure.scale)
-    attributes = {"whiteLuminance": LUMINOUS_EFFICACY_LM_W, "moonbot:radianceUnit": RADIANCE_UNIT,
-                  "moonbot:ev100": exposure.ev100}
+    attributes = {
+        "whiteLuminance": LUMINOUS_EFFICACY_LM_W,
+        "moonbot:radianceUnit": RADIANCE_UNIT,
+        "moonbot:ev100": exposure.ev100,
+    }
     r = args.repeats
     load_before = os.getloadavg()[0]
-    result = {"schema_version": SCHEMA_VERSION, "benchmark": "tonemap-exr", "machine": m,
-              "view": {"config": "embedded default", "width": int(rgb.shape[1]), "height": int(rgb.shape[0]),
-                       "spp": config.render.spp, "ev100": exposure.ev100, "invalid_pixels": invalid,
-                       "radiance_range_w_m2_sr": [float(rgb.min()), float(rgb.max())]},
-              "repeats": r}
+    result = {
+        "schema_version": SCHEMA_VERSION,
+        "benchmark": "tonemap-exr",
+        "machine": m,
+        "view": {
+            "config": "embedded default",
+            "width": int(rgb.shape[1]),
+            "height": int(rgb.shape[0]),
+            "spp": config.render.spp,
+            "ev100": exposure.ev100,
+            "invalid_pixels": invalid,
+            "radiance_range_w_m2_sr": [float(rgb.min()), float(rgb.max())],
+        },
+        "repeats": r,
+    }
 
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
@@ -104,8 +125,11 @@ def main() -> int:
         result["rgb_exr_float32_zip"] = exr
         result["rgb_png_level1"] = {"write_s": png_s, "bytes": (d / "rgb.png").stat().st_size}
         result["rgb_exr_half_zip_openexr_package"] = {
-            "write_s": half_s, "bytes": (d / "half.exr").stat().st_size,
-            "max_relative_error_above_6.1e-5": half_rel, "pixels_overflowing": int(np.isinf(half).sum())}
+            "write_s": half_s,
+            "bytes": (d / "half.exr").stat().st_size,
+            "max_relative_error_above_6.1e-5": half_rel,
+            "pixels_overflowing": int(np.isinf(half).sum()),
+        }
 
         stage = {}
         for exr in (False, True):
@@ -113,8 +137,9 @@ def main() -> int:
             for i in range(r):
                 out = d / f"view-{exr}-{i}"
                 out.mkdir()
-                gt = write_sample(out, view, exposure, K, pose, spec.bags, config.output.png_compression,
-                                  VIEW_META, {}, exr=exr)
+                gt = write_sample(
+                    out, view, exposure, K, pose, spec.bags, config.output.png_compression, VIEW_META, {}, exr=exr
+                )
                 seconds.append(gt.timings_s["encode_write"])
             stage[f"exr_{str(exr).lower()}"] = statistics.median(seconds)
         result["encode_write_stage_s"] = stage
@@ -125,15 +150,23 @@ def main() -> int:
     print(f"view     {rgb.shape[1]}×{rgb.shape[0]}, EV100 {exposure.ev100:.2f}, invalid pixels {invalid}")
     print(f"tone map                     {1e3 * tonemap_s:7.2f} ms")
     for level, row in e.items():
-        print(f"rgb.exr  float32 zip {level.replace('level_', 'level '):8} {1e3 * row['write_s']:7.2f} ms  "
-              f"{row['bytes'] / 1e6:6.2f} MB")
-    print(f"         half zip (OpenEXR)  {1e3 * h['write_s']:7.2f} ms  {h['bytes'] / 1e6:6.2f} MB  "
-          f"(max rel. error {h['max_relative_error_above_6.1e-5']:.1e})")
+        print(
+            f"rgb.exr  float32 zip {level.replace('level_', 'level '):8} {1e3 * row['write_s']:7.2f} ms  "
+            f"{row['bytes'] / 1e6:6.2f} MB"
+        )
+    print(
+        f"         half zip (OpenEXR)  {1e3 * h['write_s']:7.2f} ms  {h['bytes'] / 1e6:6.2f} MB  "
+        f"(max rel. error {h['max_relative_error_above_6.1e-5']:.1e})"
+    )
     print(f"rgb.png  level 1             {1e3 * p['write_s']:7.2f} ms  {p['bytes'] / 1e6:6.2f} MB")
-    print(f"encode + write stage: {1e3 * stage['exr_false']:.1f} ms without rgb.exr, "
-          f"{1e3 * stage['exr_true']:.1f} ms with it")
-    print(f"load     1-minute average {load_before:.1f} before, {result['load_average_1m']['after']:.1f} after "
-          f"({m['cores']} cores)")
+    print(
+        f"encode + write stage: {1e3 * stage['exr_false']:.1f} ms without rgb.exr, "
+        f"{1e3 * stage['exr_true']:.1f} ms with it"
+    )
+    print(
+        f"load     1-minute average {load_before:.1f} before, {result['load_average_1m']['after']:.1f} after "
+        f"({m['cores']} cores)"
+    )
 
     out = args.out or RESULTS / f"tonemap-exr-{machine_slug(m)}.json"
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -17,16 +17,39 @@ import tempfile
 from pathlib import Path
 
 # dev.sh's APT_PACKAGES other than the image libraries, which the rows below vary.
-REST = ["build-essential", "pkg-config", "python3", "python3-dev", "python3-venv", "libembree-dev", "libglm-dev",
-        "libgeographiclib-dev", "libtbb-dev", "zlib1g-dev"]
+REST = [
+    "build-essential",
+    "pkg-config",
+    "python3",
+    "python3-dev",
+    "python3-venv",
+    "libembree-dev",
+    "libglm-dev",
+    "libgeographiclib-dev",
+    "libtbb-dev",
+    "zlib1g-dev",
+]
 ROWS = [
-    ("dev.sh before: OpenImageIO + openimageio-tools, with recommends", [], ["libopenimageio-dev", "openimageio-tools"]),
-    ("dev.sh before: OpenImageIO + openimageio-tools, --no-install-recommends", ["--no-install-recommends"],
-     ["libopenimageio-dev", "openimageio-tools"]),
-    ("dev.sh now: OpenImageIO alone (pkg-config), --no-install-recommends", ["--no-install-recommends"],
-     ["libopenimageio-dev"]),
-    ("libpng + OpenEXR + libtiff instead of OpenImageIO, --no-install-recommends", ["--no-install-recommends"],
-     ["libpng-dev", "libopenexr-dev", "libtiff-dev"]),
+    (
+        "dev.sh before: OpenImageIO + openimageio-tools, with recommends",
+        [],
+        ["libopenimageio-dev", "openimageio-tools"],
+    ),
+    (
+        "dev.sh before: OpenImageIO + openimageio-tools, --no-install-recommends",
+        ["--no-install-recommends"],
+        ["libopenimageio-dev", "openimageio-tools"],
+    ),
+    (
+        "dev.sh now: OpenImageIO alone (pkg-config), --no-install-recommends",
+        ["--no-install-recommends"],
+        ["libopenimageio-dev"],
+    ),
+    (
+        "libpng + OpenEXR + libtiff instead of OpenImageIO, --no-install-recommends",
+        ["--no-install-recommends"],
+        ["libpng-dev", "libopenexr-dev", "libtiff-dev"],
+    ),
     ("no image library at all, --no-install-recommends", ["--no-install-recommends"], []),
 ]
 
@@ -47,14 +70,14 @@ def minimal_status(installed: dict[str, str]) -> str:
     provides: dict[str, str] = {}
     for name, stanza in installed.items():
         field = re.search(r"^Provides: (.*)$", stanza, re.M)
-        for item in (field.group(1).split(",") if field else []):
+        for item in field.group(1).split(",") if field else []:
             provides.setdefault(item.strip().split(" ")[0].split(":")[0], name)
 
     def depends(stanza: str) -> list[str]:
         names = []
         for key in ("Depends", "Pre-Depends"):
             field = re.search(rf"^{key}: (.*)$", stanza, re.M)
-            for group in (field.group(1).split(",") if field else []):
+            for group in field.group(1).split(",") if field else []:
                 for alternative in group.split("|"):
                     want = alternative.strip().split(" ")[0].split(":")[0]
                     if want in installed or want in provides:
@@ -74,11 +97,16 @@ def minimal_status(installed: dict[str, str]) -> str:
 
 def measure(status_file: str, options: list[str], packages: list[str]) -> tuple[int, float, float]:
     """(packages apt would install, their installed MB, their download MB)."""
-    simulated = subprocess.run(["apt-get", "install", "--simulate", "-o", f"Dir::State::status={status_file}",
-                                *options, *packages], capture_output=True, text=True, check=True).stdout
+    simulated = subprocess.run(
+        ["apt-get", "install", "--simulate", "-o", f"Dir::State::status={status_file}", *options, *packages],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
     names = [line.split()[1] for line in simulated.splitlines() if line.startswith("Inst ")]
-    shown = subprocess.run(["apt-cache", "show", "--no-all-versions", *names], capture_output=True, text=True,
-                           check=True).stdout
+    shown = subprocess.run(
+        ["apt-cache", "show", "--no-all-versions", *names], capture_output=True, text=True, check=True
+    ).stdout
     installed_kib = sum(int(v) for v in re.findall(r"^Installed-Size: (\d+)$", shown, re.M))
     download_b = sum(int(v) for v in re.findall(r"^Size: (\d+)$", shown, re.M))
     return len(names), installed_kib / 1024, download_b / 1e6

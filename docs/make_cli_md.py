@@ -42,13 +42,20 @@ def help_text(words: tuple[str, ...], command: click.Command) -> str:
     """What `moonbot WORDS --help` prints, at HELP_WIDTH columns."""
     # The root's context_settings (its -h/--help) as `moonbot` itself applies them: a bare Context
     # would fall back to click's default help option, or to whatever an earlier invocation cached.
-    parent = click.Context(main, info_name="moonbot", terminal_width=HELP_WIDTH, max_content_width=HELP_WIDTH,
-                           **main.context_settings)
+    parent = click.Context(
+        main, info_name="moonbot", terminal_width=HELP_WIDTH, max_content_width=HELP_WIDTH, **main.context_settings
+    )
     for word in words[:-1]:
-        parent = click.Context(parent.command.get_command(parent, word), info_name=word, parent=parent,
-                               terminal_width=HELP_WIDTH, max_content_width=HELP_WIDTH)
-    context = click.Context(command, info_name=words[-1], parent=parent,
-                            terminal_width=HELP_WIDTH, max_content_width=HELP_WIDTH)
+        parent = click.Context(
+            parent.command.get_command(parent, word),
+            info_name=word,
+            parent=parent,
+            terminal_width=HELP_WIDTH,
+            max_content_width=HELP_WIDTH,
+        )
+    context = click.Context(
+        command, info_name=words[-1], parent=parent, terminal_width=HELP_WIDTH, max_content_width=HELP_WIDTH
+    )
     return command.get_help(context)
 
 

@@ -15,8 +15,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 # Curves, bars and stacked stages take colours in this order.
-COLOURS = ("#1b6ca8", "#d1495b", "#2e8b57", "#edae49", "#6a4c93", "#00798c",
-           "#8c564b", "#7f7f7f", "#bcbd22", "#e377c2")
+COLOURS = ("#1b6ca8", "#d1495b", "#2e8b57", "#edae49", "#6a4c93", "#00798c", "#8c564b", "#7f7f7f", "#bcbd22", "#e377c2")
 
 # The settings every chart is drawn and saved under (matplotlib.rc_context: nothing global changes).
 _STYLE = {
@@ -61,14 +60,19 @@ def svg_bytes(fig) -> bytes:
     return buffer.getvalue()
 
 
-def bar_panel(ax, title: str, axis_label: str, rows: Sequence[tuple[str, Sequence[float], str]],
-              series: Sequence[str] | None = None, colours: Sequence[str] | None = None) -> None:
+def bar_panel(
+    ax,
+    title: str,
+    axis_label: str,
+    rows: Sequence[tuple[str, Sequence[float], str]],
+    series: Sequence[str] | None = None,
+    colours: Sequence[str] | None = None,
+) -> None:
     """Draws horizontal bars on `ax`, one per row (label, segment values, text after the bar),
     first row at the top; a row's segments are stacked left to right in the colours of `series`
     (a legend under the axis when there is more than one). Values are drawn from 0 on a linear
     axis; negative and non-finite ones as 0."""
-    rows = [(label, [v if math.isfinite(v) and v > 0 else 0.0 for v in values], note)
-            for label, values, note in rows]
+    rows = [(label, [v if math.isfinite(v) and v > 0 else 0.0 for v in values], note) for label, values, note in rows]
     series = list(series or [""])
     colours = list(colours or [COLOURS[k % len(COLOURS)] for k in range(len(series))])
     with _style():
@@ -105,8 +109,13 @@ def bar_panels_svg(title: str, panels: Sequence[dict], width_in: float = 9.0) ->
     return svg_bytes(fig)
 
 
-def time_error_plot(path: Path, title: str, curves: dict[str, list[tuple[float, float, str]]],
-                    x_label: str = "seconds", y_label: str = "error") -> None:
+def time_error_plot(
+    path: Path,
+    title: str,
+    curves: dict[str, list[tuple[float, float, str]]],
+    x_label: str = "seconds",
+    y_label: str = "error",
+) -> None:
     """Writes an SVG of `curves`: name → [(time, error, point label)], both axes logarithmic,
     each point labelled (non-positive values are drawn at the axis floor)."""
     points = [(x, y) for curve in curves.values() for x, y, _ in curve]

@@ -13,9 +13,33 @@ from pathlib import Path
 # The /proc/cpuinfo flags of the x86-64 SIMD extensions, narrowest first: those Embree's kernels
 # are chosen by (SSE2 … AVX-512 F/DQ/CD/BW/VL) and the AVX-512 extensions past them that tell CPU
 # generations apart.
-SIMD_FLAGS = ("sse2", "ssse3", "sse4_1", "sse4_2", "popcnt", "avx", "f16c", "fma", "bmi1", "bmi2", "abm",
-              "avx2", "avx512f", "avx512dq", "avx512cd", "avx512bw", "avx512vl", "avx512ifma", "avx512vbmi",
-              "avx512_vbmi2", "avx512_vnni", "avx512_bf16", "avx512_fp16", "avx_vnni", "amx_tile")
+SIMD_FLAGS = (
+    "sse2",
+    "ssse3",
+    "sse4_1",
+    "sse4_2",
+    "popcnt",
+    "avx",
+    "f16c",
+    "fma",
+    "bmi1",
+    "bmi2",
+    "abm",
+    "avx2",
+    "avx512f",
+    "avx512dq",
+    "avx512cd",
+    "avx512bw",
+    "avx512vl",
+    "avx512ifma",
+    "avx512vbmi",
+    "avx512_vbmi2",
+    "avx512_vnni",
+    "avx512_bf16",
+    "avx512_fp16",
+    "avx_vnni",
+    "amx_tile",
+)
 
 
 def _cpuinfo() -> dict[str, str]:
@@ -66,8 +90,7 @@ def embree_record(requested: str = "auto") -> dict:
 def host_record(requested_isa: str = "auto") -> dict:
     """CPU model, id and SIMD flags, and embree_record(requested_isa): what every task's
     stats.json and every benchmark result carries."""
-    return {"cpu_model": cpu_model(), "cpu_id": cpu_id(), "simd_flags": simd_flags(),
-            **embree_record(requested_isa)}
+    return {"cpu_model": cpu_model(), "cpu_id": cpu_id(), "simd_flags": simd_flags(), **embree_record(requested_isa)}
 
 
 def machine_slug(m: dict) -> str:

@@ -10,16 +10,32 @@ from moonbot.scene.bag_mesh import filled_cuboid
 from moonbot.scene.orbit import CameraPose, orbit_pose, pixel_directions
 
 # What the pipeline's view stage adds to gt.json (moonbot.records.gt), for a view written alone.
-VIEW_META = {"view": 0, "camera_azimuth_deg": 0.0, "camera_height_m": 1.0,
-             "sun": {"azimuth_deg": 0.0, "elevation_deg": 10.0, "irradiance_w_m2": 1361.0}, "render_seed": 0,
-             "config_hash": "0" * 64, "moonbot_version": "test"}
+VIEW_META = {
+    "view": 0,
+    "camera_azimuth_deg": 0.0,
+    "camera_height_m": 1.0,
+    "sun": {"azimuth_deg": 0.0, "elevation_deg": 10.0, "irradiance_w_m2": 1361.0},
+    "render_seed": 0,
+    "config_hash": "0" * 64,
+    "moonbot_version": "test",
+}
 
 
 def box(size: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
     """An exact box centred on the origin: the sharp, unbulged lattice body, coarsely split."""
-    return filled_cuboid(BagShape(size_m=size, edge_radius_m=0.0, bulge_m=0.0, sag_m=0.0, belly_m=0.0,
-                                  crease_depth_m=0.0, pucker_depth_m=0.0,
-                                  edge_length_m=min(size) / 2, edge_steps=1))
+    return filled_cuboid(
+        BagShape(
+            size_m=size,
+            edge_radius_m=0.0,
+            bulge_m=0.0,
+            sag_m=0.0,
+            belly_m=0.0,
+            crease_depth_m=0.0,
+            pucker_depth_m=0.0,
+            edge_length_m=min(size) / 2,
+            edge_steps=1,
+        )
+    )
 
 
 def plane(half: float) -> tuple[np.ndarray, np.ndarray]:
@@ -49,8 +65,9 @@ def camera(K: np.ndarray, width: int, height: int, pose: CameraPose) -> _core.Ca
     return _core.Camera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], width, height, pose.R, pose.t)
 
 
-def ground_and_box(box_size=(0.4, 0.4, 0.4), box_world=None, ground_world=None,
-                   ground_half=50.0) -> tuple[_core.Scene, np.ndarray]:
+def ground_and_box(
+    box_size=(0.4, 0.4, 0.4), box_world=None, ground_world=None, ground_half=50.0
+) -> tuple[_core.Scene, np.ndarray]:
     """A ground plane (label 0) and one box (label 1, model origin at its centre). Returns the
     committed scene and the box's world_from_model."""
     scene = _core.Scene()
@@ -64,5 +81,14 @@ def ground_and_box(box_size=(0.4, 0.4, 0.4), box_world=None, ground_world=None,
     return scene, box_world
 
 
-__all__ = ["K_for", "box", "camera", "ground_and_box", "orbit_pose", "pixel_directions", "plane",
-           "rotation_x", "translation"]
+__all__ = [
+    "K_for",
+    "box",
+    "camera",
+    "ground_and_box",
+    "orbit_pose",
+    "pixel_directions",
+    "plane",
+    "rotation_x",
+    "translation",
+]

@@ -51,16 +51,25 @@ def test_refines_the_edges_and_leaves_the_faces_alone():
     pixels of a mixed one (a pixel is refined where it or a neighbour disagrees)."""
     scene = floating_box()
     base = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=4, seed=3), passes=["rgb"])
-    adaptive = _core.render(scene, corner_camera(), SUN,
-                            _core.RenderSettings(spp=4, seed=3, adaptive_spp=32, adaptive_threshold=0.1),
-                            passes=["rgb"])
+    adaptive = _core.render(
+        scene,
+        corner_camera(),
+        SUN,
+        _core.RenderSettings(spp=4, seed=3, adaptive_spp=32, adaptive_threshold=0.1),
+        passes=["rgb"],
+    )
     refined = np.any(base["rgb"] != adaptive["rgb"], axis=-1)
     assert 0 < refined.sum() <= adaptive["refined_pixels"]
     # 28 extra samples, each a camera ray and (on a face toward the Sun) one shadow ray.
     assert 28 * adaptive["refined_pixels"] <= adaptive["camera_rays"] - base["camera_rays"]
-    assert adaptive["refinement_rays"] == (adaptive["camera_rays"] - base["camera_rays"] + adaptive["shadow_rays"]
-                                           - base["shadow_rays"] + adaptive["second_look_rays"]
-                                           - base["second_look_rays"])
+    assert adaptive["refinement_rays"] == (
+        adaptive["camera_rays"]
+        - base["camera_rays"]
+        + adaptive["shadow_rays"]
+        - base["shadow_rays"]
+        + adaptive["second_look_rays"]
+        - base["second_look_rays"]
+    )
     # What each pixel holds: 16 × 16 centre rays over it, their radiance (one value per face, 0 for the sky).
     fine = _core.render(scene, corner_camera(16), SUN, _core.RenderSettings(spp=1), passes=["rgb"])["rgb"][..., 1]
     blocks = fine.reshape(H, 16, W, 16).transpose(0, 2, 1, 3).reshape(H, W, 256)
@@ -69,8 +78,9 @@ def test_refines_the_edges_and_leaves_the_faces_alone():
     # uniform may still hold a sliver thinner than its spacing).
     value = np.where(uniform, blocks[..., 0], np.nan)
     padded = np.pad(value, 1, constant_values=np.nan)
-    interior = np.all([padded[1 + dy:1 + dy + H, 1 + dx:1 + dx + W] == value
-                       for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0)
+    interior = np.all(
+        [padded[1 + dy : 1 + dy + H, 1 + dx : 1 + dx + W] == value for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0
+    )
     # The minority's share of the pixel: at least 30 % is a well mixed pixel.
     values = [np.unique(b, return_counts=True)[1] for b in blocks.reshape(-1, 256)]
     minority = np.array([1.0 - c.max() / 256 for c in values]).reshape(H, W)
@@ -78,7 +88,9 @@ def test_refines_the_edges_and_leaves_the_faces_alone():
     assert interior.sum() > H * W // 2
     assert not np.any(refined & interior)
     grown = np.pad(~interior, 1)  # refined: a disagreeing pixel's neighbours too
-    near_edge = np.any([grown[1 + dy:1 + dy + H, 1 + dx:1 + dx + W] for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0)
+    near_edge = np.any(
+        [grown[1 + dy : 1 + dy + H, 1 + dx : 1 + dx + W] for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0
+    )
     assert adaptive["refined_pixels"] <= near_edge.sum()
     assert mixed.sum() > 20
     assert refined[mixed].mean() >= 0.9
@@ -90,12 +102,17 @@ def test_adaptive_image_comes_close_to_a_high_sample_render():
     disagree (a pixel's own or a neighbour's) leaves the error of 64 samples everywhere (0.039)
     for a fifth of their camera rays."""
     scene = floating_box()
-    reference = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=1024, seed=11),
-                             passes=["rgb"])["rgb"]
+    reference = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=1024, seed=11), passes=["rgb"])[
+        "rgb"
+    ]
     base = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=4, seed=3), passes=["rgb"])
-    adaptive = _core.render(scene, corner_camera(), SUN,
-                            _core.RenderSettings(spp=4, seed=3, adaptive_spp=64, adaptive_threshold=0.1),
-                            passes=["rgb"])
+    adaptive = _core.render(
+        scene,
+        corner_camera(),
+        SUN,
+        _core.RenderSettings(spp=4, seed=3, adaptive_spp=64, adaptive_threshold=0.1),
+        passes=["rgb"],
+    )
 
     def rel_rmse(out):
         return np.sqrt(np.mean((out["rgb"].astype(np.float64) - reference) ** 2)) / reference.mean()
@@ -110,12 +127,13 @@ def test_adaptive_image_comes_close_to_a_high_sample_render():
 def lunar_test_scene() -> _core.Scene:
     """The box on a ground plane: bounces and the Sun's disk have something to do."""
     from scenes import ground_and_box
+
     return ground_and_box((0.4, 0.4, 0.4))[0]
 
 
 def ground_camera() -> _core.Camera:
     centre = np.array([1.2, -1.0, 0.7])
-    z = (np.array([0.0, 0.0, 0.15]) - centre)
+    z = np.array([0.0, 0.0, 0.15]) - centre
     z /= np.linalg.norm(z)
     x = np.cross(z, [0.0, 0.0, 1.0])
     x /= np.linalg.norm(x)
@@ -134,8 +152,10 @@ def quality(**settings) -> _core.RenderSettings:
 
 def test_same_bytes_for_any_thread_count_and_the_seed_matters():
     scene = lunar_test_scene()
-    images = [_core.render(scene, ground_camera(), DISK_SUN, quality(seed=seed, threads=threads, adaptive_spp=16))
-              for seed, threads in ((5, 1), (5, 2), (6, 2))]
+    images = [
+        _core.render(scene, ground_camera(), DISK_SUN, quality(seed=seed, threads=threads, adaptive_spp=16))
+        for seed, threads in ((5, 1), (5, 2), (6, 2))
+    ]
     assert images[0]["refined_pixels"] == images[1]["refined_pixels"] > 0
     assert images[0]["rgb"].tobytes() == images[1]["rgb"].tobytes()
     assert images[0]["rgb"].tobytes() != images[2]["rgb"].tobytes()
@@ -160,23 +180,29 @@ def test_off_is_the_brute_force_path_bit_for_bit():
     assert on["bounce_rays"] == off["bounce_rays"]
 
 
-@pytest.mark.parametrize(("kwargs", "message"), [
-    ({"spp": 4, "adaptive_spp": 4}, "adaptive_spp: must be 0 (off) or in spp + 1..65536"),
-    ({"spp": 4, "adaptive_spp": -1}, "adaptive_spp: must be 0"),
-    ({"spp": 4, "adaptive_spp": 70000}, "adaptive_spp: must be 0"),
-    ({"spp": 1, "adaptive_spp": 1}, "adaptive_spp: must be 0 (off) or in spp + 1..65536"),
-    ({"spp": 4, "adaptive_spp": 8, "adaptive_threshold": -0.5}, "adaptive_threshold: must be a finite number >= 0"),
-    ({"spp": 4, "adaptive_spp": 8, "adaptive_threshold": float("nan")}, "adaptive_threshold: must be a finite"),
-])
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"spp": 4, "adaptive_spp": 4}, "adaptive_spp: must be 0 (off) or in spp + 1..65536"),
+        ({"spp": 4, "adaptive_spp": -1}, "adaptive_spp: must be 0"),
+        ({"spp": 4, "adaptive_spp": 70000}, "adaptive_spp: must be 0"),
+        ({"spp": 1, "adaptive_spp": 1}, "adaptive_spp: must be 0 (off) or in spp + 1..65536"),
+        ({"spp": 4, "adaptive_spp": 8, "adaptive_threshold": -0.5}, "adaptive_threshold: must be a finite number >= 0"),
+        ({"spp": 4, "adaptive_spp": 8, "adaptive_threshold": float("nan")}, "adaptive_threshold: must be a finite"),
+    ],
+)
 def test_bad_settings_name_the_field(kwargs, message):
     with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)").replace("+", r"\+")):
         _core.render(floating_box(), corner_camera(), SUN, _core.RenderSettings(**kwargs))
 
 
-@pytest.mark.parametrize(("overrides", "message"), [
-    ({"render.adaptive_spp": -2}, "render.adaptive_spp: must be >= 0"),
-    ({"render.adaptive_threshold": -0.1}, "render.adaptive_threshold: must be >= 0"),
-])
+@pytest.mark.parametrize(
+    ("overrides", "message"),
+    [
+        ({"render.adaptive_spp": -2}, "render.adaptive_spp: must be >= 0"),
+        ({"render.adaptive_threshold": -0.1}, "render.adaptive_threshold: must be >= 0"),
+    ],
+)
 def test_bad_config_names_the_field(overrides, message):
     with pytest.raises(ConfigError) as caught:
         load_config(None, overrides)
@@ -202,11 +228,13 @@ def test_over_the_centre_sample_only_the_edges_are_refined_to_the_error_of_brute
     get 64 jittered samples of their whole radiance, which leaves the error of 64 samples
     everywhere for a small share of their rays."""
     scene = floating_box()
-    reference = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=1024, seed=11),
-                             passes=["rgb"])["rgb"]
+    reference = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=1024, seed=11), passes=["rgb"])[
+        "rgb"
+    ]
     plain = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=1, seed=3))
-    adaptive = _core.render(scene, corner_camera(), SUN,
-                            _core.RenderSettings(spp=1, seed=3, adaptive_spp=64, adaptive_threshold=0.1))
+    adaptive = _core.render(
+        scene, corner_camera(), SUN, _core.RenderSettings(spp=1, seed=3, adaptive_spp=64, adaptive_threshold=0.1)
+    )
     brute_force = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=64, seed=3), passes=["rgb"])
 
     def rel_rmse(out):
@@ -216,8 +244,9 @@ def test_over_the_centre_sample_only_the_edges_are_refined_to_the_error_of_brute
     blocks = fine.reshape(H, 16, W, 16).transpose(0, 2, 1, 3).reshape(H, W, 256)
     value = np.where(np.all(blocks == blocks[..., :1], axis=-1), blocks[..., 0], np.nan)
     padded = np.pad(value, 1, constant_values=np.nan)
-    interior = np.all([padded[1 + dy:1 + dy + H, 1 + dx:1 + dx + W] == value
-                       for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0)
+    interior = np.all(
+        [padded[1 + dy : 1 + dy + H, 1 + dx : 1 + dx + W] == value for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0
+    )
     changed = np.any(plain["rgb"] != adaptive["rgb"], axis=-1)
     assert interior.sum() > H * W // 2
     assert not np.any(changed & interior)
@@ -238,10 +267,18 @@ def test_over_the_centre_sample_the_same_bytes_for_any_thread_count():
     scene)."""
     scene = lunar_test_scene()
     cache = _core.LightCache(scene, DISK_SUN, settings=_core.LightCacheSettings(bounces=2, rays_background=64, seed=1))
-    images = [_core.render(scene, ground_camera(), DISK_SUN,
-                           _core.RenderSettings(seed=5, threads=threads, spp=1, light_samples=1, bounces=2,
-                                                adaptive_spp=16, adaptive_threshold=0.5), light_cache=cache)
-              for threads in (1, 2)]
+    images = [
+        _core.render(
+            scene,
+            ground_camera(),
+            DISK_SUN,
+            _core.RenderSettings(
+                seed=5, threads=threads, spp=1, light_samples=1, bounces=2, adaptive_spp=16, adaptive_threshold=0.5
+            ),
+            light_cache=cache,
+        )
+        for threads in (1, 2)
+    ]
     assert images[0]["refined_pixels"] == images[1]["refined_pixels"] > 0
     assert images[0]["rgb"].tobytes() == images[1]["rgb"].tobytes()
     assert images[0]["bounce_rays"] == 0
@@ -257,8 +294,11 @@ def test_with_the_light_cache_refinement_reads_no_cache_and_traces_no_bounces():
     on = _core.render(scene, ground_camera(), DISK_SUN, quality(seed=5, adaptive_spp=16), light_cache=cache)
     assert on["refined_pixels"] > 0
     assert on["bounce_rays"] == off["bounce_rays"]
-    added = (on["camera_rays"] - off["camera_rays"]) + (on["shadow_rays"] - off["shadow_rays"]) + (
-        on["second_look_rays"] - off["second_look_rays"])
+    added = (
+        (on["camera_rays"] - off["camera_rays"])
+        + (on["shadow_rays"] - off["shadow_rays"])
+        + (on["second_look_rays"] - off["second_look_rays"])
+    )
     assert added == on["refinement_rays"]
     changed = np.any(on["rgb"] != off["rgb"], axis=-1)
     assert 0 < changed.sum() <= on["refined_pixels"]

@@ -21,8 +21,17 @@ from moonbot.scene import compose_scene, intrinsics, orbit_pose
 pytestmark = pytest.mark.unit
 
 W, H = 48, 36
-SMALL = {"camera.width": W, "camera.height": H, "render.spp": 1, "render.bounces": 0, "render.light_samples": 1,
-         "terrain.location": "plane", "bags.count": 4, "bags.layout": "scattered", "bags.scatter_radius_m": 0.6}
+SMALL = {
+    "camera.width": W,
+    "camera.height": H,
+    "render.spp": 1,
+    "render.bounces": 0,
+    "render.light_samples": 1,
+    "terrain.location": "plane",
+    "bags.count": 4,
+    "bags.layout": "scattered",
+    "bags.scatter_radius_m": 0.6,
+}
 
 
 @pytest.fixture(scope="module")
@@ -56,10 +65,13 @@ def test_windows_equal_the_whole_canvas_and_contain_the_visible_part(scene):
             alone = _core.render(bag.scene, canvas, sun, passes=["instance"])["instance"] == bag.instance_id
             assert m.px_count_all == alone.sum()
             ys, xs = np.nonzero(alone)
-            want = (-1, -1, -1, -1) if xs.size == 0 else (
-                int(xs.min()) - W, int(ys.min()) - H, int(xs.max() - xs.min()), int(ys.max() - ys.min()))
+            want = (
+                (-1, -1, -1, -1)
+                if xs.size == 0
+                else (int(xs.min()) - W, int(ys.min()) - H, int(xs.max() - xs.min()), int(ys.max() - ys.min()))
+            )
             assert m.bbox_all == want
-            np.testing.assert_array_equal(m.mask, alone[H:2 * H, W:2 * W])
+            np.testing.assert_array_equal(m.mask, alone[H : 2 * H, W : 2 * W])
             visible = labels == bag.instance_id
             assert not (visible & ~m.mask).any()
             window = canvas_window(K, pose, bag.world_from_model, bag.vertices, W, H)

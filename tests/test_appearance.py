@@ -20,11 +20,21 @@ from moonbot.scene import compose_scene, intrinsics, orbit_pose
 pytestmark = pytest.mark.unit
 
 # Every new look off: the renderer as it was before them.
-OFF = {"terrain.photometry.grain.albedo_rms": 0.0, "terrain.photometry.grain.slope_rms_deg": 0.0,
-       "bags.fabric.sheen": 0.0}
+OFF = {
+    "terrain.photometry.grain.albedo_rms": 0.0,
+    "terrain.photometry.grain.slope_rms_deg": 0.0,
+    "bags.fabric.sheen": 0.0,
+}
 # A small close view of one bag on the analytic plane (tests/test_material.py's render_bag).
-CLOSE = {"terrain.location": "plane", "orbit.radius_m": 0.5, "orbit.height_m": 0.35, "sun.elevation_deg": 35.0,
-         "camera.width": 160, "camera.height": 120, "render.bounces": 1}
+CLOSE = {
+    "terrain.location": "plane",
+    "orbit.radius_m": 0.5,
+    "orbit.height_m": 0.35,
+    "sun.elevation_deg": 35.0,
+    "camera.width": 160,
+    "camera.height": 120,
+    "render.bounces": 1,
+}
 
 
 def render(overrides: dict, seed: int = 3, azimuth_deg: float = 30.0):
@@ -59,12 +69,20 @@ def test_paper_stamp_stain_with_the_new_looks_off_keeps_its_bytes():
 def test_stamp_mode_ignores_the_dust_modes_settings():
     base = {**CLOSE, **OFF, "bags.stain.seeds": 15, "camera.width": 80, "camera.height": 60}
     a, _ = render(base)
-    b, _ = render({**base, "bags.stain.contact_height_m": 0.2, "bags.stain.deposit_radius_m": 0.01,
-                   "bags.stain.handled_share": 1.0, "bags.stain.speckle": 0.0})
+    b, _ = render(
+        {
+            **base,
+            "bags.stain.contact_height_m": 0.2,
+            "bags.stain.deposit_radius_m": 0.01,
+            "bags.stain.handled_share": 1.0,
+            "bags.stain.speckle": 0.0,
+        }
+    )
     assert a.tobytes() == b.tobytes()
 
 
 # --- regolith grain -------------------------------------------------------------------------------
+
 
 def test_grain_config_defaults_and_off():
     grain = load_config(None, {}).terrain.photometry.grain
@@ -99,8 +117,14 @@ def test_grain_mean_is_the_base_albedo_and_far_away_exactly():
 def test_far_ground_renders_exactly_as_untextured_ground():
     """Seen from 36 m every pixel covers more than the texture's flat footprint: the image is the
     untextured one, bit for bit."""
-    far = {"terrain.location": "plane", "orbit.radius_m": 20.0, "orbit.height_m": 30.0, "camera.width": 80,
-           "camera.height": 60, "bags.fabric.sheen": 0.0}
+    far = {
+        "terrain.location": "plane",
+        "orbit.radius_m": 20.0,
+        "orbit.height_m": 30.0,
+        "camera.width": 80,
+        "camera.height": 60,
+        "bags.fabric.sheen": 0.0,
+    }
     textured, _ = render(far)
     plain, _ = render({**far, **OFF})
     assert textured.tobytes() == plain.tobytes()
@@ -110,9 +134,15 @@ def test_grain_is_visible_near_and_two_seeds_agree_on_it():
     """Lambertian plane, a point Sun, no bounces, albedo texture only: the texture term rgb/rgb_off
     on fully lit ground varies by several percent, and two render seeds (16 jittered samples a
     pixel each) agree on it far better than that: the prefilter leaves no noise."""
-    scene = {**CLOSE, "render.bounces": 0, "render.spp": 16, "sun.angular_diameter_deg": 0.0,
-             "terrain.photometry.model": "lambert", "terrain.photometry.grain.slope_rms_deg": 0.0,
-             "bags.fabric.sheen": 0.0}
+    scene = {
+        **CLOSE,
+        "render.bounces": 0,
+        "render.spp": 16,
+        "sun.angular_diameter_deg": 0.0,
+        "terrain.photometry.model": "lambert",
+        "terrain.photometry.grain.slope_rms_deg": 0.0,
+        "bags.fabric.sheen": 0.0,
+    }
     plain = [render({**scene, **OFF}, seed=s)[0] for s in (1, 2)]
     textured = [render(scene, seed=s) for s in (1, 2)]
     ground = textured[0][1] == 0
@@ -128,6 +158,7 @@ def test_grain_is_visible_near_and_two_seeds_agree_on_it():
 
 # --- sheen ----------------------------------------------------------------------------------------
 
+
 def test_sheen_config_and_errors():
     fabric = load_config(None, {}).bags.fabric
     assert (fabric.sheen, fabric.sheen_along, fabric.sheen_across) == (0.1, 0.35, 0.12)
@@ -140,8 +171,15 @@ def test_sheen_config_and_errors():
 def test_sheen_adds_a_highlight_and_keeps_the_clean_weave_elsewhere():
     """Looking against the Sun over the bag's top (forward scattering) the glossy tapes brighten
     it; with sheen 0 the bag is the matte weave's."""
-    against = {**CLOSE, **OFF, "camera.width": 80, "camera.height": 60, "orbit.radius_m": 0.4,
-               "orbit.height_m": 0.25, "sun.elevation_deg": 20.0}
+    against = {
+        **CLOSE,
+        **OFF,
+        "camera.width": 80,
+        "camera.height": 60,
+        "orbit.radius_m": 0.4,
+        "orbit.height_m": 0.25,
+        "sun.elevation_deg": 20.0,
+    }
     matte, mask = render(against, azimuth_deg=300.0)
     glossy, _ = render({**against, "bags.fabric.sheen": 0.3}, azimuth_deg=300.0)
     bag = mask == 1
@@ -150,6 +188,7 @@ def test_sheen_adds_a_highlight_and_keeps_the_clean_weave_elsewhere():
 
 
 # --- dust stain mode ------------------------------------------------------------------------------
+
 
 def test_dust_mode_with_zero_seeds_is_clean_and_bad_modes_name_the_field():
     base = {**CLOSE, **OFF, "camera.width": 80, "camera.height": 60}
@@ -183,13 +222,22 @@ def test_dust_gathers_low_on_the_bag_and_is_regolith_grey():
 
 # --- ejecta ---------------------------------------------------------------------------------------
 
+
 def test_ejecta_are_regolith_not_white():
     """The fragments take regolith's albedo, photometric function and grain: where they appear,
     no pixel is brighter than sunlit regolith can be (albedo A ≈ 0.043 under the Lunar-Lambert
     shape, at most 2·(1 + B0) = 5.6 times A·E/π, times the grain's largest factor), whereas a
     white Lambertian facing the Sun would reach E/π."""
-    config = load_config(None, {"dust.enabled": True, "dust.cloud.optical_depth": 0.0, "camera.width": 160,
-                                "camera.height": 120, "render.bounces": 0})
+    config = load_config(
+        None,
+        {
+            "dust.enabled": True,
+            "dust.cloud.optical_depth": 0.0,
+            "camera.width": 160,
+            "camera.height": 120,
+            "render.bounces": 0,
+        },
+    )
     spec = compose_scene(config)
     scene = build_scene(spec)
     pose = orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, 90.0)

@@ -31,8 +31,9 @@ SHAPES = {
     "seamed-no-stitch": BagShape(seam_height_m=0.004, stitch_depth=0.0),
     "folded": FOLDED,
     "folded-deep": BagShape(fold_length_m=0.1, gather=0.5, pleats=7, pleat_depth_m=0.01),
-    "deep-wrinkles": BagShape(crease_depth_m=0.005, creases_per_corner=4, pucker_depth_m=0.003,
-                              pucker_pitch_m=0.024, wrinkle_seed=7),
+    "deep-wrinkles": BagShape(
+        crease_depth_m=0.005, creases_per_corner=4, pucker_depth_m=0.003, pucker_pitch_m=0.024, wrinkle_seed=7
+    ),
     "hard-settled": BagShape(sag_m=0.03, belly_m=0.03, belly_height=0.8),
     "sharp-settled": BagShape(edge_radius_m=0.0, bulge_m=0.01),
 }
@@ -92,8 +93,11 @@ def test_wrinkles_fold_nothing_through_itself(shape):
     assert cosine.min() > math.cos(math.radians(60))
 
 
-@pytest.mark.parametrize("shape", [s for s in SHAPES.values() if dataclasses.replace(s, **PLAIN) == s],
-                         ids=[k for k, s in SHAPES.items() if dataclasses.replace(s, **PLAIN) == s])
+@pytest.mark.parametrize(
+    "shape",
+    [s for s in SHAPES.values() if dataclasses.replace(s, **PLAIN) == s],
+    ids=[k for k, s in SHAPES.items() if dataclasses.replace(s, **PLAIN) == s],
+)
 def test_extents_and_volume_follow_the_parameters(shape):
     """Half-extent = size/2 + bulge (a vertex sits at every face centre); the volume lies between
     the rounded box's (less 0.5 %: the polyhedron is inscribed in the rounding) and the bulge's
@@ -105,8 +109,7 @@ def test_extents_and_volume_follow_the_parameters(shape):
     sx, sy, sz = shape.size_m
     # Box minus what rounding cuts: (1 − π/4) r² per unit of the 12 edges' length and
     # (1 − π/6) r³ per corner.
-    rounded = (sx * sy * sz - (4 - math.pi) * r**2 * (sx + sy + sz - 6 * r)
-               - (8 - 4 * math.pi / 3) * r**3)
+    rounded = sx * sy * sz - (4 - math.pi) * r**2 * (sx + sy + sz - 6 * r) - (8 - 4 * math.pi / 3) * r**3
     volume = signed_volume(v, t)
     faces = 2 * (sx * sy + sy * sz + sz * sx)
     assert volume <= rounded + faces * shape.bulge_m
@@ -116,14 +119,15 @@ def test_extents_and_volume_follow_the_parameters(shape):
         assert volume == pytest.approx(sx * sy * sz, rel=1e-6)
 
 
-@pytest.mark.parametrize("make", [filled_cuboid, seamed_cuboid, folded_cuboid],
-                         ids=["sandbag-01", "sandbag-02", "sandbag-03"])
+@pytest.mark.parametrize(
+    "make", [filled_cuboid, seamed_cuboid, folded_cuboid], ids=["sandbag-01", "sandbag-02", "sandbag-03"]
+)
 def test_default_diameter_is_on_the_papers_scale(make):
     """ADD-S thresholds are 10 % and 20 % of a ~400 mm diameter: each default body's largest
     distance between surface points is 380–420 mm."""
     v, _ = make()
     v = v.astype(np.float64)
-    diameter = max(np.linalg.norm(v[i:i + 512, None] - v[None], axis=2).max() for i in range(0, len(v), 512))
+    diameter = max(np.linalg.norm(v[i : i + 512, None] - v[None], axis=2).max() for i in range(0, len(v), 512))
     assert 0.380 <= diameter <= 0.420
 
 
@@ -184,6 +188,7 @@ def test_folded_ends_gather_the_cross_section():
 
 def _symmetric_under(v, R, tolerance=1e-6):
     """Fraction of vertices that the rotation R maps onto some vertex of the mesh."""
+
     def key(a):
         return {tuple(p) for p in np.round(a / tolerance).astype(np.int64)}
 
@@ -211,8 +216,10 @@ def test_sag_keeps_only_the_half_turn_about_z_and_folding_breaks_it():
 def test_the_pillow_keeps_the_boxs_half_turns():
     """Without sag and wrinkles the plain and seamed bodies keep all three half-turns."""
     half_turns = [np.diag(d) for d in ([1.0, -1, -1], [-1.0, 1, -1], [-1.0, -1, 1])]
-    for mesh in (filled_cuboid(BagShape(**PLAIN)),
-                 seamed_cuboid(BagShape(**PLAIN, seam_height_m=0.003, stitch_pitch_m=0.01))):
+    for mesh in (
+        filled_cuboid(BagShape(**PLAIN)),
+        seamed_cuboid(BagShape(**PLAIN, seam_height_m=0.003, stitch_pitch_m=0.01)),
+    ):
         for R in half_turns:
             assert _symmetric_under(mesh[0], R, tolerance=2e-6) > 0.999
 
@@ -246,8 +253,9 @@ def test_sag_settles_the_top_bellies_the_sides_and_flattens_the_bottom():
     smooth = smooth.astype(np.float64)
     column = (np.abs(smooth[:, 0]) < 1e-9) & (smooth[:, 1] > half[1] - 1e-9) & (np.abs(smooth[:, 2]) <= inner[2])
     w = _warp(smooth[column, 2] / inner[2], shape.belly_height)
-    np.testing.assert_allclose(smooth[column, 1] - half[1], (shape.bulge_m + shape.belly_m) * (1 - w**2) ** 2,
-                               atol=1e-7)
+    np.testing.assert_allclose(
+        smooth[column, 1] - half[1], (shape.bulge_m + shape.belly_m) * (1 - w**2) ** 2, atol=1e-7
+    )
     widest = smooth[column][np.argmax(smooth[column, 1])]
     assert widest[2] == pytest.approx(-shape.belly_height * inner[2], abs=shape.edge_length_m)
     assert widest[1] == pytest.approx(half[1] + shape.bulge_m + shape.belly_m, abs=2e-5)
@@ -329,22 +337,36 @@ def test_triangle_counts_stay_modest():
         assert len(t) <= 30_000
 
 
-@pytest.mark.parametrize(("kwargs", "field"), [
-    ({"size_m": (0.3, 0.0, 0.1)}, "size_m"), ({"edge_radius_m": 0.07}, "edge_radius_m"),
-    ({"edge_radius_m": -0.001}, "edge_radius_m"), ({"bulge_m": 0.5}, "bulge_m"),
-    ({"edge_length_m": 0.0}, "edge_length_m"), ({"edge_steps": 0}, "edge_steps"),
-    ({"seam_height_m": 0.003, "edge_radius_m": 0.0}, "seam_height_m"),
-    ({"seam_height_m": 0.003, "seam_width_m": 0.05}, "seam_width_m"),
-    ({"stitch_pitch_m": 0.0}, "stitch_pitch_m"), ({"stitch_depth": 1.5}, "stitch_depth"),
-    ({"fold_length_m": 0.5}, "fold_length_m"), ({"gather": 0.9}, "gather"),
-    ({"pleats": 1}, "pleats"), ({"pleat_depth_m": 0.1}, "pleat_depth_m"),
-    ({"sag_m": -0.001}, "sag_m"), ({"belly_m": 0.04}, "belly_m"), ({"belly_height": 0.9}, "belly_height"),
-    ({"crease_depth_m": 0.006}, "crease_depth_m"), ({"crease_length_m": 0.0}, "crease_length_m"),
-    ({"crease_width_m": 0.1, "crease_length_m": 0.05}, "crease_width_m"),
-    ({"creases_per_corner": 9}, "creases_per_corner"), ({"pucker_depth_m": 0.005}, "pucker_depth_m"),
-    ({"pucker_pitch_m": 0.0}, "pucker_pitch_m"), ({"pucker_length_m": 0.07}, "pucker_length_m"),
-    ({"wrinkle_seed": -1}, "wrinkle_seed"),
-])
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"size_m": (0.3, 0.0, 0.1)}, "size_m"),
+        ({"edge_radius_m": 0.07}, "edge_radius_m"),
+        ({"edge_radius_m": -0.001}, "edge_radius_m"),
+        ({"bulge_m": 0.5}, "bulge_m"),
+        ({"edge_length_m": 0.0}, "edge_length_m"),
+        ({"edge_steps": 0}, "edge_steps"),
+        ({"seam_height_m": 0.003, "edge_radius_m": 0.0}, "seam_height_m"),
+        ({"seam_height_m": 0.003, "seam_width_m": 0.05}, "seam_width_m"),
+        ({"stitch_pitch_m": 0.0}, "stitch_pitch_m"),
+        ({"stitch_depth": 1.5}, "stitch_depth"),
+        ({"fold_length_m": 0.5}, "fold_length_m"),
+        ({"gather": 0.9}, "gather"),
+        ({"pleats": 1}, "pleats"),
+        ({"pleat_depth_m": 0.1}, "pleat_depth_m"),
+        ({"sag_m": -0.001}, "sag_m"),
+        ({"belly_m": 0.04}, "belly_m"),
+        ({"belly_height": 0.9}, "belly_height"),
+        ({"crease_depth_m": 0.006}, "crease_depth_m"),
+        ({"crease_length_m": 0.0}, "crease_length_m"),
+        ({"crease_width_m": 0.1, "crease_length_m": 0.05}, "crease_width_m"),
+        ({"creases_per_corner": 9}, "creases_per_corner"),
+        ({"pucker_depth_m": 0.005}, "pucker_depth_m"),
+        ({"pucker_pitch_m": 0.0}, "pucker_pitch_m"),
+        ({"pucker_length_m": 0.07}, "pucker_length_m"),
+        ({"wrinkle_seed": -1}, "wrinkle_seed"),
+    ],
+)
 def test_bad_parameters_name_the_field(kwargs, field):
     with pytest.raises(ValueError, match=field):
         BagShape(**kwargs)
@@ -377,11 +399,11 @@ def test_uv_atlas_is_a_valid_layout(shape):
     a, b, c = uv[:, 0], uv[:, 1], uv[:, 2]
     hits = np.zeros(len(points), dtype=int)
     for i in range(0, len(points), 250):
-        p = points[i:i + 250, None]
+        p = points[i : i + 250, None]
         d1 = (b - a)[None, :, 0] * (p[..., 1] - a[None, :, 1]) - (b - a)[None, :, 1] * (p[..., 0] - a[None, :, 0])
         d2 = (c - b)[None, :, 0] * (p[..., 1] - b[None, :, 1]) - (c - b)[None, :, 1] * (p[..., 0] - b[None, :, 0])
         d3 = (a - c)[None, :, 0] * (p[..., 1] - c[None, :, 1]) - (a - c)[None, :, 1] * (p[..., 0] - c[None, :, 0])
-        hits[i:i + 250] = ((d1 > 0) & (d2 > 0) & (d3 > 0)).sum(axis=1)
+        hits[i : i + 250] = ((d1 > 0) & (d2 > 0) & (d3 > 0)).sum(axis=1)
     assert hits.max() == 1
     assert hits.mean() == pytest.approx(_uv_area(uv).sum() / 0.5, rel=0.1)  # coverage = area share
 

@@ -19,10 +19,10 @@ from moonbot.bop.models import model_info
 from moonbot.bop.reader import DatasetError, Model, read_models, scenes
 from moonbot.cli import main
 from moonbot.config import load_config
-from moonbot.eval.metrics import adds
 from moonbot.eval.matching import evaluate
-from moonbot.eval.tables import summarize
+from moonbot.eval.metrics import adds
 from moonbot.eval.results import read_results
+from moonbot.eval.tables import summarize
 from moonbot.eval.validate import render_at_gt
 from moonbot.pipeline.generate import generate
 from moonbot.scene.bag_mesh import folded_cuboid
@@ -58,9 +58,12 @@ def rendered(model: Model, R: np.ndarray, t: np.ndarray, width: int = 320, heigh
     """Depth (H, W) mm and the instance's mask of the model at (R, t), and K."""
     K = np.array([[277.0, 0.0, width / 2], [0.0, 277.0, height / 2], [0.0, 0.0, 1.0]])
     cam = {"cam_K": K.reshape(-1).tolist()}
-    depth, labels = render_at_gt({model.obj_id: (model.vertices, model.triangles)},
-                                 [{"obj_id": model.obj_id, "cam_R_m2c": R.reshape(-1).tolist(),
-                                   "cam_t_m2c": list(t)}], cam, (height, width))
+    depth, labels = render_at_gt(
+        {model.obj_id: (model.vertices, model.triangles)},
+        [{"obj_id": model.obj_id, "cam_R_m2c": R.reshape(-1).tolist(), "cam_t_m2c": list(t)}],
+        cam,
+        (height, width),
+    )
     return depth, labels == 1, K
 
 
@@ -72,11 +75,14 @@ def pose_from(eye_mm: np.ndarray, yaw_deg: float) -> tuple[np.ndarray, np.ndarra
     return R_w2c @ R_model, -R_w2c @ eye_mm
 
 
-@pytest.mark.parametrize("eye, yaw", [
-    (np.array([0.0, 0.0, 1200.0]), 30.0),  # straight above: only the top face
-    (np.array([900.0, -400.0, 800.0]), 70.0),  # oblique, as in the orbits
-    (np.array([1100.0, 300.0, 60.0]), 10.0),  # 3° above the ground: one side, at grazing
-])
+@pytest.mark.parametrize(
+    "eye, yaw",
+    [
+        (np.array([0.0, 0.0, 1200.0]), 30.0),  # straight above: only the top face
+        (np.array([900.0, -400.0, 800.0]), 70.0),  # oblique, as in the orbits
+        (np.array([1100.0, 300.0, 60.0]), 10.0),  # 3° above the ground: one side, at grazing
+    ],
+)
 def test_a_rendered_bag_is_found_to_a_millimetre(folded, eye, yaw):
     model, cloud = folded
     R, t = pose_from(eye, yaw)
@@ -103,7 +109,7 @@ def test_a_sliver_stays_finite_and_near_and_an_empty_mask_gives_nothing(folded):
     depth, mask, K = rendered(model, R, t)
     rows = np.nonzero(mask.any(axis=1))[0]
     sliver = mask.copy()
-    sliver[rows[0] + 4:] = False  # an occluder hides all but the top few rows
+    sliver[rows[0] + 4 :] = False  # an occluder hides all but the top few rows
     assert 20 <= sliver.sum() < 400
     found = estimate_pose(depth, sliver, K, cloud)
     assert found is not None and np.all(np.isfinite(found.R)) and np.all(np.isfinite(found.t))
@@ -144,7 +150,9 @@ def test_the_baseline_reaches_its_stated_recall_on_the_smoke_test_split(smoke, t
     # Two workers: the same poses and scores in the same order (only the time column differs).
     run_baseline(smoke, "test", tmp_path / "two.csv", workers=2)
     one, two = read_results(tmp_path / "one.csv"), read_results(tmp_path / "two.csv")
-    assert [(e.scene_id, e.im_id, e.obj_id, e.score) for e in one] == [(e.scene_id, e.im_id, e.obj_id, e.score) for e in two]
+    assert [(e.scene_id, e.im_id, e.obj_id, e.score) for e in one] == [
+        (e.scene_id, e.im_id, e.obj_id, e.score) for e in two
+    ]
     assert all(np.array_equal(a.R, b.R) and np.array_equal(a.t, b.t) for a, b in zip(one, two))
 
 

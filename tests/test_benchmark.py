@@ -26,8 +26,16 @@ pytestmark = pytest.mark.unit
 
 OLD_RESULT = Path(__file__).resolve().parent / "data" / "throughput-result-v1.json"
 SVG = "{http://www.w3.org/2000/svg}"
-TINY = ["camera.width=64", "camera.height=48", "orbit.views=1", "bags.settle.enabled=false",
-        "terrain.extent_m=30", "terrain.detail_m=0.05", "terrain.detail_extent_m=1.0", "dust.cloud.voxel_m=0.1"]
+TINY = [
+    "camera.width=64",
+    "camera.height=48",
+    "orbit.views=1",
+    "bags.settle.enabled=false",
+    "terrain.extent_m=30",
+    "terrain.detail_m=0.05",
+    "terrain.detail_extent_m=1.0",
+    "dust.cloud.voxel_m=0.1",
+]
 
 
 def is_svg(path: Path) -> bool:
@@ -57,10 +65,22 @@ def test_levels_are_valid_configs():
 def test_limit_arithmetic():
     # Generation 1: 100 rays in 3e-5 s, 40 shadow rays from their hits in 2e-5 s; generation 2: 50
     # rays in 3e-5 s, 10 shadow rays in 1e-5 s.
-    row = {"camera_s_per_ray": 1e-7, "shadow_s_per_ray": 2e-7, "bounce_rays": [100, 50],
-           "bounce_stream_s": [3e-5, 3e-5], "bounce_shadow_rays": [40, 10], "bounce_shadow_stream_s": [2e-5, 1e-5]}
-    rays = {"camera_rays": 10, "shadow_rays": 5, "bounce_shadow_rays": 2, "bounce_rays": 4, "medium_rays": 6,
-            "amodal_rays": 1000}
+    row = {
+        "camera_s_per_ray": 1e-7,
+        "shadow_s_per_ray": 2e-7,
+        "bounce_rays": [100, 50],
+        "bounce_stream_s": [3e-5, 3e-5],
+        "bounce_shadow_rays": [40, 10],
+        "bounce_shadow_stream_s": [2e-5, 1e-5],
+    }
+    rays = {
+        "camera_rays": 10,
+        "shadow_rays": 5,
+        "bounce_shadow_rays": 2,
+        "bounce_rays": 4,
+        "medium_rays": 6,
+        "amodal_rays": 1000,
+    }
     assert bounce_s_per_ray(row, 1) == pytest.approx(3e-7)
     assert bounce_s_per_ray(row, 2) == pytest.approx(4e-7)  # pooled: 6e-5 s over 150 rays
     assert bounce_s_per_ray(row, 5) == pytest.approx(4e-7)  # no deeper generation probed: the pool
@@ -70,13 +90,18 @@ def test_limit_arithmetic():
     assert ray_limit_seconds(rays, row, 1) == pytest.approx(1e-7 * 16 + 2e-7 * 3 + 3e-7 * 4 + 5e-7 * 2)
     assert ray_limit_seconds(rays, row, 2) == pytest.approx(1e-7 * 16 + 2e-7 * 3 + 4e-7 * 4 + 6e-7 * 2)
     assert ray_limit_seconds({"camera_rays": 10}, row, 0) == pytest.approx(1e-6)
-    encode = {"views": [{"task_id": "a", "serial_s": 0.04, "longest_s": 0.03},
-                        {"task_id": "b", "serial_s": 0.02, "longest_s": 0.005}]}
+    encode = {
+        "views": [
+            {"task_id": "a", "serial_s": 0.04, "longest_s": 0.03},
+            {"task_id": "b", "serial_s": 0.02, "longest_s": 0.005},
+        ]
+    }
     assert encode_limit_seconds(encode, 1) == pytest.approx(0.06)
     assert encode_limit_seconds(encode, 2) == pytest.approx(0.03 + 0.01)
     assert encode_limit_seconds(encode, 2, "b") == pytest.approx(0.01)
-    runs = [{"level": "default", "workers": w, "threads_per_worker": 1, "samples_per_s": x}
-            for w, x in ((1, 0.5), (2, 0.9))]
+    runs = [
+        {"level": "default", "workers": w, "threads_per_worker": 1, "samples_per_s": x} for w, x in ((1, 0.5), (2, 0.9))
+    ]
     assert [s["efficiency"] for s in scaling(runs)] == pytest.approx([1.0, 0.9])
 
 
@@ -118,8 +143,10 @@ def test_tiny_run_writes_a_complete_result(tiny_result):
     assert {r["task_id"] for r in record["embree_limit"]} == set(record["tasks"])
     # draft renders 2 bounces (through the light cache): the probe traced two generations of
     # bounce rays on every scene.
-    assert all(len(r["bounce_rays"]) == 2 and r["bounce_rays"][0] > 0 and r["bounce_mrays_per_s"][0] > 0
-               for r in record["embree_limit"])
+    assert all(
+        len(r["bounce_rays"]) == 2 and r["bounce_rays"][0] > 0 and r["bounce_mrays_per_s"][0] > 0
+        for r in record["embree_limit"]
+    )
     assert record["encode_limit"]["draft"]["raw_mb_per_s"] > 0
     p = record["projection"]
     assert p["samples"] == 176256 and p["views_per_task"] == 36 and p["image_matches_sweep"] is False
@@ -140,7 +167,9 @@ def test_compare_reads_an_old_and_a_new_result(tiny_result, tmp_path):
     assert old["machine"]["git_commit"][:12] in result.output
     assert is_svg(plot)
     texts = [t.text for t in ET.parse(plot).getroot().iter(f"{SVG}text")]
-    assert any(f"{OLD_RESULT.stem}: draft" in t for t in texts) and any(f"{tiny_result.stem}: draft" in t for t in texts)
+    assert any(f"{OLD_RESULT.stem}: draft" in t for t in texts) and any(
+        f"{tiny_result.stem}: draft" in t for t in texts
+    )
 
 
 def test_compare_plots_beside_its_inputs_not_into_the_working_folder(tmp_path, monkeypatch):
@@ -155,15 +184,18 @@ def test_compare_plots_beside_its_inputs_not_into_the_working_folder(tmp_path, m
     assert f"written {tmp_path / 'compare-a-vs-b.svg'}" in result.output and list(work.iterdir()) == []
 
 
-@pytest.mark.parametrize("edit, field", [
-    (lambda r: r["runs"][0].pop("samples_per_s"), "runs[0].samples_per_s: missing"),
-    (lambda r: r["runs"][0]["ratio"].update(pipeline="fast"), "runs[0].ratio.pipeline: must be a number"),
-    (lambda r: r["machine"].pop("cpu"), "machine.cpu: missing"),
-    (lambda r: r.update(runs={}), "runs: must be a list"),
-    (lambda r: r["projection"]["levels"][0]["hours"][0].update(nodes=1.5), "hours[0].nodes: must be an integer"),
-    (lambda r: r.update(schema_version=SCHEMA_VERSION + 1), f"schema_version: {SCHEMA_VERSION + 1} is newer"),
-    (lambda r: r.update(benchmark="generate"), "benchmark: must be one of throughput, got 'generate'"),
-])
+@pytest.mark.parametrize(
+    "edit, field",
+    [
+        (lambda r: r["runs"][0].pop("samples_per_s"), "runs[0].samples_per_s: missing"),
+        (lambda r: r["runs"][0]["ratio"].update(pipeline="fast"), "runs[0].ratio.pipeline: must be a number"),
+        (lambda r: r["machine"].pop("cpu"), "machine.cpu: missing"),
+        (lambda r: r.update(runs={}), "runs: must be a list"),
+        (lambda r: r["projection"]["levels"][0]["hours"][0].update(nodes=1.5), "hours[0].nodes: must be an integer"),
+        (lambda r: r.update(schema_version=SCHEMA_VERSION + 1), f"schema_version: {SCHEMA_VERSION + 1} is newer"),
+        (lambda r: r.update(benchmark="generate"), "benchmark: must be one of throughput, got 'generate'"),
+    ],
+)
 def test_a_malformed_result_names_the_file_and_field(tmp_path, edit, field):
     record = json.loads(OLD_RESULT.read_text())
     edit(record)
@@ -172,7 +204,9 @@ def test_a_malformed_result_names_the_file_and_field(tmp_path, edit, field):
     with pytest.raises(ResultError) as e:
         load_result(bad)
     assert str(e.value).startswith(f"{bad}: ") and field in str(e.value)
-    result = CliRunner().invoke(main, ["bench", "compare", str(OLD_RESULT), str(bad), "--plot", str(tmp_path / "x.svg")])
+    result = CliRunner().invoke(
+        main, ["bench", "compare", str(OLD_RESULT), str(bad), "--plot", str(tmp_path / "x.svg")]
+    )
     assert result.exit_code == 1 and str(bad) in result.output and field in result.output
     assert not (tmp_path / "x.svg").exists()
 
@@ -192,4 +226,6 @@ def test_validate_upgrades_the_old_result_and_leaves_it_alone():
     upgraded = validate(record, str(OLD_RESULT))
     assert record == json.loads(OLD_RESULT.read_text())  # the caller's record is not edited
     assert upgraded["schema_version"] == SCHEMA_VERSION and upgraded["machine"] == record["machine"]
-    assert [r["ratio"]["render_encode"] for r in upgraded["runs"]] == [r["ratio"]["render_encode"] for r in record["runs"]]
+    assert [r["ratio"]["render_encode"] for r in upgraded["runs"]] == [
+        r["ratio"]["render_encode"] for r in record["runs"]
+    ]

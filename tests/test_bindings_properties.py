@@ -53,14 +53,11 @@ INT_MIN, INT_MAX = -(2**31), 2**31 - 1
 # Generating random arrays is slow by hypothesis' standards, and large random arrays are the point
 # of these tests, so those two health checks would only complain about the design.
 _SLOW_DATA = [HealthCheck.too_slow, HealthCheck.data_too_large]
-FUZZ = settings(max_examples=120, deadline=None, derandomize=True, database=None,
-                suppress_health_check=_SLOW_DATA)
-DEFECT = settings(max_examples=60, deadline=None, derandomize=True, database=None,
-                  suppress_health_check=_SLOW_DATA)
+FUZZ = settings(max_examples=120, deadline=None, derandomize=True, database=None, suppress_health_check=_SLOW_DATA)
+DEFECT = settings(max_examples=60, deadline=None, derandomize=True, database=None, suppress_health_check=_SLOW_DATA)
 # The image tests write below pytest's tmp_path, which hypothesis does not reset between examples;
 # each example writes into a fresh sub-directory of its own, so sharing tmp_path is harmless.
-FUZZ_FILES = settings(FUZZ, max_examples=80,
-                      suppress_health_check=[*_SLOW_DATA, HealthCheck.function_scoped_fixture])
+FUZZ_FILES = settings(FUZZ, max_examples=80, suppress_health_check=[*_SLOW_DATA, HealthCheck.function_scoped_fixture])
 
 _subdirs = itertools.count()
 
@@ -127,28 +124,56 @@ def ground_scene(label=None, commit=True):
 
 def down_camera(width=8, height=6, f=6.0, altitude=3.0):
     """A camera `altitude` metres above the origin, looking straight down."""
-    return _core.Camera(f, f, width / 2, height / 2, width, height, LOOK_DOWN,
-                        -LOOK_DOWN @ np.array([0.0, 0.0, altitude]))
+    return _core.Camera(
+        f, f, width / 2, height / 2, width, height, LOOK_DOWN, -LOOK_DOWN @ np.array([0.0, 0.0, altitude])
+    )
 
 
 def rotation_from(q):
     """The rotation of quaternion q (any non-zero 4-vector), as a (3, 3) float64 array."""
     w, x, y, z = np.asarray(q, np.float64) / np.linalg.norm(q)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 # --- strategies ---------------------------------------------------------------------------------
 
-NUMERIC_DTYPES = [np.bool_, np.int8, np.uint8, np.int16, np.uint16, np.int32, np.uint32,
-                  np.int64, np.uint64, np.float16, np.float32, np.float64, np.longdouble]
-OTHER_DTYPES = [np.complex64, np.complex128, "U3", "S2", "M8[s]", "m8[ms]", "O",
-                [("x", "<f4"), ("n", "<i2")], ">f8", ">i4", ">u2"]
+NUMERIC_DTYPES = [
+    np.bool_,
+    np.int8,
+    np.uint8,
+    np.int16,
+    np.uint16,
+    np.int32,
+    np.uint32,
+    np.int64,
+    np.uint64,
+    np.float16,
+    np.float32,
+    np.float64,
+    np.longdouble,
+]
+OTHER_DTYPES = [
+    np.complex64,
+    np.complex128,
+    "U3",
+    "S2",
+    "M8[s]",
+    "m8[ms]",
+    "O",
+    [("x", "<f4"), ("n", "<i2")],
+    ">f8",
+    ">i4",
+    ">u2",
+]
 ANY_DTYPE = st.sampled_from([np.dtype(d) for d in NUMERIC_DTYPES + OTHER_DTYPES])
 FLOAT_DTYPES = [np.dtype(d) for d in (np.float16, np.float32, np.float64, np.longdouble)]
-INT_DTYPES = [np.dtype(d) for d in (np.int8, np.uint8, np.int16, np.uint16, np.int32, np.uint32,
-                                    np.int64, np.uint64)]
+INT_DTYPES = [np.dtype(d) for d in (np.int8, np.uint8, np.int16, np.uint16, np.int32, np.uint32, np.int64, np.uint64)]
 NOT_FLOAT_DTYPES = [np.dtype(d) for d in (np.bool_, np.int32, np.uint8, np.complex128, "U4", "O")]
 NOT_NUMBER_DTYPES = [np.dtype(d) for d in (np.complex64, "U4", "S3", "O", "M8[s]")]
 PIXEL_DTYPES = [np.dtype(d) for d in (np.uint8, np.uint16, np.float32)]
@@ -157,8 +182,7 @@ NON_FINITE = [math.nan, math.inf, -math.inf]
 
 def shapes(*typical):
     """Any shape of 0-4 dimensions with sides 0-6, or one of the `typical` near-misses."""
-    return st.one_of(hnp.array_shapes(min_dims=0, max_dims=4, min_side=0, max_side=6),
-                     st.sampled_from(typical))
+    return st.one_of(hnp.array_shapes(min_dims=0, max_dims=4, min_side=0, max_side=6), st.sampled_from(typical))
 
 
 def arrays_of(dtypes, shape_strategy):
@@ -168,10 +192,17 @@ def arrays_of(dtypes, shape_strategy):
 
 # No integers here: an unbounded integer can be a valid but huge spp or thread count.
 JUNK = st.one_of(
-    st.none(), st.booleans(), st.floats(), st.complex_numbers(),
-    st.text(max_size=4), st.binary(max_size=4),
-    st.recursive(st.one_of(st.floats(), st.integers(-10, 10), st.text(max_size=1)),
-                 lambda inner: st.lists(inner, max_size=4), max_leaves=12),  # ragged, mixed
+    st.none(),
+    st.booleans(),
+    st.floats(),
+    st.complex_numbers(),
+    st.text(max_size=4),
+    st.binary(max_size=4),
+    st.recursive(
+        st.one_of(st.floats(), st.integers(-10, 10), st.text(max_size=1)),
+        lambda inner: st.lists(inner, max_size=4),
+        max_leaves=12,
+    ),  # ragged, mixed
     st.builds(object),
 )
 
@@ -182,7 +213,8 @@ def anything(*typical):
     return st.one_of(
         arrays_of(ANY_DTYPE, shapes(*typical)),
         st.sampled_from(typical).flatmap(  # nested lists of the right-looking shape
-            lambda s: hnp.arrays(np.float64, s).map(lambda a: a.tolist())),
+            lambda s: hnp.arrays(np.float64, s).map(lambda a: a.tolist())
+        ),
         JUNK,
     )
 
@@ -200,8 +232,7 @@ TRIANGLE_SHAPES = ((0, 3), (1, 3), (2, 3), (2, 2), (2, 4), (6,), (1, 2, 3))
 MATRIX4_SHAPES = ((4, 4), (3, 4), (4, 3), (3, 3), (16,), (1, 4, 4), (0, 4))
 MATRIX3_SHAPES = ((3, 3), (3, 4), (4, 4), (9,), (2, 3), (1, 3, 3))
 VECTOR3_SHAPES = ((3,), (2,), (4,), (1, 3), (3, 1), (0,), ())
-IMAGE_SHAPES = ((2, 3), (2, 3, 1), (2, 3, 3), (2, 3, 4), (2, 3, 5), (0, 3, 3), (3, 0), (4,),
-                (1, 2, 3, 1), (16, 16, 3))
+IMAGE_SHAPES = ((2, 3), (2, 3, 1), (2, 3, 3), (2, 3, 4), (2, 3, 5), (0, 3, 3), (3, 0), (4,), (1, 2, 3, 1), (16, 16, 3))
 
 
 @st.composite
@@ -257,8 +288,7 @@ def transforms(draw):
 def meshes(draw):
     """A valid mesh: 1-6 finite vertices of a float dtype, 1-4 triangles of an int dtype."""
     n = draw(st.integers(1, 6))
-    vertices = draw(hnp.arrays(st.sampled_from(FLOAT_DTYPES), (n, 3),
-                               elements=st.floats(-1e3, 1e3, width=16)))
+    vertices = draw(hnp.arrays(st.sampled_from(FLOAT_DTYPES), (n, 3), elements=st.floats(-1e3, 1e3, width=16)))
     m = draw(st.integers(1, 4))
     triangles = draw(hnp.arrays(st.sampled_from(INT_DTYPES), (m, 3), elements=st.integers(0, n - 1)))
     return vertices, triangles
@@ -269,25 +299,38 @@ def sized_arrays(dtypes, shape, **kwargs):
     return hnp.arrays(st.sampled_from(dtypes), shape, **kwargs)
 
 
-ALBEDOS = st.one_of(st.tuples(st.floats(0, 1), st.floats(0, 1), st.floats(0, 1)),
-                    sized_arrays(FLOAT_DTYPES, 3, elements=st.floats(0, 1, width=16)).flatmap(layouts),
-                    hnp.arrays(bool, 3).flatmap(layouts))
+ALBEDOS = st.one_of(
+    st.tuples(st.floats(0, 1), st.floats(0, 1), st.floats(0, 1)),
+    sized_arrays(FLOAT_DTYPES, 3, elements=st.floats(0, 1, width=16)).flatmap(layouts),
+    hnp.arrays(bool, 3).flatmap(layouts),
+)
 CAMERA_FIELDS = dict(
-    fx=st.floats(1e-3, 1e6), fy=st.floats(1e-3, 1e6), cx=st.floats(-1e6, 1e6), cy=st.floats(-1e6, 1e6),
-    width=st.integers(1, MAX_SIDE), height=st.integers(1, MAX_SIDE),
+    fx=st.floats(1e-3, 1e6),
+    fy=st.floats(1e-3, 1e6),
+    cx=st.floats(-1e6, 1e6),
+    cy=st.floats(-1e6, 1e6),
+    width=st.integers(1, MAX_SIDE),
+    height=st.integers(1, MAX_SIDE),
     R=st.one_of(rotations(), rotations(np.float32)).flatmap(layouts),
-    t=hnp.arrays(np.float64, 3, elements=st.floats(-1e6, 1e6)).flatmap(layouts))
-SUN_FIELDS = dict(azimuth_deg=st.floats(allow_nan=False, allow_infinity=False),
-                  elevation_deg=st.floats(-90, 90), irradiance=st.floats(0, 1e7))
+    t=hnp.arrays(np.float64, 3, elements=st.floats(-1e6, 1e6)).flatmap(layouts),
+)
+SUN_FIELDS = dict(
+    azimuth_deg=st.floats(allow_nan=False, allow_infinity=False),
+    elevation_deg=st.floats(-90, 90),
+    irradiance=st.floats(0, 1e7),
+)
 
 
 # --- fuzz: anything in, only ValueError / TypeError / OSError out --------------------------------
 
 VALID_MESH = dict(
-    vertices=st.integers(4, 8).flatmap(lambda n: sized_arrays(
-        FLOAT_DTYPES, (n, 3), elements=st.floats(-1e3, 1e3, width=16))).flatmap(layouts),
-    triangles=st.integers(1, 4).flatmap(lambda m: sized_arrays(
-        INT_DTYPES, (m, 3), elements=st.integers(0, 3))).flatmap(layouts))
+    vertices=st.integers(4, 8)
+    .flatmap(lambda n: sized_arrays(FLOAT_DTYPES, (n, 3), elements=st.floats(-1e3, 1e3, width=16)))
+    .flatmap(layouts),
+    triangles=st.integers(1, 4)
+    .flatmap(lambda m: sized_arrays(INT_DTYPES, (m, 3), elements=st.integers(0, 3)))
+    .flatmap(layouts),
+)
 WILD_MESH = dict(vertices=anything(*VERTEX_SHAPES), triangles=anything(*TRIANGLE_SHAPES))
 
 
@@ -307,11 +350,15 @@ def test_add_mesh_survives_anything(kwargs):
     assert scene.committed  # a new prototype does not touch the committed top level
 
 
-VALID_INSTANCE = dict(mesh=st.sampled_from([0, 1, np.uint32(1), np.int64(0)]),
-                      world_from_object=transforms().flatmap(layouts),
-                      instance_id=st.integers(1, 255), albedo=ALBEDOS)
-WILD_INSTANCE = dict(mesh=ANY_INT, world_from_object=anything(*MATRIX4_SHAPES), instance_id=ANY_INT,
-                     albedo=anything(*VECTOR3_SHAPES))
+VALID_INSTANCE = dict(
+    mesh=st.sampled_from([0, 1, np.uint32(1), np.int64(0)]),
+    world_from_object=transforms().flatmap(layouts),
+    instance_id=st.integers(1, 255),
+    albedo=ALBEDOS,
+)
+WILD_INSTANCE = dict(
+    mesh=ANY_INT, world_from_object=anything(*MATRIX4_SHAPES), instance_id=ANY_INT, albedo=anything(*VECTOR3_SHAPES)
+)
 
 
 @FUZZ
@@ -339,8 +386,16 @@ def test_add_instance_survives_anything(kwargs, background):
     assert out["depth"].shape == (4, 4)
 
 
-WILD_CAMERA = dict(fx=ANY_FLOAT, fy=ANY_FLOAT, cx=ANY_FLOAT, cy=ANY_FLOAT, width=ANY_INT,
-                   height=ANY_INT, R=anything(*MATRIX3_SHAPES), t=anything(*VECTOR3_SHAPES))
+WILD_CAMERA = dict(
+    fx=ANY_FLOAT,
+    fy=ANY_FLOAT,
+    cx=ANY_FLOAT,
+    cy=ANY_FLOAT,
+    width=ANY_INT,
+    height=ANY_INT,
+    R=anything(*MATRIX3_SHAPES),
+    t=anything(*VECTOR3_SHAPES),
+)
 
 
 @FUZZ
@@ -356,9 +411,12 @@ def test_camera_survives_anything(kwargs):
 
 
 @FUZZ
-@given(points=st.one_of(
-    st.integers(0, 8).flatmap(lambda n: sized_arrays(NUMERIC_DTYPES, (n, 3))).flatmap(layouts),
-    anything((0, 3), (1, 3), (7, 3), (3,), (2, 2), (2, 3, 3))))
+@given(
+    points=st.one_of(
+        st.integers(0, 8).flatmap(lambda n: sized_arrays(NUMERIC_DTYPES, (n, 3))).flatmap(layouts),
+        anything((0, 3), (1, 3), (7, 3), (3,), (2, 2), (2, 3, 3)),
+    )
+)
 def test_project_survives_anything(points):
     """Camera.project never crashes and raises only the allowed types; on success it returns one
     float64 (u, v, z) row per input point, whatever the values (NaN, inf, z = 0 included)."""
@@ -368,8 +426,7 @@ def test_project_survives_anything(points):
 
 
 @FUZZ
-@given(kwargs=calls(dict(SUN_FIELDS, irradiance=st.floats(0, 1e300)),
-                    dict.fromkeys(SUN_FIELDS, ANY_FLOAT)))
+@given(kwargs=calls(dict(SUN_FIELDS, irradiance=st.floats(0, 1e300)), dict.fromkeys(SUN_FIELDS, ANY_FLOAT)))
 def test_sun_survives_anything(kwargs):
     """Sun(...) never crashes and raises only the allowed types; an accepted Sun has a unit
     direction and the irradiance it was given."""
@@ -406,15 +463,19 @@ def small_cameras(draw, max_side=16):
     f = draw(st.floats(0.5, 50))
     altitude = draw(st.floats(0.6, 50))
     R = LOOK_DOWN @ draw(rotations()) if draw(st.booleans()) else LOOK_DOWN
-    return _core.Camera(f, f, draw(st.floats(0, w)), draw(st.floats(0, h)), w, h, R,
-                        -R @ np.array([0.0, 0.0, altitude]))
+    return _core.Camera(
+        f, f, draw(st.floats(0, w)), draw(st.floats(0, h)), w, h, R, -R @ np.array([0.0, 0.0, altitude])
+    )
 
 
 PASSES = ["rgb", "depth", "instance"]
-PASS_NAMES = st.one_of(st.sampled_from(PASSES), st.sampled_from(["", "RGB", "normal", "rgb ", "depth\0"]),
-                       st.text(max_size=6))
-BAD_SCENES = st.one_of(st.sampled_from(["uncommitted", "stale", "empty"]).map(lambda k: SCENES[k](LABEL)),
-                       st.sampled_from([None, "scene", 0]))
+PASS_NAMES = st.one_of(
+    st.sampled_from(PASSES), st.sampled_from(["", "RGB", "normal", "rgb ", "depth\0"]), st.text(max_size=6)
+)
+BAD_SCENES = st.one_of(
+    st.sampled_from(["uncommitted", "stale", "empty"]).map(lambda k: SCENES[k](LABEL)),
+    st.sampled_from([None, "scene", 0]),
+)
 VALID_RENDER = dict(
     scene=st.builds(ground_scene, st.just(LABEL)),
     camera=small_cameras(),
@@ -422,17 +483,25 @@ VALID_RENDER = dict(
     spp=st.integers(1, 4),
     seed=st.integers(0, 2**64 - 1),
     threads=st.integers(0, 2),
-    passes=st.one_of(st.lists(st.sampled_from(PASSES), min_size=1, max_size=4),
-                     st.lists(st.sampled_from(PASSES), min_size=1, max_size=3).map(tuple)))
+    passes=st.one_of(
+        st.lists(st.sampled_from(PASSES), min_size=1, max_size=4),
+        st.lists(st.sampled_from(PASSES), min_size=1, max_size=3).map(tuple),
+    ),
+)
 WILD_RENDER = dict(
     scene=BAD_SCENES,
     camera=st.one_of(st.sampled_from([None, "camera", 0]), st.builds(_core.DirectionalLight, st.just(0), st.just(0))),
     sun=st.one_of(st.none(), st.builds(down_camera)),
-    spp=st.one_of(st.integers(max_value=0), st.integers(MAX_SPP + 1, 2**70), numpy_scalars().filter(
-        lambda s: not (isinstance(s, np.integer) and 4 < s <= MAX_SPP)), JUNK),
+    spp=st.one_of(
+        st.integers(max_value=0),
+        st.integers(MAX_SPP + 1, 2**70),
+        numpy_scalars().filter(lambda s: not (isinstance(s, np.integer) and 4 < s <= MAX_SPP)),
+        JUNK,
+    ),
     seed=st.one_of(st.integers(max_value=-1), st.integers(min_value=2**64), JUNK),
     threads=st.one_of(st.integers(max_value=-1), JUNK),
-    passes=st.one_of(st.lists(PASS_NAMES, max_size=4), st.sampled_from(["rgb", b"rgb", None, {"rgb"}]), JUNK))
+    passes=st.one_of(st.lists(PASS_NAMES, max_size=4), st.sampled_from(["rgb", b"rgb", None, {"rgb"}]), JUNK),
+)
 
 
 @FUZZ
@@ -461,9 +530,11 @@ def test_render_survives_anything(kwargs):
 
 
 VALID_TONEMAP = dict(
-    rgb=st.tuples(st.integers(0, 16), st.integers(0, 16)).flatmap(
-        lambda hw: sized_arrays(FLOAT_DTYPES, (*hw, 3))).flatmap(layouts),
-    exposure=st.floats(1e-30, 1e30))
+    rgb=st.tuples(st.integers(0, 16), st.integers(0, 16))
+    .flatmap(lambda hw: sized_arrays(FLOAT_DTYPES, (*hw, 3)))
+    .flatmap(layouts),
+    exposure=st.floats(1e-30, 1e30),
+)
 
 
 @FUZZ
@@ -499,7 +570,8 @@ VALID_WRITE = dict(
     pixels=st.tuples(st.integers(1, 16), st.integers(1, 16), st.sampled_from([(), (1,), (2,), (3,), (4,)]))
     .flatmap(lambda s: sized_arrays(PIXEL_DTYPES, (s[0], s[1], *s[2])))
     .flatmap(lambda a: layouts(a, lists=False)),  # a list would become int64 / float64
-    png_compression=st.integers(0, 9))
+    png_compression=st.integers(0, 9),
+)
 WILD_WRITE = dict(pixels=anything(*IMAGE_SHAPES), png_compression=st.one_of(st.integers(), JUNK))
 
 
@@ -520,9 +592,12 @@ def test_write_image_survives_anything(tmp_path, kwargs, ext):
 
 
 @FUZZ_FILES
-@given(ext=st.sampled_from([".png", ".exr", ".tif"]), cut=st.floats(0, 1),
-       flips=st.lists(st.tuples(st.floats(0, 1), st.integers(0, 255)), max_size=8),
-       noise=st.one_of(st.none(), st.binary(max_size=200)))
+@given(
+    ext=st.sampled_from([".png", ".exr", ".tif"]),
+    cut=st.floats(0, 1),
+    flips=st.lists(st.tuples(st.floats(0, 1), st.integers(0, 255)), max_size=8),
+    noise=st.one_of(st.none(), st.binary(max_size=200)),
+)
 def test_read_image_survives_damaged_files(tmp_path, ext, cut, flips, noise):
     """read_image on a truncated, bit-flipped or random file of a supported format never crashes:
     it returns an array or raises OSError."""
@@ -546,17 +621,21 @@ def _wild(fields):
     return dict.fromkeys(fields, ANY_FLOAT)
 
 
-FRAME_FIELDS = dict(lat0_deg=st.floats(-90, 90), lon0_deg=st.floats(-1e4, 1e4), h0=st.floats(-1e5, 1e5),
-                    radius=st.floats(1.0, 1e9))
+FRAME_FIELDS = dict(
+    lat0_deg=st.floats(-90, 90), lon0_deg=st.floats(-1e4, 1e4), h0=st.floats(-1e5, 1e5), radius=st.floats(1.0, 1e9)
+)
 TO_ENU_FIELDS = dict(lat_deg=st.floats(-90, 90), lon_deg=st.floats(-1e4, 1e4), h=st.floats(-1e5, 1e5))
 TO_GEODETIC_FIELDS = dict(east=st.floats(-1e6, 1e6), north=st.floats(-1e6, 1e6), up=st.floats(-1e6, 1e6))
 CURVATURE_FIELDS = dict(distance=st.floats(-1e6, 1e6), radius=st.floats(1.0, 1e9))
 
 
 @FUZZ
-@given(frame=calls(FRAME_FIELDS, _wild(FRAME_FIELDS)), enu=calls(TO_ENU_FIELDS, _wild(TO_ENU_FIELDS)),
-       geo=calls(TO_GEODETIC_FIELDS, _wild(TO_GEODETIC_FIELDS)),
-       drop=calls(CURVATURE_FIELDS, _wild(CURVATURE_FIELDS)))
+@given(
+    frame=calls(FRAME_FIELDS, _wild(FRAME_FIELDS)),
+    enu=calls(TO_ENU_FIELDS, _wild(TO_ENU_FIELDS)),
+    geo=calls(TO_GEODETIC_FIELDS, _wild(TO_GEODETIC_FIELDS)),
+    drop=calls(CURVATURE_FIELDS, _wild(CURVATURE_FIELDS)),
+)
 def test_geodesy_survives_anything(frame, enu, geo, drop):
     """LunarFrame, its to_enu / to_geodetic and curvature_drop never crash and raise only the
     allowed types; successful calls return three floats (one for curvature_drop)."""
@@ -570,12 +649,24 @@ def test_geodesy_survives_anything(frame, enu, geo, drop):
 
 
 @settings(FUZZ, max_examples=30)
-@given(kwargs=calls(dict(scene=st.builds(ground_scene, st.just(LABEL)), camera=small_cameras(4),
-                         sun=st.builds(_core.DirectionalLight, **SUN_FIELDS), threads=st.integers(0, 2),
-                         repeats=st.integers(1, 2), bounces=st.integers(0, 2)),
-                    dict(scene=BAD_SCENES, threads=st.one_of(st.integers(max_value=-1), JUNK),
-                         repeats=st.one_of(st.integers(max_value=0), JUNK),
-                         bounces=st.one_of(st.integers(max_value=-1), st.integers(min_value=17), JUNK))))
+@given(
+    kwargs=calls(
+        dict(
+            scene=st.builds(ground_scene, st.just(LABEL)),
+            camera=small_cameras(4),
+            sun=st.builds(_core.DirectionalLight, **SUN_FIELDS),
+            threads=st.integers(0, 2),
+            repeats=st.integers(1, 2),
+            bounces=st.integers(0, 2),
+        ),
+        dict(
+            scene=BAD_SCENES,
+            threads=st.one_of(st.integers(max_value=-1), JUNK),
+            repeats=st.one_of(st.integers(max_value=0), JUNK),
+            bounces=st.one_of(st.integers(max_value=-1), st.integers(min_value=17), JUNK),
+        ),
+    )
+)
 def test_embree_limit_survives_anything(kwargs):
     """measure_embree_limit (a benchmark binding) never crashes on bad settings or scene state and
     raises only the allowed types; on success it traced one camera ray per pixel."""
@@ -586,6 +677,7 @@ def test_embree_limit_survives_anything(kwargs):
 
 
 # --- defects: one defect in an otherwise valid call names its argument ---------------------------
+
 
 @st.composite
 def bad_vertices(draw, n):
@@ -627,8 +719,12 @@ def bad_triangles(draw, n):
         t[draw(st.integers(0, m - 1)), draw(st.integers(0, 2))] = draw(bad)
         return t
     if kind == "dtype":
-        return draw(hnp.arrays(st.sampled_from([np.dtype(np.float32), np.dtype(np.float64),
-                                                np.dtype(np.bool_), np.dtype("U2")]), (m, 3)))
+        return draw(
+            hnp.arrays(
+                st.sampled_from([np.dtype(np.float32), np.dtype(np.float64), np.dtype(np.bool_), np.dtype("U2")]),
+                (m, 3),
+            )
+        )
     if kind == "shape":
         shape = draw(st.sampled_from([(m, 2), (m, 4), (3 * m,), (1, m, 3)]))
         return draw(hnp.arrays(np.int32, shape, elements=st.integers(0, n - 1)))
@@ -684,13 +780,18 @@ def test_transform_defects_name_world_from_object(world, background):
 
 
 @DEFECT
-@given(albedo=st.one_of(
-    st.tuples(st.floats(0, 1), st.floats(0, 1), st.one_of(
-        st.floats(max_value=-1e-6), st.floats(min_value=1.0001), st.sampled_from(NON_FINITE)))
-      .flatmap(lambda a: st.permutations(a)),
-    hnp.arrays(np.float64, st.sampled_from([(2,), (4,), (1, 3), (3, 1), ()]), elements=st.floats(0, 1)),
-    hnp.arrays(st.sampled_from(NOT_NUMBER_DTYPES), 3)),
-    background=st.booleans())
+@given(
+    albedo=st.one_of(
+        st.tuples(
+            st.floats(0, 1),
+            st.floats(0, 1),
+            st.one_of(st.floats(max_value=-1e-6), st.floats(min_value=1.0001), st.sampled_from(NON_FINITE)),
+        ).flatmap(lambda a: st.permutations(a)),
+        hnp.arrays(np.float64, st.sampled_from([(2,), (4,), (1, 3), (3, 1), ()]), elements=st.floats(0, 1)),
+        hnp.arrays(st.sampled_from(NOT_NUMBER_DTYPES), 3),
+    ),
+    background=st.booleans(),
+)
 def test_albedo_defects_name_albedo(albedo, background):
     """An albedo with a channel outside [0, 1] or non-finite, not (3,) or not numeric is refused
     with ValueError("albedo: ...")."""
@@ -702,8 +803,11 @@ def test_albedo_defects_name_albedo(albedo, background):
 
 
 @DEFECT
-@given(instance_id=st.one_of(st.integers(INT_MIN, 0), st.integers(256, INT_MAX)),
-       used=st.integers(1, 255), mesh=st.integers(1, 2**32 - 1))
+@given(
+    instance_id=st.one_of(st.integers(INT_MIN, 0), st.integers(256, INT_MAX)),
+    used=st.integers(1, 255),
+    mesh=st.integers(1, 2**32 - 1),
+)
 def test_instance_id_and_mesh_defects_are_named(instance_id, used, mesh):
     """An instance_id outside 1..255 (anywhere in the C int range) or one already used raises
     ValueError("instance_id: ..."); a mesh index past the scene's meshes raises
@@ -747,8 +851,7 @@ def bad_rotations(draw):
 
 
 @DEFECT
-@given(args=st.fixed_dictionaries(CAMERA_FIELDS), field=st.sampled_from([*CAMERA_DEFECTS, "R", "t"]),
-       data=st.data())
+@given(args=st.fixed_dictionaries(CAMERA_FIELDS), field=st.sampled_from([*CAMERA_DEFECTS, "R", "t"]), data=st.data())
 def test_camera_defects_name_the_field(args, field, data):
     """A camera with one bad field -- focal length zero, negative or non-finite; principal point
     non-finite; image side outside 1..32768; R scaled, reflected, non-finite, not (3, 3) or not
@@ -768,17 +871,24 @@ def test_camera_defects_name_the_field(args, field, data):
 
 
 @DEFECT
-@given(args=st.tuples(st.floats(-1e6, 1e6), st.floats(-90, 90), st.floats(0, 1e6)),
-       field=st.sampled_from(["azimuth_deg", "elevation_deg", "irradiance"]), data=st.data())
+@given(
+    args=st.tuples(st.floats(-1e6, 1e6), st.floats(-90, 90), st.floats(0, 1e6)),
+    field=st.sampled_from(["azimuth_deg", "elevation_deg", "irradiance"]),
+    data=st.data(),
+)
 def test_sun_defects_name_the_field(args, field, data):
     """A Sun with a non-finite azimuth, an elevation outside [-90, 90] (or NaN), or a negative or
     non-finite irradiance is refused with ValueError("<field>: ...")."""
     bad = {
         "azimuth_deg": st.sampled_from(NON_FINITE),
-        "elevation_deg": st.one_of(st.floats(min_value=90, exclude_min=True),
-                                   st.floats(max_value=-90, exclude_max=True), st.just(math.nan)),
-        "irradiance": st.one_of(st.floats(max_value=0, exclude_max=True), st.sampled_from(NON_FINITE),
-                                st.floats(min_value=1e7, exclude_min=True, allow_infinity=False)),
+        "elevation_deg": st.one_of(
+            st.floats(min_value=90, exclude_min=True), st.floats(max_value=-90, exclude_max=True), st.just(math.nan)
+        ),
+        "irradiance": st.one_of(
+            st.floats(max_value=0, exclude_max=True),
+            st.sampled_from(NON_FINITE),
+            st.floats(min_value=1e7, exclude_min=True, allow_infinity=False),
+        ),
     }[field]
     values = dict(zip(["azimuth_deg", "elevation_deg", "irradiance"], args))
     _core.DirectionalLight(**values)  # the base call is valid
@@ -799,27 +909,34 @@ def test_render_defects_name_the_setting(setting, data):
         settings["threads"] = data.draw(st.integers(INT_MIN, -1))
     elif setting == "passes":
         good = data.draw(st.lists(st.sampled_from(["rgb", "depth", "instance"]), max_size=3))
-        unknown = data.draw(st.text(st.characters(exclude_categories=["Cs"]), max_size=6)
-                            .filter(lambda p: p not in ("rgb", "depth", "instance")))
+        unknown = data.draw(
+            st.text(st.characters(exclude_categories=["Cs"]), max_size=6).filter(
+                lambda p: p not in ("rgb", "depth", "instance")
+            )
+        )
         passes = data.draw(st.permutations([*good, unknown])) if data.draw(st.booleans()) else []
     else:
-        scene = data.draw(st.sampled_from([lambda: ground_scene(3, commit=False), _stale_scene,
-                                           _empty_scene]))()
+        scene = data.draw(st.sampled_from([lambda: ground_scene(3, commit=False), _stale_scene, _empty_scene]))()
 
     def call():
         # A setting out of range is refused where the RenderSettings is made (or, written after, by render).
-        _core.render(scene, down_camera(4, 4), _core.DirectionalLight(0, 45), _core.RenderSettings(**settings),
-                     passes=passes)
+        _core.render(
+            scene, down_camera(4, 4), _core.DirectionalLight(0, 45), _core.RenderSettings(**settings), passes=passes
+        )
+
     expect_named(setting, call)
 
 
 @DEFECT
-@given(rgb=st.one_of(
-    hnp.arrays(st.sampled_from(NOT_FLOAT_DTYPES),
-               st.tuples(st.integers(1, 16), st.integers(1, 16), st.just(3))),
-    hnp.arrays(st.sampled_from(FLOAT_DTYPES),
-               st.sampled_from([(4, 4), (4, 4, 1), (4, 4, 4), (3,), (1, 4, 4, 3), ()]))),
-    exposure=st.one_of(st.floats(max_value=0.0), st.sampled_from(NON_FINITE)))
+@given(
+    rgb=st.one_of(
+        hnp.arrays(st.sampled_from(NOT_FLOAT_DTYPES), st.tuples(st.integers(1, 16), st.integers(1, 16), st.just(3))),
+        hnp.arrays(
+            st.sampled_from(FLOAT_DTYPES), st.sampled_from([(4, 4), (4, 4, 1), (4, 4, 4), (3,), (1, 4, 4, 3), ()])
+        ),
+    ),
+    exposure=st.one_of(st.floats(max_value=0.0), st.sampled_from(NON_FINITE)),
+)
 def test_tonemap_defects_name_the_argument(rgb, exposure):
     """tonemap_reinhard refuses rgb that is not floating point or not (H, W, 3) with
     ValueError("rgb: ..."), and a zero, negative or non-finite exposure with
@@ -835,30 +952,38 @@ def bad_pixels(draw):
     kind = draw(st.sampled_from(["dtype", "ndim", "channels", "empty"]))
     if kind == "dtype":
         # uint8, uint16 and float32 in either byte order are pixels; everything else is not.
-        others = [d for d in map(np.dtype, NUMERIC_DTYPES + OTHER_DTYPES)
-                  if (d.kind, d.itemsize) not in {("u", 1), ("u", 2), ("f", 4)}]
+        others = [
+            d
+            for d in map(np.dtype, NUMERIC_DTYPES + OTHER_DTYPES)
+            if (d.kind, d.itemsize) not in {("u", 1), ("u", 2), ("f", 4)}
+        ]
         return draw(hnp.arrays(st.sampled_from(others), st.sampled_from([(2, 3), (2, 3, 3)])))
     dtype = draw(st.sampled_from(PIXEL_DTYPES))
-    shape = {"ndim": st.sampled_from([(), (5,), (1, 2, 3, 1)]),
-             "channels": st.tuples(st.integers(1, 4), st.integers(1, 4), st.sampled_from([0, 5, 8])),
-             "empty": st.sampled_from([(0, 3), (3, 0), (0, 0, 3), (2, 0, 1)])}[kind]
+    shape = {
+        "ndim": st.sampled_from([(), (5,), (1, 2, 3, 1)]),
+        "channels": st.tuples(st.integers(1, 4), st.integers(1, 4), st.sampled_from([0, 5, 8])),
+        "empty": st.sampled_from([(0, 3), (3, 0), (0, 0, 3), (2, 0, 1)]),
+    }[kind]
     return draw(hnp.arrays(dtype, shape))
 
 
 @settings(DEFECT, suppress_health_check=[*_SLOW_DATA, HealthCheck.function_scoped_fixture])
-@given(pixels=bad_pixels(), level=st.one_of(st.integers(INT_MIN, -1), st.integers(10, INT_MAX)),
-       ext=st.sampled_from([".png", ".exr", ".tif"]))
+@given(
+    pixels=bad_pixels(),
+    level=st.one_of(st.integers(INT_MIN, -1), st.integers(10, INT_MAX)),
+    ext=st.sampled_from([".png", ".exr", ".tif"]),
+)
 def test_write_image_defects_name_the_argument(tmp_path, pixels, level, ext):
     """write_image refuses bad pixels with ValueError("pixels: ...") and a PNG compression level
     outside 0..9 with ValueError("png_compression: ..."), writing nothing."""
     directory = fresh_dir(tmp_path)
     expect_named("pixels", _core.write_image, str(directory / f"a{ext}"), pixels)
-    expect_named("png_compression", _core.write_image, str(directory / f"b{ext}"),
-                 np.zeros((2, 2), np.uint8), level)
+    expect_named("png_compression", _core.write_image, str(directory / f"b{ext}"), np.zeros((2, 2), np.uint8), level)
     assert list(directory.iterdir()) == []
 
 
 # --- tables: each bad input the issue lists, with a readable id ----------------------------------
+
 
 def _with(array, index, value):
     out = np.array(array, copy=True)
@@ -944,14 +1069,21 @@ def test_bad_instance_is_named(change, name):
     assert scene.instance_count == 1 and scene.committed
 
 
-GOOD_CAMERA = dict(fx=6.0, fy=6.0, cx=4.0, cy=3.0, width=8, height=6, R=LOOK_DOWN,
-                   t=np.array([0.0, 0.0, 3.0]))
+GOOD_CAMERA = dict(fx=6.0, fy=6.0, cx=4.0, cy=3.0, width=8, height=6, R=LOOK_DOWN, t=np.array([0.0, 0.0, 3.0]))
 BAD_CAMERAS = {
-    "fx-zero": ("fx", 0.0), "fx-negative": ("fx", -6.0), "fx-nan": ("fx", math.nan),
-    "fx-inf": ("fx", math.inf), "fy-zero": ("fy", 0.0), "fy-negative": ("fy", -1e-9),
-    "cx-nan": ("cx", math.nan), "cy--inf": ("cy", -math.inf),
-    "width-zero": ("width", 0), "width-negative": ("width", -8), "width-32769": ("width", MAX_SIDE + 1),
-    "height-zero": ("height", 0), "height-negative": ("height", -1),
+    "fx-zero": ("fx", 0.0),
+    "fx-negative": ("fx", -6.0),
+    "fx-nan": ("fx", math.nan),
+    "fx-inf": ("fx", math.inf),
+    "fy-zero": ("fy", 0.0),
+    "fy-negative": ("fy", -1e-9),
+    "cx-nan": ("cx", math.nan),
+    "cy--inf": ("cy", -math.inf),
+    "width-zero": ("width", 0),
+    "width-negative": ("width", -8),
+    "width-32769": ("width", MAX_SIDE + 1),
+    "height-zero": ("height", 0),
+    "height-negative": ("height", -1),
     "R-not-orthonormal-scaled": ("R", 2.0 * LOOK_DOWN),
     "R-not-orthonormal-sheared": ("R", _with(np.eye(3), (0, 1), 0.1)),
     "R-reflection": ("R", np.diag([1.0, 1.0, -1.0])),
@@ -971,8 +1103,13 @@ def test_bad_camera_is_named(field, value):
 
 
 def _render_call(scene=None, passes=("rgb", "depth", "instance"), **settings_):
-    return lambda: _core.render(scene() if scene else ground_scene(4), down_camera(4, 4),
-                                _core.DirectionalLight(0, 45), _core.RenderSettings(**settings_), passes=list(passes))
+    return lambda: _core.render(
+        scene() if scene else ground_scene(4),
+        down_camera(4, 4),
+        _core.DirectionalLight(0, 45),
+        _core.RenderSettings(**settings_),
+        passes=list(passes),
+    )
 
 
 BAD_RENDERS = {
@@ -984,12 +1121,24 @@ BAD_RENDERS = {
     "spp-65537": (_render_call(spp=MAX_SPP + 1), "spp"),
     "threads--1": (_render_call(threads=-1), "threads"),
     "threads-1025": (_render_call(threads=1025), "threads"),
-    "measure_embree_limit-threads-1025": (lambda: _core.measure_embree_limit(
-        ground_scene(4), down_camera(4, 4), _core.DirectionalLight(0, 45), threads=1025), "threads"),
-    "measure_embree_limit-repeats-0": (lambda: _core.measure_embree_limit(
-        ground_scene(4), down_camera(4, 4), _core.DirectionalLight(0, 45), repeats=0), "repeats"),
-    "measure_embree_limit-bounces-17": (lambda: _core.measure_embree_limit(
-        ground_scene(4), down_camera(4, 4), _core.DirectionalLight(0, 45), bounces=17), "bounces"),
+    "measure_embree_limit-threads-1025": (
+        lambda: _core.measure_embree_limit(
+            ground_scene(4), down_camera(4, 4), _core.DirectionalLight(0, 45), threads=1025
+        ),
+        "threads",
+    ),
+    "measure_embree_limit-repeats-0": (
+        lambda: _core.measure_embree_limit(
+            ground_scene(4), down_camera(4, 4), _core.DirectionalLight(0, 45), repeats=0
+        ),
+        "repeats",
+    ),
+    "measure_embree_limit-bounces-17": (
+        lambda: _core.measure_embree_limit(
+            ground_scene(4), down_camera(4, 4), _core.DirectionalLight(0, 45), bounces=17
+        ),
+        "bounces",
+    ),
     "passes-unknown": (_render_call(passes=["rgb", "normals"]), "passes"),
     "passes-empty-name": (_render_call(passes=[""]), "passes"),
     "passes-empty": (_render_call(passes=[]), "passes"),
@@ -1060,16 +1209,26 @@ def test_bad_write_is_named(tmp_path, pixels, level, name):
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.parametrize("where", ["missing-directory", "missing-parent", "no-writer-for-extension",
-                                   "unsupported-extension-.jpg", "target-is-a-directory"])
+@pytest.mark.parametrize(
+    "where",
+    [
+        "missing-directory",
+        "missing-parent",
+        "no-writer-for-extension",
+        "unsupported-extension-.jpg",
+        "target-is-a-directory",
+    ],
+)
 def test_unwritable_path_raises_oserror_naming_it(tmp_path, where):
     """An image that cannot be written raises OSError whose message names the path, and leaves
     nothing behind."""
-    target = {"missing-directory": tmp_path / "absent" / "x.png",
-              "missing-parent": tmp_path / "a" / "b" / "c" / "x.png",
-              "no-writer-for-extension": tmp_path / "x.notaformat",
-              "unsupported-extension-.jpg": tmp_path / "x.jpg",
-              "target-is-a-directory": tmp_path / "taken.png"}[where]
+    target = {
+        "missing-directory": tmp_path / "absent" / "x.png",
+        "missing-parent": tmp_path / "a" / "b" / "c" / "x.png",
+        "no-writer-for-extension": tmp_path / "x.notaformat",
+        "unsupported-extension-.jpg": tmp_path / "x.jpg",
+        "target-is-a-directory": tmp_path / "taken.png",
+    }[where]
     if where == "target-is-a-directory":
         target.mkdir()
     with pytest.raises(OSError) as info:
@@ -1119,20 +1278,24 @@ def run_isolated(tmp_path, body, *python_flags):
     """Run `body` in a child interpreter (cwd = tmp_path); return [outcome, message], where
     outcome is "returned" or the name of the exception raised. Fails the test, rather than the
     whole session, if the child dies of a signal; skips it if the child prints ["skip", why]."""
-    code = "\n".join([
-        CHILD_PRELUDE,
-        "try:",
-        textwrap.indent(textwrap.dedent(body).strip("\n"), "    "),
-        "    outcome = ['returned', '']",
-        "except Exception as error:",
-        "    outcome = [type(error).__name__, str(error)]",
-        "print(json.dumps(outcome))",
-    ])
-    proc = subprocess.run([sys.executable, *python_flags, "-c", code], cwd=tmp_path,
-                          capture_output=True, text=True, timeout=120)
+    code = "\n".join(
+        [
+            CHILD_PRELUDE,
+            "try:",
+            textwrap.indent(textwrap.dedent(body).strip("\n"), "    "),
+            "    outcome = ['returned', '']",
+            "except Exception as error:",
+            "    outcome = [type(error).__name__, str(error)]",
+            "print(json.dumps(outcome))",
+        ]
+    )
+    proc = subprocess.run(
+        [sys.executable, *python_flags, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=120
+    )
     if proc.returncode < 0:
-        pytest.fail(f"the interpreter died of {signal.Signals(-proc.returncode).name}; "
-                    f"stderr: {proc.stderr.strip()[-300:]!r}")
+        pytest.fail(
+            f"the interpreter died of {signal.Signals(-proc.returncode).name}; stderr: {proc.stderr.strip()[-300:]!r}"
+        )
     assert proc.returncode == 0, proc.stderr
     outcome = json.loads(proc.stdout.strip().splitlines()[-1])
     if outcome[0] == "skip":
@@ -1156,26 +1319,47 @@ OVERFLOWING_CONVERSIONS = {
     # pybind11's array_t::ensure returns a null array when numpy refuses the conversion (the
     # overflow reported as an error); the bindings used to dereference it (SIGSEGV).
     "rgb-float64-1e39": ("_core.tonemap_reinhard(np.full((2, 2, 3), 1e39), 1.0)", "rgb", WARNINGS_AS_ERRORS),
-    "rgb-float64-1e-50-seterr-raise": ("np.seterr(all='raise')\n"
-                                       "_core.tonemap_reinhard(np.full((2, 2, 3), 1e-50), 1.0)", "rgb", ()),
-    "vertices-float64-1e39": ("_core.Scene().add_mesh(np.full((3, 3), 1e39), [[0, 1, 2]])", "vertices",
-                              WARNINGS_AS_ERRORS),
-    "R-longdouble-1e400": ("_core.Camera(1, 1, 0, 0, 1, 1, np.full((3, 3), np.longdouble('1e400')), np.zeros(3))",
-                           "R", WARNINGS_AS_ERRORS),
-    "t-longdouble-1e400": ("_core.Camera(1, 1, 0, 0, 1, 1, np.eye(3), np.full(3, np.longdouble('1e400')))",
-                           "t", WARNINGS_AS_ERRORS),
-    "world_from_object-longdouble-1e400": ("ground_scene().add_background(\n"
-                                           "    0, np.full((4, 4), np.longdouble('1e400')), (0, 0, 0))",
-                                           "world_from_object", WARNINGS_AS_ERRORS),
-    "albedo-longdouble-1e400": ("ground_scene().add_background(0, np.eye(4), np.full(3, np.longdouble('1e400')))",
-                                "albedo", WARNINGS_AS_ERRORS),
-    "points-longdouble-1e400": ("small_camera().project(np.full((1, 3), np.longdouble('1e400')))", "points",
-                                WARNINGS_AS_ERRORS),
+    "rgb-float64-1e-50-seterr-raise": (
+        "np.seterr(all='raise')\n_core.tonemap_reinhard(np.full((2, 2, 3), 1e-50), 1.0)",
+        "rgb",
+        (),
+    ),
+    "vertices-float64-1e39": (
+        "_core.Scene().add_mesh(np.full((3, 3), 1e39), [[0, 1, 2]])",
+        "vertices",
+        WARNINGS_AS_ERRORS,
+    ),
+    "R-longdouble-1e400": (
+        "_core.Camera(1, 1, 0, 0, 1, 1, np.full((3, 3), np.longdouble('1e400')), np.zeros(3))",
+        "R",
+        WARNINGS_AS_ERRORS,
+    ),
+    "t-longdouble-1e400": (
+        "_core.Camera(1, 1, 0, 0, 1, 1, np.eye(3), np.full(3, np.longdouble('1e400')))",
+        "t",
+        WARNINGS_AS_ERRORS,
+    ),
+    "world_from_object-longdouble-1e400": (
+        "ground_scene().add_background(\n    0, np.full((4, 4), np.longdouble('1e400')), (0, 0, 0))",
+        "world_from_object",
+        WARNINGS_AS_ERRORS,
+    ),
+    "albedo-longdouble-1e400": (
+        "ground_scene().add_background(0, np.eye(4), np.full(3, np.longdouble('1e400')))",
+        "albedo",
+        WARNINGS_AS_ERRORS,
+    ),
+    "points-longdouble-1e400": (
+        "small_camera().project(np.full((1, 3), np.longdouble('1e400')))",
+        "points",
+        WARNINGS_AS_ERRORS,
+    ),
 }
 
 
-@pytest.mark.parametrize(("body", "name", "flags"), OVERFLOWING_CONVERSIONS.values(),
-                         ids=OVERFLOWING_CONVERSIONS.keys())
+@pytest.mark.parametrize(
+    ("body", "name", "flags"), OVERFLOWING_CONVERSIONS.values(), ids=OVERFLOWING_CONVERSIONS.keys()
+)
 def test_overflowing_conversion_is_not_fatal(tmp_path, body, name, flags):
     """A value that overflows (or underflows) while the binding narrows it -- float64 to float32,
     longdouble to float64 -- must not crash the interpreter when numpy's floating-point errors are
@@ -1187,13 +1371,13 @@ def test_overflowing_conversion_is_not_fatal(tmp_path, body, name, flags):
 
 HUGE_THREAD_COUNTS = {
     "render-threads-65537": "_core.render(ground_scene(), small_camera(), _core.DirectionalLight(0, 45), "
-                            "_core.RenderSettings(threads=65537))",
+    "_core.RenderSettings(threads=65537))",
     "render-threads-10**8": "_core.render(ground_scene(), small_camera(), _core.DirectionalLight(0, 45), "
-                            "_core.RenderSettings(threads=10**8))",
+    "_core.RenderSettings(threads=10**8))",
     "render-threads-int-max": "_core.render(ground_scene(), small_camera(), _core.DirectionalLight(0, 45), "
-                              "_core.RenderSettings(threads=2**31 - 1))",
+    "_core.RenderSettings(threads=2**31 - 1))",
     "measure_embree_limit-threads-65537": "_core.measure_embree_limit(ground_scene(), small_camera(), "
-                                          "_core.DirectionalLight(0, 45), threads=65537, repeats=1)",
+    "_core.DirectionalLight(0, 45), threads=65537, repeats=1)",
 }
 
 

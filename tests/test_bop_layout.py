@@ -49,7 +49,12 @@ def load(path: Path):
 
 
 def test_split_directories_are_bops_and_one_to_one():
-    assert [bop_split(s) for s in ("train", "val", "test", "default")] == ["train_pbr", "val_pbr", "test", "default_pbr"]
+    assert [bop_split(s) for s in ("train", "val", "test", "default")] == [
+        "train_pbr",
+        "val_pbr",
+        "test",
+        "default_pbr",
+    ]
     names = ["train", "train_pbr", "test", "test_pbr", "val", "pbr", "t"]
     assert len({bop_split(n) for n in names}) == len(names)
 
@@ -67,13 +72,17 @@ def test_ids_are_six_digits_zero_padded_within_range():
 def test_a_sweep_past_six_digit_ids_is_refused_naming_the_field(tmp_path):
     path = tmp_path / "big.yaml"
     # 3 meshes × 255 bag counts × 1308 stain seeds > 10^6 scenes
-    path.write_text("sweep:\n  splits:\n    - name: train\n      meshes: [sandbag-01, sandbag-02, sandbag-03]\n"
-                    f"      bag_counts: {list(range(1, 256))}\n      stain_seeds: {list(range(1308))}\n")
+    path.write_text(
+        "sweep:\n  splits:\n    - name: train\n      meshes: [sandbag-01, sandbag-02, sandbag-03]\n"
+        f"      bag_counts: {list(range(1, 256))}\n      stain_seeds: {list(range(1308))}\n"
+    )
     with pytest.raises(ConfigError, match=r"sweep.splits\[0\].meshes: 1000620 scenes .* six-digit scene ids"):
         load_config(path)
-    path.write_text("orbit: {views: 3600}\nsweep:\n  splits:\n    - name: train\n"
-                    f"      sun_elevations_deg: {[float(e) for e in range(0, 90)]}\n"
-                    f"      sun_azimuths_deg: [0.0, 90.0, 180.0, 270.0]\n")
+    path.write_text(
+        "orbit: {views: 3600}\nsweep:\n  splits:\n    - name: train\n"
+        f"      sun_elevations_deg: {[float(e) for e in range(0, 90)]}\n"
+        f"      sun_azimuths_deg: [0.0, 90.0, 180.0, 270.0]\n"
+    )
     with pytest.raises(ConfigError, match=r"sweep.splits\[0\]: 360 tasks × 3600 views a scene exceed"):
         load_config(path)
 
@@ -87,12 +96,18 @@ def test_val_is_drawn_from_train_balanced_deterministic_and_in_new_layouts():
     assert [s for s in dict.fromkeys(t.split for t in ts)] == ["train", "val", "test"]
     val = [t for t in ts if t.split == "val"]
     train = {(t.mesh, t.location, t.bags, t.stain_seeds, t.dust) for t in ts if t.split == "train"}
-    assert [t.scene_id for t in val] == [0, 1, 2] and sorted(t.mesh for t in val) == ["sandbag-01", "sandbag-02",
-                                                                                          "sandbag-03"]
+    assert [t.scene_id for t in val] == [0, 1, 2] and sorted(t.mesh for t in val) == [
+        "sandbag-01",
+        "sandbag-02",
+        "sandbag-03",
+    ]
     assert all((t.mesh, t.location, t.bags, t.stain_seeds, t.dust) in train for t in val)
     assert tasks(config) == ts  # the same draw every time
-    assert all(scene_seed(config.seed, "val", t.mesh, t.location, t.bags)
-               != scene_seed(config.seed, "train", t.mesh, t.location, t.bags) for t in val)
+    assert all(
+        scene_seed(config.seed, "val", t.mesh, t.location, t.bags)
+        != scene_seed(config.seed, "train", t.mesh, t.location, t.bags)
+        for t in val
+    )
     # Balanced over meshes whatever the count: k of each per k × 3 drawn, in the grid's order.
     scenes = [(m, "plane", b, s, d) for m in ("a", "b", "c") for b in (1, 3) for s in (0, 15) for d in (False, True)]
     shots = [(e, 120.0, h) for e in (5.0, 12.0) for h in (0.2, 0.5, 0.9)]
@@ -104,14 +119,20 @@ def test_val_is_drawn_from_train_balanced_deterministic_and_in_new_layouts():
     assert [c[1] for c in draw(7, "val", scenes, shots, 3, 0)] == [shots] * 3
 
 
-@pytest.mark.parametrize("split, message", [
-    ({"name": "val", "draw_from": "nope", "scenes": 1}, r"sweep.splits\[1\].draw_from: 'nope' is not a split"),
-    ({"name": "val", "draw_from": "train", "scenes": 0}, r"sweep.splits\[1\].scenes: .* needs scenes >= 1"),
-    ({"name": "val", "draw_from": "train", "scenes": 25}, r"sweep.splits\[1\].scenes: 25 is more than the 24"),
-    ({"name": "val", "draw_from": "train", "scenes": 1, "tasks_per_scene": 2}, r"tasks_per_scene: 2 is more"),
-    ({"name": "val", "draw_from": "train", "scenes": 1, "dust": [True]}, r"sweep.splits\[1\].dust: a split that draws"),
-    ({"name": "val", "scenes": 3}, r"sweep.splits\[1\].scenes: only for a split with draw_from"),
-])
+@pytest.mark.parametrize(
+    "split, message",
+    [
+        ({"name": "val", "draw_from": "nope", "scenes": 1}, r"sweep.splits\[1\].draw_from: 'nope' is not a split"),
+        ({"name": "val", "draw_from": "train", "scenes": 0}, r"sweep.splits\[1\].scenes: .* needs scenes >= 1"),
+        ({"name": "val", "draw_from": "train", "scenes": 25}, r"sweep.splits\[1\].scenes: 25 is more than the 24"),
+        ({"name": "val", "draw_from": "train", "scenes": 1, "tasks_per_scene": 2}, r"tasks_per_scene: 2 is more"),
+        (
+            {"name": "val", "draw_from": "train", "scenes": 1, "dust": [True]},
+            r"sweep.splits\[1\].dust: a split that draws",
+        ),
+        ({"name": "val", "scenes": 3}, r"sweep.splits\[1\].scenes: only for a split with draw_from"),
+    ],
+)
 def test_a_bad_draw_names_the_field(split, message):
     data = yaml.safe_load((CONFIGS / "smoke.yaml").read_text())
     with pytest.raises(ConfigError, match=message):
@@ -131,13 +152,29 @@ def test_every_scene_sits_where_bop_looks_for_it(smoke):
         names = sorted(p.name for p in (smoke / directory).iterdir())
         assert names == [f"{k:06d}" for k in range(counts[split])]
     top = {p.name for p in smoke.iterdir()}
-    assert top == {"camera.json", "dataset_info.json", "manifest.json", "scene_index.json", "scene_index.parquet",
-                   "test_targets_bop19.json", "models", "models_eval", "by_condition", "yolo", *SPLITS.values()}
+    assert top == {
+        "camera.json",
+        "dataset_info.json",
+        "manifest.json",
+        "scene_index.json",
+        "scene_index.parquet",
+        "test_targets_bop19.json",
+        "models",
+        "models_eval",
+        "by_condition",
+        "yolo",
+        *SPLITS.values(),
+    }
     assert [p.relative_to(smoke).as_posix() for p in scene_dirs(smoke)] == sorted(
-        f"{d}/{k:06d}" for s, d in SPLITS.items() for k in range(counts[s]))
+        f"{d}/{k:06d}" for s, d in SPLITS.items() for k in range(counts[s])
+    )
     for scene in scene_dirs(smoke):
         meta = load(scene / "scene_meta.json")
-        assert scene.relative_to(smoke).as_posix() == meta["scene_dir"] == f"{SPLITS[meta['split']]}/{meta['scene_id']:06d}"
+        assert (
+            scene.relative_to(smoke).as_posix()
+            == meta["scene_dir"]
+            == f"{SPLITS[meta['split']]}/{meta['scene_id']:06d}"
+        )
         assert 0 <= meta["scene_id"] <= MAX_ID and meta["bop_split"] == SPLITS[meta["split"]]
         gt, camera, gt_info = (load(scene / f"{n}.json") for n in ("scene_gt", "scene_camera", "scene_gt_info"))
         assert list(gt) == list(camera) == list(gt_info) and all(re.fullmatch(r"0|[1-9][0-9]{0,5}", im) for im in gt)
@@ -153,7 +190,10 @@ def test_every_scene_sits_where_bop_looks_for_it(smoke):
         link = smoke / meta["view"]
         assert link.is_symlink() and not os.path.isabs(os.readlink(link))
         assert link.resolve() == scene.resolve()
-        assert meta["view"] == f"by_condition/{meta['split']}/{meta['mesh']}/{meta['location']}/scene_{meta['scene_id']:06d}"
+        assert (
+            meta["view"]
+            == f"by_condition/{meta['split']}/{meta['mesh']}/{meta['location']}/scene_{meta['scene_id']:06d}"
+        )
     views = sorted(p for p in (smoke / "by_condition").rglob("*") if p.is_symlink())
     assert len(views) == sum(counts.values())
 
@@ -172,11 +212,17 @@ def test_the_index_is_every_tasks_scene_meta(smoke):
         meta = next(m for m in metas if (m["bop_split"], m["scene_id"]) == (row["bop_split"], row["scene_id"]))
         task = meta["tasks"][row["task_in_scene"]]
         assert (row["sun_elevation_deg"], row["sun_azimuth_deg"], row["camera_height_m"], row["task_id"]) == (
-            task["sun_elevation_deg"], task["sun_azimuth_deg"], task["camera_height_m"], task["task_id"])
+            task["sun_elevation_deg"],
+            task["sun_azimuth_deg"],
+            task["camera_height_m"],
+            task["task_id"],
+        )
         assert [row["im_id_first"], row["im_id_last"]] == task["image_ids"]
         for name in ("mesh", "obj_id", "location", "bags", "stain_seeds", "dust", "split"):
             assert row[name] == meta[name]
-        assert (row["sun_elevation_deg"], row["camera_height_m"]) == ((30.0, 1.0) if row["split"] == "test" else (12.0, 0.5))
+        assert (row["sun_elevation_deg"], row["camera_height_m"]) == (
+            (30.0, 1.0) if row["split"] == "test" else (12.0, 0.5)
+        )
 
 
 def test_the_targets_are_the_visible_instances_of_the_test_split(smoke):
@@ -239,7 +285,9 @@ def test_bop_toolkit_loads_the_dataset(smoke):
                 assert np.array_equal(cameras[im_id]["cam_K"], scene.cameras[im_id])
                 for inst, entry in zip(instances, gt[im_id], strict=True):
                     assert entry["obj_id"] == inst.obj_id
-                    assert np.array_equal(entry["cam_R_m2c"], inst.R) and np.array_equal(entry["cam_t_m2c"].ravel(), inst.t)
+                    assert np.array_equal(entry["cam_R_m2c"], inst.R) and np.array_equal(
+                        entry["cam_t_m2c"].ravel(), inst.t
+                    )
                 depth = inout.load_depth(params["depth_tpath"].format(scene_id=scene.scene_id, im_id=im_id))
                 depth_mm, metric_mm = depth * cameras[im_id]["depth_scale"], scene.depth_m(im_id) * 1000.0
                 kept = (metric_mm > 0) & (metric_mm <= 65535)  # what the 16-bit PNG holds; the rest is 0

@@ -46,7 +46,7 @@ def test_ply_round_trips_through_trimesh_in_millimetres(models, obj_id):
 def test_models_info_fields_are_exact(models, obj_id):
     info = json.loads((models / "models" / "models_info.json").read_text())[str(obj_id)]
     mm = VARIANTS[obj_id][1]()[0].astype(np.float64) * 1000.0
-    brute = max(np.linalg.norm(mm[i:i + 512, None] - mm[None], axis=2).max() for i in range(0, len(mm), 512))
+    brute = max(np.linalg.norm(mm[i : i + 512, None] - mm[None], axis=2).max() for i in range(0, len(mm), 512))
     assert info["diameter"] == pytest.approx(brute, rel=1e-9)
     assert 380.0 <= info["diameter"] <= 420.0
     for k, axis in enumerate("xyz"):
@@ -103,7 +103,9 @@ def test_eval_model_covers_the_surface_evenly(models, obj_id):
     remeshed = trimesh.load(models / "models_eval" / f"obj_{obj_id:06d}.ply", process=False)
     v, t = VARIANTS[obj_id][1]()
     mesh = trimesh.Trimesh(v.astype(np.float64) * 1000.0, t, process=False)
-    assert remeshed.area == pytest.approx(mesh.area, rel=1e-5) and remeshed.volume == pytest.approx(mesh.volume, rel=1e-5)
+    assert remeshed.area == pytest.approx(mesh.area, rel=1e-5) and remeshed.volume == pytest.approx(
+        mesh.volume, rel=1e-5
+    )
     assert 0.8 < len(remeshed.vertices) / (mesh.area / EVAL_SPACING_MM**2) < 1.2
     points = remeshed.vertices
     sample = points[:: max(1, len(points) // 2000)]

@@ -14,10 +14,18 @@ pytestmark = pytest.mark.unit
 
 SVG = "{http://www.w3.org/2000/svg}"
 PANELS = [
-    {"title": "throughput", "axis_label": "samples/s",
-     "rows": [("host-a", [2.0], "2 /s"), ("host-b", [1.0], "1 /s")], "colours": [COLOURS[0]]},
-    {"title": "stages", "axis_label": "s", "rows": [("host-a", [0.25, 0.75], "1 s"), ("host-b", [1.5, -1.0], "1.5 s")],
-     "series": ["render", "encode"]},
+    {
+        "title": "throughput",
+        "axis_label": "samples/s",
+        "rows": [("host-a", [2.0], "2 /s"), ("host-b", [1.0], "1 /s")],
+        "colours": [COLOURS[0]],
+    },
+    {
+        "title": "stages",
+        "axis_label": "s",
+        "rows": [("host-a", [0.25, 0.75], "1 s"), ("host-b", [1.5, -1.0], "1.5 s")],
+        "series": ["render", "encode"],
+    },
 ]
 
 

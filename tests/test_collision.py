@@ -8,22 +8,30 @@ import trimesh
 
 from moonbot.config.schema import MeshesConfig
 from moonbot.scene.bag_mesh import variant_mesh
-from moonbot.scene.collision import (segments_cross_triangles, solids_intersect, surfaces_cross,
-                                     vertical_extent, winding_number)
+from moonbot.scene.collision import (
+    segments_cross_triangles,
+    solids_intersect,
+    surfaces_cross,
+    vertical_extent,
+    winding_number,
+)
 
 pytestmark = pytest.mark.unit
 
 TRI = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 
 
-@pytest.mark.parametrize(("p0", "p1", "expected"), [
-    ((0.2, 0.2, -1.0), (0.2, 0.2, 1.0), True),     # through the interior
-    ((0.2, 0.2, 0.5), (0.2, 0.2, 1.0), False),     # stops short
-    ((0.8, 0.8, -1.0), (0.8, 0.8, 1.0), False),    # beside the hypotenuse
-    ((0.2, 0.2, -1.0), (0.2, 0.2, 0.0), True),     # ends on the triangle: touching counts
-    ((0.0, 0.0, -1.0), (0.0, 0.0, 1.0), True),     # through a vertex
-    ((-1.0, 0.2, 0.0), (2.0, 0.2, 0.0), False),    # in the triangle's plane: left to neighbours
-])
+@pytest.mark.parametrize(
+    ("p0", "p1", "expected"),
+    [
+        ((0.2, 0.2, -1.0), (0.2, 0.2, 1.0), True),  # through the interior
+        ((0.2, 0.2, 0.5), (0.2, 0.2, 1.0), False),  # stops short
+        ((0.8, 0.8, -1.0), (0.8, 0.8, 1.0), False),  # beside the hypotenuse
+        ((0.2, 0.2, -1.0), (0.2, 0.2, 0.0), True),  # ends on the triangle: touching counts
+        ((0.0, 0.0, -1.0), (0.0, 0.0, 1.0), True),  # through a vertex
+        ((-1.0, 0.2, 0.0), (2.0, 0.2, 0.0), False),  # in the triangle's plane: left to neighbours
+    ],
+)
 def test_segment_against_triangle(p0, p1, expected):
     got = segments_cross_triangles(np.array([p0]), np.array([p1]), *(TRI[[k]] for k in range(3)))
     assert bool(got[0]) is expected

@@ -12,8 +12,16 @@ import numpy as np
 import pytest
 
 from moonbot import _core
-from moonbot.config.schema import (CloudConfig, EjectaConfig, FabricConfig, GrainConfig, PhotometryConfig,
-                                   RenderConfig, StainConfig, SunConfig)
+from moonbot.config.schema import (
+    CloudConfig,
+    EjectaConfig,
+    FabricConfig,
+    GrainConfig,
+    PhotometryConfig,
+    RenderConfig,
+    StainConfig,
+    SunConfig,
+)
 from moonbot.render import params
 
 pytestmark = pytest.mark.unit
@@ -24,7 +32,7 @@ DEFAULTS_DIFFER = {  # (struct, struct field): why the schema's default is anoth
     ("Photometry", "model"): "the dataset renders Lunar-Lambert; the core's default is Lambert",
     ("Photometry", "surge_amplitude"): "the dataset's opposition surge is on; the core's is off",
     ("Photometry", "roughness_deg"): "the dataset's θ̄ leaves out the relief its mesh and grain hold; "
-                                     "the core's is Sato et al. 2014's 23.4°",
+    "the core's is Sato et al. 2014's 23.4°",
     ("GrainParams", "albedo_rms"): "the dataset's grain is on; the core's is off",
     ("GrainParams", "slope_rms_deg"): "the dataset's grain is on; the core's is off",
     ("FabricParams", "sheen"): "the dataset's tapes are glossy; the core's default is the matte weave",
@@ -39,8 +47,11 @@ DEFAULTS_DIFFER = {  # (struct, struct field): why the schema's default is anoth
 
 
 def config_fields(config) -> dict:
-    return {f.name: getattr(config, f.name) for f in dataclasses.fields(config)
-            if not dataclasses.is_dataclass(getattr(config, f.name))}
+    return {
+        f.name: getattr(config, f.name)
+        for f in dataclasses.fields(config)
+        if not dataclasses.is_dataclass(getattr(config, f.name))
+    }
 
 
 def built():
@@ -55,19 +66,40 @@ def built():
         (GrainConfig(), params.grain(GrainConfig()), same(GrainConfig())),
         (EjectaConfig(), params.ejecta(EjectaConfig(), origin), same(EjectaConfig())),
         (cloud, params.cloud(cloud, origin), same(cloud, "albedo", "asymmetry", "voxel_m", "march_stride_px")),
-        (cloud, params.medium(cloud, puffs, -1.0), {"albedo": "albedo", "asymmetry": "asymmetry",
-                                                    "voxel_m": "voxel_m", "march_stride_px": "march_stride_px"}),
+        (
+            cloud,
+            params.medium(cloud, puffs, -1.0),
+            {"albedo": "albedo", "asymmetry": "asymmetry", "voxel_m": "voxel_m", "march_stride_px": "march_stride_px"},
+        ),
         (FabricConfig(), woven.fabric, same(FabricConfig())),
-        (StainConfig(), woven.stain, {"seeds": "stamps", "brush_size": "brush_size", "opacity": "opacity",
-                                      "resolution": "resolution"}),
-        (StainConfig(), woven.soiling, {k: k for k in ("contact_height_m", "deposit_radius_m", "handled_share",
-                                                       "speckle")}),
+        (
+            StainConfig(),
+            woven.stain,
+            {"seeds": "stamps", "brush_size": "brush_size", "opacity": "opacity", "resolution": "resolution"},
+        ),
+        (
+            StainConfig(),
+            woven.soiling,
+            {k: k for k in ("contact_height_m", "deposit_radius_m", "handled_share", "speckle")},
+        ),
         (StainConfig(), woven, {"dirt_colour": "dirt_colour", "mode": "stain_mode"}),
-        (RenderConfig(), params.render_settings(RenderConfig(), 9), {k: k for k in (
-            "spp", "threads", "exact_depth", "light_samples", "bounces", "adaptive_threshold")}),
-        (RenderConfig(), params.light_cache_settings(RenderConfig(), 9), {
-            "bounces": "bounces", "cache_rays_bags": "rays_objects", "cache_rays_terrain": "rays_background",
-            "cache_terrain_cell_m": "background_cell_m", "cache_bag_cell_m": "object_cell_m", "threads": "threads"}),
+        (
+            RenderConfig(),
+            params.render_settings(RenderConfig(), 9),
+            {k: k for k in ("spp", "threads", "exact_depth", "light_samples", "bounces", "adaptive_threshold")},
+        ),
+        (
+            RenderConfig(),
+            params.light_cache_settings(RenderConfig(), 9),
+            {
+                "bounces": "bounces",
+                "cache_rays_bags": "rays_objects",
+                "cache_rays_terrain": "rays_background",
+                "cache_terrain_cell_m": "background_cell_m",
+                "cache_bag_cell_m": "object_cell_m",
+                "threads": "threads",
+            },
+        ),
     ]
 
 

@@ -10,9 +10,20 @@ import math
 import numpy as np
 import pytest
 
-from moonbot.terrain.craters import (DEPTH_RATIO, DIFFUSION_MAX, EJECTA_CUTOFF, RIM_RATIO, CraterField,
-                                   crater_profile, crater_reach, depth_ratio, diffuse_radial, expected_count,
-                                   fresh_profile, sample_degradation)
+from moonbot.terrain.craters import (
+    DEPTH_RATIO,
+    DIFFUSION_MAX,
+    EJECTA_CUTOFF,
+    RIM_RATIO,
+    CraterField,
+    crater_profile,
+    crater_reach,
+    depth_ratio,
+    diffuse_radial,
+    expected_count,
+    fresh_profile,
+    sample_degradation,
+)
 
 pytestmark = pytest.mark.unit
 
@@ -36,7 +47,7 @@ def test_sizes_follow_the_cumulative_power_law_within_sampling_error():
 
 def test_profile_shape():
     D = 10.0
-    floor = RIM_RATIO * D * EJECTA_CUTOFF ** -3
+    floor = RIM_RATIO * D * EJECTA_CUTOFF**-3
     assert crater_profile(0.0, D) == pytest.approx(RIM_RATIO * D - floor - DEPTH_RATIO * D)
     assert crater_profile(1.0, D) == pytest.approx(RIM_RATIO * D - floor)
     assert crater_profile(1.0 - 1e-12, D) == pytest.approx(crater_profile(1.0 + 1e-12, D), abs=1e-9)
@@ -51,9 +62,9 @@ def test_radial_diffusion_of_a_gaussian_is_the_analytic_wider_gaussian():
     a, sigma = 0.4, 0.3
     radii = np.linspace(0.0, 4.0, 4001)
     out = np.array([0.0, 0.2, 0.5, 1.0, 1.5])
-    got = diffuse_radial(np.exp(-radii**2 / (2 * a * a)), radii, out, sigma)
+    got = diffuse_radial(np.exp(-(radii**2) / (2 * a * a)), radii, out, sigma)
     w2 = a * a + sigma * sigma
-    np.testing.assert_allclose(got, a * a / w2 * np.exp(-out**2 / (2 * w2)), atol=1e-6)
+    np.testing.assert_allclose(got, a * a / w2 * np.exp(-(out**2) / (2 * w2)), atol=1e-6)
 
 
 def test_diffusion_rounds_the_rim_and_shallows_the_bowl():
@@ -86,11 +97,12 @@ def test_equilibrium_population_mean_depth_ratio_is_the_measured_one():
 
 
 def test_height_adds_profiles_within_reach():
-    field = CraterField(centres=np.array([[0.0, 0.0], [3.0, 0.0]]), diameters=np.array([2.0, 1.0]),
-                        degradation=np.array([0.0, 0.5]))
+    field = CraterField(
+        centres=np.array([[0.0, 0.0], [3.0, 0.0]]), diameters=np.array([2.0, 1.0]), degradation=np.array([0.0, 0.5])
+    )
     x = np.array([0.0, 0.5, 2.0, 3.0, 10.0])
     y = np.zeros_like(x)
-    expected = (crater_profile(np.abs(x) / 1.0, 2.0, 0.0) + crater_profile(np.abs(x - 3.0) / 0.5, 1.0, 0.5))
+    expected = crater_profile(np.abs(x) / 1.0, 2.0, 0.0) + crater_profile(np.abs(x - 3.0) / 0.5, 1.0, 0.5)
     np.testing.assert_allclose(field.height(x, y), expected, atol=1e-15)
     assert field.height(10.0, 0.0) == 0.0
     empty = CraterField(np.zeros((0, 2)), np.zeros(0), np.zeros(0))

@@ -28,6 +28,7 @@ R = 1737400.0  # the lunar reference sphere, metres (SLDEM2015's datum)
 
 # --- closed forms -------------------------------------------------------------------------------
 
+
 def radial_latlon(east, north, lat0, lon0, h0):
     """Lat/lon (degrees) of the radial through the tangent-plane point (east, north, 0) of the
     ENU frame at (lat0, lon0, h0) on the sphere: the ground directly below a flat-grid node."""
@@ -35,7 +36,7 @@ def radial_latlon(east, north, lat0, lon0, h0):
     e_axis = np.array([-math.sin(l), math.cos(l), 0.0])
     n_axis = np.array([-math.sin(p) * math.cos(l), -math.sin(p) * math.sin(l), math.cos(p)])
     u_axis = np.array([math.cos(p) * math.cos(l), math.cos(p) * math.sin(l), math.sin(p)])
-    v = (np.multiply.outer(east, e_axis) + np.multiply.outer(north, n_axis) + (R + h0) * u_axis)
+    v = np.multiply.outer(east, e_axis) + np.multiply.outer(north, n_axis) + (R + h0) * u_axis
     lat = np.degrees(np.arctan2(v[..., 2], np.hypot(v[..., 0], v[..., 1])))
     lon = np.degrees(np.arctan2(v[..., 1], v[..., 0]))
     return lat, lon
@@ -46,8 +47,21 @@ def node_grid(dem: LocalDem):
     return np.meshgrid(dem.east_m, dem.north_m)
 
 
-def geotiff(path, data, *, model, pixel_scale, tiepoint, raster_type=1, proj=(), gdal_scale=None,
-            gdal_offset=None, nodata=None, ct=17, **write):
+def geotiff(
+    path,
+    data,
+    *,
+    model,
+    pixel_scale,
+    tiepoint,
+    raster_type=1,
+    proj=(),
+    gdal_scale=None,
+    gdal_offset=None,
+    nodata=None,
+    ct=17,
+    **write,
+):
     """Writes `data` (row 0 = north) as a GeoTIFF. model 2 = geographic (degrees), 1 = projected
     (metres, projection `ct`: 17 equirectangular, 21 orthographic, 15 polar stereographic;
     `proj` = ((GeoKey id, value), ...) stored in GeoDoubleParams).
@@ -64,9 +78,11 @@ def geotiff(path, data, *, model, pixel_scale, tiepoint, raster_type=1, proj=(),
     keys.sort()
     directory = [1, 1, 0, len(keys)] + [v for k in keys for v in k]
     i, j, x, y = tiepoint  # raster point (i, j) is model point (x, y)
-    tags = [(33550, "d", 3, (*pixel_scale, 0.0), True),
-            (33922, "d", 6, (i, j, 0.0, x, y, 0.0), True),
-            (34735, "H", len(directory), directory, True)]
+    tags = [
+        (33550, "d", 3, (*pixel_scale, 0.0), True),
+        (33922, "d", 6, (i, j, 0.0, x, y, 0.0), True),
+        (34735, "H", len(directory), directory, True),
+    ]
     if doubles:
         tags.append((34736, "d", len(doubles), doubles, True))
     items = []
@@ -103,12 +119,22 @@ def geographic_tiepoint(raster_type):
 
 # --- planes import exactly ----------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("raster_type", [1, 2], ids=["pixel-is-area", "pixel-is-point"])
 # 7-row strips put the crop's first and last rows mid-strip; 16 × 16 tiles put its edges mid-tile
 # (OpenImageIO 2.4.7, which decoded these before, read both as zeros for float64).
-@pytest.mark.parametrize("layout", [{}, {"byteorder": ">"}, {"compression": "zlib"}, {"rowsperstrip": 7},
-                                    {"tile": (16, 16)}, {"tile": (16, 16), "compression": "zlib", "bigtiff": True}],
-                         ids=["one-strip", "big-endian", "deflate", "7-row-strips", "tiles", "bigtiff-deflate-tiles"])
+@pytest.mark.parametrize(
+    "layout",
+    [
+        {},
+        {"byteorder": ">"},
+        {"compression": "zlib"},
+        {"rowsperstrip": 7},
+        {"tile": (16, 16)},
+        {"tile": (16, 16), "compression": "zlib", "bigtiff": True},
+    ],
+    ids=["one-strip", "big-endian", "deflate", "7-row-strips", "tiles", "bigtiff-deflate-tiles"],
+)
 def test_geographic_float64_plane_is_exact(tmp_path, raster_type, layout):
     """h = a·east + b·north + c with east/north the raster's local metres (linear in its
     degrees), imported flat: every node matches the plane at the ground below it to 1e-6 m."""
@@ -117,8 +143,15 @@ def test_geographic_float64_plane_is_exact(tmp_path, raster_type, layout):
     east = R * math.cos(math.radians(LAT0)) * np.radians(lon - LON0)
     north = R * np.radians(lat - LAT0)
     heights = a * east[None, :] + b * north[:, None] + c
-    path = geotiff(tmp_path / "plane.tif", heights, model=2, pixel_scale=(STEP, STEP),
-                   tiepoint=geographic_tiepoint(raster_type), raster_type=raster_type, **layout)
+    path = geotiff(
+        tmp_path / "plane.tif",
+        heights,
+        model=2,
+        pixel_scale=(STEP, STEP),
+        tiepoint=geographic_tiepoint(raster_type),
+        raster_type=raster_type,
+        **layout,
+    )
     lat_c, lon_c = LAT0 + 0.003, LON0 - 0.002  # not on a pixel centre
     dem = import_dem(path, lat_c, lon_c, 600.0, spacing_m=10.0, curvature=False)
     h_c = a * R * math.cos(math.radians(LAT0)) * math.radians(lon_c - LON0) + b * R * math.radians(lat_c - LAT0) + c
@@ -146,12 +179,18 @@ def test_equirectangular_float32_plane_is_exact(tmp_path, tile):
     heights = (a * x[None, :] + b * (y[:, None] - y0) + c).astype(np.float32)
     assert np.array_equal(heights.astype(np.float64), a * x[None, :] + b * (y[:, None] - y0) + c)
     proj = ((3078, lat_s), (3082, fe), (3083, fn), (3088, lon_c0), (3089, lat_o))
-    path = geotiff(tmp_path / "eqc.tif", heights, model=1, pixel_scale=(dx, dx),
-                   tiepoint=(0.0, 0.0, x[0] - dx / 2, y0 + dx / 2), proj=proj, tile=tile)
+    path = geotiff(
+        tmp_path / "eqc.tif",
+        heights,
+        model=1,
+        pixel_scale=(dx, dx),
+        tiepoint=(0.0, 0.0, x[0] - dx / 2, y0 + dx / 2),
+        proj=proj,
+        tile=tile,
+    )
 
     def model_xy(lat, lon):
-        return (fe + R * np.radians(lon - lon_c0) * math.cos(math.radians(lat_s)),
-                fn + R * np.radians(lat - lat_o))
+        return (fe + R * np.radians(lon - lon_c0) * math.cos(math.radians(lat_s)), fn + R * np.radians(lat - lat_o))
 
     # The crop centre in the middle of the raster: model (1000 + 7, y0 − 300 + 5).
     lat_c = lat_o + math.degrees((y0 - 295.0 - fn) / R)
@@ -165,7 +204,8 @@ def test_equirectangular_float32_plane_is_exact(tmp_path, tile):
     # The source pixel: 2 m model metres, true to scale at 15°, so narrower at ~20°.
     assert dem.source["pixel_north_m"] == pytest.approx(2.0, rel=1e-12)
     assert dem.source["pixel_east_m"] == pytest.approx(
-        2.0 * math.cos(math.radians(lat_c)) / math.cos(math.radians(lat_s)), rel=1e-12)
+        2.0 * math.cos(math.radians(lat_c)) / math.cos(math.radians(lat_s)), rel=1e-12
+    )
 
 
 def ortho_xy(lat, lon, lat0, lon0):
@@ -203,8 +243,15 @@ def test_orthographic_and_polar_stereographic_planes_are_exact(tmp_path, project
     a, b, c = 1 / 32, -1 / 64, -2000.0
     heights = (a * (x[None, :] - x[0]) + b * (y[:, None] - y[0]) + c).astype(np.float32)
     assert np.array_equal(heights.astype(np.float64), a * (x[None, :] - x[0]) + b * (y[:, None] - y[0]) + c)
-    path = geotiff(tmp_path / "proj.tif", heights, model=1, pixel_scale=(dx, dx),
-                   tiepoint=(0.0, 0.0, x[0] - dx / 2, y[0] + dx / 2), proj=proj, ct=ct)
+    path = geotiff(
+        tmp_path / "proj.tif",
+        heights,
+        model=1,
+        pixel_scale=(dx, dx),
+        tiepoint=(0.0, 0.0, x[0] - dx / 2, y[0] + dx / 2),
+        proj=proj,
+        ct=ct,
+    )
     dem = import_dem(path, lat_c, lon_c, 800.0, spacing_m=5.0, curvature=False)
     e, n = node_grid(dem)
     X, Y = model_xy(*radial_latlon(e, n, lat_c, lon_c, dem.h0_m))
@@ -218,8 +265,15 @@ def test_int16_plane_with_gdal_scale_offset_is_exact(tmp_path):
     i, j = np.meshgrid(np.arange(N_PX), np.arange(N_PX))
     raw = (-200 + 3 * i - 2 * j).astype(np.int16)
     offset = -1500.25
-    path = geotiff(tmp_path / "lola.tif", raw, model=2, pixel_scale=(STEP, STEP),
-                   tiepoint=geographic_tiepoint(1), gdal_scale=0.5, gdal_offset=offset)
+    path = geotiff(
+        tmp_path / "lola.tif",
+        raw,
+        model=2,
+        pixel_scale=(STEP, STEP),
+        tiepoint=geographic_tiepoint(1),
+        gdal_scale=0.5,
+        gdal_offset=offset,
+    )
     lat_c, lon_c = LAT0 - 0.001, LON0 + 0.0015
     dem = import_dem(path, lat_c, lon_c, 500.0, spacing_m=7.0, curvature=False)
 
@@ -250,8 +304,9 @@ def test_wide_raster_is_read_in_bands(tmp_path):
     i, j = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
     data = (i / 8 - j / 16).astype(np.float32)  # dyadic: exact in float32
     step = 1.0 / 8192
-    path = geotiff(tmp_path / "wide.tif", data, model=2, pixel_scale=(step, step),
-                   tiepoint=(0.0, 0.0, 100.0, 2.0), rowsperstrip=1)
+    path = geotiff(
+        tmp_path / "wide.tif", data, model=2, pixel_scale=(step, step), tiepoint=(0.0, 0.0, 100.0, 2.0), rowsperstrip=1
+    )
     lat_c, lon_c = 2.0 - 130.5 * step, 100.0 + 12000.5 * step  # the centre of pixel (12000, 130)
     dem = import_dem(path, lat_c, lon_c, 800.0, spacing_m=8.0, curvature=False)
     fp = dem.source["footprint_px"]
@@ -262,6 +317,7 @@ def test_wide_raster_is_read_in_bands(tmp_path):
 
 
 # --- voids --------------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("marker", ["gdal-nodata", "caller-nodata"])
 def test_voids_are_filled_with_the_plane(tmp_path, marker):
@@ -276,8 +332,9 @@ def test_voids_are_filled_with_the_plane(tmp_path, marker):
     data[151, 151] = np.inf
     voids = 10 * 12 + 5 * 8 + 1
     nodata = {"nodata": "-9999"} if marker == "gdal-nodata" else {}
-    path = geotiff(tmp_path / "holes.tif", data, model=2, pixel_scale=(STEP, STEP),
-                   tiepoint=geographic_tiepoint(1), **nodata)
+    path = geotiff(
+        tmp_path / "holes.tif", data, model=2, pixel_scale=(STEP, STEP), tiepoint=geographic_tiepoint(1), **nodata
+    )
     caller = {} if marker == "gdal-nodata" else {"nodata": -9999.0}
     dem = import_dem(path, LAT0, LON0, 300.0, spacing_m=3.0, curvature=False, **caller)
     assert np.isfinite(dem.heights).all()
@@ -293,6 +350,7 @@ def test_voids_are_filled_with_the_plane(tmp_path, marker):
 
 
 # --- 16-bit PNG ---------------------------------------------------------------------------------
+
 
 def test_png_heightmap_imports_within_one_quantisation_step(tmp_path):
     """A plane in the PNG's local metres, quantised to 16 bits over [min, max]: the import
@@ -313,8 +371,17 @@ def test_png_heightmap_imports_within_one_quantisation_step(tmp_path):
     # The crop is centred 30 m east and 20 m south of the image centre.
     crop_lat = lat_c + math.degrees(-20.0 / R)
     crop_lon = lon_c - 360 + math.degrees(30.0 / (R * math.cos(math.radians(lat_c))))
-    dem = import_dem(path, crop_lat, crop_lon, 150.0, spacing_m=2.0, curvature=False,
-                     png_range=(lo, hi), png_pixel_m=pixel, png_center=(lat_c, lon_c))
+    dem = import_dem(
+        path,
+        crop_lat,
+        crop_lon,
+        150.0,
+        spacing_m=2.0,
+        curvature=False,
+        png_range=(lo, hi),
+        png_pixel_m=pixel,
+        png_center=(lat_c, lon_c),
+    )
     nlat, nlon = radial_latlon(*node_grid(dem), crop_lat, crop_lon, dem.h0_m)
     e = R * np.radians((nlon - lon_c + 180) % 360 - 180) * math.cos(math.radians(lat_c))
     n = R * np.radians(nlat - lat_c)
@@ -341,14 +408,20 @@ def test_png_needs_its_layout_and_16_bits(tmp_path):
 
 # --- kilometre scale ----------------------------------------------------------------------------
 
+
 def test_constant_dem_is_the_same_from_two_centres_2_km_apart(tmp_path):
     """A constant-height DEM cropped around two centres 2 km apart gives the same heights after
     the local shift: the sphere's drop below each tangent plane, −(R+h) + √((R+h)² − d²)."""
     step = 1.0 / 1024  # 29.6 m
     height = 812.0
     data = np.full((513, 513), height, np.float32)
-    path = geotiff(tmp_path / "flat.tif", data, model=2, pixel_scale=(step, step),
-                   tiepoint=(0.0, 0.0, 30.0 - 256.5 * step, 5.0 + 256.5 * step))
+    path = geotiff(
+        tmp_path / "flat.tif",
+        data,
+        model=2,
+        pixel_scale=(step, step),
+        tiepoint=(0.0, 0.0, 30.0 - 256.5 * step, 5.0 + 256.5 * step),
+    )
     first = import_dem(path, 5.0, 30.0, 3000.0, spacing_m=25.0)
     shifted_lon = 30.0 + math.degrees(2000.0 / (R * math.cos(math.radians(5.0))))
     second = import_dem(path, 5.0, shifted_lon, 3000.0, spacing_m=25.0)
@@ -359,16 +432,16 @@ def test_constant_dem_is_the_same_from_two_centres_2_km_apart(tmp_path):
     e, n = node_grid(first)
     drop = np.vectorize(_core.curvature_drop)(np.hypot(e, n), R + height)
     np.testing.assert_allclose(first.heights, -drop, rtol=1e-6, atol=1e-9)
-    assert first.heights[0, 0] == pytest.approx(-(1500 * math.sqrt(2)) ** 2 / (2 * (R + height)), rel=1e-4)
+    assert first.heights[0, 0] == pytest.approx(-((1500 * math.sqrt(2)) ** 2) / (2 * (R + height)), rel=1e-4)
 
 
 # --- bad input ----------------------------------------------------------------------------------
 
+
 def flat_geographic(tmp_path, name="ok.tif", data=None, **kw):
     if data is None:
         data = np.zeros((N_PX, N_PX), np.float32)
-    return geotiff(tmp_path / name, data, model=2, pixel_scale=(STEP, STEP),
-                   tiepoint=geographic_tiepoint(1), **kw)
+    return geotiff(tmp_path / name, data, model=2, pixel_scale=(STEP, STEP), tiepoint=geographic_tiepoint(1), **kw)
 
 
 def test_missing_file_names_it(tmp_path):
@@ -392,23 +465,51 @@ def test_not_a_geotiff_names_the_file_and_tag(tmp_path):
 
 
 def test_unsupported_georeferences_name_the_key(tmp_path):
-    albers = geotiff(tmp_path / "albers.tif", np.zeros((8, 8), np.float32), model=1, pixel_scale=(5.0, 5.0),
-                     tiepoint=(0, 0, 0, 0), ct=11)  # CT_AlbersEqualArea
-    with pytest.raises(OSError, match=r"albers\.tif: ProjCoordTransGeoKey \(3075\) = 11; only 17 \(equirectangular\), "
-                                      r"21 \(orthographic\) or 15"):
+    albers = geotiff(
+        tmp_path / "albers.tif",
+        np.zeros((8, 8), np.float32),
+        model=1,
+        pixel_scale=(5.0, 5.0),
+        tiepoint=(0, 0, 0, 0),
+        ct=11,
+    )  # CT_AlbersEqualArea
+    with pytest.raises(
+        OSError,
+        match=r"albers\.tif: ProjCoordTransGeoKey \(3075\) = 11; only 17 \(equirectangular\), "
+        r"21 \(orthographic\) or 15",
+    ):
         import_dem(albers, 0.0, 0.0, 10.0)
-    both = geotiff(tmp_path / "both.tif", np.zeros((8, 8), np.float32), model=1, pixel_scale=(5.0, 5.0),
-                   tiepoint=(0, 0, 0, 0), ct=15, proj=((3081, -80.0), (3092, 0.99)))
+    both = geotiff(
+        tmp_path / "both.tif",
+        np.zeros((8, 8), np.float32),
+        model=1,
+        pixel_scale=(5.0, 5.0),
+        tiepoint=(0, 0, 0, 0),
+        ct=15,
+        proj=((3081, -80.0), (3092, 0.99)),
+    )
     with pytest.raises(OSError, match=r"both\.tif: both a latitude of true scale \(3081 = -80\) and a scale"):
         import_dem(both, -89.0, 0.0, 10.0)
-    lzma = geotiff(tmp_path / "lzma.tif", np.zeros((32, 32), np.float32), model=2, pixel_scale=(STEP, STEP),
-                   tiepoint=(0, 0, 0, 0), compression="lzma")
-    with pytest.raises(OSError, match=r"lzma\.tif: Compression \(259\) = 34925 \(LZMA\) is not supported; use none, "
-                                      r"LZW, Deflate or PackBits"):
+    lzma = geotiff(
+        tmp_path / "lzma.tif",
+        np.zeros((32, 32), np.float32),
+        model=2,
+        pixel_scale=(STEP, STEP),
+        tiepoint=(0, 0, 0, 0),
+        compression="lzma",
+    )
+    with pytest.raises(
+        OSError,
+        match=r"lzma\.tif: Compression \(259\) = 34925 \(LZMA\) is not supported; use none, "
+        r"LZW, Deflate or PackBits",
+    ):
         import_dem(lzma, 0.0, 0.0, 10.0)
     rgb = tmp_path / "rgb.tif"
-    tifffile.imwrite(rgb, np.zeros((8, 8, 3), np.uint8),
-                     extratags=[(33550, "d", 3, (1.0, 1.0, 0.0), True), (33922, "d", 6, (0,) * 6, True)])
+    tifffile.imwrite(
+        rgb,
+        np.zeros((8, 8, 3), np.uint8),
+        extratags=[(33550, "d", 3, (1.0, 1.0, 0.0), True), (33922, "d", 6, (0,) * 6, True)],
+    )
     with pytest.raises(OSError, match=r"rgb\.tif: 3 channels"):
         import_dem(rgb, 0.0, 0.0, 10.0)
 
@@ -416,8 +517,11 @@ def test_unsupported_georeferences_name_the_key(tmp_path):
 def test_crop_outside_the_raster_names_the_file_and_bound(tmp_path):
     path = flat_geographic(tmp_path)
     # The raster spans ±150/4096° ≈ ±1.1 km north-south; a 3 km crop leaves it north and south.
-    with pytest.raises(ValueError, match=r"ok\.tif: a 3000 m crop .* leaves the raster .* north edge"
-                                         r" .*row 0, is at lat 20\.03"):
+    with pytest.raises(
+        ValueError,
+        match=r"ok\.tif: a 3000 m crop .* leaves the raster .* north edge"
+        r" .*row 0, is at lat 20\.03",
+    ):
         import_dem(path, LAT0, LON0, 3000.0)
     with pytest.raises(ValueError, match=r"ok\.tif: .* past its west edge"):
         import_dem(path, LAT0, LON0 - 0.1, 100.0)
@@ -451,6 +555,7 @@ def test_bad_arguments_name_the_field(tmp_path):
 
 # --- every codec, and damaged files -------------------------------------------------------------
 
+
 def block_table(path):
     """The first image's block table as tifffile reads it: (offsets, byte counts, 'strip' or 'tile',
     the offsets tag, the byte counts tag)."""
@@ -470,8 +575,10 @@ def block_rows(path, k):
         if page.is_tiled:
             th, tw = page.tilelength, page.tilewidth
             by, bx = divmod(k, -(-width // tw))
-            return (f"tile {k} (rows {by * th}–{min(height, (by + 1) * th) - 1}, "
-                    f"columns {bx * tw}–{min(width, (bx + 1) * tw) - 1})")
+            return (
+                f"tile {k} (rows {by * th}–{min(height, (by + 1) * th) - 1}, "
+                f"columns {bx * tw}–{min(width, (bx + 1) * tw) - 1})"
+            )
         rows = page.rowsperstrip
         return f"strip {k} (rows {k * rows}–{min(height, (k + 1) * rows) - 1})"
 
@@ -493,7 +600,7 @@ def rewrite_block(path, k, stored: bytes):
     offsets, counts, _, offsets_tag, counts_tag = block_table(path)
     data = bytearray(path.read_bytes())
     if len(stored) <= counts[k]:
-        data[offsets[k]:offsets[k] + len(stored)] = stored
+        data[offsets[k] : offsets[k] + len(stored)] = stored
         at = offsets[k]
     else:
         at = len(data)
@@ -512,8 +619,11 @@ def pillow_geotiff(path, data, compression, predictor=None, rows_per_strip=16):
     """`data` (row 0 = north) as a GeoTIFF written by Pillow through libtiff, the reference TIFF
     codec library (LZW, PackBits, Deflate, predictors), with the geographic raster's tags."""
     info = TiffImagePlugin.ImageFileDirectory_v2()
-    for tag, values, kind in ((33550, (STEP, STEP, 0.0), 12), (33922, (0.0, 0.0, 0.0, *geographic_tiepoint(1)[2:], 0.0), 12),
-                              (34735, (1, 1, 0, 3, 1024, 0, 1, 2, 1025, 0, 1, 1, 2054, 0, 1, 9102), 3)):
+    for tag, values, kind in (
+        (33550, (STEP, STEP, 0.0), 12),
+        (33922, (0.0, 0.0, 0.0, *geographic_tiepoint(1)[2:], 0.0), 12),
+        (34735, (1, 1, 0, 3, 1024, 0, 1, 2, 1025, 0, 1, 1, 2054, 0, 1, 9102), 3),
+    ):
         info[tag] = values
         info.tagtype[tag] = kind
     info[278] = rows_per_strip
@@ -531,10 +641,19 @@ def crop(path):
     return import_dem(path, c["lat_deg"], c["lon_deg"], c["size_m"], spacing_m=c["spacing_m"], curvature=False)
 
 
-@pytest.mark.parametrize("dtype,compression,predictor", [
-    (np.float32, "tiff_lzw", None), (np.float32, "tiff_lzw", 3), (np.float32, "tiff_adobe_deflate", 3),
-    (np.float32, "packbits", None), (np.int32, "tiff_lzw", 2), (np.int32, "tiff_adobe_deflate", 2),
-    (np.uint16, "tiff_lzw", 2), (np.uint16, "packbits", None)])
+@pytest.mark.parametrize(
+    "dtype,compression,predictor",
+    [
+        (np.float32, "tiff_lzw", None),
+        (np.float32, "tiff_lzw", 3),
+        (np.float32, "tiff_adobe_deflate", 3),
+        (np.float32, "packbits", None),
+        (np.int32, "tiff_lzw", 2),
+        (np.int32, "tiff_adobe_deflate", 2),
+        (np.uint16, "tiff_lzw", 2),
+        (np.uint16, "packbits", None),
+    ],
+)
 def test_libtiff_codecs_decode_like_the_uncompressed_file(tmp_path, dtype, compression, predictor):
     """Files libtiff wrote with LZW, PackBits or Deflate and the horizontal or floating-point
     predictor give, node for node, the same bytes as the same samples stored uncompressed."""
@@ -545,14 +664,18 @@ def test_libtiff_codecs_decode_like_the_uncompressed_file(tmp_path, dtype, compr
     assert np.array_equal(np.asarray(Image.open(path)), data)  # libtiff reads its own file back
     if compression == "tiff_adobe_deflate":  # the predictor really changed the stored bytes
         offsets, counts, *_ = block_table(path)
-        assert zlib.decompress(path.read_bytes()[offsets[0]:offsets[0] + counts[0]]) != data[:16].tobytes()
+        assert zlib.decompress(path.read_bytes()[offsets[0] : offsets[0] + counts[0]]) != data[:16].tobytes()
     plain = flat_geographic(tmp_path, "plain.tif", data)
     got, want = crop(path), crop(plain)
     assert got.heights.tobytes() == want.heights.tobytes() and got.h0_m == want.h0_m
 
 
-LAYOUTS = {"strips": {"rowsperstrip": 16}, "deflate-strips": {"rowsperstrip": 16, "compression": "zlib"},
-           "tiles": {"tile": (64, 64)}, "deflate-tiles": {"tile": (64, 64), "compression": "zlib"}}
+LAYOUTS = {
+    "strips": {"rowsperstrip": 16},
+    "deflate-strips": {"rowsperstrip": 16, "compression": "zlib"},
+    "tiles": {"tile": (64, 64)},
+    "deflate-tiles": {"tile": (64, 64), "compression": "zlib"},
+}
 
 
 @pytest.mark.parametrize("layout", LAYOUTS.values(), ids=LAYOUTS.keys())
@@ -567,19 +690,26 @@ def test_truncated_geotiff_names_the_file_and_the_block(tmp_path, layout):
         keys = tif.pages[0].tags[34735]  # GeoKeyDirectory: stored after the IFD, before the pixels
         keys_at, keys_end = keys.valueoffset, keys.valueoffset + keys.valuebytecount
     cut = tmp_path / "cut.tif"
-    for size, expect in ((5, r"the TIFF header is cut short: the file has 5 bytes, the header needs 8"),
-                         (20, r"TIFF first IFD lies past the end of the file"),
-                         (keys_at + 4, rf"TIFF GeoKeyDirectory \(34735\) lies past the end of the file: it needs bytes "
-                                       rf"{keys_at}–{keys_end - 1}, the file has {keys_at + 4} \(truncated\?\)")):
+    for size, expect in (
+        (5, r"the TIFF header is cut short: the file has 5 bytes, the header needs 8"),
+        (20, r"TIFF first IFD lies past the end of the file"),
+        (
+            keys_at + 4,
+            rf"TIFF GeoKeyDirectory \(34735\) lies past the end of the file: it needs bytes "
+            rf"{keys_at}–{keys_end - 1}, the file has {keys_at + 4} \(truncated\?\)",
+        ),
+    ):
         cut.write_bytes(whole[:size])
         with pytest.raises(OSError, match=rf"cut\.tif: {expect}"):
             crop(cut)
     for size in (offsets[0] + counts[0] // 2, len(whole) * 6 // 10, len(whole) - 1):
         k = next(i for i, (o, c) in enumerate(zip(offsets, counts)) if o + c > size)
         cut.write_bytes(whole[:size])
-        message = (rf"cut\.tif: {re.escape(block_rows(tmp_path / 'whole.tif', k))} lies past the end of the file: "
-                   rf"it needs bytes {offsets[k]}–{offsets[k] + counts[k] - 1} \(.*\), the file has {size} bytes "
-                   r"\(truncated\?\)")
+        message = (
+            rf"cut\.tif: {re.escape(block_rows(tmp_path / 'whole.tif', k))} lies past the end of the file: "
+            rf"it needs bytes {offsets[k]}–{offsets[k] + counts[k] - 1} \(.*\), the file has {size} bytes "
+            r"\(truncated\?\)"
+        )
         with pytest.raises(OSError, match=message):
             crop(cut)
     assert kind in message
@@ -599,20 +729,26 @@ def test_damaged_blocks_name_the_file_and_the_block(tmp_path):
         return flat_geographic(tmp_path, name, data, rowsperstrip=16, compression="zlib")
 
     short = deflate_file("short.tif")
-    rewrite_block(short, k, zlib.compress(raw[k * strip:k * strip + strip // 2]))
-    with pytest.raises(OSError, match=rf"short\.tif: {rows}: Deflate data decode to {strip // 2} bytes; the strip "
-                                      rf"needs {strip} \(16 rows × {N_PX * 4} bytes\)"):
+    rewrite_block(short, k, zlib.compress(raw[k * strip : k * strip + strip // 2]))
+    with pytest.raises(
+        OSError,
+        match=rf"short\.tif: {rows}: Deflate data decode to {strip // 2} bytes; the strip "
+        rf"needs {strip} \(16 rows × {N_PX * 4} bytes\)",
+    ):
         crop(short)
     corrupt = deflate_file("corrupt.tif")
-    stored = bytearray(zlib.compress(raw[k * strip:(k + 1) * strip]))
+    stored = bytearray(zlib.compress(raw[k * strip : (k + 1) * strip]))
     stored[0] = 0  # the zlib header's method: not deflate
     rewrite_block(corrupt, k, bytes(stored))
     with pytest.raises(OSError, match=rf"corrupt\.tif: {rows}: the Deflate stream is corrupt after 0 bytes \(zlib: "):
         crop(corrupt)
     long = deflate_file("long.tif")
-    rewrite_block(long, k, zlib.compress(raw[k * strip:(k + 2) * strip]))
-    with pytest.raises(OSError, match=rf"long\.tif: {rows}: the Deflate stream decodes to more than the {strip} "
-                                      "bytes expected"):
+    rewrite_block(long, k, zlib.compress(raw[k * strip : (k + 2) * strip]))
+    with pytest.raises(
+        OSError,
+        match=rf"long\.tif: {rows}: the Deflate stream decodes to more than the {strip} "
+        "bytes expected",
+    ):
         crop(long)
 
     lzw = pillow_geotiff(tmp_path / "lzw.tif", data, "tiff_lzw")
@@ -623,28 +759,38 @@ def test_damaged_blocks_name_the_file_and_the_block(tmp_path):
     packbits = pillow_geotiff(tmp_path / "packbits.tif", data, "packbits")
     _, counts, _, _, counts_tag = block_table(packbits)
     patch_value(packbits, counts_tag, k, counts[k] // 2)
-    with pytest.raises(OSError, match=rf"packbits\.tif: {rows}: (the PackBits data are cut short in a literal run|"
-                                      rf"PackBits data decode to \d+ bytes; the strip needs {strip} )"):
+    with pytest.raises(
+        OSError,
+        match=rf"packbits\.tif: {rows}: (the PackBits data are cut short in a literal run|"
+        rf"PackBits data decode to \d+ bytes; the strip needs {strip} )",
+    ):
         crop(packbits)
 
     thin = flat_geographic(tmp_path, "thin.tif", data, rowsperstrip=16)
     _, _, _, _, counts_tag = block_table(thin)
     patch_value(thin, counts_tag, k, strip - 4)
-    with pytest.raises(OSError, match=rf"thin\.tif: {rows} holds {strip - 4} bytes \(StripByteCounts \(279\)\); "
-                                      rf"uncompressed it needs {strip} \(16 rows × {N_PX * 4} bytes\)"):
+    with pytest.raises(
+        OSError,
+        match=rf"thin\.tif: {rows} holds {strip - 4} bytes \(StripByteCounts \(279\)\); "
+        rf"uncompressed it needs {strip} \(16 rows × {N_PX * 4} bytes\)",
+    ):
         crop(thin)
 
     tiles = flat_geographic(tmp_path, "tiles.tif", data, tile=(64, 64), compression="zlib")
     tile = 64 * 64 * 4
     rewrite_block(tiles, 12, zlib.compress(b"\0" * (tile - 8)))  # the middle of 5 × 5 tiles
-    with pytest.raises(OSError, match=rf"tiles\.tif: tile 12 \(rows 128–191, columns 128–191\): Deflate data decode "
-                                      rf"to {tile - 8} bytes; the tile needs {tile} \(64 rows × 256 bytes\)"):
+    with pytest.raises(
+        OSError,
+        match=rf"tiles\.tif: tile 12 \(rows 128–191, columns 128–191\): Deflate data decode "
+        rf"to {tile - 8} bytes; the tile needs {tile} \(64 rows × 256 bytes\)",
+    ):
         crop(tiles)
 
 
 def test_absurd_layouts_name_the_tag(tmp_path):
     """Sizes and offsets that cannot be right: an image 2³² − 1 rows tall, a strip table shorter
     than the image, an offset past the end (no 64-bit overflow in BigTIFF), zero rows per strip."""
+
     def fresh(name, **kw):
         return flat_geographic(tmp_path, name, rough(), rowsperstrip=16, **kw)
 
@@ -654,19 +800,28 @@ def test_absurd_layouts_name_the_tag(tmp_path):
 
     tall = fresh("tall.tif")
     patch_value(tall, tag(tall, "ImageLength"), 0, 2**32 - 1)
-    with pytest.raises(OSError, match=rf"tall\.tif: ImageWidth × ImageLength = {N_PX} × 4294967295 pixels is "
-                                      "implausibly large"):
+    with pytest.raises(
+        OSError,
+        match=rf"tall\.tif: ImageWidth × ImageLength = {N_PX} × 4294967295 pixels is "
+        "implausibly large",
+    ):
         crop(tall)
     taller = fresh("taller.tif")
     patch_value(taller, tag(taller, "ImageLength"), 0, 1000)
-    with pytest.raises(OSError, match=rf"taller\.tif: StripOffsets \(273\) lists 19 strips; {N_PX} × 1000 pixels in "
-                                      rf"{N_PX} × 16 blocks need 63"):
+    with pytest.raises(
+        OSError,
+        match=rf"taller\.tif: StripOffsets \(273\) lists 19 strips; {N_PX} × 1000 pixels in "
+        rf"{N_PX} × 16 blocks need 63",
+    ):
         crop(taller)
     far = fresh("far.tif", bigtiff=True)
     _, _, _, offsets_tag, _ = block_table(far)
     patch_value(far, offsets_tag, 3, 2**64 - 8)
-    with pytest.raises(OSError, match=r"far\.tif: strip 3 \(rows 48–63\) lies past the end of the file: it needs bytes "
-                                      r"18446744073709551608–"):
+    with pytest.raises(
+        OSError,
+        match=r"far\.tif: strip 3 \(rows 48–63\) lies past the end of the file: it needs bytes "
+        r"18446744073709551608–",
+    ):
         crop(far)
     none = fresh("none.tif")
     patch_value(none, tag(none, "RowsPerStrip"), 0, 0)
@@ -676,15 +831,25 @@ def test_absurd_layouts_name_the_tag(tmp_path):
 
 # --- the LocalDem file --------------------------------------------------------------------------
 
+
 def test_save_load_is_bit_identical_and_deterministic(tmp_path):
-    dem = import_dem(flat_geographic(tmp_path, data=np.random.default_rng(3).normal(size=(N_PX, N_PX)).astype(np.float32)),
-                     LAT0, LON0, 300.0)
+    dem = import_dem(
+        flat_geographic(tmp_path, data=np.random.default_rng(3).normal(size=(N_PX, N_PX)).astype(np.float32)),
+        LAT0,
+        LON0,
+        300.0,
+    )
     first, second = dem.save(tmp_path / "a.npz"), dem.save(tmp_path / "b.npz")
     assert first.read_bytes() == second.read_bytes()
     back = LocalDem.load(first)
     assert back.heights.tobytes() == dem.heights.tobytes() and back.heights.dtype == np.float64
-    assert (back.spacing_m, back.lat_deg, back.lon_deg, back.h0_m, back.curvature) == \
-        (dem.spacing_m, dem.lat_deg, dem.lon_deg, dem.h0_m, dem.curvature)
+    assert (back.spacing_m, back.lat_deg, back.lon_deg, back.h0_m, back.curvature) == (
+        dem.spacing_m,
+        dem.lat_deg,
+        dem.lon_deg,
+        dem.h0_m,
+        dem.curvature,
+    )
     assert back.source == dem.source
     assert not back.heights.flags.writeable
     with np.load(first) as npz:  # a plain .npz for anyone else
@@ -733,20 +898,33 @@ def test_local_dem_rejects_nan_and_bad_fields():
 
 # --- the command --------------------------------------------------------------------------------
 
+
 def test_terrain_import_command_writes_what_load_reads(tmp_path):
     data = (np.arange(N_PX * N_PX, dtype=np.float32).reshape(N_PX, N_PX) % 97) * 0.01
     data[150, 150] = -9999.0
     path = flat_geographic(tmp_path, "site.tif", data, nodata="-9999", gdal_scale=1000.0)
     runner = CliRunner()
-    args = ["terrain", "import", str(path), "--lat", str(LAT0), "--lon", str(LON0), "--size-m", "400",
-            "--spacing-m", "4"]
+    args = [
+        "terrain",
+        "import",
+        str(path),
+        "--lat",
+        str(LAT0),
+        "--lon",
+        str(LON0),
+        "--size-m",
+        "400",
+        "--spacing-m",
+        "4",
+    ]
     first = runner.invoke(main, [*args, "--out", str(tmp_path / "out" / "a.npz")])
     assert first.exit_code == 0, first.output
     assert "101 × 101 grid at 4 m spacing" in first.output
     assert "1 void pixels filled" in first.output
     drop = _core.curvature_drop(200 * math.sqrt(2), R + LocalDem.load(tmp_path / "out" / "a.npz").h0_m)
-    assert (f"Curvature on: the sphere falls {drop * 1000:.1f} mm below the tangent plane at the crop corner "
-            "(282.8 m out)") in first.output
+    assert (
+        f"Curvature on: the sphere falls {drop * 1000:.1f} mm below the tangent plane at the crop corner (282.8 m out)"
+    ) in first.output
     second = runner.invoke(main, [*args, "--out", str(tmp_path / "out" / "b.npz")])
     assert second.exit_code == 0, second.output
     assert (tmp_path / "out" / "a.npz").read_bytes() == (tmp_path / "out" / "b.npz").read_bytes()
@@ -761,8 +939,22 @@ def test_terrain_import_command_writes_what_load_reads(tmp_path):
 
 
 def test_terrain_import_command_reports_errors(tmp_path):
-    result = CliRunner().invoke(main, ["terrain", "import", str(tmp_path / "missing.tif"), "--lat", "0",
-                                       "--lon", "0", "--size-m", "10", "--out", str(tmp_path / "x.npz")])
+    result = CliRunner().invoke(
+        main,
+        [
+            "terrain",
+            "import",
+            str(tmp_path / "missing.tif"),
+            "--lat",
+            "0",
+            "--lon",
+            "0",
+            "--size-m",
+            "10",
+            "--out",
+            str(tmp_path / "x.npz"),
+        ],
+    )
     assert result.exit_code == 1
     assert "missing.tif: no such file" in result.output
     assert not (tmp_path / "x.npz").exists()
@@ -773,13 +965,16 @@ def test_terrain_import_of_a_truncated_file_fails_and_writes_nothing(tmp_path):
     the strip, writes no output, and leaves an earlier output in place byte for byte."""
     whole = flat_geographic(tmp_path, "whole.tif", rough(), rowsperstrip=16, compression="zlib").read_bytes()
     cut = tmp_path / "cut.tif"
-    cut.write_bytes(whole[:len(whole) // 2])
+    cut.write_bytes(whole[: len(whole) // 2])
     args = ["terrain", "import", str(cut), "--lat", str(LAT0), "--lon", str(LON0), "--size-m", "400"]
     runner = CliRunner()
     result = runner.invoke(main, [*args, "--out", str(tmp_path / "new.npz")])
     assert result.exit_code == 1
-    assert re.search(r"cut\.tif: strip \d+ \(rows \d+–\d+\) lies past the end of the file: it needs bytes \d+–\d+ "
-                     rf"\(.*\), the file has {len(whole) // 2} bytes \(truncated\?\)", result.output), result.output
+    assert re.search(
+        r"cut\.tif: strip \d+ \(rows \d+–\d+\) lies past the end of the file: it needs bytes \d+–\d+ "
+        rf"\(.*\), the file has {len(whole) // 2} bytes \(truncated\?\)",
+        result.output,
+    ), result.output
     assert not (tmp_path / "new.npz").exists()
     earlier = tmp_path / "earlier.npz"
     flat = runner.invoke(main, ["terrain", "import", str(tmp_path / "whole.tif"), *args[3:], "--out", str(earlier)])

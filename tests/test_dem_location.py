@@ -24,8 +24,7 @@ from moonbot.pipeline.tasks import run_task
 from moonbot.sweep import tasks
 from moonbot.terrain import clear_cache, get_terrain, make_ground
 from moonbot.terrain.dem import LocalDem
-from moonbot.terrain.location import (DEM_CRATER_PIXELS, DemRelief, Location, curvature_drop, dem_site,
-                                      location_axis)
+from moonbot.terrain.location import DEM_CRATER_PIXELS, DemRelief, Location, curvature_drop, dem_site, location_axis
 
 pytestmark = pytest.mark.integration
 
@@ -46,8 +45,14 @@ def periodic_dem(nx: int, ny: int, period: int = 25) -> np.ndarray:
 
 
 def dem_config(path, **terrain):
-    overrides = {"terrain.location": "dem", "terrain.dem_file": str(path), "terrain.extent_m": 60.0,
-                 "terrain.detail_m": 0.05, "terrain.detail_extent_m": 1.0, "terrain.growth": 1.1}
+    overrides = {
+        "terrain.location": "dem",
+        "terrain.dem_file": str(path),
+        "terrain.extent_m": 60.0,
+        "terrain.detail_m": 0.05,
+        "terrain.detail_extent_m": 1.0,
+        "terrain.growth": 1.1,
+    }
     overrides.update({f"terrain.{k}": v for k, v in terrain.items()})
     return overrides
 
@@ -144,8 +149,9 @@ def test_a_polar_site_5_km_out_has_its_own_true_north(lat0):
     DEM's north (the reported case). The world's +y is the site's meridian toward the north pole,
     and the site's north in the DEM's grid is the bearing of the north pole from the site (89.9° N)
     or the bearing away from the south pole (89.9° S), both found with GeographicLib."""
-    dem = LocalDem(heights=np.zeros((101, 2 * 1300 + 1)), spacing_m=4.0, lat_deg=lat0, lon_deg=-60.0, h0_m=0.0,
-                   curvature=False)
+    dem = LocalDem(
+        heights=np.zeros((101, 2 * 1300 + 1)), spacing_m=4.0, lat_deg=lat0, lon_deg=-60.0, h0_m=0.0, curvature=False
+    )
     relief = DemRelief(dem, (5000.0, 0.0))
     origin = _core.LunarFrame(lat0, -60.0, 0.0)
     pole = np.array(origin.to_enu(math.copysign(90.0, lat0), 0.0, 0.0))
@@ -163,15 +169,19 @@ def test_a_polar_site_5_km_out_has_its_own_true_north(lat0):
     assert (relief.site.lat_deg, relief.site.lon_deg, relief.site.height_m) == origin.to_geodetic(*relief.origin)
     assert abs(relief.site.height_m) < 1e-6
     assert abs(math.sin(math.radians(relief.site.lat_deg))) == pytest.approx(
-        R * math.sin(math.radians(89.9)) / math.hypot(R, 5000.0), rel=1e-12)
+        R * math.sin(math.radians(89.9)) / math.hypot(R, 5000.0), rel=1e-12
+    )
     # World +y 100 m out is due north of the site: on its meridian, at a higher latitude.
     site = _core.LunarFrame(relief.site.lat_deg, relief.site.lon_deg, relief.site.height_m)
     lat_n, lon_n, _ = site.to_geodetic(0.0, 100.0, float(relief.world_up(np.zeros(1), np.full(1, 100.0))[0]))
     assert lat_n > relief.site.lat_deg
     assert (lon_n - relief.site.lon_deg + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=1e-9)
     # And the Sun at azimuth 0 shines from the world's +y.
-    np.testing.assert_allclose(_core.DirectionalLight(0.0, 20.0).direction,
-                               [0.0, math.cos(math.radians(20.0)), math.sin(math.radians(20.0))], atol=1e-12)
+    np.testing.assert_allclose(
+        _core.DirectionalLight(0.0, 20.0).direction,
+        [0.0, math.cos(math.radians(20.0)), math.sin(math.radians(20.0))],
+        atol=1e-12,
+    )
 
 
 @pytest.fixture
@@ -188,8 +198,9 @@ def test_detail_is_only_below_the_dem_pixel(periodic_file):
     assert location.craters.diameters.max() <= DEM_CRATER_PIXELS * 2.0
     assert location.main_crater is None and location.hills is None
     # Roughness off: the relief is the DEM itself about the site.
-    bare = load_config(None, dem_config(periodic_file, **{"roughness.rms_slope_deg": 0.0,
-                                                          "craters.density": 0.0})).terrain
+    bare = load_config(
+        None, dem_config(periodic_file, **{"roughness.rms_slope_deg": 0.0, "craters.density": 0.0})
+    ).terrain
     plain = Location(bare, location_axis(bare), LocalDem.load(periodic_file))
     x = np.linspace(-50, 50, 101)
     np.testing.assert_array_equal(plain.surface(x, x * 0.3, np.full_like(x, 0.05)), plain.dem.height(x, x * 0.3))
@@ -205,8 +216,9 @@ def test_a_site_2_km_from_the_dem_origin_renders_like_one_at_the_origin(tmp_path
     Without the shift to the site, float32 vertices 2 km out would be 0.12 mm apart under the
     bags, the 5 cm near grid would show it, and these bounds would fail."""
     nx, ny = 2 * 1070 + 1, 85
-    path = LocalDem(heights=periodic_dem(nx, ny), spacing_m=2.0, lat_deg=0.0, lon_deg=20.0, h0_m=0.0,
-                    curvature=False).save(tmp_path / "equator.npz")
+    path = LocalDem(
+        heights=periodic_dem(nx, ny), spacing_m=2.0, lat_deg=0.0, lon_deg=20.0, h0_m=0.0, curvature=False
+    ).save(tmp_path / "equator.npz")
     outputs = []
     for site in ([0.0, 0.0], [2000.0, 0.0]):
         clear_cache()
@@ -261,10 +273,25 @@ def test_dem_errors_name_the_field(tmp_path, periodic_file):
 
 
 def test_render_one_dem(tmp_path, periodic_file):
-    result = CliRunner().invoke(main, [
-        "render-one", "--dem", str(periodic_file), "--out", str(tmp_path / "out"), "--no-sheet",
-        "--set", "terrain.extent_m=60", "--set", "terrain.growth=1.1", "--set", "camera.width=96",
-        "--set", "camera.height=72"])
+    result = CliRunner().invoke(
+        main,
+        [
+            "render-one",
+            "--dem",
+            str(periodic_file),
+            "--out",
+            str(tmp_path / "out"),
+            "--no-sheet",
+            "--set",
+            "terrain.extent_m=60",
+            "--set",
+            "terrain.growth=1.1",
+            "--set",
+            "camera.width=96",
+            "--set",
+            "camera.height=72",
+        ],
+    )
     assert result.exit_code == 0, result.output
     assert "dem terrain" in result.output
     depth = np.load(tmp_path / "out" / "view_000" / "depth.npy")
@@ -276,8 +303,9 @@ def test_flat_dem_site_is_the_sphere_about_the_site(tmp_path):
     path = local_dem(np.zeros((85, 2141))).save(tmp_path / "level.npz")
     for site in ([0.0, 0.0], [-2000.0, 20.0]):
         clear_cache()
-        config = load_config(None, dem_config(path, dem_site_m=site, **{"roughness.rms_slope_deg": 0.0,
-                                                                        "craters.density": 0.0})).terrain
+        config = load_config(
+            None, dem_config(path, dem_site_m=site, **{"roughness.rms_slope_deg": 0.0, "craters.density": 0.0})
+        ).terrain
         v, _ = get_terrain(config)[0].mesh
         x, y, z = (v[:, k].astype(np.float64) for k in range(3))
         np.testing.assert_allclose(-z, curvature_drop(np.hypot(x, y)), rtol=1e-6, atol=1e-9)
@@ -289,7 +317,7 @@ def raise_nodes(heights: np.ndarray, spacing: float, east: float, north: float, 
     centred on its origin by `rise` metres, in place; returns that node's (east, north)."""
     ny, nx = heights.shape
     i, j = int(round(east / spacing + (nx - 1) / 2)), int(round(north / spacing + (ny - 1) / 2))
-    heights[j - half:j + half + 1, i - half:i + half + 1] += rise
+    heights[j - half : j + half + 1, i - half : i + half + 1] += rise
     return (i - (nx - 1) / 2) * spacing, (j - (ny - 1) / 2) * spacing
 
 
@@ -313,20 +341,33 @@ def test_a_polar_site_shadow_falls_to_its_true_south(tmp_path, lat0):
     true_south = origin.to_enu(lat_s - math.degrees(15.0 / R), lon_s, 0.0)  # 15 m down its meridian
     raise_nodes(heights, s, 5000.0, 0.0, 25.0, half=1)
     # Single-node posts: their interpolated tops peak at the node itself.
-    nodes = {"4 m": raise_nodes(heights, s, true_south[0], true_south[1], 4.0),
-             "6 m": raise_nodes(heights, s, 5000.0, -15.0, 6.0)}
+    nodes = {
+        "4 m": raise_nodes(heights, s, true_south[0], true_south[1], 4.0),
+        "6 m": raise_nodes(heights, s, 5000.0, -15.0, 6.0),
+    }
     path = LocalDem(heights=heights, spacing_m=s, lat_deg=lat0, lon_deg=-60.0, h0_m=0.0, curvature=True).save(
-        tmp_path / "pole.npz")
-    config = load_config(None, dem_config(path, dem_site_m=[5000.0, 0.0], extent_m=40.0, detail_m=0.2,
-                                          detail_extent_m=40.0, **{"roughness.rms_slope_deg": 0.0,
-                                                                   "craters.density": 0.0})).terrain
+        tmp_path / "pole.npz"
+    )
+    config = load_config(
+        None,
+        dem_config(
+            path,
+            dem_site_m=[5000.0, 0.0],
+            extent_m=40.0,
+            detail_m=0.2,
+            detail_extent_m=40.0,
+            **{"roughness.rms_slope_deg": 0.0, "craters.density": 0.0},
+        ),
+    ).terrain
     ground = make_ground(config)
     site = dem_site(config, LocalDem.load(path))
     assert abs(site.north_in_dem_deg) == pytest.approx(58.8, abs=0.05)
     # Where the posts' nodes are in the world frame gt.json describes (its origin is the pillar's top).
     world = _core.LunarFrame(site.lat_deg, site.lon_deg, site.height_m)
-    expected = {name: world.to_enu(*origin.to_geodetic(e, n, -float(curvature_drop(np.hypot(e, n), R))))[:2]
-                for name, (e, n) in nodes.items()}
+    expected = {
+        name: world.to_enu(*origin.to_geodetic(e, n, -float(curvature_drop(np.hypot(e, n), R))))[:2]
+        for name, (e, n) in nodes.items()
+    }
     assert expected["4 m"] == pytest.approx((0.0, -15.0), abs=0.8)  # the node nearest true south
 
     # The posts as the terrain holds them: the highest points 8–22 m from the pillar.
@@ -351,12 +392,13 @@ def test_a_polar_site_shadow_falls_to_its_true_south(tmp_path, lat0):
 
     def brightness(sun_azimuth: float, xy: tuple[float, float]) -> float:
         """Mean radiance of the 3 × 3 pixels over a post's top at world `xy`, over the image's median."""
-        rgb = _core.render(scene, camera, _core.DirectionalLight(sun_azimuth, 30.0, 1361.0, 0.533),
-                           _core.RenderSettings(bounces=0))["rgb"]
+        rgb = _core.render(
+            scene, camera, _core.DirectionalLight(sun_azimuth, 30.0, 1361.0, 0.533), _core.RenderSettings(bounces=0)
+        )["rgb"]
         top = float(ground.height(np.array([xy[0]]), np.array([xy[1]]))[0])
         u = size / 2 + f * (xy[0] - centre[0]) / (centre[2] - top)
         v = size / 2 - f * (xy[1] - centre[1]) / (centre[2] - top)
-        return float(rgb[int(v) - 1:int(v) + 2, int(u) - 1:int(u) + 2].mean() / np.median(rgb))
+        return float(rgb[int(v) - 1 : int(v) + 2, int(u) - 1 : int(u) + 2].mean() / np.median(rgb))
 
     assert brightness(0.0, posts["4 m"]) < 0.05  # in the pillar's shadow
     assert brightness(0.0, posts["6 m"]) > 0.5
@@ -367,8 +409,9 @@ def test_polar_site_is_recorded_in_gt_json_and_the_bop_files(tmp_path):
     """A south-pole site 5 km out, rendered as a sweep task and merged: gt.json, the BOP scene's
     scene_camera.json (beside cam_R_w2c, whose world frame it locates) and scene_meta.json carry
     the site's latitude, longitude, height and the turn from the DEM's north to the site's."""
-    dem = LocalDem(heights=np.zeros((61, 2 * 1300 + 1)), spacing_m=4.0, lat_deg=-89.9, lon_deg=-60.0, h0_m=0.0,
-                   curvature=False).save(tmp_path / "pole.npz")
+    dem = LocalDem(
+        heights=np.zeros((61, 2 * 1300 + 1)), spacing_m=4.0, lat_deg=-89.9, lon_deg=-60.0, h0_m=0.0, curvature=False
+    ).save(tmp_path / "pole.npz")
     (tmp_path / "sweep.yaml").write_text(f"""
 seed: 4
 camera: {{width: 48, height: 36}}
@@ -394,6 +437,8 @@ sweep:
     (gt_path,) = (tmp_path / "out").rglob("gt.json")
     assert json.loads(gt_path.read_text())["site"] == site
     report = merge_dataset(tmp_path / "out", config=config, workers=1, progress=None)
-    scene = report.dataset / "by_condition" / "train" / "sandbag-01" / "dem" / "scene_000000"  # the view of train_pbr/000000
+    scene = (
+        report.dataset / "by_condition" / "train" / "sandbag-01" / "dem" / "scene_000000"
+    )  # the view of train_pbr/000000
     assert json.loads((scene / "scene_camera.json").read_text())["0"]["site"] == site
     assert json.loads((scene / "scene_meta.json").read_text())["images"]["0"]["site"] == site

@@ -71,8 +71,9 @@ def test_nothing_tunnels_through_a_thin_surface_at_the_largest_step():
     a zero-thickness surface many times over — never end up below it."""
     scene = plane_scene()
     for t in np.arange(0.0, 2.0, 0.05):
-        s = _core.simulate_ejecta(scene, _core.EjectaParams(count=200, mean_speed_m_s=5.0), seed=2, time_s=t,
-                                  dt_s=_core.MAX_DUST_STEP)
+        s = _core.simulate_ejecta(
+            scene, _core.EjectaParams(count=200, mean_speed_m_s=5.0), seed=2, time_s=t, dt_s=_core.MAX_DUST_STEP
+        )
         assert np.all(s["position"][:, 2] >= s["diameter"] / 2 - 1e-6)
 
 

@@ -34,8 +34,11 @@ pytestmark = pytest.mark.unit
 # default fragments land within a metre of the emitter.
 SMALL = {"dust.enabled": True, "terrain.extent_m": 3.0}
 SCENES = {
-    "flat": {}, "hilly": {"terrain.location": "hilly"}, "crater": {"terrain.location": "crater"},
-    "plane": {"terrain.location": "plane"}, "slope": {"terrain.location": "slope"},
+    "flat": {},
+    "hilly": {"terrain.location": "hilly"},
+    "crater": {"terrain.location": "crater"},
+    "plane": {"terrain.location": "plane"},
+    "slope": {"terrain.location": "slope"},
     "wall": {"bags.count": 11, "bags.layout": "stacked"},
 }
 # The capture sequence, sampled: every 20 ms through bursts 0-3 (view v of the orbit is captured
@@ -135,7 +138,7 @@ def inside_any(solids: list[Solid], points: np.ndarray) -> np.ndarray:
     inside = np.zeros(len(points), bool)
     for solid in solids:
         lo, hi = solid.bounds
-        near = order[np.searchsorted(xs, lo[0], "right"):np.searchsorted(xs, hi[0], "left")]
+        near = order[np.searchsorted(xs, lo[0], "right") : np.searchsorted(xs, hi[0], "left")]
         if len(near):
             inside[near] |= solid.contains(points[near])
     return inside

@@ -29,8 +29,7 @@ from moonbot.scene import compose_scene
 pytestmark = pytest.mark.unit
 
 # The fastest scene that still has everything: the analytic plane, a small image, no bounces.
-SMALL = {"terrain.location": "plane", "camera.width": 96, "camera.height": 72, "render.spp": 1,
-         "render.bounces": 0}
+SMALL = {"terrain.location": "plane", "camera.width": 96, "camera.height": 72, "render.spp": 1, "render.bounces": 0}
 DUST = {"dust.enabled": True}
 NO_CLOUD = {"dust.enabled": True, "dust.cloud.optical_depth": 0.0}  # ejecta alone: no puff, no medium
 VIEW = 9  # looks across the emitter: fragments cover ~190 pixels
@@ -46,9 +45,12 @@ def render(out: Path, views: list[int], **overrides) -> list:
 
 
 def read(view_dir: Path) -> dict:
-    return {"rgb": np.array(Image.open(view_dir / "rgb.png")), "depth": np.load(view_dir / "depth.npy"),
-            "mask": np.array(Image.open(view_dir / "mask.png")),
-            "gt": json.loads((view_dir / "gt.json").read_text())}
+    return {
+        "rgb": np.array(Image.open(view_dir / "rgb.png")),
+        "depth": np.load(view_dir / "depth.npy"),
+        "mask": np.array(Image.open(view_dir / "mask.png")),
+        "gt": json.loads((view_dir / "gt.json").read_text()),
+    }
 
 
 def same_bytes(a: Path, b: Path) -> None:
@@ -66,17 +68,36 @@ def renders(tmp_path_factory) -> dict[str, Path]:
 
 # Every dust setting but `enabled`, each changed from its default to another valid value.
 CHANGED = {
-    "dust.emitter_offset_m": [-0.4, 0.6], "dust.warmup_s": 1.3, "dust.view_interval_s": 0.7,
+    "dust.emitter_offset_m": [-0.4, 0.6],
+    "dust.warmup_s": 1.3,
+    "dust.view_interval_s": 0.7,
     "dust.time_step_s": 0.05,
-    "dust.ejecta.count": 3000, "dust.ejecta.spawn_radius_m": 0.3, "dust.ejecta.cone_half_angle_deg": 20.0,
-    "dust.ejecta.mean_speed_m_s": 1.5, "dust.ejecta.min_diameter_m": 0.05, "dust.ejecta.max_diameter_m": 0.1,
-    "dust.ejecta.gravity_m_s2": 3.0, "dust.ejecta.restitution": 0.8, "dust.ejecta.friction": 0.1,
-    "dust.ejecta.rest_speed_m_s": 0.1, "dust.ejecta.burst_period_s": 0.5,
-    "dust.cloud.box_m": [1.0, 1.0, 1.0], "dust.cloud.vertical_offset_m": 0.2, "dust.cloud.axis": [0.0, 1.0, 1.0],
-    "dust.cloud.cone_half_angle_deg": 10.0, "dust.cloud.speed_m_s": 0.3, "dust.cloud.gravity_m_s2": 1.62,
-    "dust.cloud.lifetime_s": 2.0, "dust.cloud.rate_per_s": 500.0, "dust.cloud.sigma_m": 0.4,
-    "dust.cloud.growth_m_s": 0.2, "dust.cloud.optical_depth": 20.0, "dust.cloud.rise_fraction": 0.5,
-    "dust.cloud.albedo": [0.9, 0.1, 0.1], "dust.cloud.asymmetry": -0.3, "dust.cloud.voxel_m": 0.01,
+    "dust.ejecta.count": 3000,
+    "dust.ejecta.spawn_radius_m": 0.3,
+    "dust.ejecta.cone_half_angle_deg": 20.0,
+    "dust.ejecta.mean_speed_m_s": 1.5,
+    "dust.ejecta.min_diameter_m": 0.05,
+    "dust.ejecta.max_diameter_m": 0.1,
+    "dust.ejecta.gravity_m_s2": 3.0,
+    "dust.ejecta.restitution": 0.8,
+    "dust.ejecta.friction": 0.1,
+    "dust.ejecta.rest_speed_m_s": 0.1,
+    "dust.ejecta.burst_period_s": 0.5,
+    "dust.cloud.box_m": [1.0, 1.0, 1.0],
+    "dust.cloud.vertical_offset_m": 0.2,
+    "dust.cloud.axis": [0.0, 1.0, 1.0],
+    "dust.cloud.cone_half_angle_deg": 10.0,
+    "dust.cloud.speed_m_s": 0.3,
+    "dust.cloud.gravity_m_s2": 1.62,
+    "dust.cloud.lifetime_s": 2.0,
+    "dust.cloud.rate_per_s": 500.0,
+    "dust.cloud.sigma_m": 0.4,
+    "dust.cloud.growth_m_s": 0.2,
+    "dust.cloud.optical_depth": 20.0,
+    "dust.cloud.rise_fraction": 0.5,
+    "dust.cloud.albedo": [0.9, 0.1, 0.1],
+    "dust.cloud.asymmetry": -0.3,
+    "dust.cloud.voxel_m": 0.01,
     "dust.cloud.march_stride_px": 8,
 }
 
@@ -84,8 +105,14 @@ CHANGED = {
 def _leaves(cls, prefix: str) -> set[str]:
     """Dotted paths of every field of dataclass `cls`, sections expanded."""
     hints = typing.get_type_hints(cls)
-    return set().union(*(_leaves(hints[f.name], f"{prefix}{f.name}.") if dataclasses.is_dataclass(hints[f.name])
-                         else {prefix + f.name} for f in dataclasses.fields(cls)))
+    return set().union(
+        *(
+            _leaves(hints[f.name], f"{prefix}{f.name}.")
+            if dataclasses.is_dataclass(hints[f.name])
+            else {prefix + f.name}
+            for f in dataclasses.fields(cls)
+        )
+    )
 
 
 def _value(config, dotted: str):
@@ -227,40 +254,46 @@ def test_a_view_renders_the_same_alone_or_after_others(renders, tmp_path):
 def test_render_one_dust(tmp_path):
     """`moonbot render-one --dust` turns dust on and records it; without the flag there is none."""
     small = [arg for k, v in SMALL.items() for arg in ("--set", f"{k}={v}")]
-    result = CliRunner().invoke(main, ["render-one", "--dust", "--out", str(tmp_path / "on"), "--view", "3",
-                                       "--no-sheet", *small])
+    result = CliRunner().invoke(
+        main, ["render-one", "--dust", "--out", str(tmp_path / "on"), "--view", "3", "--no-sheet", *small]
+    )
     assert result.exit_code == 0, result.output
     gt = json.loads((tmp_path / "on" / "view_003" / "gt.json").read_text())
     assert gt["dust"]["capture_time_s"] == 6.75 and gt["dust"]["fragments"] == 200 and gt["dust"]["puffs"] > 0
     assert "depth and masks stay geometric" in gt["dust"]["note"] and "dust" in gt["timings_s"]
     assert "dust    200 ejecta fragments" in result.output
-    result = CliRunner().invoke(main, ["render-one", "--out", str(tmp_path / "off"), "--view", "3", "--no-sheet",
-                                       *small])
+    result = CliRunner().invoke(
+        main, ["render-one", "--out", str(tmp_path / "off"), "--view", "3", "--no-sheet", *small]
+    )
     assert result.exit_code == 0, result.output
     assert "dust" not in json.loads((tmp_path / "off" / "view_003" / "gt.json").read_text())
     assert "\ndust " not in result.output
     assert "--dust" in CliRunner().invoke(main, ["render-one", "--help"]).output
 
 
-@pytest.mark.parametrize(("overrides", "message"), [
-    ({"dust.time_step_s": 0.2}, "dust.time_step_s: must be <= 0.1, got 0.2"),
-    ({"dust.time_step_s": 0}, "dust.time_step_s: must be > 0.0"),
-    ({"dust.ejecta.count": -1}, "dust.ejecta.count: must be >= 0, got -1"),
-    ({"dust.ejecta.count": 2.5}, "dust.ejecta.count: must be an integer"),
-    ({"dust.ejecta.min_diameter_m": 0.05}, "dust.ejecta.min_diameter_m: must be <= max_diameter_m"),
-    ({"dust.ejecta.restitution": 1.0}, "dust.ejecta.restitution: must be <= 0.95"),
-    ({"dust.emitter_offset_m": [0.5]}, "dust.emitter_offset_m: must have 2 items"),
-    ({"dust.warmup_s": -1}, "dust.warmup_s: must be >= 0"),
-    ({"dust.enabled": "yes"}, "dust.enabled: must be true or false"),
-    ({"dust.seed": 3}, "dust.seed: unknown field"),
-    ({"dust.cloud.axis": [0, 0, 0]}, "dust.cloud.axis: must not be zero"),
-    ({"dust.cloud.rise_fraction": 1.0}, "dust.cloud.rise_fraction: must be < 1"),
-    ({"dust.cloud.asymmetry": 1.0}, "dust.cloud.asymmetry: must be < 1"),
-    ({"dust.cloud.rate_per_s": 50000.0}, "dust.cloud.rate_per_s: at most 100000 puffs"),
-    ({"dust.cloud.albedo": [0.5, 0.5, 1.5]}, "dust.cloud.albedo[2]: must be <= 1.0"),
-    ({"dust.cloud.voxel_m": 0}, "dust.cloud.voxel_m: must be >= 0.001"),
-    ({"dust.cloud.march_stride_px": 3}, "dust.cloud.march_stride_px: must be 1, 2, 4 or 8"),
-], ids=lambda x: x if isinstance(x, str) else None)
+@pytest.mark.parametrize(
+    ("overrides", "message"),
+    [
+        ({"dust.time_step_s": 0.2}, "dust.time_step_s: must be <= 0.1, got 0.2"),
+        ({"dust.time_step_s": 0}, "dust.time_step_s: must be > 0.0"),
+        ({"dust.ejecta.count": -1}, "dust.ejecta.count: must be >= 0, got -1"),
+        ({"dust.ejecta.count": 2.5}, "dust.ejecta.count: must be an integer"),
+        ({"dust.ejecta.min_diameter_m": 0.05}, "dust.ejecta.min_diameter_m: must be <= max_diameter_m"),
+        ({"dust.ejecta.restitution": 1.0}, "dust.ejecta.restitution: must be <= 0.95"),
+        ({"dust.emitter_offset_m": [0.5]}, "dust.emitter_offset_m: must have 2 items"),
+        ({"dust.warmup_s": -1}, "dust.warmup_s: must be >= 0"),
+        ({"dust.enabled": "yes"}, "dust.enabled: must be true or false"),
+        ({"dust.seed": 3}, "dust.seed: unknown field"),
+        ({"dust.cloud.axis": [0, 0, 0]}, "dust.cloud.axis: must not be zero"),
+        ({"dust.cloud.rise_fraction": 1.0}, "dust.cloud.rise_fraction: must be < 1"),
+        ({"dust.cloud.asymmetry": 1.0}, "dust.cloud.asymmetry: must be < 1"),
+        ({"dust.cloud.rate_per_s": 50000.0}, "dust.cloud.rate_per_s: at most 100000 puffs"),
+        ({"dust.cloud.albedo": [0.5, 0.5, 1.5]}, "dust.cloud.albedo[2]: must be <= 1.0"),
+        ({"dust.cloud.voxel_m": 0}, "dust.cloud.voxel_m: must be >= 0.001"),
+        ({"dust.cloud.march_stride_px": 3}, "dust.cloud.march_stride_px: must be 1, 2, 4 or 8"),
+    ],
+    ids=lambda x: x if isinstance(x, str) else None,
+)
 def test_bad_dust_settings_name_the_field(overrides, message):
     with pytest.raises(ConfigError) as caught:
         load_config(None, overrides)
@@ -268,7 +301,6 @@ def test_bad_dust_settings_name_the_field(overrides, message):
 
 
 def test_bad_dust_setting_stops_render_one_before_rendering(tmp_path):
-    result = CliRunner().invoke(main, ["render-one", "--dust", "--out", str(tmp_path), "--set",
-                                       "dust.ejecta.count=-5"])
+    result = CliRunner().invoke(main, ["render-one", "--dust", "--out", str(tmp_path), "--set", "dust.ejecta.count=-5"])
     assert result.exit_code != 0 and "dust.ejecta.count: must be >= 0" in result.output
     assert not any(tmp_path.iterdir())

@@ -27,9 +27,13 @@ AUTO = os.environ.get("MOONBOT_EMBREE_ISA") or ("avx2" if "avx2" in ISAS else IS
 
 # What each ISA needs of /proc/cpuinfo's flags, as Embree requires them (an independent reading of
 # the CPU from the core's cpuid one).
-NEEDS = {"sse2": {"sse2"}, "sse4.2": {"sse4_2", "popcnt"}, "avx": {"avx"},
-         "avx2": {"avx2", "fma", "bmi1", "bmi2", "abm"},
-         "avx512": {"avx512f", "avx512dq", "avx512cd", "avx512bw", "avx512vl"}}
+NEEDS = {
+    "sse2": {"sse2"},
+    "sse4.2": {"sse4_2", "popcnt"},
+    "avx": {"avx"},
+    "avx2": {"avx2", "fma", "bmi1", "bmi2", "abm"},
+    "avx512": {"avx512f", "avx512dq", "avx512cd", "avx512bw", "avx512vl"},
+}
 ORDER = ["sse2", "sse4.2", "avx", "avx2", "avx512"]
 
 
@@ -59,8 +63,14 @@ def test_names_are_checked():
 
 
 def _python(code: str, env: dict | None = None, timeout: float = 120) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=timeout,
-                          cwd=ROOT, env={**os.environ, **(env or {})})
+    return subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        cwd=ROOT,
+        env={**os.environ, **(env or {})},
+    )
 
 
 def test_the_environment_pins_auto():
@@ -87,8 +97,9 @@ run_views(task_config(config, task), [0, 1], Path(sys.argv[2]), threads=2)
 @pytest.mark.parametrize("isa", ISAS)
 def test_view_amodal_view_finishes(isa, tmp_path):
     try:
-        done = subprocess.run([sys.executable, "-c", _SEQUENCE, isa, str(tmp_path)], capture_output=True,
-                              text=True, timeout=120, cwd=ROOT)
+        done = subprocess.run(
+            [sys.executable, "-c", _SEQUENCE, isa, str(tmp_path)], capture_output=True, text=True, timeout=120, cwd=ROOT
+        )
     except subprocess.TimeoutExpired:
         pytest.fail(f"view 0, its amodal masks, then view 1 did not finish in 120 s with embree_isa={isa}")
     assert done.returncode == 0, done.stderr[-2000:]
@@ -105,10 +116,27 @@ def test_images_do_not_depend_on_the_isa(tmp_path):
     outputs = {}
     for isa in ISAS:
         out = tmp_path / isa
-        done = subprocess.run([sys.executable, "-m", "moonbot.cli", "render-one", "--out", str(out), "--no-sheet",
-                               "--set", "camera.width=160", "--set", "camera.height=120",
-                               "--set", f"render.embree_isa={isa}"],
-                              capture_output=True, text=True, timeout=300, cwd=ROOT)
+        done = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "moonbot.cli",
+                "render-one",
+                "--out",
+                str(out),
+                "--no-sheet",
+                "--set",
+                "camera.width=160",
+                "--set",
+                "camera.height=120",
+                "--set",
+                f"render.embree_isa={isa}",
+            ],
+            capture_output=True,
+            text=True,
+            timeout=300,
+            cwd=ROOT,
+        )
         assert done.returncode == 0, done.stderr[-2000:]
         outputs[isa] = out / "view_000"
     reference = outputs[ISAS[-1]]  # the widest

@@ -54,9 +54,13 @@ def test_recall_is_strict_and_counts_unmatched_as_misses():
 
 def test_greedy_matching_by_score():
     # Two instances of one object; the best-scored estimate takes the instance it fits best.
-    errors = np.array([[50.0, 5.0],    # estimate 0 (score 0.9): best on instance 1
-                       [4.0, 3.0],     # estimate 1 (score 0.5): instance 1 is taken → instance 0
-                       [1.0, 1.0]])    # estimate 2 (score 0.1): nothing left
+    errors = np.array(
+        [
+            [50.0, 5.0],  # estimate 0 (score 0.9): best on instance 1
+            [4.0, 3.0],  # estimate 1 (score 0.5): instance 1 is taken → instance 0
+            [1.0, 1.0],
+        ]
+    )  # estimate 2 (score 0.1): nothing left
     matched = match_greedy(errors, np.array([0.9, 0.5, 0.1]), threshold=10.0)
     np.testing.assert_array_equal(matched, [4.0, 5.0])
     # An error at the threshold does not match (strict).
@@ -75,9 +79,7 @@ def test_auc_trapezoids():
 def test_results_csv_reads_and_names_bad_lines(tmp_path):
     good = tmp_path / "moonbot_synbag-test.csv"
     R = " ".join(map(str, rot_z(30.0).reshape(-1)))
-    good.write_text("scene_id,im_id,obj_id,score,R,t,time\n"
-                    f"0,3,1,0.9,{R},10 20 800,0.5\n"
-                    f"0,3,3,0.4,{R},-5 0 900,0.5\n")
+    good.write_text(f"scene_id,im_id,obj_id,score,R,t,time\n0,3,1,0.9,{R},10 20 800,0.5\n0,3,3,0.4,{R},-5 0 900,0.5\n")
     rows = read_results(good)
     assert len(rows) == 2 and rows[1].obj_id == 3 and rows[0].t.tolist() == [10.0, 20.0, 800.0]
     np.testing.assert_allclose(rows[0].R, rot_z(30.0), atol=1e-12)

@@ -30,9 +30,16 @@ from moonbot.eval.validate import ValidationReport, check_manifest
 pytestmark = pytest.mark.integration
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
-TEST_SPLIT = {"name": "test", "meshes": ["sandbag-01", "sandbag-02", "sandbag-03"], "bag_counts": [2],
-              "stain_seeds": [0, 15], "dust": [False, True], "sun_elevations_deg": [30.0],
-              "sun_azimuths_deg": [90.0], "camera_heights_m": [1.0]}
+TEST_SPLIT = {
+    "name": "test",
+    "meshes": ["sandbag-01", "sandbag-02", "sandbag-03"],
+    "bag_counts": [2],
+    "stain_seeds": [0, 15],
+    "dust": [False, True],
+    "sun_elevations_deg": [30.0],
+    "sun_azimuths_deg": [90.0],
+    "camera_heights_m": [1.0],
+}
 
 
 @pytest.fixture(scope="module")
@@ -44,8 +51,9 @@ def dataset(tmp_path_factory) -> Path:
     config_file = tmp_path_factory.mktemp("config") / "eval-smoke.yaml"
     config_file.write_text(yaml.safe_dump(config))
     out = tmp_path_factory.mktemp("eval-smoke")
-    result = CliRunner().invoke(main, ["generate", str(config_file), "--out", str(out), "--workers", "1",
-                                       "--threads", "1"])
+    result = CliRunner().invoke(
+        main, ["generate", str(config_file), "--out", str(out), "--workers", "1", "--threads", "1"]
+    )
     assert result.exit_code == 0, result.output
     return out / "dataset"
 
@@ -62,14 +70,20 @@ def models(dataset):
 
 def truth(split, score: float = 1.0) -> list[Estimate]:
     """The ground-truth pose of every instance with a visible pixel, as estimates."""
-    return [Estimate(s.scene_id, im, i.obj_id, score, i.R, i.t, -1.0)
-            for s in split for im, instances in sorted(s.images.items()) for i in instances if i.px_visib > 0]
+    return [
+        Estimate(s.scene_id, im, i.obj_id, score, i.R, i.t, -1.0)
+        for s in split
+        for im, instances in sorted(s.images.items())
+        for i in instances
+        if i.px_visib > 0
+    ]
 
 
 def numbered(estimates: list[Estimate]) -> list[Estimate]:
     """The estimates with the line numbers a results CSV of them gives (header on line 1)."""
-    return [Estimate(e.scene_id, e.im_id, e.obj_id, e.score, e.R, e.t, e.time_s, k + 2)
-            for k, e in enumerate(estimates)]
+    return [
+        Estimate(e.scene_id, e.im_id, e.obj_id, e.score, e.R, e.t, e.time_s, k + 2) for k, e in enumerate(estimates)
+    ]
 
 
 def read_csv(path: Path) -> list[dict]:
@@ -145,8 +159,10 @@ def test_a_turn_by_the_symmetry_costs_adds_nothing_but_add_much(split, models):
     symmetric = [s for s in split if any(i.obj_id == 1 for ins in s.images.values() for i in ins)]
     S = models[1].symmetries[0]
     assert symmetric and not np.allclose(S[:3, :3], np.eye(3))
-    turned = [Estimate(e.scene_id, e.im_id, e.obj_id, e.score, e.R @ S[:3, :3], e.t + e.R @ S[:3, 3], e.time_s)
-              for e in truth(symmetric)]
+    turned = [
+        Estimate(e.scene_id, e.im_id, e.obj_id, e.score, e.R @ S[:3, :3], e.t + e.R @ S[:3, 3], e.time_s)
+        for e in truth(symmetric)
+    ]
     evaluated = evaluate(symmetric, models, turned).evaluated
     assert evaluated and all(r.matched and r.obj_id == 1 for r in evaluated)
     for r in evaluated:
@@ -174,9 +190,13 @@ def test_of_two_estimates_for_one_instance_the_higher_scored_matches(split, mode
     scene, im, (a, b) = image_with_two_visible(split)
     off = np.array([0.0, 0.0, 5.0])
     for perfect_score, shifted_score in ((0.9, 0.4), (0.4, 0.9)):
-        estimates = numbered([Estimate(scene.scene_id, im, a.obj_id, perfect_score, a.R, a.t, -1.0),
-                              Estimate(scene.scene_id, im, a.obj_id, shifted_score, a.R, a.t + off, -1.0),
-                              Estimate(scene.scene_id, im, b.obj_id, 0.5, b.R, b.t, -1.0)])
+        estimates = numbered(
+            [
+                Estimate(scene.scene_id, im, a.obj_id, perfect_score, a.R, a.t, -1.0),
+                Estimate(scene.scene_id, im, a.obj_id, shifted_score, a.R, a.t + off, -1.0),
+                Estimate(scene.scene_id, im, b.obj_id, 0.5, b.R, b.t, -1.0),
+            ]
+        )
         evaluation = evaluate([scene], models, estimates)
         rows = {r.index: r for r in evaluation.evaluated if r.im_id == im}
         assert evaluation.matched_estimates == 2 and evaluation.unmatched_estimates == 1
@@ -188,9 +208,13 @@ def test_of_two_estimates_for_one_instance_the_higher_scored_matches(split, mode
 def test_a_stray_estimate_with_a_higher_score_does_not_displace_a_good_one(split, models):
     scene, im, (a, b) = image_with_two_visible(split)
     stray_t = a.t + np.array([0.0, 0.0, 1.5]) * models[a.obj_id].diameter  # deep below both: fits neither
-    estimates = numbered([Estimate(scene.scene_id, im, a.obj_id, 0.9, a.R, stray_t, -1.0),
-                          Estimate(scene.scene_id, im, a.obj_id, 0.5, a.R, a.t, -1.0),
-                          Estimate(scene.scene_id, im, b.obj_id, 0.4, b.R, b.t, -1.0)])
+    estimates = numbered(
+        [
+            Estimate(scene.scene_id, im, a.obj_id, 0.9, a.R, stray_t, -1.0),
+            Estimate(scene.scene_id, im, a.obj_id, 0.5, a.R, a.t, -1.0),
+            Estimate(scene.scene_id, im, b.obj_id, 0.4, b.R, b.t, -1.0),
+        ]
+    )
     evaluation = evaluate([scene], models, estimates)
     rows = {r.index: r for r in evaluation.evaluated if r.im_id == im}
     assert rows[a.index].line == 3 and rows[b.index].line == 4
@@ -215,8 +239,9 @@ def test_the_tables_counts_add_up(split, models):
     rows4 = table4(evaluation, edges)
     px = np.array([r.px_visib for r in evaluation.evaluated])
     overall = [r for r in rows4 if r.mesh == "all"]
-    assert [r.summary.instances for r in overall] == [int(((px >= lo) & (px < hi)).sum()) for lo, hi in
-                                                    zip(edges, [*edges[1:], np.inf])]
+    assert [r.summary.instances for r in overall] == [
+        int(((px >= lo) & (px < hi)).sum()) for lo, hi in zip(edges, [*edges[1:], np.inf])
+    ]
     for mesh_row in (r for r in rows3 if r.level == "mesh"):
         assert sum(r.summary.instances for r in rows4 if r.mesh == mesh_row.mesh) == mesh_row.summary.instances
     with pytest.raises(ValueError, match="increasing"):
@@ -285,8 +310,10 @@ def test_the_first_matching_pass_is_the_toolkits_at_10_percent(split, models):
     full = models[a.obj_id]
     mp = ModelPoints(replace(full, vertices=full.vertices[::10]))
     for _ in range(3):
-        ests = [Estimate(scene.scene_id, im, a.obj_id, float(rng.random()), g.R, g.t + rng.normal(size=3) * 25, -1.0)
-                for g in (a, b, a)]
+        ests = [
+            Estimate(scene.scene_id, im, a.obj_id, float(rng.random()), g.R, g.t + rng.normal(size=3) * 25, -1.0)
+            for g in (a, b, a)
+        ]
         pairs = _Pairs(mp, ests, [a, b])
         scores = [e.score for e in ests]
         first = assign_greedy(scores, 2, pairs.adds, pairs.adds_bound, 0.1 * mp.diameter)
@@ -306,8 +333,20 @@ def test_bad_input_fails_naming_the_file_and_line(dataset, split, tmp_path):
     write_results(stray, [*good, Estimate(999, 0, 1, 0.5, np.eye(3), np.array([0.0, 0.0, 900.0]), -1.0)])
     result = runner.invoke(main, ["eval", str(dataset), "--results", str(stray), "--out", str(tmp_path / "o")])
     assert result.exit_code != 0 and f"{stray}:4: scene 999 image 0 is not in split 'test'" in result.output
-    result = runner.invoke(main, ["eval", str(dataset), "--results", str(stray), "--out", str(tmp_path / "o"),
-                                  "--allow-unknown", "--workers", "1"])
+    result = runner.invoke(
+        main,
+        [
+            "eval",
+            str(dataset),
+            "--results",
+            str(stray),
+            "--out",
+            str(tmp_path / "o"),
+            "--allow-unknown",
+            "--workers",
+            "1",
+        ],
+    )
     assert result.exit_code == 0 and "warning: 1 estimates ignored" in result.output
     result = runner.invoke(main, ["eval", str(dataset), "--results", str(stray), "--px-bins", "0,500,100"])
     assert result.exit_code != 0 and "increasing" in result.output
@@ -315,6 +354,7 @@ def test_bad_input_fails_naming_the_file_and_line(dataset, split, tmp_path):
     copy = tmp_path / "dataset"
     shutil.copytree(dataset, copy, symlinks=True)  # the by_condition/ view stays links
     (copy / "models_eval" / "models_info.json").unlink()
-    result = runner.invoke(main, ["eval", str(copy), "--results", str(bad.with_name("stray.csv")),
-                                  "--out", str(tmp_path / "o")])
+    result = runner.invoke(
+        main, ["eval", str(copy), "--results", str(bad.with_name("stray.csv")), "--out", str(tmp_path / "o")]
+    )
     assert result.exit_code != 0 and str(copy / "models_eval" / "models_info.json") in result.output

@@ -27,12 +27,12 @@ from pycocotools import mask as mask_utils
 from pycocotools.coco import COCO
 
 from moonbot.bop import merge_dataset
-from moonbot.cli import main
-from moonbot.config import load_config
 from moonbot.bop.coco import SCENE_COCO, scene_coco
 from moonbot.bop.reader import DatasetError
 from moonbot.bop.rle import encode_rle
 from moonbot.bop.toolkit_json import dumps_toolkit_json
+from moonbot.cli import main
+from moonbot.config import load_config
 from moonbot.export import dataset_scenes, write_shards, write_split_cocos
 from moonbot.export.coco import IMAGE_ID_STRIDE
 from moonbot.pipeline.tasks import run_task
@@ -87,8 +87,14 @@ def instances(scene: Path):
     for im, entries in gt.items():
         for k, entry in enumerate(entries):
             name = f"{int(im):06d}_{k:06d}.png"
-            yield (int(im), k, entry["obj_id"], info[im][k]["visib_fract"], png(scene / "mask_visib" / name) > 0,
-                   png(scene / "mask" / name) > 0)
+            yield (
+                int(im),
+                k,
+                entry["obj_id"],
+                info[im][k]["visib_fract"],
+                png(scene / "mask_visib" / name) > 0,
+                png(scene / "mask" / name) > 0,
+            )
 
 
 # ---------------------------------------------------------------------------------------------
@@ -97,8 +103,9 @@ def instances(scene: Path):
 
 def test_the_package_imports_first_or_after_moonbot_bop():
     for first in ("moonbot.export", "moonbot.bop"):
-        run = subprocess.run([sys.executable, "-c", f"import {first}, moonbot.export, moonbot.bop"],
-                             capture_output=True, text=True)
+        run = subprocess.run(
+            [sys.executable, "-c", f"import {first}, moonbot.export, moonbot.bop"], capture_output=True, text=True
+        )
         assert run.returncode == 0, run.stderr
 
 
@@ -114,8 +121,9 @@ def test_rle_of_a_small_mask_by_hand():
 @settings(max_examples=60, deadline=None)
 @given(st.integers(1, 9), st.integers(1, 9), st.data())
 def test_rle_decodes_with_pycocotools(height, width, data):
-    mask = np.array(data.draw(st.lists(st.booleans(), min_size=height * width, max_size=height * width)),
-                    bool).reshape(height, width)
+    mask = np.array(data.draw(st.lists(st.booleans(), min_size=height * width, max_size=height * width)), bool).reshape(
+        height, width
+    )
     rle = encode_rle(mask)
     assert sum(rle["counts"]) == height * width
     assert all(c > 0 for c in rle["counts"][1:])
@@ -125,8 +133,9 @@ def test_rle_decodes_with_pycocotools(height, width, data):
 
 
 def test_toolkit_json_layout():
-    assert dumps_toolkit_json({"b": [1, 2], "a": {"y": 1, "x": 0.5}}) == \
-        b'{\n  "a": {"x": 0.5, "y": 1},\n  "b": [1, 2]\n}'
+    assert (
+        dumps_toolkit_json({"b": [1, 2], "a": {"y": 1, "x": 0.5}}) == b'{\n  "a": {"x": 0.5, "y": 1},\n  "b": [1, 2]\n}'
+    )
     assert dumps_toolkit_json([{"b": 1, "a": 2}, []]) == b'[\n  {"a": 2, "b": 1},\n  []\n]'
     assert dumps_toolkit_json({10: 0, 2: 1}) == b'{\n  "2": 1,\n  "10": 0\n}'  # int keys: numeric order
     assert dumps_toolkit_json({}) == b"{\n}"
@@ -198,19 +207,35 @@ def test_scene_coco_on_a_hand_made_scene(tmp_path):
     (scene / "rgb" / "000000.png").write_bytes(b"")
     (scene / "rgb" / "000003.jpg").write_bytes(b"")
     pose = {"cam_R_m2c": [1, 0, 0, 0, 1, 0, 0, 0, 1], "cam_t_m2c": [0, 0, 500]}
-    (scene / "scene_gt.json").write_text(json.dumps({"0": [{"obj_id": 2, **pose}, {"obj_id": 1, **pose}],
-                                                     "3": [{"obj_id": 1, **pose}]}))
-    (scene / "scene_gt_info.json").write_text(json.dumps({"0": [{"visib_fract": 0.05}, {"visib_fract": 0.0}],
-                                                          "3": [{"visib_fract": 1.0}]}))
+    (scene / "scene_gt.json").write_text(
+        json.dumps({"0": [{"obj_id": 2, **pose}, {"obj_id": 1, **pose}], "3": [{"obj_id": 1, **pose}]})
+    )
+    (scene / "scene_gt_info.json").write_text(
+        json.dumps({"0": [{"visib_fract": 0.05}, {"visib_fract": 0.0}], "3": [{"visib_fract": 1.0}]})
+    )
     coco = scene_coco(scene, "lunar", "train_pbr", [1, 2], (5, 4))
     assert coco["info"]["description"] == "lunar_train" and coco["categories"][1]["supercategory"] == "lunar"
     assert [(i["id"], i["file_name"]) for i in coco["images"]] == [(0, "rgb/000000.png"), (3, "rgb/000003.jpg")]
     first, second = coco["annotations"]
-    assert first == {"id": 1, "image_id": 0, "category_id": 2, "iscrowd": 0, "area": 2, "bbox": [0, 0, 4, 3],
-                     "segmentation": {"counts": [0, 2, 18], "size": [4, 5]}, "width": 5, "height": 4,
-                     "ignore": True}
-    assert (second["id"], second["image_id"], second["category_id"], second["area"], second["ignore"]) == \
-        (2, 3, 1, 12, False)
+    assert first == {
+        "id": 1,
+        "image_id": 0,
+        "category_id": 2,
+        "iscrowd": 0,
+        "area": 2,
+        "bbox": [0, 0, 4, 3],
+        "segmentation": {"counts": [0, 2, 18], "size": [4, 5]},
+        "width": 5,
+        "height": 4,
+        "ignore": True,
+    }
+    assert (second["id"], second["image_id"], second["category_id"], second["area"], second["ignore"]) == (
+        2,
+        3,
+        1,
+        12,
+        False,
+    )
     (scene / "mask" / "000003_000000.png").unlink()
     with pytest.raises(DatasetError, match="000003_000000.png: missing"):
         scene_coco(scene, "lunar", "train_pbr", [1, 2], (5, 4))
@@ -275,14 +300,22 @@ def test_shards_read_back_with_webdataset_match_the_bop_files(dataset, tmp_path)
         samples = read_shards(folder)
         key_to_shard = load(folder / "key_to_shard.json")
         scenes = {s.scene_id: s for s in dataset_scenes(dataset) if s.split == split}
-        expected_keys = [f"{sid:06d}_{int(im):06d}" for sid, s in sorted(scenes.items())
-                         for im in load(s.path / "scene_gt.json")]
+        expected_keys = [
+            f"{sid:06d}_{int(im):06d}" for sid, s in sorted(scenes.items()) for im in load(s.path / "scene_gt.json")
+        ]
         assert [s["__key__"] for _, s in samples] == expected_keys  # dataset order, 3 to a shard
         assert sorted(key_to_shard) == sorted(expected_keys)
         for position, (shard, sample) in enumerate(samples):
             assert shard == f"shard-{position // 3:06d}.tar" and key_to_shard[sample["__key__"]] == position // 3
             assert set(sample) - {"__key__", "__url__", "__local_path__"} == {
-                "camera.json", "depth.png", "gt.json", "gt_info.json", "mask.json", "mask_visib.json", "rgb.png"}
+                "camera.json",
+                "depth.png",
+                "gt.json",
+                "gt_info.json",
+                "mask.json",
+                "mask_visib.json",
+                "rgb.png",
+            }
             scene_id, im = (int(x) for x in sample["__key__"].split("_"))
             scene = scenes[scene_id].path
             assert sample["rgb.png"] == (scene / "rgb" / f"{im:06d}.png").read_bytes()
@@ -309,10 +342,13 @@ def test_shards_are_deterministic_bytes(dataset, tmp_path):
         assert (tmp_path / "a" / rel).read_bytes() == (tmp_path / "b" / rel).read_bytes(), rel
     with tarfile.open(tmp_path / "a" / "train_web" / "shard-000000.tar") as tar:
         members = tar.getmembers()
-    assert [m.name for m in members[:7]] == [f"000000_000000.{f}" for f in (
-        "camera.json", "depth.png", "gt.json", "gt_info.json", "mask.json", "mask_visib.json", "rgb.png")]
-    assert all((m.mtime, m.uid, m.gid, m.uname, m.gname, m.mode, m.isreg()) == (0, 0, 0, "", "", 0o444, True)
-               for m in members)
+    assert [m.name for m in members[:7]] == [
+        f"000000_000000.{f}"
+        for f in ("camera.json", "depth.png", "gt.json", "gt_info.json", "mask.json", "mask_visib.json", "rgb.png")
+    ]
+    assert all(
+        (m.mtime, m.uid, m.gid, m.uname, m.gname, m.mode, m.isreg()) == (0, 0, 0, "", "", 0o444, True) for m in members
+    )
 
 
 def test_shuffled_shards_hold_the_same_images_in_a_seeded_order(dataset, tmp_path):
@@ -323,8 +359,9 @@ def test_shuffled_shards_hold_the_same_images_in_a_seeded_order(dataset, tmp_pat
     shuffled = [s["__key__"] for _, s in read_shards(tmp_path / "s1" / "train_web")]
     assert sorted(shuffled) == plain
     assert shuffled == [plain[k] for k in np.random.RandomState(1).permutation(len(plain))]
-    assert (tmp_path / "s1" / "train_web" / "shard-000000.tar").read_bytes() == \
-        (tmp_path / "s1again" / "train_web" / "shard-000000.tar").read_bytes()
+    assert (tmp_path / "s1" / "train_web" / "shard-000000.tar").read_bytes() == (
+        tmp_path / "s1again" / "train_web" / "shard-000000.tar"
+    ).read_bytes()
 
 
 # ---------------------------------------------------------------------------------------------
@@ -368,8 +405,13 @@ def test_scene_gt_coco_is_what_bop_toolkit_computes(dataset, tmp_path):
         # calc_gt_coco's loop (--use_all_gt, amodal boxes), on bop_toolkit's loaders.
         scene_gt = inout.load_scene_gt(str(scene.path / "scene_gt.json"))
         scene_gt_info = inout.load_json(str(scene.path / "scene_gt_info.json"), keys_to_int=True)
-        output = {"info": ours["info"], "licenses": [], "categories": ours["categories"], "images": [],
-                  "annotations": []}
+        output = {
+            "info": ours["info"],
+            "licenses": [],
+            "categories": ours["categories"],
+            "images": [],
+            "annotations": [],
+        }
         segmentation_id = 1
         for im_id, inst_list in scene_gt.items():
             image = pycoco_utils.create_image_info(im_id, f"rgb/{im_id:06d}.png", (64, 48))
@@ -384,8 +426,14 @@ def test_scene_gt_coco_is_what_bop_toolkit_computes(dataset, tmp_path):
                 if full.sum() < 1:
                     continue
                 annotation = pycoco_utils.create_annotation_info(
-                    segmentation_id, im_id, inst["obj_id"], visible, pycoco_utils.bbox_from_binary_mask(full),
-                    tolerance=2, ignore=scene_gt_info[im_id][idx]["visib_fract"] < 0.1)
+                    segmentation_id,
+                    im_id,
+                    inst["obj_id"],
+                    visible,
+                    pycoco_utils.bbox_from_binary_mask(full),
+                    tolerance=2,
+                    ignore=scene_gt_info[im_id][idx]["visib_fract"] < 0.1,
+                )
                 output["annotations"].append(annotation)
                 segmentation_id += 1
         path = tmp_path / f"{scene.split}_{scene.scene_id}.json"
@@ -401,8 +449,14 @@ def test_shards_load_with_bop_toolkits_reader(dataset, tmp_path):
         key_to_shard = load(folder / "key_to_shard.json")
         for im, k, obj_id, _, visible, amodal in instances(scene.path):
             key = f"{scene.scene_id:06d}_{im:06d}"
-            data = bop_webdataset.load_image_data(folder / f"shard-{key_to_shard[key]:06d}.tar", key, load_mask=True,
-                                                  load_gt=True, load_gt_info=True, rgb_suffix=".png")
+            data = bop_webdataset.load_image_data(
+                folder / f"shard-{key_to_shard[key]:06d}.tar",
+                key,
+                load_mask=True,
+                load_gt=True,
+                load_gt_info=True,
+                rgb_suffix=".png",
+            )
             assert np.array_equal(data["im_rgb"], png(scene.path / "rgb" / f"{im:06d}.png"))
             assert data["gt"][k]["obj_id"] == obj_id
             assert np.array_equal(data["mask_visib"][k].astype(bool), visible)

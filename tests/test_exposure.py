@@ -14,11 +14,19 @@ import pytest
 from moonbot import _core
 from moonbot.config import Config, load_config
 from moonbot.render import RenderedView, resolve_exposure
-from moonbot.render.exposure import (AUTO_MIN_ELEVATION_DEG, EV100_MIN, LUMINOUS_EFFICACY_LM_W, auto_ev100,
-                                     regolith_reflectance,
-                                     exposure_for_ev100, metered_ev100, saturation_luminance)
+from moonbot.render.exposure import (
+    AUTO_MIN_ELEVATION_DEG,
+    EV100_MIN,
+    LUMINOUS_EFFICACY_LM_W,
+    auto_ev100,
+    exposure_for_ev100,
+    metered_ev100,
+    regolith_reflectance,
+    saturation_luminance,
+)
 from moonbot.scene.orbit import CameraPose
 from moonbot.writer import RADIANCE_UNIT, finite_radiance, write_sample
+
 from scenes import VIEW_META
 
 pytestmark = pytest.mark.unit
@@ -42,9 +50,17 @@ def test_saturation_luminance_and_scale_by_hand():
     assert metered_ev100(128.0) == pytest.approx(10.0, abs=1e-12)
 
 
-@pytest.mark.parametrize(("albedo", "elevation", "irradiance"), [
-    (0.12, 30.0, 1361.0), (0.12, 10.0, 1361.0), (0.12, 12.0, 1361.0), (0.07, 5.0, 1361.0),
-    (0.18, 45.0, 1316.0), (0.12, 90.0, 1408.0)])
+@pytest.mark.parametrize(
+    ("albedo", "elevation", "irradiance"),
+    [
+        (0.12, 30.0, 1361.0),
+        (0.12, 10.0, 1361.0),
+        (0.12, 12.0, 1361.0),
+        (0.07, 5.0, 1361.0),
+        (0.18, 45.0, 1316.0),
+        (0.12, 90.0, 1408.0),
+    ],
+)
 def test_auto_ev100_is_the_closed_form(albedo, elevation, irradiance):
     """auto = log2(L · 100 / 12.5), L = ρ · E · 93.31 lm/W · sin(el) / π."""
     luminance = albedo * irradiance * (1.27e5 / 1361.0) * math.sin(math.radians(elevation)) / math.pi
@@ -116,8 +132,21 @@ def test_a_million_to_one_is_finite_and_monotone(colour):
 def test_invalid_radiance_gives_finite_output_and_is_counted():
     """NaN, -Inf and negative channels count as 0 (black), +Inf as the brightest value; the count
     is of pixels with any such channel (-0.0 is fine)."""
-    rgb = np.array([[[np.nan] * 3, [-np.inf] * 3, [-1.0] * 3, [np.inf] * 3,
-                     [np.nan, 1.0, 1.0], [1.0, -5.0, 1.0], [-0.0, 0.0, 0.0], [1.0, 1.0, 1.0]]], np.float32)
+    rgb = np.array(
+        [
+            [
+                [np.nan] * 3,
+                [-np.inf] * 3,
+                [-1.0] * 3,
+                [np.inf] * 3,
+                [np.nan, 1.0, 1.0],
+                [1.0, -5.0, 1.0],
+                [-0.0, 0.0, 0.0],
+                [1.0, 1.0, 1.0],
+            ]
+        ],
+        np.float32,
+    )
     out, invalid = _core.tonemap_reinhard(rgb, 1.0)
     assert invalid == 6
     assert out[0, :3].max() == 0 and out[0, 3].tolist() == [255] * 3
@@ -158,15 +187,15 @@ def write(tmp_path, rgb: np.ndarray, exr: bool, ev100: float = 13.0) -> dict:
     h, w, _ = rgb.shape
     K = np.array([[100.0, 0, w / 2], [0, 100.0, h / 2], [0, 0, 1]])
     pose = CameraPose(R=np.eye(3), t=np.zeros(3))
-    return write_sample(tmp_path, view_of(rgb), exposure_for_ev100(ev100), K, pose, (), 1, VIEW_META, {},
-                        exr=exr).as_json()
+    return write_sample(
+        tmp_path, view_of(rgb), exposure_for_ev100(ev100), K, pose, (), 1, VIEW_META, {}, exr=exr
+    ).as_json()
 
 
 def read_exr(path) -> tuple[np.ndarray, dict]:
     with OpenEXR.File(str(path)) as f:
         channels = f.channels()
-        pixels = channels["RGB"].pixels if "RGB" in channels else np.stack(
-            [channels[c].pixels for c in "RGB"], axis=-1)
+        pixels = channels["RGB"].pixels if "RGB" in channels else np.stack([channels[c].pixels for c in "RGB"], axis=-1)
         return pixels, dict(f.header())
 
 
@@ -195,7 +224,8 @@ def test_rgb_exr_is_absent_by_default(tmp_path):
     gt = write(tmp_path, np.ones((4, 5, 3), np.float32), exr=False)
     assert not (tmp_path / "rgb.exr").exists() and "rgb_exr" not in gt
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
-        ["rgb.png", "depth.npy", "depth.png", "depth_preview.png", "mask.png", "gt.json"])
+        ["rgb.png", "depth.npy", "depth.png", "depth_preview.png", "mask.png", "gt.json"]
+    )
 
 
 def test_invalid_radiance_never_reaches_the_files(tmp_path):

@@ -15,6 +15,7 @@ from moonbot.render import RenderedView, resolve_exposure
 from moonbot.render.exposure import add_veiling_glare, exposure_for_ev100, tonemap
 from moonbot.scene.orbit import CameraPose
 from moonbot.writer import write_sample
+
 from scenes import VIEW_META
 
 pytestmark = pytest.mark.unit

@@ -25,8 +25,16 @@ from distributed import Client, LocalCluster
 from moonbot.cli import main
 from moonbot.config import load_config
 from moonbot.pipeline.generate import RETRIES, generate, running_tasks
-from moonbot.pipeline.heartbeat import (DEBUG_HANG_ENV, DEBUG_HOLD_ENV, HEARTBEAT_DIR, Heartbeat, StallLimit, Watchdog,
-                                        heartbeat_dir, release_path)
+from moonbot.pipeline.heartbeat import (
+    DEBUG_HANG_ENV,
+    DEBUG_HOLD_ENV,
+    HEARTBEAT_DIR,
+    Heartbeat,
+    StallLimit,
+    Watchdog,
+    heartbeat_dir,
+    release_path,
+)
 from moonbot.pipeline.tasks import DONE, is_complete, verify_task
 from moonbot.sweep import tasks
 
@@ -46,9 +54,18 @@ def config_file(tmp_path_factory) -> Path:
     interrupted."""
     data = yaml.safe_load((CONFIGS / "smoke.yaml").read_text())
     data["camera"] = {"width": 96, "height": 72}
-    data["sweep"]["splits"] = [{"name": "train", "meshes": ["sandbag-01", "sandbag-03"], "bag_counts": [1, 2],
-                                "stain_seeds": [0], "dust": [False], "sun_elevations_deg": [12.0, 22.0],
-                                "sun_azimuths_deg": [120.0], "camera_heights_m": [0.5]}]
+    data["sweep"]["splits"] = [
+        {
+            "name": "train",
+            "meshes": ["sandbag-01", "sandbag-03"],
+            "bag_counts": [1, 2],
+            "stain_seeds": [0],
+            "dust": [False],
+            "sun_elevations_deg": [12.0, 22.0],
+            "sun_azimuths_deg": [120.0],
+            "camera_heights_m": [0.5],
+        }
+    ]
     path = tmp_path_factory.mktemp("config") / "mini.yaml"
     path.write_text(yaml.safe_dump(data))
     return path
@@ -153,8 +170,12 @@ def test_a_worker_killed_mid_run_loses_nothing(reference, config_file, tmp_path,
             release_path(tmp_path, held).parent.mkdir(parents=True, exist_ok=True)
             release_path(tmp_path, held).touch()
 
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
-                      silence_logs=50) as cluster, Client(cluster) as client:
+    with (
+        LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=50
+        ) as cluster,
+        Client(cluster) as client,
+    ):
         killer = threading.Thread(target=kill_the_holding_worker_then_release)
         killer.start()
         result = generate(config, tmp_path, client=client, merge=False, progress=None)
@@ -169,10 +190,24 @@ def test_a_killed_driver_resumes_without_redoing_finished_tasks(reference, confi
     (MOONBOT_DEBUG_HOLD_TASK, never released) and at least two others are complete; the rerun
     with --resume leaves the complete ones alone and ends byte for byte the uninterrupted run."""
     held = tasks(load_config(config_file))[5].task_id
-    command = [sys.executable, "-m", "moonbot.cli", "generate", str(config_file), "--out", str(tmp_path),
-               "--workers", "2"]
-    driver = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
-                              env={**os.environ, DEBUG_HOLD_ENV: f"{held}@{HOLD_STAGE}"})
+    command = [
+        sys.executable,
+        "-m",
+        "moonbot.cli",
+        "generate",
+        str(config_file),
+        "--out",
+        str(tmp_path),
+        "--workers",
+        "2",
+    ]
+    driver = subprocess.Popen(
+        command,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+        env={**os.environ, DEBUG_HOLD_ENV: f"{held}@{HOLD_STAGE}"},
+    )
     try:
         held_beat(tmp_path, held)
         deadline = time.monotonic() + REACH_S
@@ -183,8 +218,9 @@ def test_a_killed_driver_resumes_without_redoing_finished_tasks(reference, confi
         driver.wait()
     finished = {p.parent.name: p.stat().st_mtime_ns for p in (tmp_path / "tasks").glob(f"*/{DONE}")}
     assert len(finished) >= 2 and held not in finished  # the held task cannot have finished
-    result = CliRunner().invoke(main, ["generate", str(config_file), "--out", str(tmp_path), "--resume",
-                                       "--workers", "2"])
+    result = CliRunner().invoke(
+        main, ["generate", str(config_file), "--out", str(tmp_path), "--resume", "--workers", "2"]
+    )
     assert result.exit_code == 0, result.output
     assert f"{len(finished)} were complete already" in result.output
     assert {name: (tmp_path / "tasks" / name / DONE).stat().st_mtime_ns for name in finished} == finished
@@ -194,23 +230,56 @@ def test_a_killed_driver_resumes_without_redoing_finished_tasks(reference, confi
 def test_an_external_scheduler_and_workers(reference, config_file, tmp_path):
     scheduler_file = tmp_path / "scheduler.json"
     env = {**os.environ, "DASK_DISTRIBUTED__WORKER__DAEMON": "False"}
-    processes = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
-                                   "--port", "0", "--dashboard-address", ":0", "--scheduler-file", str(scheduler_file)],
-                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)]
+    processes = [
+        subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "distributed.cli.dask_scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                "0",
+                "--dashboard-address",
+                ":0",
+                "--scheduler-file",
+                str(scheduler_file),
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            env=env,
+        )
+    ]
     try:
         deadline = time.monotonic() + 60
         while not scheduler_file.exists() and time.monotonic() < deadline:
             time.sleep(0.1)
         for _ in range(2):
-            processes.append(subprocess.Popen(
-                [sys.executable, "-m", "distributed.cli.dask_worker", "--scheduler-file", str(scheduler_file),
-                 "--nthreads", "1", "--host", "127.0.0.1", "--no-dashboard"],
-                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env))
+            processes.append(
+                subprocess.Popen(
+                    [
+                        sys.executable,
+                        "-m",
+                        "distributed.cli.dask_worker",
+                        "--scheduler-file",
+                        str(scheduler_file),
+                        "--nthreads",
+                        "1",
+                        "--host",
+                        "127.0.0.1",
+                        "--no-dashboard",
+                    ],
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                    env=env,
+                )
+            )
         with Client(scheduler_file=str(scheduler_file)) as client:
             client.wait_for_workers(2, timeout=60)
         out = tmp_path / "out"
-        result = CliRunner().invoke(main, ["generate", str(config_file), "--out", str(out),
-                                           "--scheduler-file", str(scheduler_file)])
+        result = CliRunner().invoke(
+            main, ["generate", str(config_file), "--out", str(out), "--scheduler-file", str(scheduler_file)]
+        )
         assert result.exit_code == 0, result.output
     finally:
         for p in reversed(processes):
@@ -267,16 +336,22 @@ def test_the_progress_line_names_running_tasks_with_their_ages(tmp_path):
     """Each running task with its age and its stage's, oldest first, on the driver's clock; three
     at most, then how many more."""
     watchdog = Watchdog(tmp_path, StallLimit(load_config(), fixed_s=0.0))
-    for task_id, stage in (("train-000001", "render view 2"), ("train-000002", "compose scene"),
-                           ("train-000003", "encode view 0"), ("train-000004", "build BVH")):
+    for task_id, stage in (
+        ("train-000001", "render view 2"),
+        ("train-000002", "compose scene"),
+        ("train-000003", "encode view 0"),
+        ("train-000004", "build BVH"),
+    ):
         Heartbeat(tmp_path, task_id, "tcp://127.0.0.1:1").stage(stage)
     ids = {f"train-00000{i}" for i in range(1, 5)}
     watchdog.poll({"train-000001"}, 1000.0)  # seen first: the oldest
     watchdog.poll(ids, 1030.0)
     text = running_tasks(list(watchdog.beats.values()), 1041.0)
-    assert text == ("4 running: train-000001 for 41 s (in 'render view 2' for 41 s), "
-                    "train-000002 for 11 s (in 'compose scene' for 11 s), "
-                    "train-000003 for 11 s (in 'encode view 0' for 11 s), and 1 more")
+    assert text == (
+        "4 running: train-000001 for 41 s (in 'render view 2' for 41 s), "
+        "train-000002 for 11 s (in 'compose scene' for 11 s), "
+        "train-000003 for 11 s (in 'encode view 0' for 11 s), and 1 more"
+    )
     assert running_tasks([], 1041.0) == ""
 
 
@@ -324,9 +399,24 @@ def test_ctrl_c_prints_the_merge_command(config_file, tmp_path):
     scratch_root = tmp_path / "tmp"
     scratch_root.mkdir()
     out = tmp_path / "out"
-    driver = subprocess.Popen([sys.executable, "-m", "moonbot.cli", "generate", str(config_file), "--out", str(out),
-                               "--workers", "2", "--no-merge"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                              text=True, env={**os.environ, "TMPDIR": str(scratch_root)})
+    driver = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "moonbot.cli",
+            "generate",
+            str(config_file),
+            "--out",
+            str(out),
+            "--workers",
+            "2",
+            "--no-merge",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "TMPDIR": str(scratch_root)},
+    )
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and not any((out / "tasks").glob(f"*/{DONE}")):
         time.sleep(0.05)

@@ -12,9 +12,21 @@ import time
 import pytest
 
 from moonbot.config import load_config
-from moonbot.pipeline.heartbeat import (DEBUG_HANG_ENV, DEBUG_HOLD_ENV, HEARTBEAT_DIR, RENDER_BUDGET_S_PER_MEGASAMPLE,
-                                        STALL_FACTOR, STALL_FLOOR_S, Heartbeat, StallLimit, Watchdog,
-                                        debug_hang_stage, debug_hold_stage, default_floor_s, release_path)
+from moonbot.pipeline.heartbeat import (
+    DEBUG_HANG_ENV,
+    DEBUG_HOLD_ENV,
+    HEARTBEAT_DIR,
+    RENDER_BUDGET_S_PER_MEGASAMPLE,
+    STALL_FACTOR,
+    STALL_FLOOR_S,
+    Heartbeat,
+    StallLimit,
+    Watchdog,
+    debug_hang_stage,
+    debug_hold_stage,
+    default_floor_s,
+    release_path,
+)
 
 pytestmark = pytest.mark.unit
 

@@ -22,15 +22,13 @@ def test_exr_float_round_trip_is_exact(tmp_path):
     _core.write_image(str(path), hdr)
     with OpenEXR.File(str(path)) as f:
         channels = f.channels()
-        back = channels["RGB"].pixels if "RGB" in channels else np.stack(
-            [channels[c].pixels for c in "RGB"], axis=-1)
+        back = channels["RGB"].pixels if "RGB" in channels else np.stack([channels[c].pixels for c in "RGB"], axis=-1)
     assert back.dtype == np.float32
     np.testing.assert_array_equal(back, hdr)
 
 
 # 16-bit PNGs are single-channel here (depth); Pillow cannot decode 16-bit RGB as 16 bits.
-@pytest.mark.parametrize(("dtype", "channels"), [(np.uint8, 1), (np.uint8, 3), (np.uint8, 4),
-                                                 (np.uint16, 1)])
+@pytest.mark.parametrize(("dtype", "channels"), [(np.uint8, 1), (np.uint8, 3), (np.uint8, 4), (np.uint16, 1)])
 @pytest.mark.parametrize("level", [0, 1, 9])
 def test_png_round_trip_is_exact(tmp_path, dtype, channels, level):
     rng = np.random.default_rng(channels)
@@ -71,8 +69,15 @@ def test_tonemap_value_is_reinhard_then_srgb():
     assert _core.tonemap_reinhard(rgb, 3.0)[0][0, 0].tolist() == [225] * 3
 
 
-@pytest.mark.parametrize(("dtype", "ext", "shape"), [(np.uint8, ".png", (5, 7, 3)), (np.uint8, ".png", (5, 7)),
-                                                     (np.uint16, ".png", (5, 7)), (np.float32, ".exr", (5, 7, 3))])
+@pytest.mark.parametrize(
+    ("dtype", "ext", "shape"),
+    [
+        (np.uint8, ".png", (5, 7, 3)),
+        (np.uint8, ".png", (5, 7)),
+        (np.uint16, ".png", (5, 7)),
+        (np.float32, ".exr", (5, 7, 3)),
+    ],
+)
 def test_read_image_returns_what_was_written(tmp_path, dtype, ext, shape):
     rng = np.random.default_rng(3)
     pixels = (rng.random(shape) * 1000).astype(dtype)

@@ -82,8 +82,11 @@ def wall_irradiance(d: float) -> float:
 @pytest.mark.parametrize("d", [0.25, 0.5, 1.0])
 def test_floor_beside_a_sunlit_wall_matches_the_view_factor_closed_form(d):
     scene, fv = floor_and_wall()
-    cache = _core.LightCache(scene, _core.DirectionalLight(0.0, SUN_ELEVATION, E_SUN),
-                             settings=_core.LightCacheSettings(bounces=1, rays_background=4096))
+    cache = _core.LightCache(
+        scene,
+        _core.DirectionalLight(0.0, SUN_ELEVATION, E_SUN),
+        settings=_core.LightCacheSettings(bounces=1, rays_background=4096),
+    )
     (irradiance, direction) = cache.vertex(0, floor_vertex(fv, 0.0, d))
     expected = wall_irradiance(d)
     # 4096 stratified rays over a hemisphere the wall cuts with a sharp edge: measured within
@@ -99,8 +102,11 @@ def test_lattice_node_on_the_floor_matches_the_closed_form_too():
     # A 5 cm floor read through a 25 cm lattice: the vertex at (0, 1) stands on a node, so its
     # value is that node's own gather at the surface its probe met.
     scene, fv = floor_and_wall(floor_step=0.05)
-    cache = _core.LightCache(scene, _core.DirectionalLight(0.0, SUN_ELEVATION, E_SUN),
-                             settings=_core.LightCacheSettings(bounces=1, rays_background=4096, background_cell_m=0.25))
+    cache = _core.LightCache(
+        scene,
+        _core.DirectionalLight(0.0, SUN_ELEVATION, E_SUN),
+        settings=_core.LightCacheSettings(bounces=1, rays_background=4096, background_cell_m=0.25),
+    )
     (irradiance, _) = cache.vertex(0, floor_vertex(fv, 0.0, 1.0))
     assert irradiance[0] == pytest.approx(wall_irradiance(1.0), rel=0.005)
     s = cache.stats()
@@ -126,8 +132,13 @@ def test_a_moving_wall_is_invisible_to_the_cache_and_a_static_change_is_refused(
     with pytest.raises(ValueError, match="light_cache: the scene's static geometry changed"):
         _core.render(scene, cam, sun, _core.RenderSettings(bounces=2), light_cache=cache)
     with pytest.raises(ValueError, match="light_cache: built for 2 bounces, the render asks for 1"):
-        _core.render(scene, cam, sun, _core.RenderSettings(bounces=1),
-                     light_cache=_core.LightCache(scene, sun, settings=_core.LightCacheSettings(bounces=2)))
+        _core.render(
+            scene,
+            cam,
+            sun,
+            _core.RenderSettings(bounces=1),
+            light_cache=_core.LightCache(scene, sun, settings=_core.LightCacheSettings(bounces=2)),
+        )
 
 
 def test_bad_settings_name_the_field():
@@ -176,9 +187,10 @@ CACHE_TOLERANCES = {(0.0, 0.0): (0.03, 0.03, 0.04), (0.05, 0.02): (0.03, 0.03, 0
 def bag_reference():
     scene, sun, cam = bag_on_floor()
     # Same seed with and without bounces: the direct light cancels sample for sample.
-    indirect = (_core.render(scene, cam, sun,
-                             _core.RenderSettings(spp=1024, bounces=2, seed=3))["rgb"].astype(np.float64)
-                - _core.render(scene, cam, sun, _core.RenderSettings(spp=1024, bounces=0, seed=3))["rgb"])
+    indirect = (
+        _core.render(scene, cam, sun, _core.RenderSettings(spp=1024, bounces=2, seed=3))["rgb"].astype(np.float64)
+        - _core.render(scene, cam, sun, _core.RenderSettings(spp=1024, bounces=0, seed=3))["rgb"]
+    )
     return scene, sun, cam, indirect
 
 
@@ -186,8 +198,9 @@ def bag_reference():
 def test_cache_matches_the_path_tracer_on_a_bag_and_its_shadow(bag_reference, cells):
     scene, sun, cam, indirect_ref = bag_reference
     direct = _core.render(scene, cam, sun, _core.RenderSettings(spp=64, bounces=0, seed=5))
-    settings = _core.LightCacheSettings(bounces=2, rays_objects=1024, rays_background=1024,
-                                        background_cell_m=cells[0], object_cell_m=cells[1])
+    settings = _core.LightCacheSettings(
+        bounces=2, rays_objects=1024, rays_background=1024, background_cell_m=cells[0], object_cell_m=cells[1]
+    )
     cache = _core.LightCache(scene, sun, settings=settings)
     cached = _core.render(scene, cam, sun, _core.RenderSettings(spp=64, bounces=2, seed=5), light_cache=cache)
     assert cached["bounce_rays"] == 0 and cached["bounce_shadow_rays"] == 0
@@ -201,10 +214,20 @@ def test_cache_matches_the_path_tracer_on_a_bag_and_its_shadow(bag_reference, ce
 
 
 def small_task(**render):
-    overrides = {"camera.width": 48, "camera.height": 36, "render.spp": 2, "render.light_samples": 1,
-                 "terrain.location": "plane", "bags.count": 2, "bags.layout": "scattered",
-                 "bags.scatter_radius_m": 0.6, "render.indirect": "cache", "render.bounces": 2,
-                 "render.cache_rays_bags": 32, "render.cache_rays_terrain": 16}
+    overrides = {
+        "camera.width": 48,
+        "camera.height": 36,
+        "render.spp": 2,
+        "render.light_samples": 1,
+        "terrain.location": "plane",
+        "bags.count": 2,
+        "bags.layout": "scattered",
+        "bags.scatter_radius_m": 0.6,
+        "render.indirect": "cache",
+        "render.bounces": 2,
+        "render.cache_rays_bags": 32,
+        "render.cache_rays_terrain": 16,
+    }
     overrides.update({f"render.{k}": v for k, v in render.items()})
     return load_config(None, overrides)
 
@@ -265,10 +288,22 @@ def test_dust_ejecta_do_not_reach_the_cache(tmp_path):
     # so a view's values do not depend on which view's fragments were in the scene when they
     # were filled. Rendering view 1 after view 0 (fragments moved in between) equals view 1 alone.
     dust = {"dust.enabled": True, "dust.ejecta.count": 40, "dust.cloud.rate_per_s": 0.0}
-    config = load_config(None, {
-        "camera.width": 48, "camera.height": 36, "render.spp": 1, "render.light_samples": 1,
-        "terrain.location": "plane", "bags.count": 1, "render.indirect": "cache", "render.bounces": 1,
-        "render.cache_rays_bags": 16, "render.cache_rays_terrain": 16, **dust})
+    config = load_config(
+        None,
+        {
+            "camera.width": 48,
+            "camera.height": 36,
+            "render.spp": 1,
+            "render.light_samples": 1,
+            "terrain.location": "plane",
+            "bags.count": 1,
+            "render.indirect": "cache",
+            "render.bounces": 1,
+            "render.cache_rays_bags": 16,
+            "render.cache_rays_terrain": 16,
+            **dust,
+        },
+    )
     both = run_views(config, [0, 1], tmp_path / "both")
     alone = run_views(config, [1], tmp_path / "alone")
     a = (both[1].out_dir / "rgb.png").read_bytes()

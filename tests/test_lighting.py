@@ -45,8 +45,9 @@ def pixel_rays(K, R, width, height):
 def plane_scene(albedo, photometry=None):
     scene = _core.Scene()
     s = 1000.0
-    mesh = scene.add_mesh(np.array([[-s, -s, 0], [s, -s, 0], [s, s, 0], [-s, s, 0]], np.float32),
-                          np.array([[0, 1, 2], [0, 2, 3]]))
+    mesh = scene.add_mesh(
+        np.array([[-s, -s, 0], [s, -s, 0], [s, s, 0], [-s, s, 0]], np.float32), np.array([[0, 1, 2], [0, 2, 3]])
+    )
     scene.add_background(mesh, np.eye(4), (albedo,) * 3, photometry or _core.Photometry())
     scene.commit()
     return scene
@@ -73,8 +74,9 @@ def test_plane_under_the_sun_is_E_f_sin_e_at_every_pixel(model, elevation):
     the disk sampled, inter-reflection on (a plane never sees itself) and Earthshine off. Grazing
     Suns included: no shadow acne (every pixel lit), nothing leaks."""
     albedo = 0.12
-    photometry = _core.Photometry(model=model, surge_amplitude=1.8 if model == "lunar-lambert" else 0.0,
-                                  surge_width=0.07)
+    photometry = _core.Photometry(
+        model=model, surge_amplitude=1.8 if model == "lunar-lambert" else 0.0, surge_width=0.07
+    )
     scene = plane_scene(albedo, photometry)
     camera, K, R = look_at([1.2, -1.6, 3.0], [0.0, 0.0, 0.0])
     sun = _core.DirectionalLight(200.0, elevation, E, 0.533)
@@ -94,16 +96,23 @@ def test_plane_under_the_sun_is_E_f_sin_e_at_every_pixel(model, elevation):
 def test_sun_below_the_horizon_is_a_black_finite_image(elevation):
     scene = plane_scene(0.12, _core.Photometry(model="lunar-lambert", surge_amplitude=1.8, surge_width=0.07))
     camera, _, _ = look_at([3.0, -4.0, 1.5], [0.0, 0.0, 0.0])
-    out = _core.render(scene, camera, _core.DirectionalLight(10.0, elevation, E, 0.533),
-                       _core.RenderSettings(spp=4, light_samples=4, bounces=3))
+    out = _core.render(
+        scene,
+        camera,
+        _core.DirectionalLight(10.0, elevation, E, 0.533),
+        _core.RenderSettings(spp=4, light_samples=4, bounces=3),
+    )
     assert np.isfinite(out["rgb"]).all() and (out["rgb"] == 0).all()
     assert out["shadow_rays"] == 0
 
 
 def test_photometry_is_reciprocal_and_conserves_energy():
     rng = np.random.default_rng(3)
-    models = [_core.Photometry(model="lunar-lambert", phase=phase, surge_amplitude=b0, surge_width=0.07)
-              for phase in ("exponential", "mcewen") for b0 in (0.0, 1.8)]
+    models = [
+        _core.Photometry(model="lunar-lambert", phase=phase, surge_amplitude=b0, surge_width=0.07)
+        for phase in ("exponential", "mcewen")
+        for b0 in (0.0, 1.8)
+    ]
     for p in models:
         for _ in range(200):
             a, b = rng.normal(size=3), rng.normal(size=3)
@@ -141,8 +150,13 @@ def integrating_sphere(hole_deg=40.0, subdivisions=5):
     hole = centroids[:, 2] > math.cos(math.radians(hole_deg))
     areas = sphere.area_faces
     projected = float((np.abs(sphere.face_normals[hole, 2]) * areas[hole]).sum())
-    return (sphere.vertices.astype(np.float32), sphere.faces[~hole].astype(np.int64), projected,
-            float(areas[hole].sum() / areas.sum()), float(areas.sum()))
+    return (
+        sphere.vertices.astype(np.float32),
+        sphere.faces[~hole].astype(np.int64),
+        projected,
+        float(areas[hole].sum() / areas.sum()),
+        float(areas.sum()),
+    )
 
 
 @pytest.mark.parametrize("bounces", [1, 2, 3])
@@ -159,16 +173,21 @@ def test_integrating_sphere_converges_to_the_geometric_series(bounces):
     scene.add_background(mesh, np.eye(4), (rho,) * 3)
     scene.commit()
     camera, _, _ = look_at([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], width=64, height=16, f=60.0)
-    out = _core.render(scene, camera, _core.DirectionalLight(0.0, 90.0, E),
-                       _core.RenderSettings(spp=256, bounces=bounces, seed=11))
+    out = _core.render(
+        scene, camera, _core.DirectionalLight(0.0, 90.0, E), _core.RenderSettings(spp=256, bounces=bounces, seed=11)
+    )
     e1 = rho * E * projected / area
     expected = rho / math.pi * e1 * sum((rho * (1 - f)) ** k for k in range(bounces))
     measured = float(out["rgb"][..., 1].mean())
     assert measured == pytest.approx(expected, rel=0.02)
     # Bounce by bounce the series' next term is visible: more bounces, brighter walls.
     if bounces > 1:
-        fewer = _core.render(scene, camera, _core.DirectionalLight(0.0, 90.0, E),
-                             _core.RenderSettings(spp=256, bounces=bounces - 1, seed=11))
+        fewer = _core.render(
+            scene,
+            camera,
+            _core.DirectionalLight(0.0, 90.0, E),
+            _core.RenderSettings(spp=256, bounces=bounces - 1, seed=11),
+        )
         assert measured > float(fewer["rgb"][..., 1].mean())
 
 
@@ -184,9 +203,22 @@ def test_noise_falls_faster_than_one_over_root_spp():
     camera, _, _ = look_at([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], width=32, height=16, f=60.0)
     sun = _core.DirectionalLight(0.0, 90.0, E)
     reference = _core.render(scene, camera, sun, _core.RenderSettings(spp=4096, bounces=1, seed=1))["rgb"][..., 1]
-    rmse = {spp: float(np.sqrt(np.mean((_core.render(scene, camera, sun,
-                                                     _core.RenderSettings(spp=spp, bounces=1, seed=2))["rgb"][..., 1]
-                                        - reference) ** 2))) for spp in (4, 16, 64)}
+    rmse = {
+        spp: float(
+            np.sqrt(
+                np.mean(
+                    (
+                        _core.render(scene, camera, sun, _core.RenderSettings(spp=spp, bounces=1, seed=2))["rgb"][
+                            ..., 1
+                        ]
+                        - reference
+                    )
+                    ** 2
+                )
+            )
+        )
+        for spp in (4, 16, 64)
+    }
     assert rmse[4] / rmse[16] > 2.0 and rmse[16] / rmse[64] > 2.0
     assert rmse[4] / rmse[64] > 6.0
 
@@ -198,12 +230,14 @@ def test_soft_shadow_edge_has_the_penumbra_of_the_sun_disk():
     geometric edge."""
     scene = _core.Scene()
     s = 50.0
-    plane = scene.add_mesh(np.array([[-s, -s, 0], [s, -s, 0], [s, s, 0], [-s, s, 0]], np.float32),
-                           np.array([[0, 1, 2], [0, 2, 3]]))
+    plane = scene.add_mesh(
+        np.array([[-s, -s, 0], [s, -s, 0], [s, s, 0], [-s, s, 0]], np.float32), np.array([[0, 1, 2], [0, 2, 3]])
+    )
     scene.add_background(plane, np.eye(4), (0.5,) * 3)
     # A thin wall along x at y = 0, 1 m high: the Sun in the north (az 0) casts its shadow south.
-    wall = scene.add_mesh(np.array([[-20, 0, 0], [20, 0, 0], [20, 0, 1], [-20, 0, 1]], np.float32),
-                          np.array([[0, 1, 2], [0, 2, 3]]))
+    wall = scene.add_mesh(
+        np.array([[-20, 0, 0], [20, 0, 0], [20, 0, 1], [-20, 0, 1]], np.float32), np.array([[0, 1, 2], [0, 2, 3]])
+    )
     scene.add_background(wall, np.eye(4), (0.5,) * 3)
     scene.commit()
     elevation = 20.0
@@ -212,10 +246,21 @@ def test_soft_shadow_edge_has_the_penumbra_of_the_sun_disk():
     # Looking straight down on the shadow's edge: pixel rows run along y.
     camera, K, R = look_at([0.0, edge, 2.0], [0.0, edge + 1e-9, 0.0], width=16, height=200, f=2000.0)
     lit = E * 0.5 / math.pi * math.sin(math.radians(elevation))
-    hard = _core.render(scene, camera, _core.DirectionalLight(0.0, elevation, E, 0.0),
-                        _core.RenderSettings(spp=1))["rgb"][..., 0] / lit
-    soft = _core.render(scene, camera, _core.DirectionalLight(0.0, elevation, E, 0.533),
-                        _core.RenderSettings(spp=16, light_samples=64, seed=5))["rgb"][..., 0] / lit
+    hard = (
+        _core.render(scene, camera, _core.DirectionalLight(0.0, elevation, E, 0.0), _core.RenderSettings(spp=1))["rgb"][
+            ..., 0
+        ]
+        / lit
+    )
+    soft = (
+        _core.render(
+            scene,
+            camera,
+            _core.DirectionalLight(0.0, elevation, E, 0.533),
+            _core.RenderSettings(spp=16, light_samples=64, seed=5),
+        )["rgb"][..., 0]
+        / lit
+    )
     d = pixel_rays(K, R, 16, 200)
     y = (edge + 2.0 * d[..., 1] / -d[..., 2])[:, 8]  # ground y of each row (centre column)
     assert np.all((np.abs(hard) < 1e-6) | (np.abs(hard - 1.0) < 1e-6))
@@ -257,7 +302,7 @@ def test_vertex_albedo_scales_radiance_and_varies_over_a_site():
     assert abs(float(flat.mean()) - 1.0) < 0.05 and flat.std() > 0.01
     crater = load_config(None, {"terrain.location": "crater", "terrain.albedo_variation": 0.0}).terrain
     rim = albedo_factor(crater, np.array([12.0 + 10.0, 12.0 + 25.0, 12.0 + 100.0]), np.zeros(3))
-    np.testing.assert_allclose(rim, [1.5, 1.0 + 0.5 * 2.5 ** -3, 1.0], rtol=1e-6)
+    np.testing.assert_allclose(rim, [1.5, 1.0 + 0.5 * 2.5**-3, 1.0], rtol=1e-6)
 
 
 def test_effects_not_asked_for_trace_no_rays():
@@ -266,19 +311,23 @@ def test_effects_not_asked_for_trace_no_rays():
     scene = plane_scene(0.12)
     camera, _, _ = look_at([1.2, -1.6, 3.0], [0.0, 0.0, 0.0])
     hits = 64 * 48
-    direct = _core.render(scene, camera, _core.DirectionalLight(200.0, 30.0, E, 0.533),
-                          _core.RenderSettings(light_samples=3, bounces=0))
+    direct = _core.render(
+        scene, camera, _core.DirectionalLight(200.0, 30.0, E, 0.533), _core.RenderSettings(light_samples=3, bounces=0)
+    )
     assert direct["bounce_rays"] == 0 and direct["shadow_rays"] == 3 * hits
-    point = _core.render(scene, camera, _core.DirectionalLight(200.0, 30.0, E, 0.0),
-                         _core.RenderSettings(light_samples=3))
+    point = _core.render(
+        scene, camera, _core.DirectionalLight(200.0, 30.0, E, 0.0), _core.RenderSettings(light_samples=3)
+    )
     assert point["shadow_rays"] == hits
     earth = _core.DirectionalLight(20.0, 40.0, 0.1, 1.9, (0.85, 0.95, 1.2))
-    with_earth = _core.render(scene, camera, _core.DirectionalLight(200.0, 30.0, E, 0.533),
-                              _core.RenderSettings(light_samples=3), earth=earth)
+    with_earth = _core.render(
+        scene, camera, _core.DirectionalLight(200.0, 30.0, E, 0.533), _core.RenderSettings(light_samples=3), earth=earth
+    )
     assert with_earth["shadow_rays"] == 4 * hits  # the Earth's one a hit on top of the Sun's three
     assert (with_earth["rgb"] > direct["rgb"]).all()
-    dark = _core.render(scene, camera, _core.DirectionalLight(200.0, 30.0, 0.0, 0.533),
-                        _core.RenderSettings(light_samples=3, bounces=2))
+    dark = _core.render(
+        scene, camera, _core.DirectionalLight(200.0, 30.0, 0.0, 0.533), _core.RenderSettings(light_samples=3, bounces=2)
+    )
     assert dark["shadow_rays"] == 0 and dark["bounce_rays"] == 0 and (dark["rgb"] == 0).all()
 
 
@@ -322,8 +371,10 @@ def test_lit_slope_is_uniform(slope_deg, incidence):
     h = 2000.0
     corners = np.array([[-h, -h], [h, -h], [h, h], [-h, h]])
     scene = _core.Scene()
-    mesh = scene.add_mesh(np.column_stack([corners, ground.height(corners[:, 0], corners[:, 1])]).astype(np.float32),
-                          np.array([[0, 1, 2], [0, 2, 3]]))
+    mesh = scene.add_mesh(
+        np.column_stack([corners, ground.height(corners[:, 0], corners[:, 1])]).astype(np.float32),
+        np.array([[0, 1, 2], [0, 2, 3]]),
+    )
     albedo = 0.12
     scene.add_background(mesh, np.eye(4), (albedo,) * 3)
     scene.commit()
@@ -336,12 +387,18 @@ def test_lit_slope_is_uniform(slope_deg, incidence):
     cos_i = float(np.dot(n, sun.direction))
     assert cos_i == pytest.approx(math.cos(math.radians(incidence)), abs=1e-9)
     # Downhill of the origin, 2.5 m above the slope, looking uphill: the slope fills the view.
-    camera, _, _ = look_at((2.0, -1.5, 2.5 + ground.height(2.0, -1.5)), (-0.5, 0.5, ground.height(-0.5, 0.5)),
-                           width=160, height=120, f=120.0)
-    out = _core.render(scene, camera, sun, _core.RenderSettings(spp=1, seed=0, threads=2, bounces=0),
-                       passes=["rgb", "depth"])
+    camera, _, _ = look_at(
+        (2.0, -1.5, 2.5 + ground.height(2.0, -1.5)),
+        (-0.5, 0.5, ground.height(-0.5, 0.5)),
+        width=160,
+        height=120,
+        f=120.0,
+    )
+    out = _core.render(
+        scene, camera, sun, _core.RenderSettings(spp=1, seed=0, threads=2, bounces=0), passes=["rgb", "depth"]
+    )
     ground = out["depth"] > 0  # the rest is sky past the steepest slope's contour
     assert ground.mean() > 0.6
     radiance = out["rgb"][ground][:, 0]
     expected = E * albedo / math.pi * cos_i
-    assert np.abs(radiance / expected - 1).max() < 1e-3, (np.mean(radiance < 0.8 * expected))
+    assert np.abs(radiance / expected - 1).max() < 1e-3, np.mean(radiance < 0.8 * expected)

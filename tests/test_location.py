@@ -23,8 +23,7 @@ from moonbot.terrain import clear_cache, get_terrain, make_ground
 from moonbot.terrain.craters import crater_profile
 from moonbot.terrain.ground import GridGround, grid_triangles
 from moonbot.terrain.location import Location, curvature_drop, drawable, location_axis, main_crater, node_spacing
-from moonbot.terrain.rocks import (crater_falloff, golombek_q, rock_poses, rock_prototypes, rocks_per_m2,
-                                   sample_rocks)
+from moonbot.terrain.rocks import crater_falloff, golombek_q, rock_poses, rock_prototypes, rocks_per_m2, sample_rocks
 
 pytestmark = pytest.mark.unit
 
@@ -33,8 +32,13 @@ R = 1737400.0
 
 def small(location: str = "flat", **terrain) -> object:
     """A quick terrain config: 60 m half-width, 5 cm detail within 1 m."""
-    overrides = {"terrain.location": location, "terrain.extent_m": 60.0, "terrain.detail_m": 0.05,
-                 "terrain.detail_extent_m": 1.0, "terrain.growth": 1.1}
+    overrides = {
+        "terrain.location": location,
+        "terrain.extent_m": 60.0,
+        "terrain.detail_m": 0.05,
+        "terrain.detail_extent_m": 1.0,
+        "terrain.growth": 1.1,
+    }
     overrides.update({f"terrain.{k}": v for k, v in terrain.items()})
     return load_config(None, overrides).terrain
 
@@ -42,8 +46,11 @@ def small(location: str = "flat", **terrain) -> object:
 def bare(config, **changes):
     """The config with no roughness, craters or rocks: only the location's shape and curvature."""
     return dataclasses.replace(
-        config, roughness=dataclasses.replace(config.roughness, rms_slope_deg=0.0),
-        craters=dataclasses.replace(config.craters, density=0.0), **changes)
+        config,
+        roughness=dataclasses.replace(config.roughness, rms_slope_deg=0.0),
+        craters=dataclasses.replace(config.craters, density=0.0),
+        **changes,
+    )
 
 
 def test_curvature_drop_is_the_sphere_to_1e6_and_zero_when_off():
@@ -97,8 +104,9 @@ def test_same_seed_same_bytes_and_another_seed_differs():
 
 
 def test_crater_location_has_the_crater_where_the_config_puts_it():
-    config = bare(small("crater", crater_diameter_m=20.0, crater_distance_m=12.0, crater_azimuth_deg=90.0),
-                  curvature=False)
+    config = bare(
+        small("crater", crater_diameter_m=20.0, crater_distance_m=12.0, crater_azimuth_deg=90.0), curvature=False
+    )
     ground = make_ground(config)
     centre, D = main_crater(config)
     np.testing.assert_allclose(centre, [12.0, 0.0], atol=1e-12)
@@ -108,8 +116,9 @@ def test_crater_location_has_the_crater_where_the_config_puts_it():
     s = np.hypot(X - 12.0, Y) / 10.0
     expected = crater_profile(s, D) - crater_profile(np.array(12.0 / 10.0), D)
     np.testing.assert_allclose(ground.z, expected, atol=1e-12)
-    assert ground.z.min() == pytest.approx(crater_profile(np.array(0.0), D) - crater_profile(np.array(1.2), D),
-                                           abs=0.05)  # the floor, 0.13 D below the rim
+    assert ground.z.min() == pytest.approx(
+        crater_profile(np.array(0.0), D) - crater_profile(np.array(1.2), D), abs=0.05
+    )  # the floor, 0.13 D below the rim
 
 
 def test_craters_are_kept_only_where_the_grid_can_draw_them():
@@ -138,22 +147,23 @@ def test_craters_are_kept_only_where_the_grid_can_draw_them():
 def test_golombek_count_matches_its_integral():
     for k in (0.005, 0.1):
         q = golombek_q(k)
-        integral, _ = quad(lambda d: 4 * k * q / math.pi * math.exp(-q * d) / d ** 2, 0.05, 1.0, limit=200)
+        integral, _ = quad(lambda d: 4 * k * q / math.pi * math.exp(-q * d) / d**2, 0.05, 1.0, limit=200)
         assert rocks_per_m2(k, 0.05, 1.0) == pytest.approx(integral, rel=1e-8)
     # The covered area fraction integrates back to F(a) - F(b) = k (e^-qa - e^-qb).
     k, a, b = 0.1, 0.05, 2.0
     q = golombek_q(k)
-    area, _ = quad(lambda d: 4 * k * q / math.pi * math.exp(-q * d) / d ** 2 * math.pi * d * d / 4, a, b)
+    area, _ = quad(lambda d: 4 * k * q / math.pi * math.exp(-q * d) / d**2 * math.pi * d * d / 4, a, b)
     assert area == pytest.approx(k * (math.exp(-q * a) - math.exp(-q * b)), rel=1e-9)
 
 
 def test_rock_counts_follow_the_distribution_within_sampling_error():
-    config = RocksConfig(density_per_m2=0.01, exponent=-2.5, k_crater=0.0, min_diameter_m=0.05,
-                         max_diameter_m=0.8, reach_m=20.0)
+    config = RocksConfig(
+        density_per_m2=0.01, exponent=-2.5, k_crater=0.0, min_diameter_m=0.05, max_diameter_m=0.8, reach_m=20.0
+    )
     rocks = sample_rocks(7, config)
     for lo, hi in [(0.05, 0.1), (0.1, 0.2), (0.2, 0.4), (0.4, 0.8)]:
         half = min(config.reach_m, 300.0 * lo)
-        expected = 0.01 * (lo ** -2.5 - hi ** -2.5) * (2 * half) ** 2
+        expected = 0.01 * (lo**-2.5 - hi**-2.5) * (2 * half) ** 2
         n = np.count_nonzero((rocks.diameters >= lo) & (rocks.diameters < hi))
         assert abs(n - expected) < 4 * math.sqrt(expected) + 1, (lo, n, expected)
     # Clustered on a crater: counts in annuli follow λ_rim·min(1, (r/R)^-3) integrated over them.
@@ -216,9 +226,25 @@ def test_cameras_stay_above_the_ground():
 
 @pytest.mark.parametrize("location", ["flat", "hilly", "crater"])
 def test_render_one_on_each_location(tmp_path, location):
-    result = CliRunner().invoke(main, [
-        "render-one", "--location", location, "--out", str(tmp_path), "--view", "0", "--view", "18",
-        "--no-sheet", "--set", "camera.width=96", "--set", "camera.height=72"])
+    result = CliRunner().invoke(
+        main,
+        [
+            "render-one",
+            "--location",
+            location,
+            "--out",
+            str(tmp_path),
+            "--view",
+            "0",
+            "--view",
+            "18",
+            "--no-sheet",
+            "--set",
+            "camera.width=96",
+            "--set",
+            "camera.height=72",
+        ],
+    )
     assert result.exit_code == 0, result.output
     assert f"{location} terrain" in result.output
     for view in ("view_000", "view_018"):

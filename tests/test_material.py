@@ -111,8 +111,10 @@ def test_coverage_within_sampling_error(stamps):
     s, r = 0.18, 128
     expected = 1 - (1 - s * s * _core.splat_support_area()) ** stamps
     rows = slice(int(np.ceil(s / 2 * r)), int(r - np.ceil(s / 2 * r)))
-    fractions = [(np.asarray(_core.stain_mask(seed, _core.StainParams(stamps=stamps, resolution=r)))[rows] > 0).mean()
-                 for seed in range(100, 120)]
+    fractions = [
+        (np.asarray(_core.stain_mask(seed, _core.StainParams(stamps=stamps, resolution=r)))[rows] > 0).mean()
+        for seed in range(100, 120)
+    ]
     assert np.mean(fractions) == pytest.approx(expected, abs=0.04)
 
 
@@ -158,16 +160,27 @@ def test_config_fields():
 
 # --- in the render -------------------------------------------------------------------------------
 
+
 def render_bag(stain_seeds: int, opacity: float = 0.5):
     """View 0 of a close orbit around one bag on the plane, in a process-wide fresh scene; returns
     (rgb, stain mask bytes alive while the scene lived, masks allocated by building it)."""
     from moonbot.render import build_scene, render_view
     from moonbot.scene import compose_scene, intrinsics, orbit_pose
 
-    config = load_config(None, {"terrain.location": "plane", "bags.stain.seeds": stain_seeds,
-                                "bags.stain.opacity": opacity, "orbit.radius_m": 0.5, "orbit.height_m": 0.35,
-                                "sun.elevation_deg": 35.0, "camera.width": 160, "camera.height": 120,
-                                "render.bounces": 1})
+    config = load_config(
+        None,
+        {
+            "terrain.location": "plane",
+            "bags.stain.seeds": stain_seeds,
+            "bags.stain.opacity": opacity,
+            "orbit.radius_m": 0.5,
+            "orbit.height_m": 0.35,
+            "sun.elevation_deg": 35.0,
+            "camera.width": 160,
+            "camera.height": 120,
+            "render.bounces": 1,
+        },
+    )
     spec = compose_scene(config)
     allocated = _core.stain_masks_allocated()
     scene = build_scene(spec)

@@ -97,8 +97,9 @@ def test_a_strided_march_matches_the_closed_form_and_the_full_march():
     out = {}
     for stride in (1, 4):
         medium = _core.Medium([[*centre, sigma, peak]], albedo=(0, 0, 0), voxel_m=0.005, march_stride_px=stride)
-        out[stride] = _core.render(scene, camera, sun, _core.RenderSettings(threads=2),
-                                   medium=medium)["rgb"][..., 0] / clear
+        out[stride] = (
+            _core.render(scene, camera, sun, _core.RenderSettings(threads=2), medium=medium)["rgb"][..., 0] / clear
+        )
     K_inv = np.linalg.inv(np.array([[f, 0, w / 2], [0, f, h / 2], [0, 0, 1]]))
     az, el = np.radians(30.0), np.radians(60.0)
     to_sun = np.array([np.sin(az) * np.cos(el), np.cos(az) * np.cos(el), np.sin(el)])
@@ -169,9 +170,9 @@ def test_cloud_puffs_are_a_pure_function_of_time():
     # moved by at most 0.1 s × 0.7 m/s, and grew by 0.1 s × 0.08 m/s.
     b = _core.cloud_puffs(_core.CloudParams(), 11, 7.1)
     common = min(len(a), len(b)) - 8
-    moved = np.linalg.norm(b[:common, :3] - a[4:4 + common, :3], axis=1)
+    moved = np.linalg.norm(b[:common, :3] - a[4 : 4 + common, :3], axis=1)
     assert moved.max() <= 0.07 + 1e-12
-    np.testing.assert_allclose(b[:common, 3] - a[4:4 + common, 3], 0.008, atol=1e-12)
+    np.testing.assert_allclose(b[:common, 3] - a[4 : 4 + common, 3], 0.008, atol=1e-12)
     # Opacity rises then falls: the peak optical depth through a centre stays ≤ the configured one.
     through = a[:, 4] * a[:, 3] * np.sqrt(2 * np.pi)
     assert through.max() <= 0.25 + 1e-12
@@ -189,7 +190,7 @@ def test_fragment_mesh_is_closed_outward_and_inside_each_fragment():
     v, t = state["vertices"].astype(float), state["triangles"]
     assert v.shape == (30 * 12, 3) and t.shape == (30 * 20, 3)
     for f in range(30):
-        tri = t[20 * f:20 * f + 20]
+        tri = t[20 * f : 20 * f + 20]
         assert tri.min() == 12 * f and tri.max() == 12 * f + 11
         p = v[tri]
         volume = np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6
@@ -197,7 +198,7 @@ def test_fragment_mesh_is_closed_outward_and_inside_each_fragment():
         edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
         _, counts = np.unique(edges, axis=0, return_counts=True)
         assert np.all(counts == 2)  # closed: every edge shared by two faces
-        r = np.linalg.norm(v[12 * f:12 * f + 12] - state["position"][f], axis=1)
+        r = np.linalg.norm(v[12 * f : 12 * f + 12] - state["position"][f], axis=1)
         assert r.max() <= state["diameter"][f] / 2 * (1 + 1e-6)
         assert r.min() >= 0.6 * state["diameter"][f] / 2 * (1 - 1e-6)
 

@@ -64,7 +64,10 @@ sweep:
 """
 TRAIN = "train_pbr/000000"
 TEST = "test/000000"  # with dust
-VIEWS = {TRAIN: "by_condition/train/sandbag-01/plane/scene_000000", TEST: "by_condition/test/sandbag-02/plane/scene_000000"}
+VIEWS = {
+    TRAIN: "by_condition/train/sandbag-01/plane/scene_000000",
+    TEST: "by_condition/test/sandbag-02/plane/scene_000000",
+}
 W, H = 64, 48
 
 
@@ -132,22 +135,41 @@ def manifest_files(dataset: Path) -> dict:
 def test_tree_is_complete_and_nothing_else(dataset):
     files = sorted(p.relative_to(dataset).as_posix() for p in dataset.rglob("*") if p.is_file())
     assert not [f for f in files if "/." in f or f.startswith(".") or f.endswith(".tmp")]
-    expected = {"camera.json", "dataset_info.json", "manifest.json", "yolo/detect/data.yaml", "yolo/segment/data.yaml",
-                "models/models_info.json", "models_eval/models_info.json", "scene_index.json", "scene_index.parquet",
-                "test_targets_bop19.json"}
+    expected = {
+        "camera.json",
+        "dataset_info.json",
+        "manifest.json",
+        "yolo/detect/data.yaml",
+        "yolo/segment/data.yaml",
+        "models/models_info.json",
+        "models_eval/models_info.json",
+        "scene_index.json",
+        "scene_index.parquet",
+        "test_targets_bop19.json",
+    }
     expected |= {f"{d}/obj_{k:06d}.ply" for d in ("models", "models_eval") for k in (1, 2, 3)}
     for scene, images, bags in ((TRAIN, 4, 2), (TEST, 2, 1)):
-        expected |= {f"{scene}/{name}.json" for name in ("scene_gt", "scene_camera", "scene_gt_info", "scene_meta",
-                                                         "scene_gt_coco")}
+        expected |= {
+            f"{scene}/{name}.json"
+            for name in ("scene_gt", "scene_camera", "scene_gt_info", "scene_meta", "scene_gt_coco")
+        }
         for im in range(images):
-            expected |= {f"{scene}/rgb/{im:06d}.png", f"{scene}/rgb_exr/{im:06d}.exr",
-                         f"{scene}/depth/{im:06d}.png", f"{scene}/depth_npy/{im:06d}.npy",
-                         f"{scene}/depth_preview/{im:06d}.png", f"{scene}/mask_color/{im:06d}.png"}
+            expected |= {
+                f"{scene}/rgb/{im:06d}.png",
+                f"{scene}/rgb_exr/{im:06d}.exr",
+                f"{scene}/depth/{im:06d}.png",
+                f"{scene}/depth_npy/{im:06d}.npy",
+                f"{scene}/depth_preview/{im:06d}.png",
+                f"{scene}/mask_color/{im:06d}.png",
+            }
             expected |= {f"{scene}/{kind}/{im:06d}_{k:06d}.png" for kind in ("mask", "mask_visib") for k in range(bags)}
             split, mesh, location, _ = VIEWS[scene].split("/")[1:]
             name = f"{mesh}_{location}_000000_{im:06d}"
-            expected |= {f"yolo/{kind}/{sub}/{split}/{name}.{ext}" for kind in ("detect", "segment")
-                         for sub, ext in (("images", "png"), ("labels", "txt"))}
+            expected |= {
+                f"yolo/{kind}/{sub}/{split}/{name}.{ext}"
+                for kind in ("detect", "segment")
+                for sub, ext in (("images", "png"), ("labels", "txt"))
+            }
     assert set(files) == expected
     # The paper's hierarchy: relative links to the scenes, and nothing else under by_condition/.
     links = sorted(p.relative_to(dataset).as_posix() for p in dataset.rglob("*") if p.is_symlink())
@@ -244,23 +266,58 @@ def test_gt_info_fields_and_scene_meta(dataset):
         info = load(dataset / scene / "scene_gt_info.json")
         for entries in info.values():
             for e in entries:
-                assert set(e) == {"bbox_obj", "bbox_visib", "px_count_all", "px_count_valid", "px_count_visib",
-                                  "visib_fract"}
+                assert set(e) == {
+                    "bbox_obj",
+                    "bbox_visib",
+                    "px_count_all",
+                    "px_count_valid",
+                    "px_count_visib",
+                    "visib_fract",
+                }
                 counts = [e[k] for k in ("px_count_all", "px_count_valid", "px_count_visib")]
                 assert all(isinstance(c, int) and c >= 0 for c in counts)
                 assert isinstance(e["visib_fract"], float) and 0.0 <= e["visib_fract"] <= 1.0
                 assert all(isinstance(v, int) for v in e["bbox_obj"] + e["bbox_visib"])
                 assert len(e["bbox_obj"]) == len(e["bbox_visib"]) == 4
     meta = load(dataset / TRAIN / "scene_meta.json")
-    assert {k: meta[k] for k in ("split", "scene_id", "mesh", "obj_id", "location", "bags", "stain_seeds", "dust",
-                                 "tasks_per_scene", "views_per_task", "bop_split", "scene_dir", "view")} == {
-        "split": "train", "scene_id": 0, "mesh": "sandbag-01", "obj_id": 1, "location": "plane", "bags": 2,
-        "stain_seeds": 0, "dust": False, "tasks_per_scene": 2, "views_per_task": 2, "bop_split": "train_pbr",
-        "scene_dir": TRAIN, "view": VIEWS[TRAIN]}
+    assert {
+        k: meta[k]
+        for k in (
+            "split",
+            "scene_id",
+            "mesh",
+            "obj_id",
+            "location",
+            "bags",
+            "stain_seeds",
+            "dust",
+            "tasks_per_scene",
+            "views_per_task",
+            "bop_split",
+            "scene_dir",
+            "view",
+        )
+    } == {
+        "split": "train",
+        "scene_id": 0,
+        "mesh": "sandbag-01",
+        "obj_id": 1,
+        "location": "plane",
+        "bags": 2,
+        "stain_seeds": 0,
+        "dust": False,
+        "tasks_per_scene": 2,
+        "views_per_task": 2,
+        "bop_split": "train_pbr",
+        "scene_dir": TRAIN,
+        "view": VIEWS[TRAIN],
+    }
     assert isinstance(meta["seed"], int)
     assert meta["instances"] == [{"instance_id": 1, "obj_id": 1}, {"instance_id": 2, "obj_id": 1}]
-    assert [(t["task_in_scene"], t["sun_elevation_deg"], t["sun_azimuth_deg"], t["camera_height_m"], t["image_ids"])
-            for t in meta["tasks"]] == [(0, 12.0, 120.0, 0.5, [0, 1]), (1, 25.0, 120.0, 0.5, [2, 3])]
+    assert [
+        (t["task_in_scene"], t["sun_elevation_deg"], t["sun_azimuth_deg"], t["camera_height_m"], t["image_ids"])
+        for t in meta["tasks"]
+    ] == [(0, 12.0, 120.0, 0.5, [0, 1]), (1, 25.0, 120.0, 0.5, [2, 3])]
     assert meta["missing_tasks_in_scene"] == []
     for image in meta["images"].values():
         assert is_number(image["camera_height_m"]) and is_number(image["ev100"])
@@ -275,8 +332,15 @@ def test_gt_info_fields_and_scene_meta(dataset):
 def test_dataset_level_files(sweep, dataset):
     out, config = sweep
     camera = load(dataset / "camera.json")
-    assert camera == {"cx": 32.0, "cy": 24.0, "depth_scale": 1.0, "fx": camera["fx"], "fy": camera["fx"],
-                      "height": H, "width": W}
+    assert camera == {
+        "cx": 32.0,
+        "cy": 24.0,
+        "depth_scale": 1.0,
+        "fx": camera["fx"],
+        "fy": camera["fx"],
+        "height": H,
+        "width": W,
+    }
     assert camera["fx"] == pytest.approx((W / 2) / np.tan(np.radians(60.0) / 2))
     info = load(dataset / "dataset_info.json")
     from moonbot.config import config_hash
@@ -284,8 +348,10 @@ def test_dataset_level_files(sweep, dataset):
     assert info["config_hash"] == config_hash(config) and info["seed"] == 3
     assert from_mapping(Config, info["config"]) == config  # the config round-trips
     assert info["complete"] is True and info["missing_tasks"] == [] and info["invalid_tasks"] == {}
-    assert info["splits"] == [{"name": "train", "scenes": 1, "tasks": 2, "images": 4, "instances": 8},
-                              {"name": "test", "scenes": 1, "tasks": 1, "images": 2, "instances": 2}]
+    assert info["splits"] == [
+        {"name": "train", "scenes": 1, "tasks": 2, "images": 4, "instances": 8},
+        {"name": "test", "scenes": 1, "tasks": 1, "images": 2, "instances": 2},
+    ]
     assert info["objects"] == {"1": "sandbag-01", "2": "sandbag-02", "3": "sandbag-03"}
     assert info["amodal_outside_visible_px"] == 0 and isinstance(info["moonbot_version"], str)
     models = load(dataset / "models" / "models_info.json")
@@ -324,8 +390,12 @@ def test_gt_info_matches_hand_counts(dataset):
                 assert e["bbox_visib"] == box(visib)
                 assert e["visib_fract"] == pytest.approx(visib.sum() / e["px_count_all"], abs=0)
                 assert e["px_count_all"] >= amodal.sum()
-                if e["bbox_obj"][0] >= 0 and e["bbox_obj"][0] + e["bbox_obj"][2] < W \
-                        and e["bbox_obj"][1] >= 0 and e["bbox_obj"][1] + e["bbox_obj"][3] < H:
+                if (
+                    e["bbox_obj"][0] >= 0
+                    and e["bbox_obj"][0] + e["bbox_obj"][2] < W
+                    and e["bbox_obj"][1] >= 0
+                    and e["bbox_obj"][1] + e["bbox_obj"][3] < H
+                ):
                     assert e["px_count_all"] == amodal.sum() and e["bbox_obj"] == box(amodal)
                 else:
                     truncated += 1
@@ -353,8 +423,9 @@ def test_px_count_all_matches_the_whole_canvas(sweep, dataset):
         camera = _core.Camera(K[0, 0], K[1, 1], K[0, 2] + W, K[1, 2] + H, 3 * W, 3 * H, R, t)
         for k, bag in enumerate(spec.bags):
             scene = _core.Scene()
-            scene.add_instance(scene.add_mesh(*spec.meshes[bag.obj_id]), bag.world_from_model, bag.instance_id,
-                               (1.0, 1.0, 1.0))
+            scene.add_instance(
+                scene.add_mesh(*spec.meshes[bag.obj_id]), bag.world_from_model, bag.instance_id, (1.0, 1.0, 1.0)
+            )
             scene.commit()
             silhouette = _core.render(scene, camera, sun, passes=["instance"])["instance"] > 0
             e = info[im][k]
@@ -364,7 +435,7 @@ def test_px_count_all_matches_the_whole_canvas(sweep, dataset):
                 assert e["bbox_obj"] == [x - W, y - H, bw, bh]
             # ... and its middle third is the amodal mask in the image.
             amodal = png(dataset / TRAIN / "mask" / f"{int(im):06d}_{k:06d}.png") > 0
-            np.testing.assert_array_equal(silhouette[H:2 * H, W:2 * W], amodal)
+            np.testing.assert_array_equal(silhouette[H : 2 * H, W : 2 * W], amodal)
 
 
 # --- YOLO ---------------------------------------------------------------------------------------------
@@ -376,8 +447,11 @@ def test_yolo_labels_parse_and_match_the_visible_masks(dataset):
         assert "path" not in data  # root = the YAML's directory
         # No val split in this sweep: val is the training images, never the test images.
         assert data["train"] == "images/train" and data["val"] == "images/train" and data["test"] == "images/test"
-        assert data["nc"] == len(data["names"]) == 3 and data["names"] == {0: "sandbag-01", 1: "sandbag-02",
-                                                                           2: "sandbag-03"}
+        assert data["nc"] == len(data["names"]) == 3 and data["names"] == {
+            0: "sandbag-01",
+            1: "sandbag-02",
+            2: "sandbag-03",
+        }
         for split in ("train", "test"):
             assert (dataset / "yolo" / kind / data["train" if split == "train" else "test"]).is_dir()
     for scene in (TRAIN, TEST):
@@ -425,8 +499,7 @@ def test_merge_again_gives_the_same_bytes(sweep, dataset, tmp_path):
     # Elsewhere, hard-linked, two processes: the same bytes.
     other = tmp_path / "linked"
     shutil.copytree(dataset, other)  # as the previous dataset there, so its models are reused
-    report = merge_dataset(out, other, config=config, link=True, workers=2, progress=None,
-                           exporters=(write_yolo,))
+    report = merge_dataset(out, other, config=config, link=True, workers=2, progress=None, exporters=(write_yolo,))
     assert (other / "manifest.json").read_bytes() == before
     rgb = other / TRAIN / "rgb" / "000000.png"
     task_rgb = out / "tasks" / task_ids(config)[0] / "view_000" / "rgb.png"
@@ -572,9 +645,21 @@ def test_killed_merge_leaves_no_dataset_and_a_rerun_recovers(sweep, dataset, tmp
     out, config = sweep
     copy = tmp_path / "out"
     shutil.copytree(out / "tasks", copy / "tasks")
-    proc = subprocess.Popen([sys.executable, "-c", "from moonbot.cli import main; main()", "merge", str(copy),
-                             "--config", str(out / "sweep.yaml"), "--workers", "1"], stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            "from moonbot.cli import main; main()",
+            "merge",
+            str(copy),
+            "--config",
+            str(out / "sweep.yaml"),
+            "--workers",
+            "1",
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     try:
         deadline = time.monotonic() + 60
         while not list(copy.glob(".dataset.*.tmp")) and time.monotonic() < deadline and proc.poll() is None:

@@ -62,7 +62,7 @@ def find_cycle(graph: dict[str, dict[str, str]]) -> list[str] | None:
         path.append(unit)
         for target in sorted(graph.get(unit, {})):
             if state.get(target) == 1:
-                return path[path.index(target):] + [target]
+                return path[path.index(target) :] + [target]
             if target not in state and (cycle := visit(target)):
                 return cycle
         path.pop()
@@ -93,8 +93,9 @@ def module_graph() -> dict[str, dict[str, str]]:
             if isinstance(node, ast.Import):
                 targets = [a.name for a in node.names if a.name in paths]
             elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module in paths:
-                targets = [f"{node.module}.{a.name}" if f"{node.module}.{a.name}" in paths else node.module
-                           for a in node.names]
+                targets = [
+                    f"{node.module}.{a.name}" if f"{node.module}.{a.name}" in paths else node.module for a in node.names
+                ]
             for target in targets:
                 if target != module:
                     edges.setdefault(target, f"{path.relative_to(ROOT.parent)}:{node.lineno}")
@@ -150,9 +151,9 @@ def cpp_includes(path: Path) -> list[tuple[str, int]]:
         if not header.endswith(".h"):
             continue
         if header.startswith("moonbot/"):
-            found.append((header[len("moonbot/"):-len(".h")], number))
+            found.append((header[len("moonbot/") : -len(".h")], number))
         elif (CPP / "src" / header).is_file():
-            found.append((header[:-len(".h")], number))
+            found.append((header[: -len(".h")], number))
     return found
 
 

@@ -18,11 +18,11 @@ pytestmark = pytest.mark.unit
 PEERS = Path(__file__).resolve().parents[1] / "bench" / "peers"
 sys.path.insert(0, str(PEERS))
 
-from export_scene import PARITY_OVERRIDES, export_scene, parity_config, parity_spec  # noqa: E402
-from ply import read_ply, write_ply  # noqa: E402
-
 from moonbot.render.view import orbit_view  # noqa: E402
 from moonbot.scene.compose import TERRAIN_MESH  # noqa: E402
+
+from export_scene import PARITY_OVERRIDES, export_scene, parity_config, parity_spec  # noqa: E402
+from ply import read_ply, write_ply  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -78,8 +78,11 @@ def test_meshes_read_back_as_moonbots_scene(exported):
         expected = np.concatenate([world_vertices(pose, spec.meshes[key][0]) for key, pose in spec.rocks])
         np.testing.assert_allclose([v.min(0), v.max(0)], [expected.min(0), expected.max(0)], atol=1e-5)
 
-    total = (len(spec.meshes[TERRAIN_MESH][1]) + sum(len(spec.meshes[k][1]) for k, _ in spec.rocks)
-             + sum(len(spec.meshes[b.obj_id][1]) for b in spec.bags))
+    total = (
+        len(spec.meshes[TERRAIN_MESH][1])
+        + sum(len(spec.meshes[k][1]) for k, _ in spec.rocks)
+        + sum(len(spec.meshes[b.obj_id][1]) for b in spec.bags)
+    )
     assert scene["triangles_total"] == total
 
 

@@ -64,18 +64,21 @@ def test_hapke_smooth_isotropic_is_the_chandrasekhar_form():
             assert p.hapke_reflectance(mu_i, mu_o, cos_g) == pytest.approx(want, rel=1e-12)
 
 
-@pytest.mark.parametrize(("kwargs", "field"), [
-    ({"model": "hapk"}, "model"),
-    ({"w": 1.2}, "w"),
-    ({"w": float("nan")}, "w"),
-    ({"b": 1.0}, "b"),
-    ({"c": -1.5}, "c"),
-    ({"roughness_deg": 61.0}, "roughness_deg"),
-    ({"filling_factor": 0.8}, "filling_factor"),
-    ({"cboe_amplitude": 2.0}, "cboe_amplitude"),
-    ({"cboe_width": 0.0}, "cboe_width"),
-    ({"surge_width": 0.0}, "surge_width"),
-])
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"model": "hapk"}, "model"),
+        ({"w": 1.2}, "w"),
+        ({"w": float("nan")}, "w"),
+        ({"b": 1.0}, "b"),
+        ({"c": -1.5}, "c"),
+        ({"roughness_deg": 61.0}, "roughness_deg"),
+        ({"filling_factor": 0.8}, "filling_factor"),
+        ({"cboe_amplitude": 2.0}, "cboe_amplitude"),
+        ({"cboe_width": 0.0}, "cboe_width"),
+        ({"surge_width": 0.0}, "surge_width"),
+    ],
+)
 def test_binding_errors_name_the_field(kwargs, field):
     kwargs = {"model": "hapke", **kwargs}
     with pytest.raises(ValueError, match=f"^{field}: "):
@@ -96,19 +99,23 @@ def test_regolith_albedo_is_normal_albedo_over_shape_at_zero():
     photometry, albedo = regolith(hapke, 0.12)
     assert photometry.model == "hapke" and albedo[0] == pytest.approx(0.12, rel=1e-15)
     # The config's Hapke fields reach the core.
-    rough0 = load_config(None, {"terrain.photometry.model": "hapke",
-                                "terrain.photometry.roughness_deg": 0.0}).terrain.photometry
+    rough0 = load_config(
+        None, {"terrain.photometry.model": "hapke", "terrain.photometry.roughness_deg": 0.0}
+    ).terrain.photometry
     assert regolith(rough0, 0.12)[0].shape(0.3, 0.9, 0.5) != photometry.shape(0.3, 0.9, 0.5)
 
 
-@pytest.mark.parametrize(("override", "message"), [
-    ({"terrain.photometry.model": "hapke2"}, "terrain.photometry.model: must be one of"),
-    ({"terrain.photometry.w": 1.5}, "terrain.photometry.w: must be <= 1.0"),
-    ({"terrain.photometry.c": -2}, "terrain.photometry.c: must be >= -1.0"),
-    ({"terrain.photometry.roughness_deg": 70}, "terrain.photometry.roughness_deg: must be <= 60.0"),
-    ({"terrain.photometry.filling_factor": 0.9}, "terrain.photometry.filling_factor: must be <= 0.75"),
-    ({"terrain.photometry.cboe_width": 0}, "terrain.photometry.cboe_width: must be > 0"),
-])
+@pytest.mark.parametrize(
+    ("override", "message"),
+    [
+        ({"terrain.photometry.model": "hapke2"}, "terrain.photometry.model: must be one of"),
+        ({"terrain.photometry.w": 1.5}, "terrain.photometry.w: must be <= 1.0"),
+        ({"terrain.photometry.c": -2}, "terrain.photometry.c: must be >= -1.0"),
+        ({"terrain.photometry.roughness_deg": 70}, "terrain.photometry.roughness_deg: must be <= 60.0"),
+        ({"terrain.photometry.filling_factor": 0.9}, "terrain.photometry.filling_factor: must be <= 0.75"),
+        ({"terrain.photometry.cboe_width": 0}, "terrain.photometry.cboe_width: must be > 0"),
+    ],
+)
 def test_config_errors_name_the_field(override, message):
     with pytest.raises(ConfigError) as caught:
         load_config(None, override)

@@ -56,8 +56,10 @@ def assert_valid(poses, ground, obj_id=1, max_gap=0.003):
         assert hits_something(k, lowered, t, ground, ground_mesh), f"bag {k + 1} floats"
 
 
-@pytest.mark.parametrize(("layout", "count"), [("single", 1), ("scattered", 5), ("scattered", 11),
-                                               ("stacked", 5), ("stacked", 8), ("stacked", 11)])
+@pytest.mark.parametrize(
+    ("layout", "count"),
+    [("single", 1), ("scattered", 5), ("scattered", 11), ("stacked", 5), ("stacked", 8), ("stacked", 11)],
+)
 def test_geometric_rest_on_flat_ground(layout, count):
     ground = FlatGround()
     poses = arrange(count, layout, ground, seed=7)
@@ -87,8 +89,11 @@ def test_tilt_follows_the_slope():
     pose = place_bags(VERTICES, TRIANGLES, 1, "single", seed=0, ground=ground, yaw_deg=20.0)[0]
     _, normal = ground.plane()
     np.testing.assert_allclose(pose[:3, 2], normal, atol=1e-12)  # the bag's up axis is the normal
-    np.testing.assert_allclose(yaw_tilt_rotation(0.3, (0.0, 0.0))[:2, :2],
-                               [[math.cos(0.3), -math.sin(0.3)], [math.sin(0.3), math.cos(0.3)]], atol=1e-15)
+    np.testing.assert_allclose(
+        yaw_tilt_rotation(0.3, (0.0, 0.0))[:2, :2],
+        [[math.cos(0.3), -math.sin(0.3)], [math.sin(0.3), math.cos(0.3)]],
+        atol=1e-15,
+    )
 
 
 @pytest.mark.parametrize("settle", [GEOMETRIC, SettleConfig()], ids=["geometric", "settled"])
@@ -139,12 +144,15 @@ def test_plan_outlines_of_tilted_bags_keep_the_gap():
     assert not polygons_apart(square, square + [0.5, 0.5], 0.0)
 
 
-@pytest.mark.parametrize(("kwargs", "field"), [
-    ({"count": 2, "layout": "single"}, "count"),
-    ({"count": 0, "layout": "stacked"}, "count"),
-    ({"count": 30, "layout": "scattered", "radius_m": 0.3}, "count"),
-    ({"count": 1, "layout": "pyramid"}, "layout"),
-])
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"count": 2, "layout": "single"}, "count"),
+        ({"count": 0, "layout": "stacked"}, "count"),
+        ({"count": 30, "layout": "scattered", "radius_m": 0.3}, "count"),
+        ({"count": 1, "layout": "pyramid"}, "layout"),
+    ],
+)
 def test_impossible_layouts_are_clear_errors(kwargs, field):
     with pytest.raises(ValueError, match=f"^{field}: "):
         place_bags(VERTICES, TRIANGLES, seed=0, max_tries=2000, **kwargs)

@@ -18,11 +18,18 @@ from moonbot.cli import main
 from moonbot.config import load_config
 from moonbot.pipeline.generate import RETRIES, generate
 from moonbot.pipeline.heartbeat import DEBUG_HANG_ENV, HEARTBEAT_DIR
-from moonbot.pipeline.placements import (TASK_PREFIX, PlacementError, layout_id, place_layout, placement_for,
-                                         placement_path, read_placements)
+from moonbot.pipeline.placements import (
+    TASK_PREFIX,
+    PlacementError,
+    layout_id,
+    place_layout,
+    placement_for,
+    placement_path,
+    read_placements,
+)
 from moonbot.pipeline.stats import load_placements, summarize
-from moonbot.records.stats import read_stats
 from moonbot.pipeline.tasks import run_task, task_dir
+from moonbot.records.stats import read_stats
 from moonbot.scene.compose import place_bags
 from moonbot.sweep import task_config, tasks
 from moonbot.terrain import get_terrain
@@ -39,9 +46,18 @@ def sweep_config(tmp_path: Path, **settle) -> Path:
     data = yaml.safe_load((CONFIGS / "smoke.yaml").read_text())
     data["camera"] = {"width": 48, "height": 36}
     data["bags"] = {"settle": settle} if settle else {}
-    data["sweep"]["splits"] = [{"name": "train", "meshes": ["sandbag-02"], "bag_counts": [1, 2],
-                                "stain_seeds": [0, 30], "dust": [False], "sun_elevations_deg": [12.0, 22.0],
-                                "sun_azimuths_deg": [120.0], "camera_heights_m": [0.5]}]
+    data["sweep"]["splits"] = [
+        {
+            "name": "train",
+            "meshes": ["sandbag-02"],
+            "bag_counts": [1, 2],
+            "stain_seeds": [0, 30],
+            "dust": [False],
+            "sun_elevations_deg": [12.0, 22.0],
+            "sun_azimuths_deg": [120.0],
+            "camera_heights_m": [0.5],
+        }
+    ]
     path = tmp_path / "sweep.yaml"
     path.write_text(yaml.safe_dump(data))
     return path
@@ -83,11 +99,14 @@ def test_each_layout_is_settled_once_and_the_tasks_bytes_do_not_change(tmp_path)
         for view in d.glob("view_*"):
             assert "settle" not in json.loads((view / "gt.json").read_text())["timings_s"]
     # Counted once per layout in the run's stage totals.
-    summary = summarize([read_stats(d / "stats.json") for d in (tmp_path / "two" / "tasks").iterdir()],
-                        placements=load_placements(tmp_path / "two"))
+    summary = summarize(
+        [read_stats(d / "stats.json") for d in (tmp_path / "two" / "tasks").iterdir()],
+        placements=load_placements(tmp_path / "two"),
+    )
     assert summary.placements == 2
     assert summary.stage_seconds_per_sample["settle"] * summary.samples == pytest.approx(
-        sum(r["stages_s"]["settle"] for r in records))
+        sum(r["stages_s"]["settle"] for r in records)
+    )
 
     # Before: every task placed and settled its own bags (run_task without a placement).
     before = tmp_path / "before"
@@ -99,7 +118,7 @@ def test_each_layout_is_settled_once_and_the_tasks_bytes_do_not_change(tmp_path)
     one = generate(config, tmp_path / "one", workers=1, merge=False, progress=None)
     assert one.failed == {} and (one.placed, one.placed_before) == (2, 0)
     assert run_data(tmp_path / "one") == run_data(tmp_path / "two")
-    assert ([r["poses"] for r in read_placements(tmp_path / "one")] == [r["poses"] for r in records])
+    assert [r["poses"] for r in read_placements(tmp_path / "one")] == [r["poses"] for r in records]
 
     # A resumed run renders only what is missing and reads its layout's placement back.
     again = generate(config, tmp_path / "two", workers=2, merge=False, progress=None)
@@ -168,7 +187,8 @@ def test_a_hung_placement_fails_the_tasks_of_its_layout_and_the_others_finish(tm
         assert line.count("in stage 'place bags' on worker tcp://127.0.0.1:") == RETRIES + 1
     assert "4 of 8 tasks failed" in result.output
     assert sorted(d.name for d in (tmp_path / "out" / "tasks").iterdir()) == sorted(
-        t.task_id for t in sweep if layout_id(t) != hung)
+        t.task_id for t in sweep if layout_id(t) != hung
+    )
     assert not (tmp_path / "out" / HEARTBEAT_DIR).exists()
 
     monkeypatch.delenv(DEBUG_HANG_ENV)

@@ -24,8 +24,11 @@ README_PATH = ROOT / "README.md"
 README = README_PATH.read_text(encoding="utf-8")
 DOCS = sorted((ROOT / "docs").glob("*.md"))
 # Every page a newcomer is sent to from the README, whose links must resolve.
-LINKED_PAGES = [README_PATH, *DOCS,
-                *(ROOT / folder / "README.md" for folder in ("bench", "bench/results", "bench/peers", "cluster"))]
+LINKED_PAGES = [
+    README_PATH,
+    *DOCS,
+    *(ROOT / folder / "README.md" for folder in ("bench", "bench/results", "bench/peers", "cluster")),
+]
 README_MAX_LINES = 200
 
 
@@ -106,9 +109,13 @@ def test_using_it_starts_by_putting_moonbot_on_path():
 
 def test_every_moonbot_line_names_a_real_command_and_its_options():
     pages = [README_PATH, *DOCS]
-    lines = [(page.name, line.split("  #")[0]) for page in pages
-             for block in code_blocks(page.read_text(encoding="utf-8")) for line in block
-             if line.startswith("moonbot ")]
+    lines = [
+        (page.name, line.split("  #")[0])
+        for page in pages
+        for block in code_blocks(page.read_text(encoding="utf-8"))
+        for line in block
+        if line.startswith("moonbot ")
+    ]
     assert len([line for name, line in lines if name == "README.md"]) >= 10
     for name, line in lines:
         command, rest = resolve(line.split()[1:])
@@ -124,7 +131,8 @@ def test_readme_command_table_lists_every_command():
     table = set(re.findall(r"^\| `(moonbot [a-z -]+)` \|", README, re.M))
     assert table == leaf_command_names(), (
         f"missing from the README's table: {sorted(leaf_command_names() - table)}; "
-        f"not commands: {sorted(table - leaf_command_names())}")
+        f"not commands: {sorted(table - leaf_command_names())}"
+    )
 
 
 def test_cli_md_is_what_make_cli_md_writes():
@@ -132,7 +140,8 @@ def test_cli_md_is_what_make_cli_md_writes():
     make_cli_md = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(make_cli_md)
     assert (ROOT / "docs" / "cli.md").read_text(encoding="utf-8") == make_cli_md.render_cli_md(), (
-        "docs/cli.md is stale: run `.venv/bin/python docs/make_cli_md.py`")
+        "docs/cli.md is stale: run `.venv/bin/python docs/make_cli_md.py`"
+    )
     documented = set(re.findall(r"^## (moonbot [a-z -]+)$", make_cli_md.render_cli_md(), re.M))
     assert documented == leaf_command_names()
 
@@ -152,9 +161,12 @@ def test_every_relative_link_resolves():
 
 def test_link_checker_sees_links_and_their_anchors(tmp_path):
     page = tmp_path / "page.md"
-    page.write_text("# A title\n\n## Units and frames (SI)\n\nSee [x](other.md#y), ![img](pic.png) and\n"
-                    "[same page](#units-and-frames-si), not `[code](nowhere.md)` nor [web](https://e.org).\n"
-                    "```\n[in a block](gone.md)\n```\n", encoding="utf-8")
+    page.write_text(
+        "# A title\n\n## Units and frames (SI)\n\nSee [x](other.md#y), ![img](pic.png) and\n"
+        "[same page](#units-and-frames-si), not `[code](nowhere.md)` nor [web](https://e.org).\n"
+        "```\n[in a block](gone.md)\n```\n",
+        encoding="utf-8",
+    )
     assert relative_links(page) == [(5, "other.md#y"), (5, "pic.png"), (6, "#units-and-frames-si")]
     assert anchors(page) == {"a-title", "units-and-frames-si"}
 
@@ -172,9 +184,19 @@ def test_no_internal_references_in_readme_or_docs():
 
 # The design notes the code was first written against are not part of the project: the code and
 # its comments cite docs/ and the literature instead (bench/results/ keeps dated records as run).
-INTERNAL_NOTES = (r"\.\./shared", r"/work/shared", r"\b[Ii]ssue \d", r"\b[Pp]rinciple \d", r"lunar-physics\.md",
-                  r"regolith-scales\.md", r"lighting-options\.md", r"bop-format\.md", r"dask-distribution\.md",
-                  r"performance-limits\.md", r"\bDESIGN\.md")
+INTERNAL_NOTES = (
+    r"\.\./shared",
+    r"/work/shared",
+    r"\b[Ii]ssue \d",
+    r"\b[Pp]rinciple \d",
+    r"lunar-physics\.md",
+    r"regolith-scales\.md",
+    r"lighting-options\.md",
+    r"bop-format\.md",
+    r"dask-distribution\.md",
+    r"performance-limits\.md",
+    r"\bDESIGN\.md",
+)
 
 
 def test_no_internal_references_in_code():

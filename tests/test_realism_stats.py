@@ -95,8 +95,8 @@ def test_percentiles_over_the_median():
 
 
 def draw_disk(y: np.ndarray, row: float, col: float, radius: float, value: float) -> int:
-    rr, cc = np.mgrid[:y.shape[0], :y.shape[1]]
-    inside = (rr - row) ** 2 + (cc - col) ** 2 <= radius ** 2
+    rr, cc = np.mgrid[: y.shape[0], : y.shape[1]]
+    inside = (rr - row) ** 2 + (cc - col) ** 2 <= radius**2
     y[inside] = value
     return int(inside.sum())
 
@@ -116,7 +116,7 @@ def test_dark_blobs_count_and_size():
     assert sorted(blobs.diameters_px) == pytest.approx([2 * r for r in radii], rel=0.15)
     assert blobs.covered_px == sum(areas)
     stats = realism.blob_statistics(blobs, px_per_deg)
-    assert stats["blobs_per_deg2"] == pytest.approx(len(radii) / (300 * 400 / px_per_deg ** 2))
+    assert stats["blobs_per_deg2"] == pytest.approx(len(radii) / (300 * 400 / px_per_deg**2))
 
 
 def test_dark_blobs_are_dark_relative_to_their_surroundings():
@@ -151,8 +151,8 @@ def test_sky_mask_is_the_dark_run_from_the_top():
 
 
 def draw_cross(y: np.ndarray, row: int, col: int, arm: int, value: float) -> None:
-    y[row, col - arm:col + arm + 1] = value
-    y[row - arm:row + arm + 1, col] = value
+    y[row, col - arm : col + arm + 1] = value
+    y[row - arm : row + arm + 1, col] = value
 
 
 def test_reseau_crosses_on_a_grid_are_masked_and_lone_shapes_are_not():
@@ -168,7 +168,7 @@ def test_reseau_crosses_on_a_grid_are_masked_and_lone_shapes_are_not():
     y[330, 20:200] = 0.2  # a long thin line (a staff's shadow)
     mask = realism.reseau_cross_mask(y, px_per_deg)
     for r, c in centres:
-        assert mask[r - arm:r + arm + 1, c].all() and mask[r, c - arm:c + arm + 1].all()
+        assert mask[r - arm : r + arm + 1, c].all() and mask[r, c - arm : c + arm + 1].all()
     assert not mask[360, 460]
     assert not mask[330, 20:200].any()
     assert mask.sum() <= len(centres) * (2 * round(1.5 * round(realism.RESEAU_ARM_DEG * px_per_deg)) + 1) ** 2
@@ -227,7 +227,8 @@ def test_read_sources_and_regions(tmp_path):
     (tmp_path / "SOURCES.csv").write_text(
         "file,what_it_shows,approx_sun_elevation_deg,licence,\n"
         'a.jpg,"ground, rocks","~14-15 (EVA 02:39, Sun 10.8 deg",x\n'
-        "b.jpg,ground,~12,x\n")
+        "b.jpg,ground,~12,x\n"
+    )
     a, b = realism.read_sources(tmp_path)
     assert (a.sun_low_deg, a.sun_high_deg, a.sun_mid_deg, a.what) == (14.0, 15.0, 14.5, "ground, rocks")
     assert (b.sun_low_deg, b.sun_high_deg) == (12.0, 12.0)
@@ -271,9 +272,15 @@ def test_render_plans_and_separation():
 
     plans = render_plans([12.5, 14.5], Options(locations=("flat", "hilly")))
     assert [p.name for p in plans] == [
-        "flat-sun12.5-cross-seed1", "flat-sun12.5-down-seed1", "flat-sun14.5-cross-seed1",
-        "flat-sun14.5-down-seed1", "flat-sun12.5-cross-bag-seed1", "hilly-sun12.5-cross-seed1",
-        "hilly-sun14.5-cross-seed1", "flat-sun12.5-cross-seed2"]
+        "flat-sun12.5-cross-seed1",
+        "flat-sun12.5-down-seed1",
+        "flat-sun14.5-cross-seed1",
+        "flat-sun14.5-down-seed1",
+        "flat-sun12.5-cross-bag-seed1",
+        "hilly-sun12.5-cross-seed1",
+        "hilly-sun14.5-cross-seed1",
+        "flat-sun12.5-cross-seed2",
+    ]
     s = separation([1.0, 2.0, 3.0, 4.0, 5.0], [9.0, 11.0, 4.5])
     assert s["score"] == pytest.approx((9.0 - 3.0) / 2.0)
     assert s["outside_fraction"] == pytest.approx(2 / 3)
@@ -286,8 +293,9 @@ def test_cli_names_the_bad_sources_file(tmp_path):
 
     (tmp_path / "a.jpg").write_bytes(b"")
     (tmp_path / "SOURCES.csv").write_text("file,approx_sun_elevation_deg\na.jpg,dusk\n")
-    result = CliRunner().invoke(main, ["bench", "realism", "--photos", str(tmp_path), "--out",
-                                       str(tmp_path / "r.json")])
+    result = CliRunner().invoke(
+        main, ["bench", "realism", "--photos", str(tmp_path), "--out", str(tmp_path / "r.json")]
+    )
     assert result.exit_code != 0
     assert "SOURCES.csv: line 2: approx_sun_elevation_deg" in result.output
     assert not (tmp_path / "r.json").exists()

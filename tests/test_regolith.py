@@ -29,8 +29,13 @@ SEEDS = range(12)
 def near_field(seed: int, **overrides):
     """The default terrain config with the default 1 cm tile (±2 m) but a 60 m, quickly graded
     extent, flat (no curvature), and no craters unless asked: the relief alone."""
-    settings = {"terrain.extent_m": 60.0, "terrain.growth": 1.05, "terrain.curvature": False,
-                "terrain.craters.density": 0.0, "terrain.seed": seed}
+    settings = {
+        "terrain.extent_m": 60.0,
+        "terrain.growth": 1.05,
+        "terrain.curvature": False,
+        "terrain.craters.density": 0.0,
+        "terrain.seed": seed,
+    }
     settings.update({f"terrain.{k}": v for k, v in overrides.items()})
     return load_config(None, settings).terrain
 
@@ -40,9 +45,10 @@ def tile_mean_square(config) -> np.ndarray:
     fine tile of the built mesh."""
     ground = make_ground(config)
     inside = np.flatnonzero(np.abs(ground.x_axis) <= config.detail_extent_m + 1e-9)
-    z = ground.z[inside[0]:inside[-1] + 1, inside[0]:inside[-1] + 1]
-    return np.array([np.mean(np.concatenate([(z[:, k:] - z[:, :-k]).ravel(), (z[k:] - z[:-k]).ravel()]) ** 2)
-                     for k in LAGS])
+    z = ground.z[inside[0] : inside[-1] + 1, inside[0] : inside[-1] + 1]
+    return np.array(
+        [np.mean(np.concatenate([(z[:, k:] - z[:, :-k]).ravel(), (z[k:] - z[:-k]).ravel()]) ** 2) for k in LAGS]
+    )
 
 
 @pytest.fixture(scope="module")
@@ -92,7 +98,7 @@ def test_craters_reach_down_to_five_centimetres_in_the_fine_tile():
     in_tile = np.all(np.abs(c) < 1.9, axis=1)
     smallest = in_tile & (d < 0.1)
     # N(>=D) = 0.05 D^-2 per m²: 0.05·(0.05^-2 - 0.1^-2) = 15 per m² of 5-10 cm craters.
-    expected = 0.05 * (0.05 ** -2 - 0.1 ** -2) * 3.8 ** 2
+    expected = 0.05 * (0.05**-2 - 0.1**-2) * 3.8**2
     assert abs(np.count_nonzero(smallest) - expected) < 4 * math.sqrt(expected)
     # The mesh is the relief plus exactly these craters' profiles (relative to the target's node).
     with_craters, without = make_ground(config), make_ground(near_field(3))
@@ -120,15 +126,16 @@ def test_rock_sizes_follow_the_surveyor_power_law_within_poisson_error():
     # Ten times Surveyor I (Shoemaker & Morris 1969: 5.0e4 D^-2.11 per 100 m², D in mm), per m²:
     # 38.8 per m² of 1 cm and more, 1.3 of 5 cm (AS11-40-5851: ~2).
     per_m2 = [power_law_per_m2(rocks_config.density_per_m2, rocks_config.exponent, d, math.inf) for d in (0.01, 0.05)]
-    np.testing.assert_allclose(per_m2, [10 * 5.0e4 / 100 * 10 ** -2.11, 10 * 5.0e4 / 100 * 50 ** -2.11], rtol=0.01)
+    np.testing.assert_allclose(per_m2, [10 * 5.0e4 / 100 * 10**-2.11, 10 * 5.0e4 / 100 * 50**-2.11], rtol=0.01)
     # Pebbles only near the target: each band within PIXELS_REACH·D.
     assert np.all(np.max(np.abs(rocks.centres), axis=1) <= PIXELS_REACH * rocks.diameters + 1e-9)
 
 
 @pytest.mark.parametrize("location", ["flat", "hilly"])
 def test_no_rock_in_a_bag_and_the_bags_rest_on_the_ground(location):
-    config = load_config(None, {"terrain.location": location, "terrain.extent_m": 200.0, "bags.count": 6,
-                                "bags.layout": "scattered"})
+    config = load_config(
+        None, {"terrain.location": location, "terrain.extent_m": 200.0, "bags.count": 6, "bags.layout": "scattered"}
+    )
     spec = compose_scene(config)  # raises if a bag cuts into the ground or into another bag
     assert len(spec.rocks) > 200 and min(pose[2, 2] for _, pose in spec.rocks) < 0.02  # pebbles too
     bag_vertices = spec.meshes[spec.bags[0].obj_id][0].astype(np.float64)

@@ -6,10 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scenes import K_for, camera, ground_and_box, pixel_directions, plane, rotation_x, translation
 
 from moonbot import _core
 from moonbot.scene.orbit import CameraPose, orbit_pose
+
+from scenes import K_for, camera, ground_and_box, pixel_directions, plane, rotation_x, translation
 
 pytestmark = pytest.mark.unit
 
@@ -22,8 +23,9 @@ def test_camera_project_matches_K_R_t():
     pose = orbit_pose(np.array([0.1, -0.2, 0.05]), 1.3, 0.7, 33.0)
     points = np.array([[0.1, -0.2, 0.05], [0.5, 0.4, 0.0], [-0.3, 0.2, 0.3]])
     cam = (pose.R @ points.T).T + pose.t
-    expected = np.column_stack([K[0, 0] * cam[:, 0] / cam[:, 2] + K[0, 2],
-                                K[1, 1] * cam[:, 1] / cam[:, 2] + K[1, 2], cam[:, 2]])
+    expected = np.column_stack(
+        [K[0, 0] * cam[:, 0] / cam[:, 2] + K[0, 2], K[1, 1] * cam[:, 1] / cam[:, 2] + K[1, 2], cam[:, 2]]
+    )
     got = camera(K, W, H, pose).project(points)
     np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)
     # The orbit target projects onto the image centre.
@@ -93,8 +95,10 @@ def test_outputs_identical_for_one_and_two_threads():
     scene, _ = ground_and_box()
     K = K_for(W, H, 70.0)
     cam = camera(K, W, H, orbit_pose(np.array([0, 0, 0.2]), 1.0, 0.5, 40.0))
-    runs = [_core.render(scene, cam, _core.DirectionalLight(120, 12),
-                         _core.RenderSettings(spp=8, seed=5, threads=n)) for n in (1, 2)]
+    runs = [
+        _core.render(scene, cam, _core.DirectionalLight(120, 12), _core.RenderSettings(spp=8, seed=5, threads=n))
+        for n in (1, 2)
+    ]
     for name in ("rgb", "depth", "instance"):
         assert runs[0][name].tobytes() == runs[1][name].tobytes(), name
 
@@ -106,8 +110,9 @@ def test_only_requested_passes_cost_rays():
     scene, _ = ground_and_box()
     builds = scene.bvh_builds
     cam = camera(K_for(W, H, 70.0), W, H, orbit_pose(np.array([0, 0, 0.2]), 1.0, 0.5, 40.0))
-    geometry = _core.render(scene, cam, _core.DirectionalLight(120, 12), _core.RenderSettings(spp=4),
-                            passes=["depth", "instance"])
+    geometry = _core.render(
+        scene, cam, _core.DirectionalLight(120, 12), _core.RenderSettings(spp=4), passes=["depth", "instance"]
+    )
     assert set(geometry) >= {"depth", "instance"} and "rgb" not in geometry
     assert geometry["camera_rays"] == W * H and geometry["shadow_rays"] == 0
     full = _core.render(scene, cam, _core.DirectionalLight(120, 12), _core.RenderSettings(spp=4))
@@ -160,8 +165,9 @@ def test_grazing_sun_on_a_plane_has_no_acne(elevation):
     scene.commit()
     K = K_for(W, H, 70.0)
     pose = orbit_pose(np.zeros(3), 3.0, 1.0, 10.0)
-    out = _core.render(scene, camera(K, W, H, pose), _core.DirectionalLight(190, elevation),
-                       _core.RenderSettings(spp=4))
+    out = _core.render(
+        scene, camera(K, W, H, pose), _core.DirectionalLight(190, elevation), _core.RenderSettings(spp=4)
+    )
     hit = out["depth"] > 0
     expected = 0.12 / np.pi * 1361 * np.sin(np.radians(elevation))
     np.testing.assert_allclose(out["rgb"][hit], expected, rtol=1e-5)
@@ -177,8 +183,9 @@ def test_kilometre_coordinates_render_like_the_origin():
         shift = translation(*offset)
         scene, _ = ground_and_box(box_world=shift @ translation(0, 0, 0.2), ground_world=shift)
         pose = orbit_pose(offset + np.array([0, 0, 0.2]), 1.0, 0.5, 40.0)
-        results.append(_core.render(scene, camera(K, W, H, pose), _core.DirectionalLight(120, 30),
-                                    passes=["depth", "instance"]))
+        results.append(
+            _core.render(scene, camera(K, W, H, pose), _core.DirectionalLight(120, 30), passes=["depth", "instance"])
+        )
     a, b = results
     same = a["instance"] == b["instance"]
     assert same.mean() > 0.995  # edge pixels may flip where a ray grazes a triangle edge
@@ -224,8 +231,13 @@ def test_exact_depth_holds_far_from_the_origin(offset):
     t = (n @ (world[:3, 3] - pose.center)) / (d @ n)
     errors = {}
     for exact in (True, False):
-        out = _core.render(scene, camera(K, W, H, pose), _core.DirectionalLight(0, 45),
-                           _core.RenderSettings(exact_depth=exact), passes=["depth"])
+        out = _core.render(
+            scene,
+            camera(K, W, H, pose),
+            _core.DirectionalLight(0, 45),
+            _core.RenderSettings(exact_depth=exact),
+            passes=["depth"],
+        )
         hit = out["depth"] > 0
         assert hit.mean() > 0.9
         errors[exact] = np.max(np.abs(out["depth"][hit] - t[hit]) / t[hit])
@@ -252,8 +264,11 @@ def test_embree_limit_probe_traces_the_renderers_rays():
     assert bounced["bounce_shadow_rays"] == bounced["shadow_rays"] - rendered["shadow_rays"] > 0
     assert 0 < limit["bounce_shadow_rays"][0] < first
     assert 0 < second < first  # bounces that leave for the black sky end there
-    assert all(limit[f"{query}_{kind}_s"] > 0 for query in ("intersect", "occluded")
-               for kind in ("single", "packet8", "packet16", "stream", "stream_from_memory"))
+    assert all(
+        limit[f"{query}_{kind}_s"] > 0
+        for query in ("intersect", "occluded")
+        for kind in ("single", "packet8", "packet16", "stream", "stream_from_memory")
+    )
     assert all(s > 0 for s in limit["bounce_stream_s"] + limit["bounce_single_s"] + limit["bounce_shadow_stream_s"])
     assert _core.measure_embree_limit(scene, cam, sun, threads=1, repeats=1)["bounce_rays"] == []
     with pytest.raises(ValueError, match="bounces"):
@@ -272,8 +287,16 @@ def test_view_inputs_place_the_orbit_camera_and_the_lights():
     from moonbot.render.view import view_inputs
     from moonbot.scene import compose_scene
 
-    config = load_config(None, {"terrain.location": "plane", "bags.settle.enabled": False,
-                                "camera.width": 64, "camera.height": 48, "sun.earthshine": False})
+    config = load_config(
+        None,
+        {
+            "terrain.location": "plane",
+            "bags.settle.enabled": False,
+            "camera.width": 64,
+            "camera.height": 48,
+            "sun.earthshine": False,
+        },
+    )
     spec = compose_scene(config)
     o = config.orbit
     for v in (0, 3):
@@ -288,6 +311,5 @@ def test_view_inputs_place_the_orbit_camera_and_the_lights():
         assert view.camera.project(spec.target[None, :])[0, :2] == pytest.approx([32.0, 24.0], abs=1e-6)
         np.testing.assert_allclose(view.camera.center, view.pose.center, atol=1e-9)
         assert view.sun.irradiance == config.sun.irradiance_w_m2 and view.earth is None
-    with_earth = load_config(None, {"terrain.location": "plane", "bags.settle.enabled": False,
-                                    "sun.earthshine": True})
+    with_earth = load_config(None, {"terrain.location": "plane", "bags.settle.enabled": False, "sun.earthshine": True})
     assert view_inputs(with_earth, compose_scene(with_earth), 0).earth is not None

@@ -21,15 +21,14 @@ from moonbot.bop import sample_surface
 from moonbot.cli import main
 from moonbot.config.load import load_config
 from moonbot.scene import compose_scene
-from moonbot.scene.collision import transform
 from moonbot.scene.bag_mesh import filled_cuboid
+from moonbot.scene.collision import transform
 from moonbot.writer import depth_to_png16
 
 pytestmark = pytest.mark.unit
 
 SMALL = ["--set", "camera.width=160", "--set", "camera.height=120", "--set", "render.spp=2"]
-FILES = ("rgb.png", "depth.npy", "depth.png", "depth_preview.png", "mask.png", "amodal_001.png",
-         "gt.json")
+FILES = ("rgb.png", "depth.npy", "depth.png", "depth_preview.png", "mask.png", "amodal_001.png", "gt.json")
 
 
 def render_one(out: Path, *args: str) -> Path:
@@ -130,13 +129,13 @@ def test_sheet_shows_the_written_files(view0):
     w = 160 + 2  # tile and gap
     assert sheet.shape == (120, 3 * 160 + 2 * 2, 3)
     for tile in range(3):  # each tile has its label, drawn inside its own width
-        assert (labels[:, tile * w:tile * w + 160] != labels[0, 0]).any()
+        assert (labels[:, tile * w : tile * w + 160] != labels[0, 0]).any()
     np.testing.assert_array_equal(sheet[:, :160], np.array(Image.open(view0 / "rgb.png")))
     preview = np.array(Image.open(view0 / "depth_preview.png"))
-    np.testing.assert_array_equal(sheet[:, w:w + 160], np.repeat(preview[..., None], 3, axis=2))
+    np.testing.assert_array_equal(sheet[:, w : w + 160], np.repeat(preview[..., None], 3, axis=2))
     mask = np.array(Image.open(view0 / "mask.png"))
-    np.testing.assert_array_equal(sheet[:, 2 * w:], colour_mask(mask))
-    assert (sheet[:, 2 * w:][mask == 1] > 0).any() and (sheet[:, 2 * w:][mask == 0] == 0).all()
+    np.testing.assert_array_equal(sheet[:, 2 * w :], colour_mask(mask))
+    assert (sheet[:, 2 * w :][mask == 1] > 0).any() and (sheet[:, 2 * w :][mask == 0] == 0).all()
 
 
 def test_sheet_labels_stay_over_their_tiles():
@@ -151,8 +150,7 @@ def test_sheet_labels_stay_over_their_tiles():
 def test_the_summary_lists_every_file_written_and_says_each_stage(tmp_path):
     """render-one's file list names every file a view folder holds (amodal masks included), and it
     prints a line per stage with the seconds since it started, views in order."""
-    result = CliRunner().invoke(
-        main, ["render-one", "--out", str(tmp_path), *SMALL, "--view", "0", "--view", "3"])
+    result = CliRunner().invoke(main, ["render-one", "--out", str(tmp_path), *SMALL, "--view", "0", "--view", "3"])
     assert result.exit_code == 0, result.output
     listed = {line.split("view_NNN/")[1].split()[0] for line in result.stdout.splitlines() if "view_NNN/" in line}
     written = {re.sub(r"_\d{3}\.", "_NNN.", p.name) for p in (tmp_path / "view_003").iterdir()}
@@ -185,8 +183,10 @@ def test_exr_output_is_the_radiance_behind_rgb_png(tmp_path):
     from moonbot.config import load_config
     from moonbot.render.exposure import add_veiling_glare, auto_ev100, regolith_reflectance
 
-    result = CliRunner().invoke(main, ["render-one", "--out", str(tmp_path), *SMALL, "--set", "output.exr=true",
-                                       "--set", "sun.elevation_deg=30"])
+    result = CliRunner().invoke(
+        main,
+        ["render-one", "--out", str(tmp_path), *SMALL, "--set", "output.exr=true", "--set", "sun.elevation_deg=30"],
+    )
     assert result.exit_code == 0, result.output
     expected_ev = auto_ev100(regolith_reflectance(load_config(None, {"sun.elevation_deg": 30})), 30.0, 1361.0)
     assert "view_NNN/rgb.exr" in result.output and f"EV100 {expected_ev:.2f} (auto)" in result.output
@@ -213,20 +213,35 @@ def test_a_scene_that_does_not_settle_has_no_settle_stage(tmp_path):
     assert "settle" not in gt["timings_s"] and gt["timings_s"]["compose"] > 0
 
 
-@pytest.mark.parametrize(("args", "message"), [
-    (["--set", "camera.width=0"], "camera.width: must be >= 1"),
-    (["--set", "sun.elevation_deg=95"], "sun.elevation_deg: must be <= 90"),
-    (["--set", "render.spp=two"], "render.spp: must be an integer"),
-    (["--set", "bags.colour=1"], "bags.colour: unknown field"),
-    (["--set", "meshes.sandbag_01.size_m=[0.3, 0.2]"], "meshes.sandbag_01.size_m: must have 3 items"),
-    (["--set", "camera.hfov_deg=.nan"], "camera.hfov_deg: must be finite"),
-    (["--set", "terrain.location=moon"], "terrain.location: must be one of flat"),
-    (["--view", "36"], "view: must be in 0..35"),
-    (["--set", "nonsense"], "--set: expected FIELD=VALUE"),
-    (["--set", "sun.elevation_deg=["], "--set sun.elevation_deg: value is not valid YAML"),
-    (["--set", "sun.elevation_deg.x=1"], "elevation_deg is not a section"),
-], ids=["width0", "elevation95", "spp-str", "unknown", "size-len", "hfov-nan", "location", "view", "set",
-        "set-yaml", "set-section"])
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--set", "camera.width=0"], "camera.width: must be >= 1"),
+        (["--set", "sun.elevation_deg=95"], "sun.elevation_deg: must be <= 90"),
+        (["--set", "render.spp=two"], "render.spp: must be an integer"),
+        (["--set", "bags.colour=1"], "bags.colour: unknown field"),
+        (["--set", "meshes.sandbag_01.size_m=[0.3, 0.2]"], "meshes.sandbag_01.size_m: must have 3 items"),
+        (["--set", "camera.hfov_deg=.nan"], "camera.hfov_deg: must be finite"),
+        (["--set", "terrain.location=moon"], "terrain.location: must be one of flat"),
+        (["--view", "36"], "view: must be in 0..35"),
+        (["--set", "nonsense"], "--set: expected FIELD=VALUE"),
+        (["--set", "sun.elevation_deg=["], "--set sun.elevation_deg: value is not valid YAML"),
+        (["--set", "sun.elevation_deg.x=1"], "elevation_deg is not a section"),
+    ],
+    ids=[
+        "width0",
+        "elevation95",
+        "spp-str",
+        "unknown",
+        "size-len",
+        "hfov-nan",
+        "location",
+        "view",
+        "set",
+        "set-yaml",
+        "set-section",
+    ],
+)
 def test_bad_input_names_the_field(tmp_path, args, message):
     result = CliRunner().invoke(main, ["render-one", "--out", str(tmp_path), *args])
     assert result.exit_code != 0
@@ -267,15 +282,15 @@ def test_installed_command_works_from_any_directory(tmp_path):
     if not exe.exists():
         exe = shutil.which("moonbot")
     assert exe, "the moonbot console script is not installed"
-    done = subprocess.run([str(exe), "render-one", "--out", "o", *SMALL], cwd=tmp_path,
-                          capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        [str(exe), "render-one", "--out", "o", *SMALL], cwd=tmp_path, capture_output=True, text=True, timeout=120
+    )
     assert done.returncode == 0, done.stderr
     assert "render" in done.stdout and (tmp_path / "o" / "view_000" / "rgb.png").exists()
 
 
 def test_depth_png_never_wraps():
-    depth = np.array([[0.0, 0.0004, 0.0006, 1.2344, 65.535, 65.536, 1e9, np.nan, np.inf, -1.0]],
-                     dtype=np.float32)
+    depth = np.array([[0.0, 0.0004, 0.0006, 1.2344, 65.535, 65.536, 1e9, np.nan, np.inf, -1.0]], dtype=np.float32)
     np.testing.assert_array_equal(depth_to_png16(depth), [[0, 0, 1, 1234, 65535, 0, 0, 0, 0, 0]])
 
 
@@ -292,9 +307,9 @@ def test_full_disk_fails_cleanly_and_keeps_the_previous_view(tmp_path):
         "from moonbot.cli import main\n"
         "sys.argv = ['moonbot', 'render-one', '--out', sys.argv[1], '--set', 'sun.elevation_deg=30',\n"
         "            '--set', 'camera.width=160', '--set', 'camera.height=120']\n"
-        "main()\n")
-    done = subprocess.run([sys.executable, "-c", script, str(out)], capture_output=True, text=True,
-                          timeout=120)
+        "main()\n"
+    )
+    done = subprocess.run([sys.executable, "-c", script, str(out)], capture_output=True, text=True, timeout=120)
     assert done.returncode != 0
     assert "view_000/" in done.stderr and "write failed" in done.stderr
     assert "the previous content is kept" in done.stderr and "Traceback" not in done.stderr

@@ -9,8 +9,14 @@ import math
 import numpy as np
 import pytest
 
-from moonbot.terrain.roughness import (HAPKE_RMS_PER_TAN, Roughness, SlopeLaw, theta_bar_deg,
-                                       unresolved_theta_bar_deg, value_noise_structure)
+from moonbot.terrain.roughness import (
+    HAPKE_RMS_PER_TAN,
+    Roughness,
+    SlopeLaw,
+    theta_bar_deg,
+    unresolved_theta_bar_deg,
+    value_noise_structure,
+)
 
 pytestmark = pytest.mark.unit
 
@@ -23,8 +29,9 @@ def structure(r: Roughness, baseline: float, seeds=(0,), n: int = 20000, span: f
     random places within ±span, pooled over fields of the given seeds."""
     squares = []
     for seed in seeds:
-        field = Roughness(seed=seed, law=r.law, min_wavelength_m=r.min_wavelength_m,
-                          max_wavelength_m=r.max_wavelength_m)
+        field = Roughness(
+            seed=seed, law=r.law, min_wavelength_m=r.min_wavelength_m, max_wavelength_m=r.max_wavelength_m
+        )
         rng = np.random.default_rng(99)
         p = rng.uniform(-span, span, size=(n, 2))
         phi = rng.uniform(0, 2 * math.pi, size=n)
@@ -53,8 +60,9 @@ def test_same_seed_same_bytes_other_seed_other_terrain():
     a = ROUGH.height(x, y)
     np.testing.assert_array_equal(a, Roughness(seed=11, law=MARE).height(x, y))
     assert np.abs(a - Roughness(seed=12, law=MARE).height(x, y)).mean() > 0.01
-    np.testing.assert_array_equal(ROUGH.height(np.float64(0.3), -0.2),
-                                  ROUGH.height(np.array([0.3]), np.array([-0.2]))[0])
+    np.testing.assert_array_equal(
+        ROUGH.height(np.float64(0.3), -0.2), ROUGH.height(np.array([0.3]), np.array([-0.2]))[0]
+    )
     assert np.all(Roughness(seed=5, law=SlopeLaw(0.0, 1.0, 0.9, 0.9, 1.0)).height([1.0, 2.0], [3.0, 4.0]) == 0.0)
 
 
@@ -101,17 +109,26 @@ def test_theta_bar_of_the_relief_a_mesh_leaves_out():
     assert unresolved_theta_bar_deg(MARE, 1e-4, 0.0) == pytest.approx(theta_bar_deg(total), abs=1e-12)
     resolved = math.tan(math.radians(5.5))
     left = math.tan(math.radians(unresolved_theta_bar_deg(MARE, 1e-4, resolved))) * HAPKE_RMS_PER_TAN
-    assert left ** 2 + resolved ** 2 == pytest.approx(total ** 2, rel=1e-12)  # tan² adds up
+    assert left**2 + resolved**2 == pytest.approx(total**2, rel=1e-12)  # tan² adds up
     with pytest.raises(ValueError, match="^roughness: the mesh's RMS slope"):
         unresolved_theta_bar_deg(MARE, 1e-4, 1.0)
 
 
-@pytest.mark.parametrize(("kwargs", "field"), [({"rms_slope_deg": 90.0}, "rms_slope_deg"),
-                                               ({"hurst_fine": 1.0}, "hurst_fine"),
-                                               ({"break_m": 0.0}, "break_m")])
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [({"rms_slope_deg": 90.0}, "rms_slope_deg"), ({"hurst_fine": 1.0}, "hurst_fine"), ({"break_m": 0.0}, "break_m")],
+)
 def test_bad_parameters_name_the_field(kwargs, field):
     with pytest.raises(ValueError, match=f"^{field}: "):
-        SlopeLaw(**{"rms_slope_deg": 3.0, "baseline_m": 17.0, "hurst_coarse": 0.9, "hurst_fine": 0.65,
-                    "break_m": 0.01, **kwargs})
+        SlopeLaw(
+            **{
+                "rms_slope_deg": 3.0,
+                "baseline_m": 17.0,
+                "hurst_coarse": 0.9,
+                "hurst_fine": 0.65,
+                "break_m": 0.01,
+                **kwargs,
+            }
+        )
     with pytest.raises(ValueError, match="^min_wavelength_m: "):
         Roughness(seed=0, law=MARE, min_wavelength_m=0.0)

@@ -28,8 +28,9 @@ COLLISION = {k: variant_collision_points(MeshesConfig(), k) for k in (1, 2, 3)} 
 
 def dropped(obj_id, count, layout, ground, config=SETTLE, yaw_deg=20.0):
     v, t = MESHES[obj_id]
-    poses = place_bags(v, t, count, layout, seed=0, ground=ground, yaw_deg=yaw_deg,
-                       clearance_m=config.margin_m + config.drop_m)
+    poses = place_bags(
+        v, t, count, layout, seed=0, ground=ground, yaw_deg=yaw_deg, clearance_m=config.margin_m + config.drop_m
+    )
     return poses, settle(COLLISION[obj_id], poses, ground, config)
 
 

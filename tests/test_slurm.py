@@ -39,8 +39,10 @@ DASK_SCHEDULER_PORT = 8786  # `dask scheduler`'s default
 pytestmark = [
     pytest.mark.integration,
     pytest.mark.slow,
-    pytest.mark.skipif(bool(MISSING), reason=f"SLURM is not installed (no {', '.join(MISSING)}): "
-                                              f"cluster/slurm/local-cluster.sh install"),
+    pytest.mark.skipif(
+        bool(MISSING),
+        reason=f"SLURM is not installed (no {', '.join(MISSING)}): cluster/slurm/local-cluster.sh install",
+    ),
 ]
 
 
@@ -50,8 +52,11 @@ class Slurm:
 
     def __init__(self, directory: Path):
         self.directory = directory
-        self.env = {**os.environ, "SLURM_CONF": str(directory / "slurm.conf"),
-                    "MOONBOT_VENV": sys.prefix}  # the recipes' venv: the one running these tests
+        self.env = {
+            **os.environ,
+            "SLURM_CONF": str(directory / "slurm.conf"),
+            "MOONBOT_VENV": sys.prefix,
+        }  # the recipes' venv: the one running these tests
         cpus, memory = self.run("sinfo", "-h", "-N", "-o", "%c %m").split()
         self.cpus, self.memory_mb = int(cpus), int(memory)
 
@@ -62,8 +67,10 @@ class Slurm:
 
     def logs(self) -> str:
         """The daemons' last log lines, for a failure's message."""
-        return "\n".join(f"--- {log}\n" + "\n".join(log.read_text(errors="replace").splitlines()[-15:])
-                         for log in sorted((self.directory / "log").glob("*.log")))
+        return "\n".join(
+            f"--- {log}\n" + "\n".join(log.read_text(errors="replace").splitlines()[-15:])
+            for log in sorted((self.directory / "log").glob("*.log"))
+        )
 
     def wait(self, job_id: str, limit_s: float, log: Path) -> None:
         """Wait for the job to leave the queue, at most `limit_s`; past it, scancel it and fail.
@@ -72,14 +79,17 @@ class Slurm:
         while self.run("squeue", "-h", "-j", job_id, "-o", "%T").strip():
             if time.monotonic() > deadline:
                 self.run("scancel", "--full", job_id)
-                pytest.fail(f"job {job_id} still queued or running after {limit_s} s (scancelled)\n"
-                            f"{tail(log)}\n{self.logs()}")
+                pytest.fail(
+                    f"job {job_id} still queued or running after {limit_s} s (scancelled)\n{tail(log)}\n{self.logs()}"
+                )
             time.sleep(2)
         # slurmctld keeps a finished job's record for MinJobAge (300 s by default).
-        info = dict(field.split("=", 1) for field in self.run("scontrol", "-o", "show", "job", job_id).split()
-                    if "=" in field)
-        assert (info["JobState"], info["ExitCode"]) == ("COMPLETED", "0:0"), \
+        info = dict(
+            field.split("=", 1) for field in self.run("scontrol", "-o", "show", "job", job_id).split() if "=" in field
+        )
+        assert (info["JobState"], info["ExitCode"]) == ("COMPLETED", "0:0"), (
             f"job {job_id}: {info['JobState']}, exit code {info['ExitCode']}\n{tail(log)}\n{self.logs()}"
+        )
 
 
 def tail(path: Path, lines: int = 40) -> str:
@@ -105,21 +115,22 @@ def assert_same_files(dataset: Path, reference: dict[str, str]) -> None:
     got = file_hashes(dataset)
     missing, extra = sorted(reference.keys() - got.keys()), sorted(got.keys() - reference.keys())
     differ = sorted(k for k in got.keys() & reference.keys() if got[k] != reference[k])
-    assert not (missing or extra or differ), \
+    assert not (missing or extra or differ), (
         f"{dataset}: missing {missing[:10]}, extra {extra[:10]}, different bytes {differ[:10]}"
+    )
 
 
 @pytest.fixture(scope="module")
 def slurm(tmp_path_factory):
     directory = tmp_path_factory.mktemp("slurm")
     try:
-        done = subprocess.run([str(LOCAL_CLUSTER), "start", str(directory)], capture_output=True, text=True,
-                              timeout=180)
+        done = subprocess.run(
+            [str(LOCAL_CLUSTER), "start", str(directory)], capture_output=True, text=True, timeout=180
+        )
         assert done.returncode == 0, f"local-cluster.sh start: {done.stderr}"
         yield Slurm(directory)
     finally:
-        done = subprocess.run([str(LOCAL_CLUSTER), "stop", str(directory)], capture_output=True, text=True,
-                              timeout=180)
+        done = subprocess.run([str(LOCAL_CLUSTER), "stop", str(directory)], capture_output=True, text=True, timeout=180)
         assert done.returncode == 0, f"local-cluster.sh stop: {done.stderr}"
 
 
@@ -146,11 +157,22 @@ def test_the_sbatch_recipe_renders_the_local_clusters_bytes(slurm, reference, tm
         except OSError:
             pass  # taken already
         # The directives on the command line override the script's (2 nodes of 32 CPUs, 16 GB).
-        job_id = slurm.run(
-            "sbatch", "--parsable", "--nodes=1", f"--cpus-per-task={slurm.cpus}",
-            f"--mem={min(slurm.memory_mb, JOB_MEMORY_MB)}M", "--time=00:30:00", f"--output={log}",
-            f"--export=ALL,CONFIG={SMOKE},OUT={out}", str(ROOT / "cluster" / "slurm" / "moonbot.sbatch"),
-            cwd=ROOT).strip().split(";")[0]
+        job_id = (
+            slurm.run(
+                "sbatch",
+                "--parsable",
+                "--nodes=1",
+                f"--cpus-per-task={slurm.cpus}",
+                f"--mem={min(slurm.memory_mb, JOB_MEMORY_MB)}M",
+                "--time=00:30:00",
+                f"--output={log}",
+                f"--export=ALL,CONFIG={SMOKE},OUT={out}",
+                str(ROOT / "cluster" / "slurm" / "moonbot.sbatch"),
+                cwd=ROOT,
+            )
+            .strip()
+            .split(";")[0]
+        )
         slurm.wait(job_id, JOB_LIMIT_S, log)
     assert_same_files(out / "dataset", reference)
     assert (out / "stats" / "tasks.parquet").is_file()  # the job's `moonbot stats`
@@ -160,9 +182,21 @@ def test_the_sbatch_recipe_renders_the_local_clusters_bytes(slurm, reference, tm
 def test_the_jobqueue_launcher_renders_the_local_clusters_bytes(slurm, reference, tmp_path):
     pytest.importorskip("dask_jobqueue")
     out = tmp_path / "out"
-    command = [sys.executable, str(ROOT / "cluster" / "slurm" / "launch.py"), str(SMOKE), "--out", str(out),
-               "--jobs", "1", "--cpus", str(slurm.cpus), "--memory", f"{min(slurm.memory_mb, JOB_MEMORY_MB)}MB",
-               "--walltime", "00:30:00"]
+    command = [
+        sys.executable,
+        str(ROOT / "cluster" / "slurm" / "launch.py"),
+        str(SMOKE),
+        "--out",
+        str(out),
+        "--jobs",
+        "1",
+        "--cpus",
+        str(slurm.cpus),
+        "--memory",
+        f"{min(slurm.memory_mb, JOB_MEMORY_MB)}MB",
+        "--walltime",
+        "00:30:00",
+    ]
     try:
         done = subprocess.run(command, env=slurm.env, capture_output=True, text=True, timeout=JOB_LIMIT_S)
     except subprocess.TimeoutExpired as e:  # its jobs: cancelled by the cluster fixture's stop

@@ -37,29 +37,128 @@ B = dict(host="node-b", cpu_model="Intel(R) Xeon(R) Gold 6338", cores=4, threads
 
 # (task_id, host, worker, pid, start s after T0, wall s, CPU s, samples, stages)
 TASKS = [
-    ("train-s000000", A, "tcp://10.0.0.1:40001", 101, 0.0, 40.0, 38.0, 36,
-     {"terrain": 2.0, "compose": 3.0, "settle": 1.0, "build_bvh": 2.0, "render": 25.0, "tonemap": 1.0, "encode_write": 5.0}),
-    ("train-s000001", A, "tcp://10.0.0.1:40002", 102, 0.5, 42.0, 38.0, 36,
-     {"terrain": 2.0, "compose": 3.0, "build_bvh": 2.0, "render": 27.0, "tonemap": 1.0, "encode_write": 5.0}),
-    ("train-s000002", A, "tcp://10.0.0.1:40001", 101, 41.0, 40.0, 38.0, 36,
-     {"terrain": 0.0, "compose": 3.0, "settle": 1.0, "build_bvh": 2.0, "dust": 4.0, "render": 23.0, "tonemap": 1.0, "encode_write": 5.0}),
-    ("train-s000003", A, "tcp://10.0.0.1:40002", 102, 43.0, 40.0, 38.0, 36,
-     {"terrain": 0.0, "compose": 3.0, "build_bvh": 2.0, "render": 28.0, "tonemap": 1.0, "encode_write": 5.0}),
-    ("test-s000000", B, "tcp://10.0.0.2:40001", 201, 1.0, 29.0, 100.0, 36,
-     {"terrain": 1.5, "compose": 2.0, "build_bvh": 1.0, "render": 20.0, "tonemap": 0.5, "encode_write": 3.0}),
-    ("test-s000001", B, "tcp://10.0.0.2:40001", 201, 32.0, 29.0, 100.0, 36,
-     {"terrain": 0.0, "compose": 2.0, "build_bvh": 1.0, "dust": 3.0, "render": 19.0, "tonemap": 0.5, "encode_write": 3.0}),
-    ("test-s000002", B, "tcp://10.0.0.2:40001", 201, 63.0, 29.0, 100.0, 36,
-     {"terrain": 0.0, "compose": 2.0, "build_bvh": 1.0, "render": 22.0, "tonemap": 0.5, "encode_write": 3.0}),
+    (
+        "train-s000000",
+        A,
+        "tcp://10.0.0.1:40001",
+        101,
+        0.0,
+        40.0,
+        38.0,
+        36,
+        {
+            "terrain": 2.0,
+            "compose": 3.0,
+            "settle": 1.0,
+            "build_bvh": 2.0,
+            "render": 25.0,
+            "tonemap": 1.0,
+            "encode_write": 5.0,
+        },
+    ),
+    (
+        "train-s000001",
+        A,
+        "tcp://10.0.0.1:40002",
+        102,
+        0.5,
+        42.0,
+        38.0,
+        36,
+        {"terrain": 2.0, "compose": 3.0, "build_bvh": 2.0, "render": 27.0, "tonemap": 1.0, "encode_write": 5.0},
+    ),
+    (
+        "train-s000002",
+        A,
+        "tcp://10.0.0.1:40001",
+        101,
+        41.0,
+        40.0,
+        38.0,
+        36,
+        {
+            "terrain": 0.0,
+            "compose": 3.0,
+            "settle": 1.0,
+            "build_bvh": 2.0,
+            "dust": 4.0,
+            "render": 23.0,
+            "tonemap": 1.0,
+            "encode_write": 5.0,
+        },
+    ),
+    (
+        "train-s000003",
+        A,
+        "tcp://10.0.0.1:40002",
+        102,
+        43.0,
+        40.0,
+        38.0,
+        36,
+        {"terrain": 0.0, "compose": 3.0, "build_bvh": 2.0, "render": 28.0, "tonemap": 1.0, "encode_write": 5.0},
+    ),
+    (
+        "test-s000000",
+        B,
+        "tcp://10.0.0.2:40001",
+        201,
+        1.0,
+        29.0,
+        100.0,
+        36,
+        {"terrain": 1.5, "compose": 2.0, "build_bvh": 1.0, "render": 20.0, "tonemap": 0.5, "encode_write": 3.0},
+    ),
+    (
+        "test-s000001",
+        B,
+        "tcp://10.0.0.2:40001",
+        201,
+        32.0,
+        29.0,
+        100.0,
+        36,
+        {
+            "terrain": 0.0,
+            "compose": 2.0,
+            "build_bvh": 1.0,
+            "dust": 3.0,
+            "render": 19.0,
+            "tonemap": 0.5,
+            "encode_write": 3.0,
+        },
+    ),
+    (
+        "test-s000002",
+        B,
+        "tcp://10.0.0.2:40001",
+        201,
+        63.0,
+        29.0,
+        100.0,
+        36,
+        {"terrain": 0.0, "compose": 2.0, "build_bvh": 1.0, "render": 22.0, "tonemap": 0.5, "encode_write": 3.0},
+    ),
 ]
 
 
 def stats_record(task_id, hw, worker, pid, start, wall, cpu, samples, stages) -> dict:
-    return {"task_id": task_id, "host": hw["host"], "pid": pid, "cpu_model": hw["cpu_model"],
-            "cores": hw["cores"], "threads": hw["threads"], "worker": worker,
-            "started_utc": (T0 + datetime.timedelta(seconds=start)).isoformat(), "wall_s": wall, "cpu_s": cpu,
-            "stages_s": dict(stages), "samples": samples, "bytes_written": samples * 1_700_000,
-            "samples_per_s": samples / wall}
+    return {
+        "task_id": task_id,
+        "host": hw["host"],
+        "pid": pid,
+        "cpu_model": hw["cpu_model"],
+        "cores": hw["cores"],
+        "threads": hw["threads"],
+        "worker": worker,
+        "started_utc": (T0 + datetime.timedelta(seconds=start)).isoformat(),
+        "wall_s": wall,
+        "cpu_s": cpu,
+        "stages_s": dict(stages),
+        "samples": samples,
+        "bytes_written": samples * 1_700_000,
+        "samples_per_s": samples / wall,
+    }
 
 
 def write_task(out: Path, record: dict, name: str | None = None, done: bool = True) -> Path:
@@ -69,12 +168,16 @@ def write_task(out: Path, record: dict, name: str | None = None, done: bool = Tr
     d.mkdir(parents=True)
     (d / "stats.json").write_text(json.dumps(record, indent=2, sort_keys=True) + "\n")
     if done:
-        files = {p.name: {"bytes": p.stat().st_size, "sha256": hashlib.sha256(p.read_bytes()).hexdigest()}
-                 for p in sorted(d.iterdir())}
+        files = {
+            p.name: {"bytes": p.stat().st_size, "sha256": hashlib.sha256(p.read_bytes()).hexdigest()}
+            for p in sorted(d.iterdir())
+        }
         # The marker of a sound task, whatever a test spoilt in stats.json.
         samples = record["samples"] if isinstance(record["samples"], int) else 0
-        (d / "DONE.json").write_text(json.dumps({"task_id": record["task_id"], "samples": samples,
-                                                 "files": files}, indent=2, sort_keys=True) + "\n")
+        (d / "DONE.json").write_text(
+            json.dumps({"task_id": record["task_id"], "samples": samples, "files": files}, indent=2, sort_keys=True)
+            + "\n"
+        )
     return d
 
 
@@ -91,6 +194,7 @@ def run(tmp_path) -> Path:
 
 # --- collect -----------------------------------------------------------------------------------
 
+
 def test_collect_writes_jsonl_and_parquet_with_the_same_values(run):
     collected = stats.collect(run)
     assert [r.task_id for r in collected.records] == sorted(t[0] for t in TASKS)
@@ -104,13 +208,32 @@ def test_collect_writes_jsonl_and_parquet_with_the_same_values(run):
     assert table.num_rows == len(TASKS)
     stage_columns = [c for c in table.column_names if c.startswith("stage_")]
     # Pipeline order, one column per stage that ran anywhere.
-    assert stage_columns == ["stage_terrain_s", "stage_compose_s", "stage_settle_s", "stage_build_bvh_s",
-                             "stage_dust_s", "stage_render_s", "stage_tonemap_s", "stage_encode_write_s"]
+    assert stage_columns == [
+        "stage_terrain_s",
+        "stage_compose_s",
+        "stage_settle_s",
+        "stage_build_bvh_s",
+        "stage_dust_s",
+        "stage_render_s",
+        "stage_tonemap_s",
+        "stage_encode_write_s",
+    ]
     rows = table.to_pylist()
     for row in rows:
         rec = expected[row["task_id"]]
-        for name in ("host", "pid", "cpu_model", "cores", "threads", "worker", "wall_s", "cpu_s", "samples",
-                     "bytes_written", "samples_per_s"):
+        for name in (
+            "host",
+            "pid",
+            "cpu_model",
+            "cores",
+            "threads",
+            "worker",
+            "wall_s",
+            "cpu_s",
+            "samples",
+            "bytes_written",
+            "samples_per_s",
+        ):
             assert row[name] == rec[name], name
         assert row["started_utc"] == datetime.datetime.fromisoformat(rec["started_utc"])
         for stage in ("terrain", "compose", "settle", "build_bvh", "dust", "render", "tonemap", "encode_write"):
@@ -157,9 +280,16 @@ def test_an_empty_run_writes_empty_files(tmp_path):
 
 
 def test_extra_fields_are_kept(tmp_path):
-    records = [dict(stats_record(*t), attempt=k % 2 + 1, split=t[0].split("-")[0], maxrss_mb=700 + k * 0.5,
-                    sun={"elevation_deg": 12.0})
-               for k, t in enumerate(TASKS)]
+    records = [
+        dict(
+            stats_record(*t),
+            attempt=k % 2 + 1,
+            split=t[0].split("-")[0],
+            maxrss_mb=700 + k * 0.5,
+            sun={"elevation_deg": 12.0},
+        )
+        for k, t in enumerate(TASKS)
+    ]
     for r in records:
         write_task(tmp_path, r)
     stats.collect(tmp_path)
@@ -205,8 +335,10 @@ def test_a_bad_stats_file_is_reported_by_file_and_field(run, spoil, message):
 
 def test_nan_and_broken_json_are_reported(run):
     path = run / "tasks" / "train-s000000" / "stats.json"
-    for text, message in ((json.dumps(dict(stats_record(*TASKS[0]), cpu_s=math.nan)), "cpu_s: must be finite"),
-                          ('{"task_id": ', "not valid JSON")):
+    for text, message in (
+        (json.dumps(dict(stats_record(*TASKS[0]), cpu_s=math.nan)), "cpu_s: must be finite"),
+        ('{"task_id": ', "not valid JSON"),
+    ):
         shutil.rmtree(path.parent)
         path.parent.mkdir()
         path.write_text(text)
@@ -237,6 +369,7 @@ def test_not_a_generate_directory(tmp_path):
 
 
 # --- the summary, against hand computation ------------------------------------------------------
+
 
 def test_summary_numbers(run):
     s = stats.summarize(stats.collect(run).records)
@@ -269,8 +402,16 @@ def test_summary_numbers(run):
 
     timed = sum(sum(t[8].values()) for t in TASKS)
     render = 25 + 27 + 23 + 28 + 20 + 19 + 22
-    assert list(s.stage_share) == ["terrain", "compose", "settle", "build_bvh", "dust", "render", "tonemap",
-                                   "encode_write"]
+    assert list(s.stage_share) == [
+        "terrain",
+        "compose",
+        "settle",
+        "build_bvh",
+        "dust",
+        "render",
+        "tonemap",
+        "encode_write",
+    ]
     assert s.stage_share["render"] == pytest.approx(render / timed)
     assert s.stage_share["dust"] == pytest.approx(7.0 / timed)
     assert sum(s.stage_share.values()) == pytest.approx(1.0)
@@ -281,8 +422,10 @@ def test_summary_numbers(run):
 
 def test_scaling_efficiency_against_a_reference(run, tmp_path):
     # The reference: one worker of node-b alone, 36 samples in 30 s.
-    ref = write_run(tmp_path / "ref", tasks=[("test-s000000", B, "tcp://10.0.0.2:40001", 201, 0.0, 30.0,
-                                              100.0, 36, {"render": 25.0})])
+    ref = write_run(
+        tmp_path / "ref",
+        tasks=[("test-s000000", B, "tcp://10.0.0.2:40001", 201, 0.0, 30.0, 100.0, 36, {"render": 25.0})],
+    )
     reference = stats.reference_from_run(ref)
     assert reference.samples_per_s_per_worker == pytest.approx(36 / 30)
     s = stats.summarize(stats.load(run), reference)
@@ -295,10 +438,19 @@ def test_scaling_efficiency_against_a_reference(run, tmp_path):
 def test_scaling_efficiency_against_a_benchmark_record(tmp_path):
     """bench/bench_generate.py's record: the 1-worker run with the run's render threads is X1."""
     bench = tmp_path / "generate-amd-epyc-2c.json"
-    bench.write_text(json.dumps({"schema_version": 1, "benchmark": "generate", "runs": [
-        {"workers": 1, "threads_per_worker": 1, "samples_per_s": 0.5},
-        {"workers": 1, "threads_per_worker": 2, "samples_per_s": 0.9},
-        {"workers": 2, "threads_per_worker": 1, "samples_per_s": 0.95}]}))
+    bench.write_text(
+        json.dumps(
+            {
+                "schema_version": 1,
+                "benchmark": "generate",
+                "runs": [
+                    {"workers": 1, "threads_per_worker": 1, "samples_per_s": 0.5},
+                    {"workers": 1, "threads_per_worker": 2, "samples_per_s": 0.9},
+                    {"workers": 2, "threads_per_worker": 1, "samples_per_s": 0.95},
+                ],
+            }
+        )
+    )
     run = write_run(tmp_path / "run", tasks=TASKS[:4])  # node-a: 2 workers × 1 thread
     result = CliRunner().invoke(main, ["stats", str(run), "--reference", str(bench)])
     assert result.exit_code == 0, result.output
@@ -313,8 +465,9 @@ def test_scaling_efficiency_against_a_benchmark_record(tmp_path):
 
 def test_a_resumed_run_counts_its_gap_as_idle_and_restarted_workers_once(run):
     # A second driver, 200 s after T0, on node-b's worker restarted by its nanny (new address, pid).
-    write_task(run, stats_record("test-s000003", B, "tcp://10.0.0.2:40777", 299, 200.0, 29.0, 100.0, 36,
-                                 {"render": 22.0}))
+    write_task(
+        run, stats_record("test-s000003", B, "tcp://10.0.0.2:40777", 299, 200.0, 29.0, 100.0, 36, {"render": 22.0})
+    )
     s = stats.summarize(stats.collect(run).records)
     assert s.span_s == pytest.approx(229.0)
     assert s.idle_s == pytest.approx(229.0 - 92.0 - 29.0)
@@ -336,6 +489,7 @@ def test_oversubscription_is_pointed_out(tmp_path):
 
 
 # --- the command --------------------------------------------------------------------------------
+
 
 def test_cli_prints_the_summary_and_writes_the_plot(run, tmp_path):
     ref = write_run(tmp_path / "ref", tasks=[TASKS[4]])
@@ -380,6 +534,7 @@ def test_cli_errors_name_the_file_and_field(run):
 
 
 # --- cluster/ recipes ---------------------------------------------------------------------------
+
 
 def test_the_shared_dask_config_loads_with_dask():
     import dask.config
@@ -433,18 +588,40 @@ def test_the_slurm_launcher_writes_a_job_script(tmp_path):
     the shared dask.yaml; a job of several processes needs render.threads to split its CPUs."""
     pytest.importorskip("dask_jobqueue")
     launcher = ROOT / "cluster" / "slurm" / "launch.py"
-    common = [sys.executable, str(launcher), str(ROOT / "configs" / "synbag-1.0.yaml"), "--out", str(tmp_path / "out"),
-              "--cpus", "32", "--memory", "8GB", "--walltime", "04:00:00", "--queue", "cpu",
-              "--log-directory", str(tmp_path / "logs"), "--print-job-script"]
+    common = [
+        sys.executable,
+        str(launcher),
+        str(ROOT / "configs" / "synbag-1.0.yaml"),
+        "--out",
+        str(tmp_path / "out"),
+        "--cpus",
+        "32",
+        "--memory",
+        "8GB",
+        "--walltime",
+        "04:00:00",
+        "--queue",
+        "cpu",
+        "--log-directory",
+        str(tmp_path / "logs"),
+        "--print-job-script",
+    ]
     run = subprocess.run(common, capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
     script = run.stdout
-    for expected in ("#SBATCH --cpus-per-task=32", "#SBATCH -p cpu", "#SBATCH -t 04:00:00",
-                     f"export DASK_CONFIG={ROOT / 'cluster' / 'dask.yaml'}", "--nthreads 1",
-                     "--lifetime 13800s", sys.executable):
+    for expected in (
+        "#SBATCH --cpus-per-task=32",
+        "#SBATCH -p cpu",
+        "#SBATCH -t 04:00:00",
+        f"export DASK_CONFIG={ROOT / 'cluster' / 'dask.yaml'}",
+        "--nthreads 1",
+        "--lifetime 13800s",
+        sys.executable,
+    ):
         assert expected in script, expected
     run = subprocess.run(common + ["--processes", "4"], capture_output=True, text=True, timeout=120)
     assert run.returncode != 0 and "render.threads: 4 processes a job on 32 CPUs need render.threads = 8" in run.stderr
+
 
 TINY = """
 seed: 7
@@ -470,31 +647,56 @@ def test_the_plain_recipe_renders_a_sweep_and_its_stats(tmp_path):
     config = tmp_path / "tiny.yaml"
     config.write_text(TINY)
     sched = tmp_path / "scheduler.json"
-    env = dict(os.environ, MOONBOT_VENV=sys.prefix, SCHEDULER_HOST="127.0.0.1", SCHEDULER_PORT="0",
-               DASHBOARD_ADDRESS=":0", WORKER_HOST="127.0.0.1", LOCAL_DIR=str(tmp_path))
+    env = dict(
+        os.environ,
+        MOONBOT_VENV=sys.prefix,
+        SCHEDULER_HOST="127.0.0.1",
+        SCHEDULER_PORT="0",
+        DASHBOARD_ADDRESS=":0",
+        WORKER_HOST="127.0.0.1",
+        LOCAL_DIR=str(tmp_path),
+    )
     env.pop("DASK_CONFIG", None)  # the scripts point it at cluster/dask.yaml
     plain = ROOT / "cluster" / "plain"
     procs, logs = [], []
     try:
-        for script, args, log in (("start-scheduler.sh", [sched], "scheduler.log"),
-                                  ("start-workers.sh", [sched, "2"], "workers.log")):
+        for script, args, log in (
+            ("start-scheduler.sh", [sched], "scheduler.log"),
+            ("start-workers.sh", [sched, "2"], "workers.log"),
+        ):
             logs.append(open(tmp_path / log, "w"))
-            procs.append(subprocess.Popen([str(plain / script), *map(str, args)], env=env, start_new_session=True,
-                                          stdout=logs[-1], stderr=subprocess.STDOUT))
+            procs.append(
+                subprocess.Popen(
+                    [str(plain / script), *map(str, args)],
+                    env=env,
+                    start_new_session=True,
+                    stdout=logs[-1],
+                    stderr=subprocess.STDOUT,
+                )
+            )
             deadline = time.monotonic() + 60
             while script == "start-scheduler.sh" and not sched.exists():
                 assert procs[-1].poll() is None and time.monotonic() < deadline, (tmp_path / log).read_text()
                 time.sleep(0.2)
         out = tmp_path / "out"
-        run = subprocess.run([str(plain / "run-generate.sh"), str(config), str(out), str(sched)], env=env,
-                             capture_output=True, text=True, timeout=300)
+        run = subprocess.run(
+            [str(plain / "run-generate.sh"), str(config), str(out), str(sched)],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
         assert run.returncode == 0, run.stdout + run.stderr
         assert "3 tasks rendered (6 samples)" in run.stdout and "tasks       3, 6 samples" in run.stdout
         records = stats.load(out)
         assert [r.samples for r in records] == [2, 2, 2]
         assert all(r.worker.startswith("tcp://127.0.0.1:") for r in records)
-        assert {p.name for p in (out / "stats").iterdir()} == {"tasks.jsonl", "tasks.parquet", "placements.jsonl",
-                                                                "throughput.svg"}
+        assert {p.name for p in (out / "stats").iterdir()} == {
+            "tasks.jsonl",
+            "tasks.parquet",
+            "placements.jsonl",
+            "throughput.svg",
+        }
     finally:
         for proc in reversed(procs):  # the process groups this test started, by id
             os.killpg(proc.pid, signal.SIGTERM)

@@ -50,8 +50,12 @@ def test_sweep_order_and_scene_seeds():
     ts = tasks(config)
     # Scenes nest meshes › locations › bag counts › stains › dust.
     first = [(t.mesh, t.bags, t.stain_seeds, t.dust) for t in ts if t.split == "train"][:4]
-    assert first == [("sandbag-01", 1, 0, False), ("sandbag-01", 1, 0, True),
-                     ("sandbag-01", 1, 15, False), ("sandbag-01", 1, 15, True)]
+    assert first == [
+        ("sandbag-01", 1, 0, False),
+        ("sandbag-01", 1, 0, True),
+        ("sandbag-01", 1, 15, False),
+        ("sandbag-01", 1, 15, True),
+    ]
     seeds = {t.task_id: task_config(config, t).seed for t in ts}
     by_layout = collections.defaultdict(set)
     for t in ts:
@@ -65,7 +69,13 @@ def test_task_config_carries_the_task():
     config = load_config(CONFIGS / "smoke.yaml")
     t = [t for t in tasks(config) if t.bags == 3 and t.dust and t.stain_seeds == 15][0]
     c = task_config(config, t)
-    assert (c.bags.mesh, c.bags.count, c.bags.layout, c.bags.stain.seeds, c.dust.enabled) == (t.mesh, 3, "scattered", 15, True)
+    assert (c.bags.mesh, c.bags.count, c.bags.layout, c.bags.stain.seeds, c.dust.enabled) == (
+        t.mesh,
+        3,
+        "scattered",
+        15,
+        True,
+    )
     assert (c.sun.elevation_deg, c.sun.azimuth_deg, c.orbit.height_m) == (12.0, 120.0, 0.5)
     assert c.sweep.splits == () and c.camera.width == 64
     # A config without a sweep is one task that renders as render-one would.
@@ -74,16 +84,19 @@ def test_task_config_carries_the_task():
     assert task_config(plain, only) == plain
 
 
-@pytest.mark.parametrize("override, field", [
-    ({"sweep.splits": [{"name": "train", "colour": [1]}]}, "sweep.splits[0].colour"),
-    ({"sweep.splits": [{"name": "train", "bag_counts": [-1]}]}, "sweep.splits[0].bag_counts[0]"),
-    ({"sweep.splits": [{"name": "train", "bag_counts": [256]}]}, "sweep.splits[0].bag_counts[0]"),
-    ({"sweep.splits": [{"name": "train", "sun_elevations_deg": [91]}]}, "sweep.splits[0].sun_elevations_deg[0]"),
-    ({"sweep.splits": [{"name": "train", "meshes": ["sandbag-09"]}]}, "sweep.splits[0].meshes[0]"),
-    ({"sweep.splits": [{"name": "a"}, {"name": "a"}]}, "sweep.splits"),
-    ({"sweep.splits": [{"name": "../x"}]}, "name"),
-    ({"sweep.splits": [{"name": "t", "dust": [True, True]}]}, "dust"),
-])
+@pytest.mark.parametrize(
+    "override, field",
+    [
+        ({"sweep.splits": [{"name": "train", "colour": [1]}]}, "sweep.splits[0].colour"),
+        ({"sweep.splits": [{"name": "train", "bag_counts": [-1]}]}, "sweep.splits[0].bag_counts[0]"),
+        ({"sweep.splits": [{"name": "train", "bag_counts": [256]}]}, "sweep.splits[0].bag_counts[0]"),
+        ({"sweep.splits": [{"name": "train", "sun_elevations_deg": [91]}]}, "sweep.splits[0].sun_elevations_deg[0]"),
+        ({"sweep.splits": [{"name": "train", "meshes": ["sandbag-09"]}]}, "sweep.splits[0].meshes[0]"),
+        ({"sweep.splits": [{"name": "a"}, {"name": "a"}]}, "sweep.splits"),
+        ({"sweep.splits": [{"name": "../x"}]}, "name"),
+        ({"sweep.splits": [{"name": "t", "dust": [True, True]}]}, "dust"),
+    ],
+)
 def test_bad_sweeps_name_the_field(override, field):
     with pytest.raises(ConfigError, match=field.replace("[", r"\[").replace("]", r"\]")):
         load_config(CONFIGS / "smoke.yaml", override)
@@ -98,8 +111,10 @@ def test_plan_prints_the_sweep_without_rendering(tmp_path):
     assert lines[3].split() == ["total", "198", "4896", "176256"]
     # The estimate scales a benchmark record: seconds per megapixel-sample, bytes per megapixel.
     record = tmp_path / "generate-test.json"
-    record.write_text('{"runs": [{"workers": 2, "threads_per_worker": 1, "samples_per_s": 0.5, "seconds": 100.0, '
-                      '"megapixel_samples": 10.0, "bytes": 2e9, "megapixels": 1000.0}]}')
+    record.write_text(
+        '{"runs": [{"workers": 2, "threads_per_worker": 1, "samples_per_s": 0.5, "seconds": 100.0, '
+        '"megapixel_samples": 10.0, "bytes": 2e9, "megapixels": 1000.0}]}'
+    )
     result = CliRunner().invoke(main, ["plan", str(CONFIGS / "synbag-1.0.yaml"), "--bench-record", str(record)])
     mps = 176_256 * 640 * 480 * 4 / 1e6
     assert f"~{mps * 10.0 / 3600:.1f} h" in result.output  # 10 s a megapixel-sample
@@ -107,10 +122,12 @@ def test_plan_prints_the_sweep_without_rendering(tmp_path):
     # With its stages, the time splits into what is paid per megapixel-sample (here 80 %), per task
     # (composing, the BVH: 15 %) and per layout (placing, settling: 5 %); the benchmark's 4 tasks of
     # 6 views share 1 layout; the sweep has 4896 tasks and 36 layouts (27 train, 9 test).
-    record.write_text('{"runs": [{"workers": 2, "threads_per_worker": 1, "samples_per_s": 0.5, "seconds": 100.0, '
-                      '"megapixel_samples": 10.0, "bytes": 2e9, "megapixels": 1000.0, "tasks": 4, "layouts": 1, '
-                      '"stages_s": {"render": 70.0, "encode_write": 10.0, "compose": 5.0, "build_bvh": 10.0, '
-                      '"place": 1.0, "settle": 4.0}}]}')
+    record.write_text(
+        '{"runs": [{"workers": 2, "threads_per_worker": 1, "samples_per_s": 0.5, "seconds": 100.0, '
+        '"megapixel_samples": 10.0, "bytes": 2e9, "megapixels": 1000.0, "tasks": 4, "layouts": 1, '
+        '"stages_s": {"render": 70.0, "encode_write": 10.0, "compose": 5.0, "build_bvh": 10.0, '
+        '"place": 1.0, "settle": 4.0}}]}'
+    )
     result = CliRunner().invoke(main, ["plan", str(CONFIGS / "synbag-1.0.yaml"), "--bench-record", str(record)])
     seconds = 100.0 * (0.80 * mps / 10.0 + 0.15 * 4896 / 4 + 0.05 * 36 / 1)
     assert f"~{seconds / 3600:.1f} h" in result.output
@@ -129,12 +146,29 @@ def test_plan_names_whose_record_it_scaled(tmp_path):
     from moonbot.host import cpu_id, cpu_model
     from moonbot.sweep.plan import LOADED_SLOWDOWN
 
-    run = {"workers": 1, "threads_per_worker": 2, "samples_per_s": 0.5, "seconds": 100.0,
-           "megapixel_samples": 10.0, "bytes": 2e9, "megapixels": 1000.0}
-    other = {"cpu": "Imaginary CPU 9000", "cpu_id": "GenuineImaginary 1/2/3", "cores": 64, "embree_isa": "avx512",
-             "date": "2031-02-03T04:05:06Z"}
-    same = {"cpu": cpu_model(), "cpu_id": cpu_id(), "cores": os.cpu_count(), "embree_isa": "avx2",
-            "date": "2026-11-26T02:42:09Z"}
+    run = {
+        "workers": 1,
+        "threads_per_worker": 2,
+        "samples_per_s": 0.5,
+        "seconds": 100.0,
+        "megapixel_samples": 10.0,
+        "bytes": 2e9,
+        "megapixels": 1000.0,
+    }
+    other = {
+        "cpu": "Imaginary CPU 9000",
+        "cpu_id": "GenuineImaginary 1/2/3",
+        "cores": 64,
+        "embree_isa": "avx512",
+        "date": "2031-02-03T04:05:06Z",
+    }
+    same = {
+        "cpu": cpu_model(),
+        "cpu_id": cpu_id(),
+        "cores": os.cpu_count(),
+        "embree_isa": "avx2",
+        "date": "2026-11-26T02:42:09Z",
+    }
     outputs = {}
     for name, machine in (("other", other), ("same", same)):
         record = tmp_path / f"generate-{name}.json"
@@ -142,8 +176,11 @@ def test_plan_names_whose_record_it_scaled(tmp_path):
         result = CliRunner().invoke(main, ["plan", str(CONFIGS / "synbag-1.0.yaml"), "--bench-record", str(record)])
         assert result.exit_code == 0, result.output
         assert "this machine" not in result.output.replace("this machine's record", "")
-        assert f"from    {record}: measured on {machine['cpu']} ({machine['cpu_id']}), {machine['cores']} cores" \
-            in result.output and machine["date"][:10] in result.output
+        assert (
+            f"from    {record}: measured on {machine['cpu']} ({machine['cpu_id']}), {machine['cores']} cores"
+            in result.output
+            and machine["date"][:10] in result.output
+        )
         assert f"here    {cpu_model()} ({cpu_id()}), {os.cpu_count()} cores" in result.output
         outputs[name] = result.output
     assert "another CPU or core count" in outputs["other"] and "bench/bench_generate.py" in outputs["other"]

@@ -14,8 +14,11 @@ from moonbot.terrain.ground import CraterGround, FlatGround, SlopedGround, grade
 
 pytestmark = pytest.mark.unit
 
-GROUNDS = [FlatGround(size_m=50.0), SlopedGround(slope_deg=30.0, downhill_azimuth_deg=60.0, size_m=50.0),
-           CraterGround(diameter_m=8.0, size_m=50.0)]
+GROUNDS = [
+    FlatGround(size_m=50.0),
+    SlopedGround(slope_deg=30.0, downhill_azimuth_deg=60.0, size_m=50.0),
+    CraterGround(diameter_m=8.0, size_m=50.0),
+]
 
 
 @pytest.mark.parametrize("ground", GROUNDS, ids=["flat", "slope", "crater"])
@@ -56,8 +59,9 @@ def test_crater_profile_follows_the_stated_proportions():
 def test_meshes_lie_on_the_ground_and_face_up(ground):
     v, t = ground.mesh()
     assert v.dtype == np.float32 and t.dtype == np.int32
-    np.testing.assert_allclose(v[:, 2], ground.height(v[:, 0].astype(np.float64), v[:, 1].astype(np.float64)),
-                               atol=1e-5)
+    np.testing.assert_allclose(
+        v[:, 2], ground.height(v[:, 0].astype(np.float64), v[:, 1].astype(np.float64)), atol=1e-5
+    )
     a, b, c = (v[t[:, k]].astype(np.float64) for k in range(3))
     assert (np.cross(b - a, c - a)[:, 2] > 0).all()
     assert np.abs(v[:, :2]).max() == pytest.approx(ground.size_m / 2)
@@ -71,7 +75,7 @@ def test_graded_axis_is_fine_near_the_bags_and_grows_outward():
     assert axis[0] == -100.0 and axis[-1] == 100.0
     fine = np.abs(axis[:-1] + steps / 2) < 2.0
     np.testing.assert_allclose(steps[fine], 0.01, atol=1e-12)
-    outer = steps[len(steps) // 2:]
+    outer = steps[len(steps) // 2 :]
     assert (outer[1:-1] / outer[:-2] <= 1.1 + 1e-9).all()
     assert len(axis) < 600  # ~0.3 M vertices for a 100 m patch at 1 cm detail
     assert grid_triangles(3, 2).tolist() == [[0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4]]

@@ -28,8 +28,7 @@ from moonbot.config.schema import UserMeshConfig
 from moonbot.scene.bag_mesh import bag_collision, bag_model
 from moonbot.scene.collision import winding_number
 from moonbot.scene.convex_parts import convex_parts, hull_volume
-from moonbot.scene.user_mesh import (DECOMPOSE_ABOVE_HULL_FIT, load_user_mesh, signed_volume, srgb_to_linear,
-                                  up_rotation)
+from moonbot.scene.user_mesh import DECOMPOSE_ABOVE_HULL_FIT, load_user_mesh, signed_volume, srgb_to_linear, up_rotation
 from moonbot.sweep.tasks import task_config, tasks
 
 pytestmark = pytest.mark.integration
@@ -78,7 +77,9 @@ def u_block() -> tuple[np.ndarray, np.ndarray]:
 
 
 def write_obj(path: Path, vertices: np.ndarray, triangles: np.ndarray) -> Path:
-    lines = [f"v {float(x)!r} {float(y)!r} {float(z)!r}" for x, y, z in vertices] + [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in triangles]
+    lines = [f"v {float(x)!r} {float(y)!r} {float(z)!r}" for x, y, z in vertices] + [
+        f"f {a + 1} {b + 1} {c + 1}" for a, b, c in triangles
+    ]
     path.write_text("\n".join(lines) + "\n")
     return path
 
@@ -105,9 +106,13 @@ def entry(path: Path, **fields) -> UserMeshConfig:
 def test_files_become_named_user_meshes_numbered_by_path(tmp_path):
     v, t = u_block()
     b, a = write_obj(tmp_path / "b-bag.obj", v, t), write_obj(tmp_path / "A Bag.obj", v, t)
-    config = load_config(None, {"bags.mesh": str(b), "sweep.splits": [
-        {"name": "train", "meshes": ["sandbag-02", str(a), "b-bag"]}]})
-    assert [(u.path, u.name, u.up_axis) for u in config.meshes.user] == [(str(a), "a-bag", "+z"), (str(b), "b-bag", "+z")]
+    config = load_config(
+        None, {"bags.mesh": str(b), "sweep.splits": [{"name": "train", "meshes": ["sandbag-02", str(a), "b-bag"]}]}
+    )
+    assert [(u.path, u.name, u.up_axis) for u in config.meshes.user] == [
+        (str(a), "a-bag", "+z"),
+        (str(b), "b-bag", "+z"),
+    ]
     assert config.bags.mesh == "b-bag" and config.sweep.splits[0].meshes == ("sandbag-02", "a-bag", "b-bag")
     assert config.meshes.objects() == {1: "sandbag-01", 2: "sandbag-02", 3: "sandbag-03", 4: "a-bag", 5: "b-bag"}
     assert all(len(u.sha256) == 64 for u in config.meshes.user)
@@ -122,18 +127,27 @@ def test_files_become_named_user_meshes_numbered_by_path(tmp_path):
     with pytest.raises(ConfigError, match="has changed since this config was made"):
         from moonbot.config.load import from_mapping
         from moonbot.config.schema import Config
+
         from_mapping(Config, recorded)
 
 
-@pytest.mark.parametrize(("overrides", "message"), [
-    ({"bags.mesh": "sandbag-04"}, "bags.mesh: must be one of sandbag-01, sandbag-02, sandbag-03, a meshes.user name"),
-    ({"bags.mesh": "bag.fbx"}, "bags.mesh: bag.fbx: FBX is not read"),
-    ({"bags.mesh": "missing.obj"}, "bags.mesh: missing.obj: cannot read"),
-    ({"meshes.user": [{"path": "bag.stl"}]}, "meshes.user[0]: 'bag.stl' is not a mesh file"),
-    ({"meshes.user": [{"name": "x"}]}, "meshes.user[0].path: required"),
-    ({"bags.mesh": "BAGFILE", "meshes.user": [{"path": "BAGFILE", "name": "sandbag-01"}]},
-     "meshes.user[0]: the name 'sandbag-01' is taken"),
-])
+@pytest.mark.parametrize(
+    ("overrides", "message"),
+    [
+        (
+            {"bags.mesh": "sandbag-04"},
+            "bags.mesh: must be one of sandbag-01, sandbag-02, sandbag-03, a meshes.user name",
+        ),
+        ({"bags.mesh": "bag.fbx"}, "bags.mesh: bag.fbx: FBX is not read"),
+        ({"bags.mesh": "missing.obj"}, "bags.mesh: missing.obj: cannot read"),
+        ({"meshes.user": [{"path": "bag.stl"}]}, "meshes.user[0]: 'bag.stl' is not a mesh file"),
+        ({"meshes.user": [{"name": "x"}]}, "meshes.user[0].path: required"),
+        (
+            {"bags.mesh": "BAGFILE", "meshes.user": [{"path": "BAGFILE", "name": "sandbag-01"}]},
+            "meshes.user[0]: the name 'sandbag-01' is taken",
+        ),
+    ],
+)
 def test_mesh_errors_name_the_field(tmp_path, overrides, message):
     v, t = u_block()
     bag = str(write_obj(tmp_path / "bag.obj", v, t))
@@ -158,10 +172,17 @@ def test_unit_and_up_axis_are_exact(tmp_path):
     assert mesh.report.volume_m3 == pytest.approx(0.007, rel=1e-6)
     assert mesh.report.hull_fit == pytest.approx(9 / 7, rel=1e-6)
     # The U's opening points up (+z): the top middle cell is empty.
-    assert winding_number(np.array([[0.0, 0.0, 0.1], [0.0, 0.0, -0.1]]), mesh.vertices, mesh.triangles).round(6).tolist() \
-        == [0.0, 1.0]
-    for axis, _image in (("+x", [0, 0, 1]), ("-x", [0, 0, -1]), ("+y", [0, -1, 0]), ("-y", [0, 1, 0]),
-                        ("+z", [1, 0, 0]), ("-z", [1, 0, 0])):
+    assert winding_number(np.array([[0.0, 0.0, 0.1], [0.0, 0.0, -0.1]]), mesh.vertices, mesh.triangles).round(
+        6
+    ).tolist() == [0.0, 1.0]
+    for axis, _image in (
+        ("+x", [0, 0, 1]),
+        ("-x", [0, 0, -1]),
+        ("+y", [0, -1, 0]),
+        ("-y", [0, 1, 0]),
+        ("+z", [1, 0, 0]),
+        ("-z", [1, 0, 0]),
+    ):
         R = up_rotation(axis)
         sign, k = (1.0 if axis[0] == "+" else -1.0), "xyz".index(axis[1])
         np.testing.assert_allclose(R @ (sign * np.eye(3)[k]), [0, 0, 1], atol=1e-15)
@@ -223,8 +244,11 @@ def test_broken_files_give_clear_errors(tmp_path):
     points.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\n")
     with pytest.raises(ValueError, match="points.obj: no triangles"):
         load_user_mesh(entry(points))
-    with pytest.raises(ValueError, match=r"u.obj: its bounding box's diagonal is 0.0004359 m in unit 'mm'.*"
-                                         r"unit 'm' gives 0.4359 m: set meshes.user's unit"):
+    with pytest.raises(
+        ValueError,
+        match=r"u.obj: its bounding box's diagonal is 0.0004359 m in unit 'mm'.*"
+        r"unit 'm' gives 0.4359 m: set meshes.user's unit",
+    ):
         load_user_mesh(entry(write_obj(tmp_path / "u.obj", v, t), unit="mm"))
     garbage = tmp_path / "garbage.glb"
     garbage.write_bytes(b"glTF\x02\x00\x00\x00 not really")
@@ -256,10 +280,14 @@ def test_a_base_colour_texture_colours_the_bag(tmp_path):
     assert model.obj_id == 4 and model.albedo == bag.albedo
     from moonbot.scene import compose_scene  # the scene the renderer builds: the texture's colour, not bags.albedo
 
-    spec = compose_scene(load_config(None, {"bags.mesh": str(path), "terrain.location": "plane",
-                                            "bags.settle.enabled": False}))
+    spec = compose_scene(
+        load_config(None, {"bags.mesh": str(path), "terrain.location": "plane", "bags.settle.enabled": False})
+    )
     assert spec.bags[0].albedo == bag.albedo and spec.bag_vertex_albedo is bag.vertex_albedo
-    assert model.corner_uvs.shape == (len(model.triangles), 3, 2) and 0 <= model.corner_uvs.min() <= model.corner_uvs.max() <= 1
+    assert (
+        model.corner_uvs.shape == (len(model.triangles), 3, 2)
+        and 0 <= model.corner_uvs.min() <= model.corner_uvs.max() <= 1
+    )
 
 
 @pytest.mark.parametrize("woven", [False, True])
@@ -268,8 +296,9 @@ def test_the_core_scales_each_channel_by_a_vertex_colour(woven):
     radiance by its own factor, on a plain material and on the bags' woven cloth (matte: no
     sheen, whose gloss is not the cloth's colour); a factor with two columns is refused."""
     from moonbot import _core
-    from scenes import K_for, camera, plane
     from moonbot.scene.orbit import CameraPose
+
+    from scenes import K_for, camera, plane
 
     v, t = plane(5.0)
     uv = np.tile(np.array([0.0, 0.0, 1.0, 0.0, 1.0, 1.0], np.float32), (len(t), 1))
@@ -281,11 +310,13 @@ def test_the_core_scales_each_channel_by_a_vertex_colour(woven):
     for factor in (None, np.tile(colour, (len(v), 1))):
         scene = _core.Scene()
         mesh = scene.add_mesh(v, t, uv if woven else None, vertex_albedo=factor)
-        scene.add_instance(mesh, np.eye(4), 1, (0.6, 0.6, 0.6),
-                           woven=_core.WovenSurface(metres_per_uv=10.0) if woven else None)
+        scene.add_instance(
+            mesh, np.eye(4), 1, (0.6, 0.6, 0.6), woven=_core.WovenSurface(metres_per_uv=10.0) if woven else None
+        )
         scene.commit()
-        images.append(_core.render(scene, view, sun,
-                                   _core.RenderSettings(spp=1, light_samples=1, seed=1, bounces=0))["rgb"])
+        images.append(
+            _core.render(scene, view, sun, _core.RenderSettings(spp=1, light_samples=1, seed=1, bounces=0))["rgb"]
+        )
     assert images[0].min() > 0
     np.testing.assert_allclose(images[1], images[0] * colour, rtol=1e-5)
     with pytest.raises(ValueError, match="vertex_albedo"):
@@ -339,8 +370,9 @@ def test_a_concave_user_mesh_is_placed_and_settled(tmp_path, shape, layout, coun
     from moonbot.terrain.ground import FlatGround
 
     v, t = {"u": u_block, "ring": ring}[shape]()
-    config = load_config(None, {"bags.mesh": str(write_obj(tmp_path / f"{shape}.obj", v, t)), "bags.count": count,
-                                "bags.layout": layout})
+    config = load_config(
+        None, {"bags.mesh": str(write_obj(tmp_path / f"{shape}.obj", v, t)), "bags.count": count, "bags.layout": layout}
+    )
     placement = place_bags(config, FlatGround())
     assert placement.settle_steps is not None and len(placement.poses) == count
     model = bag_model(config.meshes, shape)
@@ -369,15 +401,22 @@ def test_symmetries_discrete_and_continuous():
     np.testing.assert_allclose(offset, 0.0, atol=1e-12)
     flips = [s for s in info.symmetries if s[2, 2] == pytest.approx(-1.0)]
     assert flips and len(flips) == len(info.symmetries)  # no turn about z: the continuous axis covers it
-    assert "symmetries_continuous" in info.to_json() and info.to_json()["symmetries_continuous"][0]["axis"] == [0, 0, 1.0]
+    assert "symmetries_continuous" in info.to_json() and info.to_json()["symmetries_continuous"][0]["axis"] == [
+        0,
+        0,
+        1.0,
+    ]
 
     box = trimesh.creation.box(extents=(300.0, 200.0, 100.0))
     for _ in range(3):
         box = box.subdivide()
     info = model_info(box.vertices, box.faces)
     assert not info.continuous
-    assert sorted(np.diag(s[:3, :3]).round(9).tolist() for s in info.symmetries) == \
-        [[-1.0, -1.0, 1.0], [-1.0, 1.0, -1.0], [1.0, -1.0, -1.0]]
+    assert sorted(np.diag(s[:3, :3]).round(9).tolist() for s in info.symmetries) == [
+        [-1.0, -1.0, 1.0],
+        [-1.0, 1.0, -1.0],
+        [1.0, -1.0, -1.0],
+    ]
 
     v, t = u_block()
     info = model_info(v * 1000.0, t)
@@ -392,10 +431,22 @@ def test_symmetries_discrete_and_continuous():
 def test_moonbot_meshes_writes_a_user_mesh_as_a_bop_model(tmp_path):
     v, t = u_block()
     path = write_obj(tmp_path / "u.obj", v * 100.0, t)
-    result = CliRunner().invoke(main, ["meshes", "--out", str(tmp_path / "models"), "--set",
-                                       f"meshes.user=[{{path: {path}, unit: cm}}]", "--mesh", str(path)])
+    result = CliRunner().invoke(
+        main,
+        [
+            "meshes",
+            "--out",
+            str(tmp_path / "models"),
+            "--set",
+            f"meshes.user=[{{path: {path}, unit: cm}}]",
+            "--mesh",
+            str(path),
+        ],
+    )
     assert result.exit_code == 0, result.output
-    assert "u: " in result.output and "settles as" in result.output and "convex hull 1.286 × the volume" in result.output
+    assert (
+        "u: " in result.output and "settles as" in result.output and "convex hull 1.286 × the volume" in result.output
+    )
     info = json.loads((tmp_path / "models" / "models" / "models_info.json").read_text())
     assert sorted(info) == ["1", "2", "3", "4"]
     assert info["4"]["diameter"] == pytest.approx(1000 * np.sqrt(0.3**2 + 0.1**2 + 0.3**2), rel=1e-6)
@@ -415,18 +466,46 @@ def test_render_one_and_a_mixed_sweep_validate(tmp_path):
 
     v, t = u_block()
     path = write_obj(tmp_path / "u.obj", v * 0.5, t)  # 15 cm across
-    result = CliRunner().invoke(main, ["render-one", "--out", str(tmp_path / "one"), "--set", "camera.width=64",
-                                       "--set", "camera.height=48", "--set", "render.spp=2", "--set",
-                                       f"bags.mesh={path}", "--no-sheet"])
+    result = CliRunner().invoke(
+        main,
+        [
+            "render-one",
+            "--out",
+            str(tmp_path / "one"),
+            "--set",
+            "camera.width=64",
+            "--set",
+            "camera.height=48",
+            "--set",
+            "render.spp=2",
+            "--set",
+            f"bags.mesh={path}",
+            "--no-sheet",
+        ],
+    )
     assert result.exit_code == 0, result.output
     mask = np.asarray(Image.open(tmp_path / "one" / "view_000" / "mask.png"))
     assert (mask == 1).sum() > 20
     gt = json.loads((tmp_path / "one" / "view_000" / "gt.json").read_text())
     assert [i["obj_id"] for i in gt["instances"]] == [4]
 
-    config = load_config(Path(__file__).resolve().parents[1] / "configs" / "smoke.yaml", {"sweep.splits": [
-        {"name": "test", "meshes": ["sandbag-01", str(path)], "bag_counts": [2], "stain_seeds": [0],
-         "dust": [False], "sun_elevations_deg": [30.0], "sun_azimuths_deg": [90.0], "camera_heights_m": [1.0]}]})
+    config = load_config(
+        Path(__file__).resolve().parents[1] / "configs" / "smoke.yaml",
+        {
+            "sweep.splits": [
+                {
+                    "name": "test",
+                    "meshes": ["sandbag-01", str(path)],
+                    "bag_counts": [2],
+                    "stain_seeds": [0],
+                    "dust": [False],
+                    "sun_elevations_deg": [30.0],
+                    "sun_azimuths_deg": [90.0],
+                    "camera_heights_m": [1.0],
+                }
+            ]
+        },
+    )
     run = generate(config, tmp_path / "gen", workers=1, progress=None)
     assert not run.failed and run.merge.images == 4
     dataset = tmp_path / "gen" / "dataset"
@@ -441,8 +520,9 @@ def test_render_one_and_a_mixed_sweep_validate(tmp_path):
     assert yolo["nc"] == 4 and yolo["names"][3] == "u"
 
 
-@pytest.mark.skipif(not (PUBLIC / "ycbv-obj_000001.ply").is_file(), reason="public meshes not fetched "
-                    "(tests/data/meshes/README.md)")
+@pytest.mark.skipif(
+    not (PUBLIC / "ycbv-obj_000001.ply").is_file(), reason="public meshes not fetched (tests/data/meshes/README.md)"
+)
 def test_a_bop_model_from_ycb_video():
     """YCB-Video's obj_000001 (the master chef can, BOP's PLY in mm): read as it is, its 2273
     seam vertices merged, closed, 172.06 mm across; it is not quite a body of revolution at
@@ -457,22 +537,41 @@ def test_a_bop_model_from_ycb_video():
     assert not info.symmetries and not info.continuous
 
 
-@pytest.mark.skipif(not (PUBLIC / "ycbv-obj_000001.ply").is_file(), reason="public meshes not fetched "
-                    "(tests/data/meshes/README.md)")
+@pytest.mark.skipif(
+    not (PUBLIC / "ycbv-obj_000001.ply").is_file(), reason="public meshes not fetched (tests/data/meshes/README.md)"
+)
 def test_a_bop_model_from_ycb_video_renders(tmp_path):
     """The can, declared in mm, through `moonbot render-one`: upright on the ground, in view."""
     path = PUBLIC / "ycbv-obj_000001.ply"
-    result = CliRunner().invoke(main, ["render-one", "--out", str(tmp_path), "--set", "camera.width=64", "--set",
-                                       "camera.height=48", "--set", "render.spp=2", "--set", "terrain.location=plane",
-                                       "--set", f"meshes.user=[{{path: {path}, unit: mm, name: can}}]", "--set",
-                                       "bags.mesh=can", "--no-sheet"])
+    result = CliRunner().invoke(
+        main,
+        [
+            "render-one",
+            "--out",
+            str(tmp_path),
+            "--set",
+            "camera.width=64",
+            "--set",
+            "camera.height=48",
+            "--set",
+            "render.spp=2",
+            "--set",
+            "terrain.location=plane",
+            "--set",
+            f"meshes.user=[{{path: {path}, unit: mm, name: can}}]",
+            "--set",
+            "bags.mesh=can",
+            "--no-sheet",
+        ],
+    )
     assert result.exit_code == 0, result.output
     gt = json.loads((tmp_path / "view_000" / "gt.json").read_text())
     assert [i["obj_id"] for i in gt["instances"]] == [4] and gt["instances"][0]["px_count_visib"] > 10
 
 
-@pytest.mark.skipif(not (PUBLIC / "BoxTextured-draco.glb").is_file(), reason="public meshes not fetched "
-                    "(tests/data/meshes/README.md)")
+@pytest.mark.skipif(
+    not (PUBLIC / "BoxTextured-draco.glb").is_file(), reason="public meshes not fetched (tests/data/meshes/README.md)"
+)
 def test_a_draco_compressed_gltf_is_refused_by_name():
     with pytest.raises(ValueError, match="BoxTextured-draco.glb: its geometry is Draco-compressed"):
         load_user_mesh(entry(PUBLIC / "BoxTextured-draco.glb"))

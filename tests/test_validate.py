@@ -26,9 +26,23 @@ CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("smoke")
-    config = load_config(CONFIGS / "smoke.yaml", {"sweep.splits": [
-        {"name": "test", "meshes": ["sandbag-02"], "bag_counts": [3], "stain_seeds": [0], "dust": [False, True],
-         "sun_elevations_deg": [30.0], "sun_azimuths_deg": [90.0], "camera_heights_m": [1.0]}]})
+    config = load_config(
+        CONFIGS / "smoke.yaml",
+        {
+            "sweep.splits": [
+                {
+                    "name": "test",
+                    "meshes": ["sandbag-02"],
+                    "bag_counts": [3],
+                    "stain_seeds": [0],
+                    "dust": [False, True],
+                    "sun_elevations_deg": [30.0],
+                    "sun_azimuths_deg": [90.0],
+                    "camera_heights_m": [1.0],
+                }
+            ]
+        },
+    )
     result = generate(config, out, workers=2, progress=None)
     assert not result.failed and result.merge.images == 4
     return out / "dataset"
@@ -54,8 +68,7 @@ def test_a_fresh_dataset_passes(dataset):
 
 def test_a_flipped_mask_fails(dataset, tmp_path):
     d = copy_of(dataset, tmp_path)
-    path = next(p for p in sorted(d.glob("test/*/mask_visib/*.png"))
-                if _core.read_image(str(p)).any())
+    path = next(p for p in sorted(d.glob("test/*/mask_visib/*.png")) if _core.read_image(str(p)).any())
     mask = _core.read_image(str(path))
     _core.write_image(str(path), np.ascontiguousarray(mask[::-1]))
     found = failures(d)

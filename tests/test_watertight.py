@@ -15,10 +15,10 @@ import pytest
 
 from moonbot import _core
 from moonbot.config import load_config
-from moonbot.scene.bag_mesh import variant_meshes
 from moonbot.eval.validate import depth_holes
 from moonbot.render.view import build_scene
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
+from moonbot.scene.bag_mesh import variant_meshes
 from moonbot.scene.orbit import orbit_height
 from moonbot.terrain.build import get_terrain
 
@@ -41,8 +41,9 @@ class Targets:
     normals: np.ndarray
 
 
-def shared_edge_targets(vertices: np.ndarray, triangles: np.ndarray, world: np.ndarray, near: np.ndarray,
-                        radius: float, limit: int) -> Targets:
+def shared_edge_targets(
+    vertices: np.ndarray, triangles: np.ndarray, world: np.ndarray, near: np.ndarray, radius: float, limit: int
+) -> Targets:
     """Points on the edges that two or more triangles bound (at 1/4, 1/2 and 3/4 along them) and at
     the vertices that two or more triangles share, of a mesh placed by `world` (4, 4), within
     `radius` metres (plan distance) of `near`; at most `limit` edges and `limit` vertices, spread
@@ -57,7 +58,7 @@ def shared_edge_targets(vertices: np.ndarray, triangles: np.ndarray, world: np.n
     inverse = inverse.ravel()
     mid = (v[unique[:, 0]] + v[unique[:, 1]]) / 2
     chosen = np.flatnonzero((counts >= 2) & (np.linalg.norm(mid[:, :2] - near[:2], axis=1) < radius))
-    chosen = chosen[::max(1, len(chosen) // limit)]
+    chosen = chosen[:: max(1, len(chosen) // limit)]
     slot = np.full(len(unique), -1)
     slot[chosen] = np.arange(len(chosen))
     points, incident = [], []
@@ -69,7 +70,7 @@ def shared_edge_targets(vertices: np.ndarray, triangles: np.ndarray, world: np.n
     base = 3 * len(chosen)
     corner_count = np.bincount(triangles.ravel(), minlength=len(v))
     corners = np.flatnonzero((corner_count >= 2) & (np.linalg.norm(v[:, :2] - near[:2], axis=1) < radius))
-    corners = corners[::max(1, len(corners) // limit)]
+    corners = corners[:: max(1, len(corners) // limit)]
     cslot = np.full(len(v), -1)
     cslot[corners] = np.arange(len(corners))
     points.append(v[corners])
@@ -91,8 +92,11 @@ def leaks(scene: _core.Scene, origins: np.ndarray, targets: Targets) -> dict:
     np.maximum.at(facing, point, np.sum(unit[point] * targets.normals[triangle], axis=1))
     fair = facing < -GRAZING_SIN
     t, instance, _ = scene.intersect(origins[fair], directions[fair])
-    return {"rays": int(fair.sum()), "missed": int(np.sum(instance < 0)),
-            "behind": int(np.sum(t[instance >= 0] > 1 + T_SLACK))}
+    return {
+        "rays": int(fair.sum()),
+        "missed": int(np.sum(instance < 0)),
+        "behind": int(np.sum(t[instance >= 0] > 1 + T_SLACK)),
+    }
 
 
 @pytest.mark.parametrize("location", ["flat", "hilly", "crater", "plane", "slope"])
@@ -177,8 +181,16 @@ def test_the_default_view_at_4096x3072_has_no_depth_holes():
 def test_a_36_view_orbit_around_five_bags_has_no_depth_holes(location):
     """Every view of the orbit at 640×480 around five scattered bags: no pixel below the horizon
     without depth (Embree's default traversal left 36 on flat and 29 on hilly)."""
-    config = load_config(None, {"terrain.location": location, "bags.count": 5, "bags.layout": "scattered",
-                                "camera.width": 640, "camera.height": 480})
+    config = load_config(
+        None,
+        {
+            "terrain.location": location,
+            "bags.count": 5,
+            "bags.layout": "scattered",
+            "camera.width": 640,
+            "camera.height": 480,
+        },
+    )
     spec = compose_scene(config)
     scene = build_scene(spec)
     K = intrinsics(config.camera)

@@ -50,10 +50,11 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
-from export_scene import export_scene, parity_config, parity_spec  # noqa: E402
-from ladder_errors import at_error, rel_errors  # noqa: E402
-from fingerprint import machine, machine_slug  # noqa: E402
 from moonbot.charts import time_error_plot  # noqa: E402
+
+from export_scene import export_scene, parity_config, parity_spec  # noqa: E402
+from fingerprint import machine, machine_slug  # noqa: E402
+from ladder_errors import at_error, rel_errors  # noqa: E402
 
 ROOT = HERE.parents[1]
 RESULTS = HERE.parent / "results"
@@ -65,13 +66,23 @@ def loadavg() -> float:
     return os.getloadavg()[0]
 
 
-def render_moonbot(config, spec, ladder: list[int], threads: int, repeats: int, repeat_max_spp: int,
-                   out: Path, seed: int = 0, prefix: str = "") -> dict:
+def render_moonbot(
+    config,
+    spec,
+    ladder: list[int],
+    threads: int,
+    repeats: int,
+    repeat_max_spp: int,
+    out: Path,
+    seed: int = 0,
+    prefix: str = "",
+) -> dict:
     """moonbot's core on the parity scene: build once, then the ladder (median of repeats up to
     repeat_max_spp after a warm-up; one render above)."""
     from moonbot import _core
     from moonbot.render import build_scene
     from moonbot.render.view import view_inputs
+
     start = time.perf_counter()
     scene = build_scene(spec)
     build_s = time.perf_counter() - start
@@ -80,9 +91,19 @@ def render_moonbot(config, spec, ladder: list[int], threads: int, repeats: int, 
     r = config.render
 
     def render(spp: int, seed: int):
-        return _core.render(scene, camera, sun,
-                            _core.RenderSettings(spp=spp, seed=seed, threads=threads, exact_depth=r.exact_depth,
-                                                 light_samples=r.light_samples, bounces=r.bounces))
+        return _core.render(
+            scene,
+            camera,
+            sun,
+            _core.RenderSettings(
+                spp=spp,
+                seed=seed,
+                threads=threads,
+                exact_depth=r.exact_depth,
+                light_samples=r.light_samples,
+                bounces=r.bounces,
+            ),
+        )
 
     rows = []
     for spp in ladder:
@@ -99,9 +120,15 @@ def render_moonbot(config, spec, ladder: list[int], threads: int, repeats: int, 
     np.save(out / f"{prefix}depth.npy", result["depth"])
     np.save(out / f"{prefix}index.npy", result["instance"])
     from moonbot import __version__
-    return {"renderer": "moonbot", "version": __version__, "threads": threads, "build_bvh_s": build_s,
-            "passes": "rgb + depth + instance in every render (depth and instance from the pixel-centre ray)",
-            "rows": rows}
+
+    return {
+        "renderer": "moonbot",
+        "version": __version__,
+        "threads": threads,
+        "build_bvh_s": build_s,
+        "passes": "rgb + depth + instance in every render (depth and instance from the pixel-centre ray)",
+        "rows": rows,
+    }
 
 
 def run(cmd: list[str], env: dict | None = None) -> None:
@@ -117,12 +144,16 @@ def time_fit(rows: list[dict]) -> dict:
     t = np.array([r["render_s"] for r in rows], float)
     A = np.column_stack([np.ones_like(n), n]) / t[:, None]
     (a, b), *_ = np.linalg.lstsq(A, np.ones_like(t), rcond=None)
-    return {"overhead_s": float(a), "seconds_per_sample": float(b),
-            "max_rel_residual": float(np.max(np.abs((a + b * n) / t - 1)))}
+    return {
+        "overhead_s": float(a),
+        "seconds_per_sample": float(b),
+        "max_rel_residual": float(np.max(np.abs((a + b * n) / t - 1))),
+    }
 
 
 def tonemap_png(path: Path, images: list[np.ndarray], scale: float) -> None:
     from PIL import Image
+
     row = np.concatenate(images, axis=1).astype(np.float64) * scale
     Image.fromarray((np.clip(row / (1 + row), 0, 1) ** (1 / 2.2) * 255).astype(np.uint8)).save(path)
 
@@ -137,12 +168,17 @@ def equal_error_table(renderers: dict, targets: list[float], key: str) -> list[d
         entry = {"target_rel_rmse": t}
         for name, r in renderers.items():
             a = r.get(key, {}).get(str(t))
-            entry[name] = a and {**a, "ratio_to_moonbot": (a["seconds_per_frame"] / base["seconds_per_frame"]) if base else None,
-                                 "fit_ratio_to_moonbot": (a["fit_seconds_per_frame"] / base["fit_seconds_per_frame"]) if base else None}
+            entry[name] = a and {
+                **a,
+                "ratio_to_moonbot": (a["seconds_per_frame"] / base["seconds_per_frame"]) if base else None,
+                "fit_ratio_to_moonbot": (a["fit_seconds_per_frame"] / base["fit_seconds_per_frame"]) if base else None,
+            }
             if a and name == "mitsuba" and "aov_pass" in r:
                 extra = r["aov_pass"]["render_s"]
                 entry[name]["seconds_per_frame_with_depth_index"] = a["seconds_per_frame"] + extra
-                entry[name]["ratio_to_moonbot_with_depth_index"] = ((a["seconds_per_frame"] + extra) / base["seconds_per_frame"]) if base else None
+                entry[name]["ratio_to_moonbot_with_depth_index"] = (
+                    ((a["seconds_per_frame"] + extra) / base["seconds_per_frame"]) if base else None
+                )
         table.append(entry)
     return table
 
@@ -154,8 +190,10 @@ def print_equal_error(table: list[dict], renderers: dict) -> None:
         for n in renderers:
             a = e[n]
             if a:
-                print(f"{e['target_rel_rmse']:>7} {n:>8} {a['spp']:>7.1f} {a['seconds_per_frame']:>8.2f} {a['seconds_per_sample']:>9.4f} "
-                      f"{a['ratio_to_moonbot'] or 0:>9.2f} {a['fit_seconds_per_frame']:>11.2f} {a['fit_ratio_to_moonbot'] or 0:>6.2f}")
+                print(
+                    f"{e['target_rel_rmse']:>7} {n:>8} {a['spp']:>7.1f} {a['seconds_per_frame']:>8.2f} {a['seconds_per_sample']:>9.4f} "
+                    f"{a['ratio_to_moonbot'] or 0:>9.2f} {a['fit_seconds_per_frame']:>11.2f} {a['fit_ratio_to_moonbot'] or 0:>6.2f}"
+                )
             else:
                 print(f"{e['target_rel_rmse']:>7} {n:>8} {'not bracketed by the ladder':>40}")
 
@@ -169,16 +207,23 @@ def main() -> int:
     parser.add_argument("--cycles-ladder", default="1,2,4,8,16,32,64,128", help="spp of Cycles")
     parser.add_argument("--targets", default="0.1,0.05,0.03,0.02", help="relative RMSE targets")
     parser.add_argument("--reference-spp", type=int, default=512, help="spp of each of the reference's two halves")
-    parser.add_argument("--own-reference-spp", default="moonbot:256,cycles:128",
-                        help="each renderer's own reference too (two halves of this many spp; Mitsuba's is the shared one)")
+    parser.add_argument(
+        "--own-reference-spp",
+        default="moonbot:256,cycles:128",
+        help="each renderer's own reference too (two halves of this many spp; Mitsuba's is the shared one)",
+    )
     parser.add_argument("--repeats", type=int, default=3, help="timed renders per spp up to --repeat-max-spp")
     parser.add_argument("--repeat-max-spp", type=int, default=16)
     parser.add_argument("--work", type=Path, default=Path("/tmp/peers"), help="scratch folder (export, images)")
-    parser.add_argument("--bpy-python", default=str(ROOT / ".venv-peers-bpy/bin/python"),
-                        help="the Python of the venv with bpy")
+    parser.add_argument(
+        "--bpy-python", default=str(ROOT / ".venv-peers-bpy/bin/python"), help="the Python of the venv with bpy"
+    )
     parser.add_argument("--skip", default="", help="comma-separated renderers to leave out: mitsuba, cycles")
-    parser.add_argument("--analyse-only", action="store_true",
-                        help="render nothing: analyse the images and timings.json files already in --work")
+    parser.add_argument(
+        "--analyse-only",
+        action="store_true",
+        help="render nothing: analyse the images and timings.json files already in --work",
+    )
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
     skip = set(filter(None, args.skip.split(",")))
@@ -189,11 +234,22 @@ def main() -> int:
     for sub in ("scene", "moonbot", "mitsuba", "cycles", "reference"):
         (work / sub).mkdir(parents=True, exist_ok=True)
     env = {"DRJIT_LIBLLVM_PATH": os.environ.get("DRJIT_LIBLLVM_PATH", LLVM19)}
-    common = ["--threads", str(args.threads), "--repeats", str(args.repeats), "--repeat-max-spp", str(args.repeat_max_spp)]
+    common = [
+        "--threads",
+        str(args.threads),
+        "--repeats",
+        str(args.repeats),
+        "--repeat-max-spp",
+        str(args.repeat_max_spp),
+    ]
 
     m = machine()
-    result = {"schema_version": SCHEMA_VERSION, "benchmark": "peers", "machine": m,
-              "load_average_1min": {"start": loadavg()}}
+    result = {
+        "schema_version": SCHEMA_VERSION,
+        "benchmark": "peers",
+        "machine": m,
+        "load_average_1min": {"start": loadavg()},
+    }
     config = parity_config(args.width, args.height)
     if args.analyse_only:
         spec, compose_s, export_s = None, None, None
@@ -205,10 +261,16 @@ def main() -> int:
         start = time.perf_counter()
         scene_json = export_scene(work / "scene", config, spec)
         export_s = time.perf_counter() - start
-    result["scene"] = {"width": args.width, "height": args.height, "triangles": scene_json["triangles_total"],
-                       "meshes": [{k: mm[k] for k in ("file", "kind", "triangles")} for mm in scene_json["meshes"]],
-                       "compose_s": compose_s, "export_s": export_s,
-                       "parity": scene_json["parity"], "config_overrides": scene_json["config_overrides"]}
+    result["scene"] = {
+        "width": args.width,
+        "height": args.height,
+        "triangles": scene_json["triangles_total"],
+        "meshes": [{k: mm[k] for k in ("file", "kind", "triangles")} for mm in scene_json["meshes"]],
+        "compose_s": compose_s,
+        "export_s": export_s,
+        "parity": scene_json["parity"],
+        "config_overrides": scene_json["config_overrides"],
+    }
 
     renderers = {}
     names = ["moonbot"] + [n for n in ("mitsuba", "cycles") if n not in skip]
@@ -222,11 +284,30 @@ def main() -> int:
                 r = render_moonbot(config, spec, ladder, args.threads, args.repeats, args.repeat_max_spp, work / name)
                 (work / name / "timings.json").write_text(json.dumps(r, indent=2) + "\n")
             elif name == "mitsuba":
-                run([py, str(HERE / "mitsuba_render.py"), str(work / "scene"), str(work / name),
-                     "--spp", ",".join(map(str, ladder)), *common], env)
+                run(
+                    [
+                        py,
+                        str(HERE / "mitsuba_render.py"),
+                        str(work / "scene"),
+                        str(work / name),
+                        "--spp",
+                        ",".join(map(str, ladder)),
+                        *common,
+                    ],
+                    env,
+                )
             else:
-                run([args.bpy_python, str(HERE / "cycles_render.py"), str(work / "scene"), str(work / name),
-                     "--spp", ",".join(map(str, cycles_ladder)), *common])
+                run(
+                    [
+                        args.bpy_python,
+                        str(HERE / "cycles_render.py"),
+                        str(work / "scene"),
+                        str(work / name),
+                        "--spp",
+                        ",".join(map(str, cycles_ladder)),
+                        *common,
+                    ]
+                )
             renderers[name] = json.loads((work / name / "timings.json").read_text())
             renderers[name]["load_average_1min"] = {"before": before, "after": loadavg()}
             (work / name / "timings.json").write_text(json.dumps(renderers[name], indent=2) + "\n")
@@ -236,16 +317,36 @@ def main() -> int:
     for k, seed in enumerate((100, 200)):
         prefix = f"half{k}_"
         if not (work / "reference" / f"{prefix}rgb_spp{args.reference_spp}.npy").exists():
-            run([sys.executable, str(HERE / "mitsuba_render.py"), str(work / "scene"), str(work / "reference"),
-                 "--spp", str(args.reference_spp), "--repeats", "0", "--threads", str(args.threads),
-                 "--seed", str(seed), "--prefix", prefix, "--no-aov"], env)
+            run(
+                [
+                    sys.executable,
+                    str(HERE / "mitsuba_render.py"),
+                    str(work / "scene"),
+                    str(work / "reference"),
+                    "--spp",
+                    str(args.reference_spp),
+                    "--repeats",
+                    "0",
+                    "--threads",
+                    str(args.threads),
+                    "--seed",
+                    str(seed),
+                    "--prefix",
+                    prefix,
+                    "--no-aov",
+                ],
+                env,
+            )
         halves.append(np.load(work / "reference" / f"{prefix}rgb_spp{args.reference_spp}.npy").astype(np.float64))
     ref = (halves[0] + halves[1]) / 2
     var_ref = float(np.mean((halves[0] - halves[1]) ** 2)) / 4
-    rms_ref = float(np.sqrt(np.mean(ref ** 2)))
+    rms_ref = float(np.sqrt(np.mean(ref**2)))
     result["reference"] = {
-        "renderer": "mitsuba llvm_ad_rgb", "spp": 2 * args.reference_spp, "halves_spp": args.reference_spp,
-        "mean_w_m2_sr": float(ref.mean()), "rms_w_m2_sr": rms_ref,
+        "renderer": "mitsuba llvm_ad_rgb",
+        "spp": 2 * args.reference_spp,
+        "halves_spp": args.reference_spp,
+        "mean_w_m2_sr": float(ref.mean()),
+        "rms_w_m2_sr": rms_ref,
         "own_rel_rmse_estimate": math.sqrt(var_ref) / rms_ref,
         "halves_rel_difference": float(np.sqrt(np.mean((halves[0] - halves[1]) ** 2))) / rms_ref,
         "error_correction": "rel_rmse = sqrt(max(0, MSE - var_ref)) / RMS(ref), var_ref = mean((h1-h2)^2)/4",
@@ -264,12 +365,38 @@ def main() -> int:
             path = work / name / f"{prefix}rgb_spp{spp}.npy"
             if not path.exists():
                 if name == "moonbot":
-                    render_moonbot(config, spec or parity_spec(config), [spp], args.threads, 0, 0, work / name,
-                                   seed=seed * 1000, prefix=prefix)
+                    render_moonbot(
+                        config,
+                        spec or parity_spec(config),
+                        [spp],
+                        args.threads,
+                        0,
+                        0,
+                        work / name,
+                        seed=seed * 1000,
+                        prefix=prefix,
+                    )
                 else:
-                    run([args.bpy_python, str(HERE / "cycles_render.py"), str(work / "scene"), str(work / name),
-                         "--spp", str(spp), "--repeats", "1", "--repeat-max-spp", "0", "--threads", str(args.threads),
-                         "--seed", str(seed), "--prefix", prefix])
+                    run(
+                        [
+                            args.bpy_python,
+                            str(HERE / "cycles_render.py"),
+                            str(work / "scene"),
+                            str(work / name),
+                            "--spp",
+                            str(spp),
+                            "--repeats",
+                            "1",
+                            "--repeat-max-spp",
+                            "0",
+                            "--threads",
+                            str(args.threads),
+                            "--seed",
+                            str(seed),
+                            "--prefix",
+                            prefix,
+                        ]
+                    )
             own_halves.append(np.load(path)[..., :3].astype(np.float64))
         own[name] = (own_halves, float(np.mean((own_halves[0] - own_halves[1]) ** 2)) / 4, spp)
     own_refs = {n: ((h[0] + h[1]) / 2, v, spp) for n, (h, v, spp) in own.items()}
@@ -288,9 +415,11 @@ def main() -> int:
                     "rel_rmse": math.sqrt(max(0.0, float(np.mean((ra - rb) ** 2)) - va - vb)) / rms_ref,
                     "rel_rmse_raw": float(np.sqrt(np.mean((ra - rb) ** 2))) / rms_ref,
                     "rel_rmse_8x8_blocks": float(np.sqrt(np.mean((block(ra) - block(rb)) ** 2))) / rms_ref,
-                    "mean_ratio": float(ra.mean() / rb.mean())}
-    result["own_references"] = {n: {"spp": 2 * spp, "own_rel_rmse_estimate": math.sqrt(v) / rms_ref}
-                                for n, (_, v, spp) in own_refs.items()}
+                    "mean_ratio": float(ra.mean() / rb.mean()),
+                }
+    result["own_references"] = {
+        n: {"spp": 2 * spp, "own_rel_rmse_estimate": math.sqrt(v) / rms_ref} for n, (_, v, spp) in own_refs.items()
+    }
     result["reference_cross_differences"] = cross
 
     curves, own_curves = {}, {}
@@ -303,8 +432,11 @@ def main() -> int:
                 o = rel_errors(img, own_refs[name][0], own_refs[name][1])
                 row.update({"own_ref_rel_rmse": o["rel_rmse"], "own_ref_rel_rmse_raw": o["rel_rmse_raw"]})
         previews.append(np.load(work / name / f"rgb_spp{r['rows'][-1]['spp']}.npy")[..., :3])
-        label = {"moonbot": "moonbot (Embree 3, own tracer)", "mitsuba": f"Mitsuba {r.get('version')} {r.get('variant')}",
-                 "cycles": f"Blender Cycles {r.get('version')} (bpy)"}[name]
+        label = {
+            "moonbot": "moonbot (Embree 3, own tracer)",
+            "mitsuba": f"Mitsuba {r.get('version')} {r.get('variant')}",
+            "cycles": f"Blender Cycles {r.get('version')} (bpy)",
+        }[name]
         curves[label] = [(row["render_s"], row["rel_rmse"], str(row["spp"])) for row in r["rows"]]
         r["at_error"] = {str(t): at_error(r["rows"], t) for t in targets}
         if name in own_refs:
@@ -331,10 +463,13 @@ def main() -> int:
             d, i = np.load(work / name / "depth.npy"), np.load(work / name / "index.npy")
             both = (d > 0) & (mb_depth > 0)
             rel = np.abs(d[both] - mb_depth[both]) / mb_depth[both]
-            checks[name] = {"depth_median_rel_diff": float(np.median(rel)), "depth_p90_rel_diff": float(np.percentile(rel, 90)),
-                            "hit_agreement": float(np.mean((d > 0) == (mb_depth > 0))),
-                            "index_agreement": float(np.mean(i == mb_index)),
-                            "bag_pixels": {"moonbot": int(np.sum(mb_index > 0)), name: int(np.sum(i > 0))}}
+            checks[name] = {
+                "depth_median_rel_diff": float(np.median(rel)),
+                "depth_p90_rel_diff": float(np.percentile(rel, 90)),
+                "hit_agreement": float(np.mean((d > 0) == (mb_depth > 0))),
+                "index_agreement": float(np.mean(i == mb_index)),
+                "bag_pixels": {"moonbot": int(np.sum(mb_index > 0)), name: int(np.sum(i > 0))},
+            }
     result["depth_index_check"] = checks
     result["load_average_1min"]["end"] = loadavg()
 
@@ -342,26 +477,48 @@ def main() -> int:
     tonemap_png(work / "previews.png", previews, scale)
     slug = machine_slug(m)
     out = args.out or RESULTS / f"peers-{slug}.json"
-    result["previews"] = f"{work / 'previews.png'}: reference, then each renderer's highest spp ({', '.join(renderers)})"
+    result["previews"] = (
+        f"{work / 'previews.png'}: reference, then each renderer's highest spp ({', '.join(renderers)})"
+    )
     out.write_text(json.dumps(result, indent=2) + "\n")
-    time_error_plot(out.with_name(out.stem + "-own-reference.svg"), f"Same scene, {args.width}x{args.height}, "
-                    f"{args.threads} threads: render time vs error against each renderer's own reference", own_curves,
-                    x_label="seconds per frame (render only)", y_label="relative RMSE of linear radiance")
-    time_error_plot(out.with_suffix(".svg"), f"Same scene, {args.width}x{args.height}, {args.threads} threads: "
-                    "render time vs error against a shared reference", curves,
-                    x_label="seconds per frame (render only)", y_label="relative RMSE of linear radiance")
+    time_error_plot(
+        out.with_name(out.stem + "-own-reference.svg"),
+        f"Same scene, {args.width}x{args.height}, "
+        f"{args.threads} threads: render time vs error against each renderer's own reference",
+        own_curves,
+        x_label="seconds per frame (render only)",
+        y_label="relative RMSE of linear radiance",
+    )
+    time_error_plot(
+        out.with_suffix(".svg"),
+        f"Same scene, {args.width}x{args.height}, {args.threads} threads: "
+        "render time vs error against a shared reference",
+        curves,
+        x_label="seconds per frame (render only)",
+        y_label="relative RMSE of linear radiance",
+    )
 
-    print(f"\nreference: Mitsuba {2 * args.reference_spp} spp, own rel. RMSE ≈ {result['reference']['own_rel_rmse_estimate']:.4f}")
+    print(
+        f"\nreference: Mitsuba {2 * args.reference_spp} spp, own rel. RMSE ≈ {result['reference']['own_rel_rmse_estimate']:.4f}"
+    )
     for name, r in renderers.items():
-        print(f"{name}: " + "  ".join(f"{row['spp']}:{row['render_s']:.2f}s/{row['rel_rmse']:.4f}" for row in r["rows"]))
+        print(
+            f"{name}: " + "  ".join(f"{row['spp']}:{row['render_s']:.2f}s/{row['rel_rmse']:.4f}" for row in r["rows"])
+        )
     for n, r in renderers.items():
         f = r["time_fit"]
-        print(f"{n}: time fit {f['overhead_s']:.3f} s + {f['seconds_per_sample']:.4f} s/spp (worst point off by {f['max_rel_residual']:.0%})")
-    print(f"\n{'target':>7} {'renderer':>8} {'spp':>7} {'s/frame':>8} {'s/sample':>9} {'x moonbot':>9} {'fit s/frame':>11} {'fit x':>6}")
+        print(
+            f"{n}: time fit {f['overhead_s']:.3f} s + {f['seconds_per_sample']:.4f} s/spp (worst point off by {f['max_rel_residual']:.0%})"
+        )
+    print(
+        f"\n{'target':>7} {'renderer':>8} {'spp':>7} {'s/frame':>8} {'s/sample':>9} {'x moonbot':>9} {'fit s/frame':>11} {'fit x':>6}"
+    )
     print_equal_error(table, renderers)
     print("\nagainst each renderer's own reference; cross differences of the references:")
     for k, c in cross.items():
-        print(f"  {k}: rel RMSE {c['rel_rmse']:.4f} (raw {c['rel_rmse_raw']:.4f}, 8x8 blocks {c['rel_rmse_8x8_blocks']:.4f}), mean ratio {c['mean_ratio']:.4f}")
+        print(
+            f"  {k}: rel RMSE {c['rel_rmse']:.4f} (raw {c['rel_rmse_raw']:.4f}, 8x8 blocks {c['rel_rmse_8x8_blocks']:.4f}), mean ratio {c['mean_ratio']:.4f}"
+        )
     print_equal_error(own_table, renderers)
     print(f"\nwritten {out} and {out.with_suffix('.svg')}; previews {work / 'previews.png'}")
     return 0

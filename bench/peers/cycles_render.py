@@ -62,8 +62,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ply import read_ply  # noqa: E402
 
 
-def add_mesh(bpy, name: str, v: np.ndarray, t: np.ndarray, albedo_rgb: np.ndarray | None,
-             constant: list[float] | None, pass_index: int):
+def add_mesh(
+    bpy,
+    name: str,
+    v: np.ndarray,
+    t: np.ndarray,
+    albedo_rgb: np.ndarray | None,
+    constant: list[float] | None,
+    pass_index: int,
+):
     mesh = bpy.data.meshes.new(name)
     mesh.vertices.add(len(v))
     mesh.vertices.foreach_set("co", np.ascontiguousarray(v, np.float32).ravel())
@@ -106,14 +113,17 @@ def add_mesh(bpy, name: str, v: np.ndarray, t: np.ndarray, albedo_rgb: np.ndarra
 
 def build_scene(bpy, scene_dir: Path, scene_json: dict, threads: int) -> None:
     import mathutils
+
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     for m in scene_json["meshes"]:
         v, t, extra = read_ply(scene_dir / m["file"])
-        albedo = (np.column_stack([extra["albedo_r"], extra["albedo_g"], extra["albedo_b"]])
-                  if "albedo_r" in extra else None)
-        add_mesh(bpy, Path(m["file"]).stem, v, t, albedo, None if albedo is not None else m["albedo"],
-                 int(m["instance_id"]))
+        albedo = (
+            np.column_stack([extra["albedo_r"], extra["albedo_g"], extra["albedo_b"]]) if "albedo_r" in extra else None
+        )
+        add_mesh(
+            bpy, Path(m["file"]).stem, v, t, albedo, None if albedo is not None else m["albedo"], int(m["instance_id"])
+        )
 
     sun_json = scene_json["sun"]
     light = bpy.data.lights.new("sun", "SUN")
@@ -228,12 +238,16 @@ def main() -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--repeat-max-spp", type=int, default=16, help="spp above this get one timed render")
     parser.add_argument("--prefix", default="", help="prefix of the output files (e.g. a reference's)")
-    parser.add_argument("--no-depth-index", action="store_true",
-                        help="copy Combined alone out of each render (Depth and Object Index stay enabled): to time the extraction")
+    parser.add_argument(
+        "--no-depth-index",
+        action="store_true",
+        help="copy Combined alone out of each render (Depth and Object Index stay enabled): to time the extraction",
+    )
     args = parser.parse_args()
 
     start = time.perf_counter()
     import bpy
+
     import_s = time.perf_counter() - start
     scene_json = json.loads((args.scene_dir / "scene.json").read_text())
     args.out_dir.mkdir(parents=True, exist_ok=True)
@@ -276,15 +290,29 @@ def main() -> int:
         if "depth" in frame:
             # Cycles' Z of a ray that hit nothing is 1e10: 0 there, as moonbot's depth.
             depth = frame["depth"][..., 0]
-            np.save(args.out_dir / f"{args.prefix}depth.npy", np.where((depth > 0) & (depth < 1e9), depth, 0).astype(np.float32))
+            np.save(
+                args.out_dir / f"{args.prefix}depth.npy",
+                np.where((depth > 0) & (depth < 1e9), depth, 0).astype(np.float32),
+            )
             np.save(args.out_dir / f"{args.prefix}index.npy", np.rint(frame["index"][..., 0]).astype(np.uint8))
-    out = {"renderer": "cycles", "version": bpy.app.version_string, "threads": args.threads,
-           "import_bpy_s": import_s, "load_s": load_s, "first_render_s": first_render_s,
-           "passes": ("Combined + Depth + Object Index enabled in every render" +
-                      (", all three copied from the RenderResult into numpy inside the timed render (no file written)"
-                       if not args.no_depth_index else ", Combined alone copied from the RenderResult (--no-depth-index)")),
-           "passes_extracted": [grabber.PASSES[n][0] for n in names],
-           "rows": rows}
+    out = {
+        "renderer": "cycles",
+        "version": bpy.app.version_string,
+        "threads": args.threads,
+        "import_bpy_s": import_s,
+        "load_s": load_s,
+        "first_render_s": first_render_s,
+        "passes": (
+            "Combined + Depth + Object Index enabled in every render"
+            + (
+                ", all three copied from the RenderResult into numpy inside the timed render (no file written)"
+                if not args.no_depth_index
+                else ", Combined alone copied from the RenderResult (--no-depth-index)"
+            )
+        ),
+        "passes_extracted": [grabber.PASSES[n][0] for n in names],
+        "rows": rows,
+    }
     (args.out_dir / f"{args.prefix}timings.json").write_text(json.dumps(out, indent=2) + "\n")
     return 0
 

@@ -71,24 +71,30 @@ PARITY = {
     "brdf": "Lambertian albedo/pi, two-sided, on every surface",
     "normals": "geometric (flat) shading everywhere; moonbot's smooth terrain normals are left out",
     "light": "the Sun only: distant directional light, angular diameter 0 (hard shadows), "
-             "irradiance sun.irradiance_w_m2 on a plane facing it, RGB (1, 1, 1); no Earthshine",
+    "irradiance sun.irradiance_w_m2 on a plane facing it, RGB (1, 1, 1); no Earthshine",
     "sky": "black: nothing is lit from the background",
     "bounces": "direct sunlight at the first hit + 1 diffuse bounce with its Sun shadow ray "
-               "(moonbot render.bounces=1, Mitsuba path max_depth=3, Cycles max_bounces=diffuse_bounces=1)",
+    "(moonbot render.bounces=1, Mitsuba path max_depth=3, Cycles max_bounces=diffuse_bounces=1)",
     "pixel_filter": "box, one pixel wide (uniform jitter within the pixel)",
     "output": "linear radiance W/(m^2 sr), float32, no tone map",
     "camera": "pinhole, square pixels, principal point at the image centre",
 }
-UNITS = {"length": "m", "irradiance": "W/m^2", "radiance": "W/(m^2 sr)", "angle": "deg",
-         "albedo": "linear RGB reflectance (Lambertian, BRDF = albedo/pi)",
-         "camera_axes": "OpenCV: x right, y down, z forward; x_cam = R @ x_world + t",
-         "world_axes": "East-North-Up"}
+UNITS = {
+    "length": "m",
+    "irradiance": "W/m^2",
+    "radiance": "W/(m^2 sr)",
+    "angle": "deg",
+    "albedo": "linear RGB reflectance (Lambertian, BRDF = albedo/pi)",
+    "camera_axes": "OpenCV: x right, y down, z forward; x_cam = R @ x_world + t",
+    "world_axes": "East-North-Up",
+}
 
 
 def parity_config(width: int = 640, height: int = 480, overrides: dict | None = None) -> Config:
     """The embedded default config with PARITY_OVERRIDES, at width × height, plus `overrides`."""
-    return load_config(overrides={**PARITY_OVERRIDES, "camera.width": width, "camera.height": height,
-                                  **(overrides or {})})
+    return load_config(
+        overrides={**PARITY_OVERRIDES, "camera.width": width, "camera.height": height, **(overrides or {})}
+    )
 
 
 def parity_spec(config: Config) -> SceneSpec:
@@ -115,14 +121,26 @@ def export_scene(out: Path, config: Config, spec: SceneSpec, view: int = 0) -> d
         raise ValueError("export: the peers render Lambertian surfaces only (terrain.photometry.model=lambert)")
 
     vertices, triangles = spec.meshes[TERRAIN_MESH]
-    scale = (np.ones(len(vertices), np.float32) if spec.terrain_albedo_scale is None
-             else np.asarray(spec.terrain_albedo_scale, np.float32))
+    scale = (
+        np.ones(len(vertices), np.float32)
+        if spec.terrain_albedo_scale is None
+        else np.asarray(spec.terrain_albedo_scale, np.float32)
+    )
     albedo = {f"albedo_{c}": (regolith_albedo[k] * scale).astype(np.float32) for k, c in enumerate("rgb")}
     write_ply(out / "terrain.ply", vertices, triangles, albedo, comment="moonbot terrain, world metres")
-    meshes.append({"file": "terrain.ply", "kind": "terrain", "instance_id": 0,
-                   "albedo": "per vertex: albedo_r, albedo_g, albedo_b",
-                   "albedo_base": list(regolith_albedo), "albedo_factor_range": [float(scale.min()), float(scale.max())],
-                   "vertices": len(vertices), "triangles": len(triangles), "bounds_m": _bounds(vertices)})
+    meshes.append(
+        {
+            "file": "terrain.ply",
+            "kind": "terrain",
+            "instance_id": 0,
+            "albedo": "per vertex: albedo_r, albedo_g, albedo_b",
+            "albedo_base": list(regolith_albedo),
+            "albedo_factor_range": [float(scale.min()), float(scale.max())],
+            "vertices": len(vertices),
+            "triangles": len(triangles),
+            "bounds_m": _bounds(vertices),
+        }
+    )
 
     if spec.rocks:
         parts_v, parts_t, offset = [], [], 0
@@ -133,18 +151,39 @@ def export_scene(out: Path, config: Config, spec: SceneSpec, view: int = 0) -> d
             offset += len(v)
         rv, rt = np.concatenate(parts_v), np.concatenate(parts_t).astype(np.int32)
         write_ply(out / "rocks.ply", rv, rt, comment=f"moonbot rocks: {len(spec.rocks)} instances, world metres")
-        meshes.append({"file": "rocks.ply", "kind": "rocks", "instance_id": 0, "instances": len(spec.rocks),
-                       "albedo": list(regolith_albedo), "vertices": len(rv), "triangles": len(rt),
-                       "bounds_m": _bounds(rv)})
+        meshes.append(
+            {
+                "file": "rocks.ply",
+                "kind": "rocks",
+                "instance_id": 0,
+                "instances": len(spec.rocks),
+                "albedo": list(regolith_albedo),
+                "vertices": len(rv),
+                "triangles": len(rt),
+                "bounds_m": _bounds(rv),
+            }
+        )
 
     for bag in spec.bags:
         v, t = spec.meshes[bag.obj_id]
         bv = _to_world(bag.world_from_model, v)
         name = f"bag_{bag.instance_id:03d}.ply"
-        write_ply(out / name, bv, t, comment=f"moonbot bag instance {bag.instance_id} (obj_id {bag.obj_id}), world metres")
-        meshes.append({"file": name, "kind": "bag", "instance_id": bag.instance_id, "obj_id": bag.obj_id,
-                       "albedo": list(bag.albedo), "world_from_model": np.asarray(bag.world_from_model).tolist(),
-                       "vertices": len(bv), "triangles": len(t), "bounds_m": _bounds(bv)})
+        write_ply(
+            out / name, bv, t, comment=f"moonbot bag instance {bag.instance_id} (obj_id {bag.obj_id}), world metres"
+        )
+        meshes.append(
+            {
+                "file": name,
+                "kind": "bag",
+                "instance_id": bag.instance_id,
+                "obj_id": bag.obj_id,
+                "albedo": list(bag.albedo),
+                "world_from_model": np.asarray(bag.world_from_model).tolist(),
+                "vertices": len(bv),
+                "triangles": len(t),
+                "bounds_m": _bounds(bv),
+            }
+        )
 
     K, pose = orbit_view(config, spec, view)
     w, h = config.camera.width, config.camera.height
@@ -159,21 +198,39 @@ def export_scene(out: Path, config: Config, spec: SceneSpec, view: int = 0) -> d
         "units": UNITS,
         "parity": PARITY,
         "camera": {
-            "width": w, "height": h,
-            "K": K.tolist(), "fx": K[0, 0], "fy": K[1, 1], "cx": K[0, 2], "cy": K[1, 2],
+            "width": w,
+            "height": h,
+            "K": K.tolist(),
+            "fx": K[0, 0],
+            "fy": K[1, 1],
+            "cx": K[0, 2],
+            "cy": K[1, 2],
             "hfov_deg": math.degrees(2 * math.atan(w / 2 / K[0, 0])),
             "vfov_deg": math.degrees(2 * math.atan(h / 2 / K[1, 1])),
-            "position_m": center.tolist(), "R_world_to_cam": pose.R.tolist(), "t_world_to_cam_m": pose.t.tolist(),
-            "forward": forward.tolist(), "up": (-down).tolist(), "right": pose.R[0].tolist(),
+            "position_m": center.tolist(),
+            "R_world_to_cam": pose.R.tolist(),
+            "t_world_to_cam_m": pose.t.tolist(),
+            "forward": forward.tolist(),
+            "up": (-down).tolist(),
+            "right": pose.R[0].tolist(),
             "look_at_m": spec.target.tolist(),
             "depth": "z-depth along the optical axis, metres, 0 where nothing is hit",
         },
-        "sun": {"type": "directional", "direction_to_sun": np.asarray(sun.direction).tolist(),
-                "azimuth_deg": s.azimuth_deg, "elevation_deg": s.elevation_deg,
-                "irradiance_w_m2": s.irradiance_w_m2, "rgb": [1.0, 1.0, 1.0], "angular_diameter_deg": 0.0},
+        "sun": {
+            "type": "directional",
+            "direction_to_sun": np.asarray(sun.direction).tolist(),
+            "azimuth_deg": s.azimuth_deg,
+            "elevation_deg": s.elevation_deg,
+            "irradiance_w_m2": s.irradiance_w_m2,
+            "rgb": [1.0, 1.0, 1.0],
+            "angular_diameter_deg": 0.0,
+        },
         "sky": {"radiance_w_m2_sr": 0.0},
-        "integrator": {"bounces": config.render.bounces, "light_samples": config.render.light_samples,
-                       "max_path_vertices_mitsuba_max_depth": config.render.bounces + 2},
+        "integrator": {
+            "bounces": config.render.bounces,
+            "light_samples": config.render.light_samples,
+            "max_path_vertices_mitsuba_max_depth": config.render.bounces + 2,
+        },
         "meshes": meshes,
         "triangles_total": sum(m["triangles"] for m in meshes),
     }

@@ -27,8 +27,11 @@ def rel_errors(img: np.ndarray, ref: np.ndarray, var_ref: float) -> dict:
     d = img.astype(np.float64) - ref
     mse = float(np.mean(d * d))
     rms = float(np.sqrt(np.mean(ref * ref)))
-    return {"rel_rmse": math.sqrt(max(0.0, mse - var_ref)) / rms, "rel_rmse_raw": math.sqrt(mse) / rms,
-            "mean_ratio": float(img.mean() / ref.mean())}
+    return {
+        "rel_rmse": math.sqrt(max(0.0, mse - var_ref)) / rms,
+        "rel_rmse_raw": math.sqrt(mse) / rms,
+        "mean_ratio": float(img.mean() / ref.mean()),
+    }
 
 
 def at_error(rows: list[dict], target: float) -> dict | None:
@@ -62,10 +65,15 @@ def main() -> int:
     for row in timings["rows"]:
         img = np.load(args.dir / f"rgb_spp{row['spp']}.npy")
         rows.append({**row, **rel_errors(img, ref, var_ref)})
-    out = {**{k: v for k, v in timings.items() if k != "rows"}, "rows": rows,
-           "reference": {"spp_per_half": args.reference_spp,
-                         "own_rel_rmse": math.sqrt(var_ref) / float(np.sqrt(np.mean(ref * ref)))},
-           "at_error": {t: at_error(rows, float(t)) for t in args.targets.split(",")}}
+    out = {
+        **{k: v for k, v in timings.items() if k != "rows"},
+        "rows": rows,
+        "reference": {
+            "spp_per_half": args.reference_spp,
+            "own_rel_rmse": math.sqrt(var_ref) / float(np.sqrt(np.mean(ref * ref))),
+        },
+        "at_error": {t: at_error(rows, float(t)) for t in args.targets.split(",")},
+    }
     json.dump(out, sys.stdout, indent=2)
     print()
     return 0

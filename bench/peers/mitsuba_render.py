@@ -72,17 +72,30 @@ def build_scene(mi, scene_dir: Path, scene: dict) -> tuple:
     # Mitsuba's perspective sensor maps +x to the left of the image, so the image comes out as
     # seen. (Verified against moonbot's own render of the same export: previews agree.)
     d["sensor"] = {
-        "type": "perspective", "fov": cam["hfov_deg"], "fov_axis": "x",
-        "near_clip": 1e-3, "far_clip": 1e5,
+        "type": "perspective",
+        "fov": cam["hfov_deg"],
+        "fov_axis": "x",
+        "near_clip": 1e-3,
+        "far_clip": 1e5,
         "to_world": mi.ScalarTransform4f().look_at(origin=pos.tolist(), target=(pos + fwd).tolist(), up=up.tolist()),
-        "film": {"type": "hdrfilm", "width": cam["width"], "height": cam["height"], "pixel_format": "rgb",
-                 "component_format": "float32", "rfilter": {"type": "box"}, "sample_border": False},
+        "film": {
+            "type": "hdrfilm",
+            "width": cam["width"],
+            "height": cam["height"],
+            "pixel_format": "rgb",
+            "component_format": "float32",
+            "rfilter": {"type": "box"},
+            "sample_border": False,
+        },
         "sampler": {"type": "independent", "sample_count": 1},
     }
     sun = scene["sun"]
     e = float(sun["irradiance_w_m2"])
-    d["sun"] = {"type": "directional", "direction": (-np.array(sun["direction_to_sun"])).tolist(),
-                "irradiance": {"type": "rgb", "value": [e * c for c in sun["rgb"]]}}
+    d["sun"] = {
+        "type": "directional",
+        "direction": (-np.array(sun["direction_to_sun"])).tolist(),
+        "irradiance": {"type": "rgb", "value": [e * c for c in sun["rgb"]]},
+    }
     depth = scene["integrator"]["max_path_vertices_mitsuba_max_depth"]
     path = {"type": "path", "max_depth": depth, "rr_depth": depth + 1, "hide_emitters": True}
     d["integrator"] = path
@@ -98,8 +111,9 @@ def main() -> int:
     parser.add_argument("--variant", default="llvm_ad_rgb")
     parser.add_argument("--repeats", type=int, default=3, help="timed renders per spp (median); 0: one untimed")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--repeat-max-spp", type=int, default=16,
-                        help="spp above this get one timed render and no warm-up")
+    parser.add_argument(
+        "--repeat-max-spp", type=int, default=16, help="spp above this get one timed render and no warm-up"
+    )
     parser.add_argument("--chunk", type=int, default=64, help="render at most this many spp at once")
     parser.add_argument("--prefix", default="", help="prefix of the output files (e.g. a reference's)")
     parser.add_argument("--no-aov", action="store_true", help="skip the depth + shape_index pass")
@@ -107,6 +121,7 @@ def main() -> int:
 
     import drjit as dr
     import mitsuba as mi
+
     mi.set_variant(args.variant)
     mi.set_log_level(mi.LogLevel.Warn)
     if args.variant.startswith(("llvm", "cuda")):
@@ -152,9 +167,16 @@ def main() -> int:
         rows.append({"spp": spp, "render_s": statistics.median(times) if times else None, "render_s_all": times})
         print(f"mitsuba {args.variant} spp {spp:>5}: {rows[-1]['render_s']}", flush=True)
 
-    out = {"renderer": "mitsuba", "variant": args.variant, "version": mi.__version__, "drjit": dr.__version__,
-           "threads": args.threads, "load_s": load_s, "first_render_s": first_render_s,
-           "rows": rows}
+    out = {
+        "renderer": "mitsuba",
+        "variant": args.variant,
+        "version": mi.__version__,
+        "drjit": dr.__version__,
+        "threads": args.threads,
+        "load_s": load_s,
+        "first_render_s": first_render_s,
+        "rows": rows,
+    }
 
     if not args.no_aov:
         aov = mi.load_dict({"type": "aov", "aovs": "dd.y:depth,id:shape_index"})
@@ -177,8 +199,12 @@ def main() -> int:
         idx = np.where((idx >= 0) & (idx < len(lut)), idx, 0)
         np.save(args.out_dir / f"{args.prefix}depth.npy", np.where(depth > 0, depth, 0).astype(np.float32))
         np.save(args.out_dir / f"{args.prefix}index.npy", lut[idx])
-        out["aov_pass"] = {"spp": 1, "channels": "depth (ray distance → z), shape_index → instance id",
-                           "render_s": statistics.median(times), "render_s_all": times}
+        out["aov_pass"] = {
+            "spp": 1,
+            "channels": "depth (ray distance → z), shape_index → instance id",
+            "render_s": statistics.median(times),
+            "render_s_all": times,
+        }
         print(f"mitsuba aov pass: {out['aov_pass']['render_s']:.3f} s", flush=True)
     (args.out_dir / f"{args.prefix}timings.json").write_text(json.dumps(out, indent=2) + "\n")
     return 0

@@ -9,8 +9,13 @@ from pathlib import Path
 import numpy as np
 
 
-def write_ply(path: Path, vertices: np.ndarray, triangles: np.ndarray,
-              vertex_properties: dict[str, np.ndarray] | None = None, comment: str = "") -> None:
+def write_ply(
+    path: Path,
+    vertices: np.ndarray,
+    triangles: np.ndarray,
+    vertex_properties: dict[str, np.ndarray] | None = None,
+    comment: str = "",
+) -> None:
     """Writes (N, 3) `vertices` (float32 metres) and (M, 3) `triangles` (int32 indices) with
     optional (N,) float32 `vertex_properties` after x, y, z."""
     vertices = np.asarray(vertices, dtype="<f4")
@@ -19,8 +24,13 @@ def write_ply(path: Path, vertices: np.ndarray, triangles: np.ndarray,
     names = ["x", "y", "z", *extra]
     header = ["ply", "format binary_little_endian 1.0"]
     header += [f"comment {line}" for line in comment.splitlines() if line]
-    header += [f"element vertex {len(vertices)}", *(f"property float {n}" for n in names),
-               f"element face {len(triangles)}", "property list uchar int vertex_indices", "end_header"]
+    header += [
+        f"element vertex {len(vertices)}",
+        *(f"property float {n}" for n in names),
+        f"element face {len(triangles)}",
+        "property list uchar int vertex_indices",
+        "end_header",
+    ]
     vrec = np.empty(len(vertices), dtype=[(n, "<f4") for n in names])
     vrec["x"], vrec["y"], vrec["z"] = vertices.T
     for k, v in extra.items():

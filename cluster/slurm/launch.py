@@ -43,15 +43,20 @@ def walltime_seconds(walltime: str) -> int:
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     p.add_argument("config", type=Path, help="the sweep's config, e.g. configs/synbag-1.0.yaml")
     p.add_argument("--out", type=Path, required=True, help="dataset directory on the shared filesystem")
     p.add_argument("--jobs", type=int, default=4, help="worker jobs kept queued or running (default 4)")
     p.add_argument("--cpus", type=int, required=True, help="CPUs a job books (--cpus-per-task)")
-    p.add_argument("--processes", type=int, default=1,
-                   help="worker processes a job runs (default 1: one process renders on every CPU of the job; "
-                        "more needs render.threads = CPUS / PROCESSES in the config)")
+    p.add_argument(
+        "--processes",
+        type=int,
+        default=1,
+        help="worker processes a job runs (default 1: one process renders on every CPU of the job; "
+        "more needs render.threads = CPUS / PROCESSES in the config)",
+    )
     p.add_argument("--memory", required=True, help="memory a job books, e.g. 8GB (about 2 GB a process: README)")
     p.add_argument("--walltime", default="04:00:00", help="a job's walltime, [D-]HH:MM:SS (default 04:00:00)")
     p.add_argument("--queue", help="partition (sbatch -p)")
@@ -59,8 +64,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--interface", help="network interface the workers and scheduler use, e.g. ib0")
     p.add_argument("--local-directory", default="$TMPDIR", help="node-local scratch for Dask (default $TMPDIR)")
     p.add_argument("--log-directory", type=Path, help="where SLURM writes the jobs' logs (default OUT/logs/slurm)")
-    p.add_argument("--prologue", action="append", default=[],
-                   help="a line for the job script before the worker starts (repeatable), e.g. 'module load gcc'")
+    p.add_argument(
+        "--prologue",
+        action="append",
+        default=[],
+        help="a line for the job script before the worker starts (repeatable), e.g. 'module load gcc'",
+    )
     p.add_argument("--print-job-script", action="store_true", help="print a worker job's sbatch script and exit")
     args = p.parse_args(argv)
     if args.jobs < 1 or args.cpus < 1 or not 1 <= args.processes <= args.cpus:
@@ -77,8 +86,10 @@ def check_threads(config_path: Path, cpus: int, processes: int) -> None:
     except ConfigError as e:
         raise SystemExit(str(e)) from None
     if processes > 1 and threads * processes != cpus:
-        raise SystemExit(f"{config_path}: render.threads: {processes} processes a job on {cpus} CPUs need "
-                         f"render.threads = {cpus // processes}, got {threads} (0 = every CPU of the job, each)")
+        raise SystemExit(
+            f"{config_path}: render.threads: {processes} processes a job on {cpus} CPUs need "
+            f"render.threads = {cpus // processes}, got {threads} (0 = every CPU of the job, each)"
+        )
 
 
 def make_cluster(args: argparse.Namespace):
@@ -88,9 +99,9 @@ def make_cluster(args: argparse.Namespace):
     lifetime = wall - 600 if wall > 1200 else int(wall * 0.9)
     log_directory = args.log_directory or args.out / "logs" / "slurm"
     return SLURMCluster(
-        cores=args.processes,        # Dask threads a job: one a worker process, one task at a time each
+        cores=args.processes,  # Dask threads a job: one a worker process, one task at a time each
         processes=args.processes,
-        job_cpu=args.cpus,           # what SLURM books: the core's threads follow the job's cpuset
+        job_cpu=args.cpus,  # what SLURM books: the core's threads follow the job's cpuset
         memory=args.memory,
         walltime=args.walltime,
         queue=args.queue,
@@ -98,7 +109,7 @@ def make_cluster(args: argparse.Namespace):
         interface=args.interface,
         local_directory=args.local_directory,
         log_directory=str(log_directory),
-        python=sys.executable,       # the venv's Python, at the same path on every node
+        python=sys.executable,  # the venv's Python, at the same path on every node
         job_script_prologue=[f"export DASK_CONFIG={DASK_YAML}", *args.prologue],
         worker_extra_args=["--lifetime", f"{lifetime}s", "--lifetime-stagger", "120s"],
     )
@@ -122,8 +133,11 @@ def main(argv: list[str] | None = None) -> int:
         with Client(cluster) as client:
             print(f"dashboard: {client.dashboard_link}", flush=True)
             result = generate(args.config, args.out, client=client)
-        print(f"{result.rendered} tasks rendered ({result.samples} samples) in {result.seconds:.1f} s; "
-              f"{result.complete_before} were complete already", flush=True)
+        print(
+            f"{result.rendered} tasks rendered ({result.samples} samples) in {result.seconds:.1f} s; "
+            f"{result.complete_before} were complete already",
+            flush=True,
+        )
         for task_id, error in sorted(result.failed.items()):
             print(f"failed: {task_id}: {error}", file=sys.stderr)
         moonbot_cli(["stats", str(args.out)], standalone_mode=False)

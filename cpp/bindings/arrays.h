@@ -58,10 +58,10 @@ inline std::string shape_of(const py::array& a) {
 }
 
 /// An N×cols array of floating-point values, as C-contiguous float32 (float64 input is narrowed).
-inline py::array_t<float, py::array::c_style> float_rows(const py::handle& obj,
-                                                          const std::string& name, int cols) {
+inline py::array_t<float, py::array::c_style> float_rows(const py::handle& obj, const std::string& name, int cols) {
     py::array a = as_array(obj, name);
-    if (a.dtype().kind() != 'f') fail(name, "must be a floating-point array, got dtype " + std::string(py::str(a.dtype())));
+    if (a.dtype().kind() != 'f')
+        fail(name, "must be a floating-point array, got dtype " + std::string(py::str(a.dtype())));
     if (a.ndim() != 2 || a.shape(1) != cols)
         fail(name, "must have shape (N, " + std::to_string(cols) + "), got " + shape_of(a));
     return converted<float>(a, name);
@@ -71,15 +71,15 @@ inline py::array_t<float, py::array::c_style> float_rows(const py::handle& obj,
 inline std::vector<uint32_t> index_rows(const py::handle& obj, const std::string& name) {
     py::array a = as_array(obj, name);
     const char kind = a.dtype().kind();
-    if (kind != 'i' && kind != 'u') fail(name, "must be an integer array, got dtype " + std::string(py::str(a.dtype())));
+    if (kind != 'i' && kind != 'u')
+        fail(name, "must be an integer array, got dtype " + std::string(py::str(a.dtype())));
     if (a.ndim() != 2 || a.shape(1) != 3) fail(name, "must have shape (M, 3), got " + shape_of(a));
     // uint64 values ≥ 2⁶³ wrap to negative int64 here, which the range check below rejects.
     auto wide = converted<int64_t>(a, name);
     std::vector<uint32_t> out(static_cast<size_t>(wide.size()));
     const int64_t* p = wide.data();
     for (size_t i = 0; i < out.size(); ++i) {
-        if (p[i] < 0 || p[i] > 0xFFFFFFFFll)
-            fail(name, "index " + std::to_string(p[i]) + " is negative or too large");
+        if (p[i] < 0 || p[i] > 0xFFFFFFFFll) fail(name, "index " + std::to_string(p[i]) + " is negative or too large");
         out[i] = static_cast<uint32_t>(p[i]);
     }
     return out;

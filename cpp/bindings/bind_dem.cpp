@@ -52,8 +52,8 @@ void bind_dem(py::module_& m) {
             out["height_scale"] = dem->scale();
             out["height_offset"] = dem->offset();
             out["nodata"] = dem->nodata() ? py::cast(*dem->nodata()) : py::none();
-            out["footprint"] = py::make_tuple(grid.footprint_min.x, grid.footprint_min.y, grid.footprint_max.x,
-                                              grid.footprint_max.y);
+            out["footprint"] =
+                py::make_tuple(grid.footprint_min.x, grid.footprint_min.y, grid.footprint_max.x, grid.footprint_max.y);
             return out;
         },
         py::arg("path"), py::arg("lat_deg"), py::arg("lon_deg"), py::arg("size_m"), py::arg("spacing_m") = 0.0,

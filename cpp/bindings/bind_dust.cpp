@@ -1,5 +1,5 @@
-#include <cmath>
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 #include "arrays.h"
@@ -40,22 +40,30 @@ void bind_dust(py::module_& m) {
     ParamsClass<EjectaParams>(m, "EjectaParams",
                               "Emitter 1, granular ejecta (moonbot/dust.h): world metres, seconds, degrees.")
         .vec3("origin", &EjectaParams::origin, "centre of the spawn disc (3,), world metres, on the ground")
-        .field("spawn_radius_m", &EjectaParams::spawn_radius_m, "fragments leave from a horizontal disc of this radius, metres, [0, 100]")
+        .field("spawn_radius_m", &EjectaParams::spawn_radius_m,
+               "fragments leave from a horizontal disc of this radius, metres, [0, 100]")
         .field("count", &EjectaParams::count, "fragments per burst, 0..1000000")
-        .field("cone_half_angle_deg", &EjectaParams::cone_half_angle_deg, "launch directions: uniform over this cone about +z, degrees, [0, 90]")
-        .field("mean_speed_m_s", &EjectaParams::mean_speed_m_s, "launch speeds uniform in [0.5, 1.5] x this, m/s, [0, 100]")
+        .field("cone_half_angle_deg", &EjectaParams::cone_half_angle_deg,
+               "launch directions: uniform over this cone about +z, degrees, [0, 90]")
+        .field("mean_speed_m_s", &EjectaParams::mean_speed_m_s,
+               "launch speeds uniform in [0.5, 1.5] x this, m/s, [0, 100]")
         .field("min_diameter_m", &EjectaParams::min_diameter_m, "fragment diameters uniform in [min, max], metres, > 0")
         .field("max_diameter_m", &EjectaParams::max_diameter_m, "metres, >= min_diameter_m, <= 1")
         .field("gravity_m_s2", &EjectaParams::gravity_m_s2, "m/s^2, [0, 100]")
         .field("restitution", &EjectaParams::restitution, "normal speed kept by a bounce, [0, 0.95]")
-        .field("friction", &EjectaParams::friction, "Coulomb: tangential speed lost <= friction x normal impulse, [0, 10]")
-        .field("rest_speed_m_s", &EjectaParams::rest_speed_m_s, "a bounce leaving less than this puts the fragment at rest, m/s, (0, 10]")
-        .field("burst_period_s", &EjectaParams::burst_period_s, "every fragment is re-launched every period, seconds, (0, 3600]")
+        .field("friction", &EjectaParams::friction,
+               "Coulomb: tangential speed lost <= friction x normal impulse, [0, 10]")
+        .field("rest_speed_m_s", &EjectaParams::rest_speed_m_s,
+               "a bounce leaving less than this puts the fragment at rest, m/s, (0, 10]")
+        .field("burst_period_s", &EjectaParams::burst_period_s,
+               "every fragment is re-launched every period, seconds, (0, 3600]")
         .done();
-    ParamsClass<CloudParams>(m, "CloudParams", "Emitter 2, the fine-dust cloud (moonbot/dust.h): world metres, seconds, degrees.")
+    ParamsClass<CloudParams>(m, "CloudParams",
+                             "Emitter 2, the fine-dust cloud (moonbot/dust.h): world metres, seconds, degrees.")
         .vec3("origin", &CloudParams::origin, "the emitter on the ground (3,), world metres")
         .vec3("box_m", &CloudParams::box_m, "spawn box east x north x up (3,), metres, each in [0, 1000]")
-        .field("vertical_offset_m", &CloudParams::vertical_offset_m, "the box's centre this far above origin, metres, [-1000, 1000]")
+        .field("vertical_offset_m", &CloudParams::vertical_offset_m,
+               "the box's centre this far above origin, metres, [-1000, 1000]")
         .vec3("axis", &CloudParams::axis, "cone axis (3,), world, any length but 0")
         .field("cone_half_angle_deg", &CloudParams::cone_half_angle_deg, "degrees, [0, 180]")
         .field("speed_m_s", &CloudParams::speed_m_s, "launch speed of a puff, m/s, [0, 100]")
@@ -65,7 +73,8 @@ void bind_dust(py::module_& m) {
         .field("sigma_m", &CloudParams::sigma_m, "a puff's standard deviation at birth, metres, (0, 100]")
         .field("growth_m_s", &CloudParams::growth_m_s, "growth of that deviation with age, m/s, [0, 100]")
         .field("optical_depth", &CloudParams::optical_depth, "through a puff's centre at its most opaque, [0, 100]")
-        .field("rise_fraction", &CloudParams::rise_fraction, "opacity rises linearly over this fraction of life, (0, 1)")
+        .field("rise_fraction", &CloudParams::rise_fraction,
+               "opacity rises linearly over this fraction of life, (0, 1)")
         .done();
     m.def(
         "simulate_ejecta",
@@ -128,7 +137,9 @@ void bind_dust(py::module_& m) {
     m.attr("SPAWN_CLEARANCE") = kSpawnClearance;
     m.def(
         "cloud_puffs",
-        [](const CloudParams& params, uint64_t seed, double time_s) { return puff_rows(cloud_puffs(params, seed, time_s)); },
+        [](const CloudParams& params, uint64_t seed, double time_s) {
+            return puff_rows(cloud_puffs(params, seed, time_s));
+        },
         py::arg("params"), py::arg("seed"), py::arg("time_s"),
         "The fine-dust cloud (moonbot/dust.h, emitter 2) at time_s: the puffs alive then, (N, 5) "
         "float64 rows of centre x, y, z (world metres), sigma (metres) and peak extinction (1/m).");
@@ -166,8 +177,8 @@ void bind_dust(py::module_& m) {
             glm::dvec3 d = vector<3>(direction, "direction");
             const double len = glm::length(d);
             if (!(len > 0.0)) fail("direction", "must be non-zero");
-            return optical_depth(Puff{vector<3>(centre, "centre"), sigma_m, peak_extinction}, vector<3>(origin, "origin"),
-                                 d / len, t_max);
+            return optical_depth(Puff{vector<3>(centre, "centre"), sigma_m, peak_extinction},
+                                 vector<3>(origin, "origin"), d / len, t_max);
         },
         py::arg("centre"), py::arg("sigma_m"), py::arg("peak_extinction"), py::arg("origin"), py::arg("direction"),
         py::arg("t_max") = std::numeric_limits<double>::infinity(),

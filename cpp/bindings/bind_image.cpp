@@ -43,7 +43,8 @@ void bind_image(py::module_& m) {
         "write_image",
         [](const std::string& path, const py::handle& pixels, int png_compression, const py::dict& attributes) {
             py::array a = as_array(pixels, "pixels");
-            if (a.ndim() != 2 && a.ndim() != 3) fail("pixels", "must have shape (H, W) or (H, W, C), got " + shape_of(a));
+            if (a.ndim() != 2 && a.ndim() != 3)
+                fail("pixels", "must have shape (H, W) or (H, W, C), got " + shape_of(a));
             if (a.shape(0) < 1 || a.shape(1) < 1) fail("pixels", "must not be empty");
             if (a.shape(0) > kMaxImageSide || a.shape(1) > kMaxImageSide)
                 fail("pixels", "sides must be at most " + std::to_string(kMaxImageSide));

@@ -3,8 +3,8 @@
 #include <pybind11/stl.h>
 
 #include "arrays.h"
-#include "params.h"
 #include "moonbot/light_cache.h"
+#include "params.h"
 
 namespace moonbot::bindings {
 
@@ -49,7 +49,8 @@ void bind_light_cache(py::module_& m) {
                                       py::make_tuple(l.mean_direction.x, l.mean_direction.y, l.mean_direction.z));
             },
             py::arg("instance"), py::arg("vertex"),
-            "((E_r, E_g, E_b) W/m², (x, y, z) luminance-weighted mean of the unit incident directions, world: length 1 for light from one direction, less the more it spreads) at a vertex of a covered "
+            "((E_r, E_g, E_b) W/m², (x, y, z) luminance-weighted mean of the unit incident directions, world: length 1 "
+            "for light from one direction, less the more it spreads) at a vertex of a covered "
             "instance, filled first if it is not yet.")
         .def("fill_all", &LightCache::fill_all, py::call_guard<py::gil_scoped_release>(),
              "Fill every vertex of the covered instances (rendering fills only what it touches).")
@@ -69,7 +70,8 @@ void bind_light_cache(py::module_& m) {
                 d["fill_seconds"] = s.fill_seconds;
                 return d;
             },
-            "Cumulative: vertices filled, blocks allocated, background lattice nodes and their probe_rays, gather_rays and shadow_rays they traced (each "
+            "Cumulative: vertices filled, blocks allocated, background lattice nodes and their probe_rays, gather_rays "
+            "and shadow_rays they traced (each "
             "vertex counted once: deterministic), bytes held, redundant_fills (vertices a racing thread "
             "computed again) and fill_seconds (thread-seconds; these two depend on the threads).");
 }

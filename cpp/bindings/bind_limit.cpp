@@ -40,8 +40,8 @@ void bind_limit(py::module_& m) {
             out["threads"] = l.threads;
             return out;
         },
-        py::arg("scene"), py::arg("camera"), py::arg("sun"), py::arg("threads") = 0,
-        py::arg("repeats") = 5, py::arg("bounces") = 0,
+        py::arg("scene"), py::arg("camera"), py::arg("sun"), py::arg("threads") = 0, py::arg("repeats") = 5,
+        py::arg("bounces") = 0,
         "Median seconds Embree alone takes for the rays of one spp=1 render (pixel-centre camera "
         "rays, Sun shadow rays from their hits, `bounces` generations of diffuse bounce rays and the Sun shadow "
         "rays from their hits, as lists per generation): one ray at a time, as 8- and 16-ray packets and "

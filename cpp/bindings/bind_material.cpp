@@ -16,7 +16,8 @@ namespace {
 py::array_t<double, py::array::c_style> doubles(const py::handle& obj, const std::string& name,
                                                 std::initializer_list<py::ssize_t> shape) {
     py::array a = as_array(obj, name);
-    if (a.dtype().kind() != 'f') fail(name, "must be a floating-point array, got dtype " + std::string(py::str(a.dtype())));
+    if (a.dtype().kind() != 'f')
+        fail(name, "must be a floating-point array, got dtype " + std::string(py::str(a.dtype())));
     bool ok = a.ndim() == static_cast<py::ssize_t>(shape.size());
     py::ssize_t axis = 0;
     for (py::ssize_t n : shape) {
@@ -62,7 +63,8 @@ void bind_material(py::module_& m) {
             return py::make_tuple(out_albedo, out_normal);
         },
         py::arg("xy"), py::arg("footprint"), py::arg("params") = FabricParams{},
-        "The woven fabric `params` (its pitch, relief, contrast and albedo; sheen plays no part) at points xy (N, 2) float64, metres of fabric (x along the warp = tangent, "
+        "The woven fabric `params` (its pitch, relief, contrast and albedo; sheen plays no part) at points xy (N, 2) "
+        "float64, metres of fabric (x along the warp = tangent, "
         "y along the weft = bitangent), prefiltered over footprint (N,) metres (Gaussian, "
         "sigma = footprint/2). Returns (albedo (N, 3) linear RGB, normal (N, 3) unit vectors in "
         "the (tangent, bitangent, normal) frame), float64.");
@@ -74,11 +76,9 @@ void bind_material(py::module_& m) {
                           "(np.asarray gives a read-only view that keeps it alive).")
         .def_buffer([](StainMask& s) {
             const auto n = static_cast<py::ssize_t>(s.resolution());
-            return py::buffer_info(s.data(), static_cast<py::ssize_t>(sizeof(float)),
-                                   py::format_descriptor<float>::format(), 2, {n, n},
-                                   {n * static_cast<py::ssize_t>(sizeof(float)),
-                                    static_cast<py::ssize_t>(sizeof(float))},
-                                   true);
+            return py::buffer_info(
+                s.data(), static_cast<py::ssize_t>(sizeof(float)), py::format_descriptor<float>::format(), 2, {n, n},
+                {n * static_cast<py::ssize_t>(sizeof(float)), static_cast<py::ssize_t>(sizeof(float))}, true);
         })
         .def_property_readonly("resolution", &StainMask::resolution, "texels a side")
         .def(
@@ -130,7 +130,8 @@ void bind_material(py::module_& m) {
         [](const py::object& local) {
             const auto in = doubles(local, "local", {-1, 2});
             py::array_t<double> out(in.shape(0));
-            for (py::ssize_t i = 0; i < in.shape(0); ++i) out.mutable_data()[i] = splat(in.data()[2 * i], in.data()[2 * i + 1]);
+            for (py::ssize_t i = 0; i < in.shape(0); ++i)
+                out.mutable_data()[i] = splat(in.data()[2 * i], in.data()[2 * i + 1]);
             return out;
         },
         py::arg("local"), "The splat shape B (N,) at local coordinates (N, 2), clamped to [0, 1]^2.");
@@ -140,13 +141,14 @@ void bind_material(py::module_& m) {
         [](const py::object& clean, const py::object& mask, const py::object& dirt) {
             const auto c = doubles(clean, "clean", {-1, 3});
             const auto mv = doubles(mask, "mask", {-1});
-            if (mv.shape(0) != c.shape(0)) fail("mask", "must have one value per colour (" + std::to_string(c.shape(0)) + ")");
+            if (mv.shape(0) != c.shape(0))
+                fail("mask", "must have one value per colour (" + std::to_string(c.shape(0)) + ")");
             const glm::dvec3 d = vector<3>(dirt, "dirt");
             py::array_t<double> out({c.shape(0), py::ssize_t{3}});
             double* o = out.mutable_data();
             for (py::ssize_t i = 0; i < c.shape(0); ++i) {
-                const glm::dvec3 r = stained_base_colour(
-                    {c.data()[3 * i], c.data()[3 * i + 1], c.data()[3 * i + 2]}, mv.data()[i], d);
+                const glm::dvec3 r =
+                    stained_base_colour({c.data()[3 * i], c.data()[3 * i + 1], c.data()[3 * i + 2]}, mv.data()[i], d);
                 for (int k = 0; k < 3; ++k) o[3 * i + k] = r[k];
             }
             return out;

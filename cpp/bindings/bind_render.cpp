@@ -3,9 +3,9 @@
 #include <pybind11/stl.h>
 
 #include "arrays.h"
-#include "params.h"
 #include "moonbot/light_cache.h"
 #include "moonbot/render.h"
+#include "params.h"
 
 namespace moonbot::bindings {
 

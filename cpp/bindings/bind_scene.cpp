@@ -7,10 +7,10 @@
 #include <pybind11/stl.h>
 
 #include "arrays.h"
-#include "params.h"
 #include "moonbot/camera.h"
-#include "moonbot/scene.h"
 #include "moonbot/light.h"
+#include "moonbot/scene.h"
+#include "params.h"
 
 namespace moonbot::bindings {
 
@@ -23,7 +23,9 @@ Material material(const py::handle& albedo, const Photometry& photometry,
 }
 
 const char* model_name(Photometry::Model model) {
-    return model == Photometry::Model::Lambert ? "lambert" : model == Photometry::Model::LunarLambert ? "lunar-lambert" : "hapke";
+    return model == Photometry::Model::Lambert        ? "lambert"
+           : model == Photometry::Model::LunarLambert ? "lunar-lambert"
+                                                      : "hapke";
 }
 
 Photometry::Model parse_model(const std::string& model) {
@@ -46,11 +48,11 @@ StainMode parse_stain_mode(const std::string& mode) {
 }
 
 /// A Hapke parameter of Photometry as a read/write Python attribute.
-template <double Photometry::HapkeParams::*member>
+template <double Photometry::HapkeParams::* member>
 double get_hapke(const Photometry& p) {
     return p.hapke.*member;
 }
-template <double Photometry::HapkeParams::*member>
+template <double Photometry::HapkeParams::* member>
 void set_hapke(Photometry& p, double value) {
     p.hapke.*member = value;
 }
@@ -63,15 +65,17 @@ void bind_photometry(py::module_& m) {
         "'lambert' | 'lunar-lambert' (McEwen) | 'hapke' (Hapke 2012 with porosity, SHOE, CBOE, roughness; "
         "shape normalised to 1 at i = e = g = 0). The Hapke fields are read only by 'hapke' but checked "
         "whatever the model; their defaults are the Sato et al. 2014 lunar set. Ranges: `ranges`.")
-        .property("model", [](const Photometry& p) { return std::string(model_name(p.model)); },
-                  [](Photometry& p, const std::string& v) { p.model = parse_model(v); },
-                  "'lambert' | 'lunar-lambert' | 'hapke'")
-        .property("phase",
-                  [](const Photometry& p) {
-                      return std::string(p.phase == Photometry::Phase::Exponential ? "exponential" : "mcewen");
-                  },
-                  [](Photometry& p, const std::string& v) { p.phase = parse_phase(v); },
-                  "lunar-lambert phase weight L(g): 'exponential' (exp(-g/60 deg)) | 'mcewen' (cubic, clamped)")
+        .property(
+            "model", [](const Photometry& p) { return std::string(model_name(p.model)); },
+            [](Photometry& p, const std::string& v) { p.model = parse_model(v); },
+            "'lambert' | 'lunar-lambert' | 'hapke'")
+        .property(
+            "phase",
+            [](const Photometry& p) {
+                return std::string(p.phase == Photometry::Phase::Exponential ? "exponential" : "mcewen");
+            },
+            [](Photometry& p, const std::string& v) { p.phase = parse_phase(v); },
+            "lunar-lambert phase weight L(g): 'exponential' (exp(-g/60 deg)) | 'mcewen' (cubic, clamped)")
         .field("surge_amplitude", &Photometry::surge_amplitude,
                "opposition surge 1 + B0/(1 + tan(g/2)/h): B0 (0 = off; Hapke's B_S0)")
         .field("surge_width", &Photometry::surge_width, "the surge's width h (Hapke's h_S)")
@@ -79,9 +83,10 @@ void bind_photometry(py::module_& m) {
         .property("b", &get_hapke<&H::b>, &set_hapke<&H::b>, "hapke: double Henyey-Greenstein lobe width")
         .property("c", &get_hapke<&H::c>, &set_hapke<&H::c>,
                   "hapke: double Henyey-Greenstein weight (c > 0: back-scattering)")
-        .property("roughness_deg", [](const Photometry& p) { return p.hapke.roughness_rad / kRadPerDeg; },
-                  [](Photometry& p, double degrees) { p.hapke.roughness_rad = degrees * kRadPerDeg; },
-                  "hapke: mean facet slope theta-bar of Hapke 1984, degrees")
+        .property(
+            "roughness_deg", [](const Photometry& p) { return p.hapke.roughness_rad / kRadPerDeg; },
+            [](Photometry& p, double degrees) { p.hapke.roughness_rad = degrees * kRadPerDeg; },
+            "hapke: mean facet slope theta-bar of Hapke 1984, degrees")
         .property("filling_factor", &get_hapke<&H::filling_factor>, &set_hapke<&H::filling_factor>,
                   "hapke: volume fraction of grains phi (porosity factor K; 0: K = 1)")
         .property("cboe_amplitude", &get_hapke<&H::cboe_amplitude>, &set_hapke<&H::cboe_amplitude>,
@@ -89,25 +94,37 @@ void bind_photometry(py::module_& m) {
         .property("cboe_width", &get_hapke<&H::cboe_width>, &set_hapke<&H::cboe_width>,
                   "hapke: coherent-backscatter width h_C")
         .done()
-        .def("shape", [](const Photometry& p, double mu_i, double mu_o, double cos_g) {
-            return photometric_shape(validated(p), mu_i, mu_o, cos_g);
-        }, py::arg("mu_i"), py::arg("mu_o"), py::arg("cos_g"),
-           "BRDF / (albedo/pi) for cosines of incidence and emission (both > 0, else 0) and cos phase.")
-        .def("hapke_reflectance", [](const Photometry& p, double mu_i, double mu_o, double cos_g) {
-            if (p.model != Photometry::Model::Hapke) fail("model", "hapke_reflectance needs model 'hapke'");
-            return mu_i > 0.0 ? mu_i * hapke_brdf(validated(p), mu_i, mu_o, cos_g) : 0.0;
-        }, py::arg("mu_i"), py::arg("mu_o"), py::arg("cos_g"),
-           "Hapke's bidirectional reflectance r(i, e, g) = mu_i * BRDF, per steradian, un-normalised "
-           "(radiance / collimated irradiance).")
-        .def_property_readonly("hapke_normal_albedo", [](const Photometry& p) -> std::optional<double> {
-            if (p.model != Photometry::Model::Hapke) return std::nullopt;
-            return validated(p).hapke.normal_albedo;
-        }, "Hapke's normal albedo A_N = pi * r(0, 0, 0) for these parameters (the shape's normaliser); "
-           "None for other models.")
-        .def_property_readonly("porosity_factor", [](const Photometry& p) -> std::optional<double> {
-            if (p.model != Photometry::Model::Hapke) return std::nullopt;
-            return validated(p).hapke.K;
-        }, "Hapke's porosity factor K(filling_factor); None for other models.");
+        .def(
+            "shape",
+            [](const Photometry& p, double mu_i, double mu_o, double cos_g) {
+                return photometric_shape(validated(p), mu_i, mu_o, cos_g);
+            },
+            py::arg("mu_i"), py::arg("mu_o"), py::arg("cos_g"),
+            "BRDF / (albedo/pi) for cosines of incidence and emission (both > 0, else 0) and cos phase.")
+        .def(
+            "hapke_reflectance",
+            [](const Photometry& p, double mu_i, double mu_o, double cos_g) {
+                if (p.model != Photometry::Model::Hapke) fail("model", "hapke_reflectance needs model 'hapke'");
+                return mu_i > 0.0 ? mu_i * hapke_brdf(validated(p), mu_i, mu_o, cos_g) : 0.0;
+            },
+            py::arg("mu_i"), py::arg("mu_o"), py::arg("cos_g"),
+            "Hapke's bidirectional reflectance r(i, e, g) = mu_i * BRDF, per steradian, un-normalised "
+            "(radiance / collimated irradiance).")
+        .def_property_readonly(
+            "hapke_normal_albedo",
+            [](const Photometry& p) -> std::optional<double> {
+                if (p.model != Photometry::Model::Hapke) return std::nullopt;
+                return validated(p).hapke.normal_albedo;
+            },
+            "Hapke's normal albedo A_N = pi * r(0, 0, 0) for these parameters (the shape's normaliser); "
+            "None for other models.")
+        .def_property_readonly(
+            "porosity_factor",
+            [](const Photometry& p) -> std::optional<double> {
+                if (p.model != Photometry::Model::Hapke) return std::nullopt;
+                return validated(p).hapke.K;
+            },
+            "Hapke's porosity factor K(filling_factor); None for other models.");
     py::dict ranges;
     for (const ParamRange& r : kPhotometryRanges) ranges[r.field] = py::make_tuple(r.lo, r.hi, r.lo_open, r.hi_open);
     m.attr("Photometry").attr("ranges") = ranges;
@@ -132,7 +149,8 @@ void bind_woven(py::module_& m) {
     ParamsClass<SoilingParams>(m, "SoilingParams",
                                "The shape of Dust mode's regolith dust (moonbot/soiling.h); its deposits and "
                                "opacity are StainParams' stamps and opacity.")
-        .field("contact_height_m", &SoilingParams::contact_height_m, "the contact band's e-folding height, metres, (0, 1]")
+        .field("contact_height_m", &SoilingParams::contact_height_m,
+               "the contact band's e-folding height, metres, (0, 1]")
         .field("deposit_radius_m", &SoilingParams::deposit_radius_m, "mean deposit radius, metres, (0, 1]")
         .field("handled_share", &SoilingParams::handled_share, "share of deposits near the top, [0, 1]")
         .field("speckle", &SoilingParams::speckle, "grain strength, [0, 2]")
@@ -147,10 +165,10 @@ void bind_woven(py::module_& m) {
         .field("stain", &WovenSurface::stain, "the dirt's stamps (StainParams)")
         .field("stain_seed", &WovenSurface::stain_seed, "keys this instance's dirt")
         .vec3("dirt_colour", &WovenSurface::dirt_colour, "the dirt's colour (3,), linear RGB, each in [0, 1]")
-        .property("stain_mode",
-                  [](const WovenSurface& w) { return std::string(w.stain_mode == StainMode::Stamp ? "stamp" : "dust"); },
-                  [](WovenSurface& w, const std::string& mode) { w.stain_mode = parse_stain_mode(mode); },
-                  "'stamp' | 'dust'")
+        .property(
+            "stain_mode",
+            [](const WovenSurface& w) { return std::string(w.stain_mode == StainMode::Stamp ? "stamp" : "dust"); },
+            [](WovenSurface& w, const std::string& mode) { w.stain_mode = parse_stain_mode(mode); }, "'stamp' | 'dust'")
         .field("soiling", &WovenSurface::soiling, "Dust mode's shape (SoilingParams)")
         .done();
 }
@@ -200,16 +218,21 @@ void bind_scene(py::module_& m) {
             "(albedo factor (N,) float64, relief gradient (N, 3) float64) at world points (N, 3) metres, "
             "prefiltered over footprint_m metres.");
 
-    m.def("embree_isas", [] {
-        std::vector<std::string> names;
-        for (Isa isa : cpu_isas()) names.emplace_back(isa_name(isa));
-        return names;
-    }, "The ISAs this CPU can run Embree's kernels in, narrowest first (names as embree_isa takes them).");
-    m.def("resolve_embree_isa", [](const std::string& name) { return std::string(isa_name(resolve_isa(parse_isa(name)))); },
-          py::arg("name") = "auto",
-          "The ISA a scene asked for `name` traces in here: 'auto' is $MOONBOT_EMBREE_ISA where set, else avx2 "
-          "where this CPU runs it, else the widest it runs. ValueError for an unknown name or one this CPU "
-          "cannot run.");
+    m.def(
+        "embree_isas",
+        [] {
+            std::vector<std::string> names;
+            for (Isa isa : cpu_isas()) names.emplace_back(isa_name(isa));
+            return names;
+        },
+        "The ISAs this CPU can run Embree's kernels in, narrowest first (names as embree_isa takes them).");
+    m.def(
+        "resolve_embree_isa",
+        [](const std::string& name) { return std::string(isa_name(resolve_isa(parse_isa(name)))); },
+        py::arg("name") = "auto",
+        "The ISA a scene asked for `name` traces in here: 'auto' is $MOONBOT_EMBREE_ISA where set, else avx2 "
+        "where this CPU runs it, else the widest it runs. ValueError for an unknown name or one this CPU "
+        "cannot run.");
 
     py::class_<Scene>(m, "Scene", "Triangle-mesh prototypes and their instances; metres, world ENU.")
         .def(py::init([](const std::string& embree_isa, bool watertight) {
@@ -219,8 +242,9 @@ void bind_scene(py::module_& m) {
              "An empty scene whose rays Embree traces in `embree_isa` (auto, sse2, sse4.2, avx, avx2, avx512; "
              "see resolve_embree_isa). watertight=False (Embree's default BVHs, no second look at shared "
              "vertices) exists only to measure what watertightness costs and buys.")
-        .def_property_readonly("embree_isa", [](const Scene& s) { return std::string(isa_name(s.isa())); },
-                               "The ISA Embree traces this scene's rays in (never 'auto').")
+        .def_property_readonly(
+            "embree_isa", [](const Scene& s) { return std::string(isa_name(s.isa())); },
+            "The ISA Embree traces this scene's rays in (never 'auto').")
         .def(
             "add_mesh",
             [](Scene& s, const py::handle& vertices, const py::handle& triangles, const py::handle& corner_uvs,
@@ -279,15 +303,15 @@ void bind_scene(py::module_& m) {
             "that moves between views (the dust's ejecta); not for meshes with vertex normals.")
         .def(
             "add_instance",
-            [](Scene& s, uint32_t mesh, const py::handle& world_from_object, int instance_id,
-               const py::handle& albedo, const Photometry& photometry, const std::optional<WovenSurface>& woven) {
+            [](Scene& s, uint32_t mesh, const py::handle& world_from_object, int instance_id, const py::handle& albedo,
+               const Photometry& photometry, const std::optional<WovenSurface>& woven) {
                 const Material mat = material(albedo, photometry, woven);
                 const glm::dmat4 xfm = matrix<4, 4>(world_from_object, "world_from_object");
                 py::gil_scoped_release release;  // painting a stain takes a few milliseconds
                 return s.add_instance(mesh, xfm, instance_id, mat);
             },
-            py::arg("mesh"), py::arg("world_from_object"), py::arg("instance_id"),
-            py::arg("albedo"), py::arg("photometry") = Photometry{}, py::arg("woven") = py::none(),
+            py::arg("mesh"), py::arg("world_from_object"), py::arg("instance_id"), py::arg("albedo"),
+            py::arg("photometry") = Photometry{}, py::arg("woven") = py::none(),
             "Add a labelled object: world_from_object (4, 4) affine, metres; instance_id 1..255 "
             "(unique); albedo (3,) linear RGB in [0, 1] (a woven surface's mean colour); woven: a "
             "WovenSurface (the mesh needs corner_uvs). Returns the instance index.")
@@ -312,8 +336,8 @@ void bind_scene(py::module_& m) {
                 auto o = float_rows(origins, "origins", 3);
                 auto d = float_rows(directions, "directions", 3);
                 if (o.shape(0) != d.shape(0))
-                    fail("directions", "must have as many rows as origins (" + std::to_string(o.shape(0)) +
-                                           "), got " + std::to_string(d.shape(0)));
+                    fail("directions", "must have as many rows as origins (" + std::to_string(o.shape(0)) + "), got " +
+                                           std::to_string(d.shape(0)));
                 const auto n = static_cast<size_t>(o.shape(0));
                 std::vector<RayHit> rays(n);
                 for (size_t i = 0; i < n; ++i) {
@@ -345,7 +369,8 @@ void bind_scene(py::module_& m) {
             },
             py::arg("origins"), py::arg("directions"),
             "Closest hits of rays (origins and directions (N, 3), metres, world; narrowed to float32 as Embree "
-            "traces them), watertight as the renderer's camera rays are: (t (N,) float64 in units of |direction|, inf on a miss; instance (N,) int64, -1 on a "
+            "traces them), watertight as the renderer's camera rays are: (t (N,) float64 in units of |direction|, inf "
+            "on a miss; instance (N,) int64, -1 on a "
             "miss; primitive (N,) int64, the triangle's index in its mesh, -1 on a miss). For checking the "
             "traversal itself; renders resolve hits in double on top of this.")
         .def_property_readonly("committed", &Scene::committed, "commit() has run since the last change")
@@ -355,27 +380,28 @@ void bind_scene(py::module_& m) {
                                "BVH builds so far: one per mesh plus one per commit.");
 
     py::class_<Camera>(m, "Camera", "Pinhole camera, OpenCV axes (x right, y down, z forward).")
-        .def(py::init([](double fx, double fy, double cx, double cy, int width, int height,
-                         const py::handle& R, const py::handle& t) {
-                 return Camera(Intrinsics{fx, fy, cx, cy, width, height}, matrix<3, 3>(R, "R"),
-                               vector<3>(t, "t"));
+        .def(py::init([](double fx, double fy, double cx, double cy, int width, int height, const py::handle& R,
+                         const py::handle& t) {
+                 return Camera(Intrinsics{fx, fy, cx, cy, width, height}, matrix<3, 3>(R, "R"), vector<3>(t, "t"));
              }),
-             py::arg("fx"), py::arg("fy"), py::arg("cx"), py::arg("cy"), py::arg("width"),
-             py::arg("height"), py::arg("R"), py::arg("t"),
+             py::arg("fx"), py::arg("fy"), py::arg("cx"), py::arg("cy"), py::arg("width"), py::arg("height"),
+             py::arg("R"), py::arg("t"),
              "Intrinsics in pixels; R (3, 3) and t (3,) metres map world to camera: "
              "x_cam = R x_world + t.")
         .def_property_readonly("width", &Camera::width, "pixels")
         .def_property_readonly("height", &Camera::height, "pixels")
-        .def_property_readonly("center", [](const Camera& c) {
-            const glm::dvec3 p = c.center();
-            return py::array_t<double>(3, &p.x);
-        }, "Camera centre in the world frame (3,), metres.")
+        .def_property_readonly(
+            "center",
+            [](const Camera& c) {
+                const glm::dvec3 p = c.center();
+                return py::array_t<double>(3, &p.x);
+            },
+            "Camera centre in the world frame (3,), metres.")
         .def(
             "project",
             [](const Camera& c, const py::handle& points) {
                 py::array a = as_array(points, "points");
-                if (a.ndim() != 2 || a.shape(1) != 3)
-                    fail("points", "must have shape (N, 3), got " + shape_of(a));
+                if (a.ndim() != 2 || a.shape(1) != 3) fail("points", "must have shape (N, 3), got " + shape_of(a));
                 auto p = converted<double>(a, "points");
                 py::array_t<double> out({p.shape(0), py::ssize_t(3)});
                 auto o = out.mutable_unchecked<2>();
@@ -401,16 +427,19 @@ void bind_scene(py::module_& m) {
              py::arg("angular_diameter_deg") = 0.0, py::arg("color") = py::make_tuple(1.0, 1.0, 1.0),
              "ValueError naming the field: elevation in [-90, 90], irradiance in [0, 1e7], angular diameter in "
              "[0, 10], each color channel in [0, 10].")
-        .def_property_readonly("direction", [](const DirectionalLight& s) {
-            const glm::dvec3 d = s.direction();
-            return py::array_t<double>(3, &d.x);
-        }, "Unit vector toward the light, world ENU, (3,) float64.")
+        .def_property_readonly(
+            "direction",
+            [](const DirectionalLight& s) {
+                const glm::dvec3 d = s.direction();
+                return py::array_t<double>(3, &d.x);
+            },
+            "Unit vector toward the light, world ENU, (3,) float64.")
         .def_property_readonly("azimuth_deg", &DirectionalLight::azimuth_deg, "clockwise from North, degrees")
         .def_property_readonly("elevation_deg", &DirectionalLight::elevation_deg, "above the horizon, degrees")
         .def_property_readonly("irradiance", &DirectionalLight::irradiance, "W/m^2")
-        .def_property_readonly("color", [](const DirectionalLight& s) {
-            return py::make_tuple(s.color().x, s.color().y, s.color().z);
-        }, "linear RGB tint")
+        .def_property_readonly(
+            "color", [](const DirectionalLight& s) { return py::make_tuple(s.color().x, s.color().y, s.color().z); },
+            "linear RGB tint")
         .def_property_readonly("angular_diameter_deg", &DirectionalLight::angular_diameter_deg);
 }
 

@@ -20,8 +20,9 @@ void bind_light_cache(py::module_& m);
 }  // namespace moonbot::bindings
 
 PYBIND11_MODULE(_core, m) {
-    m.doc() = "moonbot's C++ core: Embree scene, camera, lights, renderer, image I/O, lunar frames, DEM import, bag "
-              "fabric and stain, dust.";
+    m.doc() =
+        "moonbot's C++ core: Embree scene, camera, lights, renderer, image I/O, lunar frames, DEM import, bag "
+        "fabric and stain, dust.";
     py::register_exception_translator([](std::exception_ptr p) {
         try {
             if (p) std::rethrow_exception(p);

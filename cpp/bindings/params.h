@@ -23,14 +23,14 @@ public:
 
     /// A number, integer or nested parameter struct field.
     template <typename D>
-    ParamsClass& field(const char* name, D T::*member, const char* doc) {
+    ParamsClass& field(const char* name, D T::* member, const char* doc) {
         m_class.def_readwrite(name, member, doc);
         m_fields.emplace_back(name);
         return *this;
     }
 
     /// A glm::dvec3 field, read as a tuple of 3 floats and written from any length-3 array-like.
-    ParamsClass& vec3(const char* name, glm::dvec3 T::*member, const char* doc) {
+    ParamsClass& vec3(const char* name, glm::dvec3 T::* member, const char* doc) {
         const std::string field_name = name;
         m_class.def_property(
             name, [member](const T& t) { return py::make_tuple((t.*member).x, (t.*member).y, (t.*member).z); },
@@ -53,20 +53,19 @@ public:
     py::class_<T>& done() {
         const std::vector<std::string> fields = m_fields;
         const std::string name = m_name;
-        m_class.def(
-            py::init([fields, name](const py::kwargs& values) {
-                T value;
-                py::object self = py::cast(&value, py::return_value_policy::reference);
-                for (const auto& item : values) {
-                    const std::string key = py::str(item.first);
-                    if (std::find(fields.begin(), fields.end(), key) == fields.end())
-                        throw py::type_error(name + ": no field '" + key + "'");
-                    self.attr(key.c_str()) = item.second;
-                }
-                value.validate();  // std::invalid_argument → ValueError
-                return value;
-            }),
-            "The C++ defaults with the fields given set (by name), validated.");
+        m_class.def(py::init([fields, name](const py::kwargs& values) {
+                        T value;
+                        py::object self = py::cast(&value, py::return_value_policy::reference);
+                        for (const auto& item : values) {
+                            const std::string key = py::str(item.first);
+                            if (std::find(fields.begin(), fields.end(), key) == fields.end())
+                                throw py::type_error(name + ": no field '" + key + "'");
+                            self.attr(key.c_str()) = item.second;
+                        }
+                        value.validate();  // std::invalid_argument → ValueError
+                        return value;
+                    }),
+                    "The C++ defaults with the fields given set (by name), validated.");
         m_class.def("validate", &T::validate, "Raises ValueError naming the first field out of its range.");
         py::tuple names(fields.size());
         for (size_t i = 0; i < fields.size(); ++i) names[i] = py::str(fields[i]);

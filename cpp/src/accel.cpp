@@ -229,8 +229,7 @@ Accel::~Accel() {
     if (m_impl->top) rtcReleaseScene(m_impl->top);
 }
 
-uint32_t Accel::add_prototype(const float* vertices, size_t n_vertices, const uint32_t* triangles,
-                              size_t n_triangles) {
+uint32_t Accel::add_prototype(const float* vertices, size_t n_vertices, const uint32_t* triangles, size_t n_triangles) {
     RTCDevice device = m_impl->device;
     RTCScene scene = rtcNewScene(device);
     if (!scene) throw_device_error(device, "rtcNewScene");
@@ -243,10 +242,10 @@ uint32_t Accel::add_prototype(const float* vertices, size_t n_vertices, const ui
         rtcReleaseScene(scene);
         throw_device_error(device, "rtcNewGeometry");
     }
-    rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, vertices, 0,
-                               3 * sizeof(float), n_vertices);
-    rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, triangles, 0,
-                               3 * sizeof(uint32_t), n_triangles);
+    rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, vertices, 0, 3 * sizeof(float),
+                               n_vertices);
+    rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, triangles, 0, 3 * sizeof(uint32_t),
+                               n_triangles);
     rtcCommitGeometry(geom);
     rtcAttachGeometryByID(scene, geom, 0);
     rtcReleaseGeometry(geom);
@@ -309,8 +308,7 @@ void Accel::update_prototype(uint32_t prototype) {
 
 void Accel::commit() {
     rtcCommitScene(m_impl->top);
-    if (rtcGetDeviceError(m_impl->device) != RTC_ERROR_NONE)
-        throw_device_error(m_impl->device, "top-level build");
+    if (rtcGetDeviceError(m_impl->device) != RTC_ERROR_NONE) throw_device_error(m_impl->device, "top-level build");
     ++m_builds;
 }
 
@@ -325,8 +323,8 @@ void Accel::intersect(RayHit* rays, size_t n) const {
     }
     for (size_t begin = 0; begin < n; begin += kStream) {
         const size_t count = std::min(kStream, n - begin);
-        rtcIntersect1M(m_impl->top, &context, reinterpret_cast<RTCRayHit*>(rays + begin),
-                       static_cast<unsigned>(count), sizeof(RayHit));
+        rtcIntersect1M(m_impl->top, &context, reinterpret_cast<RTCRayHit*>(rays + begin), static_cast<unsigned>(count),
+                       sizeof(RayHit));
     }
 }
 
@@ -382,8 +380,7 @@ size_t Accel::intersect_watertight(RayHit* rays, size_t n, bool ground) const {
         RayHit& r = rays[again[k]];
         // A back face the ray met stands unless a front face comes no later: a ray through a
         // silhouette edge touches the back triangle there, and its tilted copies pass beside it.
-        const float limit = r.geom_id == kInvalidId ? std::numeric_limits<float>::infinity()
-                                                    : r.tfar * (1.0f + 1e-4f);
+        const float limit = r.geom_id == kInvalidId ? std::numeric_limits<float>::infinity() : r.tfar * (1.0f + 1e-4f);
         const RayHit* best = nullptr;
         for (int look = 0; look < kLooks; ++look) {
             const RayHit& t = tilted[k * kLooks + look];
@@ -409,8 +406,8 @@ void Accel::occluded(RayHit* rays, size_t n) const {
         const size_t count = std::min(kStream, n - begin);
         // RTCRay is the leading member of RTCRayHit, so the same buffer with the RayHit stride
         // is a valid ray stream.
-        rtcOccluded1M(m_impl->top, &context, reinterpret_cast<RTCRay*>(rays + begin),
-                      static_cast<unsigned>(count), sizeof(RayHit));
+        rtcOccluded1M(m_impl->top, &context, reinterpret_cast<RTCRay*>(rays + begin), static_cast<unsigned>(count),
+                      sizeof(RayHit));
     }
 }
 
@@ -427,8 +424,7 @@ void Accel::intersect_single(RayHit* rays, size_t n) const {
 void Accel::occluded_single(RayHit* rays, size_t n) const {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
-    for (size_t i = 0; i < n; ++i)
-        rtcOccluded1(m_impl->top, &context, reinterpret_cast<RTCRay*>(rays + i));
+    for (size_t i = 0; i < n; ++i) rtcOccluded1(m_impl->top, &context, reinterpret_cast<RTCRay*>(rays + i));
 }
 
 template <int W>

@@ -34,8 +34,7 @@ Camera::Camera(const Intrinsics& k, const glm::dmat3& R, const glm::dvec3& t) : 
     const glm::dmat3 should_be_identity = glm::transpose(R) * R;
     double worst = 0.0;
     for (int c = 0; c < 3; ++c)
-        for (int r = 0; r < 3; ++r)
-            worst = std::max(worst, std::abs(should_be_identity[c][r] - (c == r ? 1.0 : 0.0)));
+        for (int r = 0; r < 3; ++r) worst = std::max(worst, std::abs(should_be_identity[c][r] - (c == r ? 1.0 : 0.0)));
     require(worst < 1e-6, "R: must be orthonormal (|RᵀR − I| = " + std::to_string(worst) + ")");
     require(glm::determinant(R) > 0, "R: must be a rotation (det +1), not a reflection");
     m_cam_from_world = R;

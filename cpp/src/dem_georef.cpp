@@ -20,10 +20,10 @@ double deg(double r) { return r * (180.0 / kPi); }
 
 const char* kind_name(DemGeoref::Kind kind) {
     switch (kind) {
-    case DemGeoref::Kind::Geographic: return "geographic";
-    case DemGeoref::Kind::Equirectangular: return "equirectangular";
-    case DemGeoref::Kind::Orthographic: return "orthographic";
-    case DemGeoref::Kind::PolarStereographic: return "polar stereographic";
+        case DemGeoref::Kind::Geographic: return "geographic";
+        case DemGeoref::Kind::Equirectangular: return "equirectangular";
+        case DemGeoref::Kind::Orthographic: return "orthographic";
+        case DemGeoref::Kind::PolarStereographic: return "polar stereographic";
     }
     return "?";
 }
@@ -43,8 +43,7 @@ void DemGeoref::validate() const {
         finite(false_northing_m, "false_northing_m");
         if (!(origin_lat_deg >= -90.0 && origin_lat_deg <= 90.0))
             throw std::invalid_argument("origin_lat_deg: must be in [-90, 90]");
-        if (!(std::abs(std_parallel_deg) < 90.0))
-            throw std::invalid_argument("std_parallel_deg: must be in (-90, 90)");
+        if (!(std::abs(std_parallel_deg) < 90.0)) throw std::invalid_argument("std_parallel_deg: must be in (-90, 90)");
         if (!(std::isfinite(radius_m) && radius_m > 0)) throw std::invalid_argument("radius_m: must be positive");
         if (kind == Kind::PolarStereographic && std::abs(origin_lat_deg) != 90.0)
             throw std::invalid_argument("origin_lat_deg: a polar stereographic projection is about a pole (±90)");
@@ -59,28 +58,29 @@ glm::dvec2 DemGeoref::to_raster(double lat_deg, double lon_deg) const {
     const double nan = std::numeric_limits<double>::quiet_NaN();
     double X = 0.0, Y = 0.0;
     switch (kind) {
-    case Kind::Geographic:
-        X = lon;
-        Y = lat_deg;
-        break;
-    case Kind::Equirectangular:
-        X = false_easting_m + radius_m * dlam * std::cos(rad(std_parallel_deg));
-        Y = false_northing_m + radius_m * (phi - phi0);
-        break;
-    case Kind::Orthographic: {
-        const double cos_c = std::sin(phi0) * std::sin(phi) + std::cos(phi0) * std::cos(phi) * std::cos(dlam);
-        if (cos_c < 0) return {nan, nan};  // the far hemisphere is not in the picture
-        X = false_easting_m + radius_m * std::cos(phi) * std::sin(dlam);
-        Y = false_northing_m + radius_m * (std::cos(phi0) * std::sin(phi) - std::sin(phi0) * std::cos(phi) * std::cos(dlam));
-        break;
-    }
-    case Kind::PolarStereographic: {
-        const double s = origin_lat_deg > 0 ? 1.0 : -1.0;  // the pole's hemisphere
-        const double rho = 2.0 * radius_m * scale_k0 * std::tan(kPi / 4 - s * phi / 2);
-        X = false_easting_m + rho * std::sin(dlam);
-        Y = false_northing_m - s * rho * std::cos(dlam);
-        break;
-    }
+        case Kind::Geographic:
+            X = lon;
+            Y = lat_deg;
+            break;
+        case Kind::Equirectangular:
+            X = false_easting_m + radius_m * dlam * std::cos(rad(std_parallel_deg));
+            Y = false_northing_m + radius_m * (phi - phi0);
+            break;
+        case Kind::Orthographic: {
+            const double cos_c = std::sin(phi0) * std::sin(phi) + std::cos(phi0) * std::cos(phi) * std::cos(dlam);
+            if (cos_c < 0) return {nan, nan};  // the far hemisphere is not in the picture
+            X = false_easting_m + radius_m * std::cos(phi) * std::sin(dlam);
+            Y = false_northing_m +
+                radius_m * (std::cos(phi0) * std::sin(phi) - std::sin(phi0) * std::cos(phi) * std::cos(dlam));
+            break;
+        }
+        case Kind::PolarStereographic: {
+            const double s = origin_lat_deg > 0 ? 1.0 : -1.0;  // the pole's hemisphere
+            const double rho = 2.0 * radius_m * scale_k0 * std::tan(kPi / 4 - s * phi / 2);
+            X = false_easting_m + rho * std::sin(dlam);
+            Y = false_northing_m - s * rho * std::cos(dlam);
+            break;
+        }
     }
     return {(X - x0) / dx, (y0 - Y) / dy};
 }
@@ -89,25 +89,28 @@ glm::dvec2 DemGeoref::to_latlon(double u, double v) const {
     const double X = x0 + u * dx, Y = y0 - v * dy;
     const double x = X - false_easting_m, y = Y - false_northing_m, phi0 = rad(origin_lat_deg);
     switch (kind) {
-    case Kind::Geographic:
-        return {Y, X};
-    case Kind::Equirectangular:
-        return {origin_lat_deg + deg(y / radius_m), center_lon_deg + deg(x / (radius_m * std::cos(rad(std_parallel_deg))))};
-    case Kind::Orthographic: {
-        const double rho = std::hypot(x, y);
-        if (rho > radius_m) return {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
-        if (rho == 0) return {origin_lat_deg, center_lon_deg};
-        const double c = std::asin(rho / radius_m);
-        const double phi = std::asin(std::clamp(std::cos(c) * std::sin(phi0) + y * std::sin(c) * std::cos(phi0) / rho, -1.0, 1.0));
-        const double lam = std::atan2(x * std::sin(c), rho * std::cos(phi0) * std::cos(c) - y * std::sin(phi0) * std::sin(c));
-        return {deg(phi), center_lon_deg + deg(lam)};
-    }
-    case Kind::PolarStereographic: {
-        const double s = origin_lat_deg > 0 ? 1.0 : -1.0;
-        const double rho = std::hypot(x, y);
-        const double phi = s * (kPi / 2 - 2.0 * std::atan(rho / (2.0 * radius_m * scale_k0)));
-        return {deg(phi), center_lon_deg + deg(std::atan2(x, -s * y))};
-    }
+        case Kind::Geographic: return {Y, X};
+        case Kind::Equirectangular:
+            return {origin_lat_deg + deg(y / radius_m),
+                    center_lon_deg + deg(x / (radius_m * std::cos(rad(std_parallel_deg))))};
+        case Kind::Orthographic: {
+            const double rho = std::hypot(x, y);
+            if (rho > radius_m)
+                return {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+            if (rho == 0) return {origin_lat_deg, center_lon_deg};
+            const double c = std::asin(rho / radius_m);
+            const double phi =
+                std::asin(std::clamp(std::cos(c) * std::sin(phi0) + y * std::sin(c) * std::cos(phi0) / rho, -1.0, 1.0));
+            const double lam =
+                std::atan2(x * std::sin(c), rho * std::cos(phi0) * std::cos(c) - y * std::sin(phi0) * std::sin(c));
+            return {deg(phi), center_lon_deg + deg(lam)};
+        }
+        case Kind::PolarStereographic: {
+            const double s = origin_lat_deg > 0 ? 1.0 : -1.0;
+            const double rho = std::hypot(x, y);
+            const double phi = s * (kPi / 2 - 2.0 * std::atan(rho / (2.0 * radius_m * scale_k0)));
+            return {deg(phi), center_lon_deg + deg(std::atan2(x, -s * y))};
+        }
     }
     return {0.0, 0.0};  // unreachable: every kind returns above
 }

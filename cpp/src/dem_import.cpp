@@ -66,8 +66,7 @@ struct Window {
     /// Bilinear height at raster (u, v); false if (u, v) is outside this window's pixel centres.
     bool sample(const glm::dvec2& p, double& out) const {
         double u = p.x - x0, v = p.y - y0;
-        if (!(u >= -kEdgeSlack && u <= w - 1 + kEdgeSlack && v >= -kEdgeSlack && v <= h - 1 + kEdgeSlack))
-            return false;
+        if (!(u >= -kEdgeSlack && u <= w - 1 + kEdgeSlack && v >= -kEdgeSlack && v <= h - 1 + kEdgeSlack)) return false;
         u = std::clamp(u, 0.0, w - 1.0);
         v = std::clamp(v, 0.0, h - 1.0);
         // The last column/row interpolates from the cell before it with weight 1 on its own side.
@@ -83,8 +82,8 @@ struct Window {
 enum class NodeStatus { Ok, Outside, NoConvergence };
 
 /// The height of node (e, n); every raster point it sampled is added to `box`.
-NodeStatus node_height(const LunarFrame& frame, const DemGeoref& g, const Window& win, double e, double n,
-                       double h0, bool curvature, double& up, Box& box) {
+NodeStatus node_height(const LunarFrame& frame, const DemGeoref& g, const Window& win, double e, double n, double h0,
+                       bool curvature, double& up, Box& box) {
     if (!curvature) {
         // The radial through the tangent-plane point (e, n, 0): the ground directly below the node.
         const glm::dvec3 llh = frame.to_geodetic({e, n, 0.0});
@@ -120,7 +119,8 @@ NodeStatus node_height(const LunarFrame& frame, const DemGeoref& g, const Window
 void require_inside(const DemRaster& dem, const Box& need, const DemCrop& crop) {
     const DemGeoref& g = dem.georef();
     const double W = dem.width() - 1.0, H = dem.height() - 1.0;
-    const double uc = std::clamp((need.umin + need.umax) / 2, 0.0, W), vc = std::clamp((need.vmin + need.vmax) / 2, 0.0, H);
+    const double uc = std::clamp((need.umin + need.umax) / 2, 0.0, W),
+                 vc = std::clamp((need.vmin + need.vmax) / 2, 0.0, H);
     std::string sides;
     auto side = [&](const std::string& s) { sides += (sides.empty() ? "" : "; ") + s; };
     if (need.umin < -kEdgeSlack)
@@ -169,8 +169,8 @@ LocalDemGrid import_dem(const DemRaster& dem, const DemCrop& crop) {
     // The 1e-9 keeps an exact multiple (size 200, spacing 0.1) from losing a node to rounding.
     const double half_nodes = std::floor(crop.size_m / (2 * spacing) + 1e-9);
     if (half_nodes < 1)
-        throw std::invalid_argument("size_m: " + fmt(crop.size_m) + " m is less than 2 × spacing_m (" +
-                                    fmt(spacing) + " m)");
+        throw std::invalid_argument("size_m: " + fmt(crop.size_m) + " m is less than 2 × spacing_m (" + fmt(spacing) +
+                                    " m)");
     if (2 * half_nodes + 1 > kMaxGridSide)
         throw std::invalid_argument("spacing_m: " + fmt(crop.size_m) + " m at " + fmt(spacing) + " m spacing needs " +
                                     fmt(2 * half_nodes + 1) + " nodes a side; at most " + std::to_string(kMaxGridSide));
@@ -185,7 +185,8 @@ LocalDemGrid import_dem(const DemRaster& dem, const DemCrop& crop) {
         const glm::dvec3 c = flat.to_geodetic({0, 0, 0});
         need.add(g.to_raster(c.x, c.y));
         for (int k = -half; k <= half; ++k)
-            for (const glm::dvec2 en : {glm::dvec2(k, -half), glm::dvec2(k, half), glm::dvec2(-half, k), glm::dvec2(half, k)}) {
+            for (const glm::dvec2 en :
+                 {glm::dvec2(k, -half), glm::dvec2(k, half), glm::dvec2(-half, k), glm::dvec2(half, k)}) {
                 const glm::dvec3 llh = flat.to_geodetic({en.x * spacing, en.y * spacing, 0.0});
                 need.add(g.to_raster(llh.x, llh.y));
             }
@@ -211,8 +212,8 @@ LocalDemGrid import_dem(const DemRaster& dem, const DemCrop& crop) {
         win.w = std::min(dem.width(), core[2] + kFillMargin) - win.x0;
         win.h = std::min(dem.height(), core[3] + kFillMargin) - win.y0;
         if (static_cast<int64_t>(win.w) * win.h > kMaxWindowPixels)
-            throw std::invalid_argument("size_m: the crop covers " + std::to_string(win.w) + "×" + std::to_string(win.h) +
-                                        " source pixels of " + dem.name() + "; at most " +
+            throw std::invalid_argument("size_m: the crop covers " + std::to_string(win.w) + "×" +
+                                        std::to_string(win.h) + " source pixels of " + dem.name() + "; at most " +
                                         std::to_string(kMaxWindowPixels) + " are read at once");
         win.z = dem.read(win.x0, win.y0, win.x0 + win.w, win.y0 + win.h);
         std::vector<uint8_t> was_void(win.z.size());

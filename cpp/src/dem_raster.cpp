@@ -129,7 +129,8 @@ OIIO::ImageSpec open_png_spec(const std::string& path) {
         throw IoError(path + ": " + std::to_string(spec.width) + "×" + std::to_string(spec.height) +
                       " pixels; a DEM needs at least 2×2 to interpolate");
     if (spec.format.basetype != OIIO::TypeDesc::UINT16)
-        throw IoError(path + ": " + std::string(spec.format.basetype == OIIO::TypeDesc::UINT8 ? "uint8" : spec.format.c_str()) +
+        throw IoError(path + ": " +
+                      std::string(spec.format.basetype == OIIO::TypeDesc::UINT8 ? "uint8" : spec.format.c_str()) +
                       " samples; a PNG heightmap must be 16-bit grey");
     return spec;
 }
@@ -232,9 +233,8 @@ DemRaster DemRaster::from_heights(std::string name, int width, int height, std::
 
 std::vector<double> DemRaster::read(int x0, int y0, int x1, int y1) const {
     if (!(0 <= x0 && x0 < x1 && x1 <= m_width && 0 <= y0 && y0 < y1 && y1 <= m_height))
-        throw std::invalid_argument(m_name + ": window [" + std::to_string(x0) + ", " + std::to_string(x1) +
-                                    ") × [" + std::to_string(y0) + ", " + std::to_string(y1) +
-                                    ") is empty or leaves the raster");
+        throw std::invalid_argument(m_name + ": window [" + std::to_string(x0) + ", " + std::to_string(x1) + ") × [" +
+                                    std::to_string(y0) + ", " + std::to_string(y1) + ") is empty or leaves the raster");
     std::vector<double> z = m_source->read_raw(x0, y0, x1, y1);
     std::optional<double> marker = m_nodata;
     if (marker && m_source->float32) marker = static_cast<double>(static_cast<float>(*marker));

@@ -6,10 +6,10 @@
 #include <stdexcept>
 #include <string>
 
-#include <glm/gtc/quaternion.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
+#include <glm/gtc/quaternion.hpp>
 
 #include "moonbot/render.h"  // kMaxThreads
 #include "moonbot/rng.h"
@@ -247,17 +247,19 @@ FragmentMesh fragment_mesh(const std::vector<Fragment>& fragments, uint64_t seed
     static const glm::dvec3 ico[12] = {{-1, phi, 0}, {1, phi, 0}, {-1, -phi, 0}, {1, -phi, 0},
                                        {0, -1, phi}, {0, 1, phi}, {0, -1, -phi}, {0, 1, -phi},
                                        {phi, 0, -1}, {phi, 0, 1}, {-phi, 0, -1}, {-phi, 0, 1}};
-    static const uint32_t faces[kFragmentTriangles][3] = {
-        {0, 11, 5}, {0, 5, 1}, {0, 1, 7}, {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-        {11, 10, 2}, {10, 7, 6}, {7, 1, 8}, {3, 9, 4}, {3, 4, 2}, {3, 2, 6}, {3, 6, 8},
-        {3, 8, 9}, {4, 9, 5}, {2, 4, 11}, {6, 2, 10}, {8, 6, 7}, {9, 8, 1}};
+    static const uint32_t faces[kFragmentTriangles][3] = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
+                                                          {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                                                          {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
+                                                          {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
     const double ico_radius = std::sqrt(1.0 + phi * phi);
     const uint64_t stream = pixel_stream(seed, 0xE7EC7A0000000001ull);  // shapes: their own stream
     FragmentMesh mesh;
     mesh.vertices.reserve(fragments.size() * kFragmentVertices * 3);
     mesh.triangles.reserve(fragments.size() * kFragmentTriangles * 3);
     for (const Fragment& f : fragments) {
-        auto u = [&](uint32_t dim) { return static_cast<double>(stream_uniform01(stream, f.index, f.burst * 32u + dim)); };
+        auto u = [&](uint32_t dim) {
+            return static_cast<double>(stream_uniform01(stream, f.index, f.burst * 32u + dim));
+        };
         // A uniform random orientation (Shoemake 1992, from three uniforms) ...
         const double u1 = u(0), a1 = 2 * kPi * u(1), a2 = 2 * kPi * u(2);
         const glm::dquat q0(std::sqrt(u1) * std::cos(a2), std::sqrt(1 - u1) * std::sin(a1),
@@ -296,7 +298,8 @@ void EjectaParams::validate() const {
 
 void CloudParams::validate() const {
     require(std::isfinite(origin.x) && std::isfinite(origin.y) && std::isfinite(origin.z), "origin", "must be finite");
-    for (int c = 0; c < 3; ++c) require(box_m[c] >= 0.0 && box_m[c] <= 1000.0, "box_m", "each side must be in [0, 1000]");
+    for (int c = 0; c < 3; ++c)
+        require(box_m[c] >= 0.0 && box_m[c] <= 1000.0, "box_m", "each side must be in [0, 1000]");
     require(std::abs(vertical_offset_m) <= 1000.0, "vertical_offset_m", "must be in [-1000, 1000]");
     require(std::isfinite(glm::length(axis)) && glm::length(axis) > 0.0, "axis", "must be finite and non-zero");
     require(cone_half_angle_deg >= 0.0 && cone_half_angle_deg <= 180.0, "cone_half_angle_deg", "must be in [0, 180]");
@@ -338,8 +341,8 @@ std::vector<Puff> cloud_puffs(const CloudParams& p, uint64_t seed, double time_s
         const double c = 1.0 - u(3) * (1.0 - cos_max), s = std::sqrt(std::max(0.0, 1.0 - c * c));
         const double phi = 2 * kPi * u(4);
         const glm::dvec3 velocity = p.speed_m_s * (c * w + s * (std::cos(phi) * a + std::sin(phi) * b));
-        const double opacity = life < p.rise_fraction ? life / p.rise_fraction
-                                                      : std::pow((1.0 - life) / (1.0 - p.rise_fraction), 2.0);
+        const double opacity =
+            life < p.rise_fraction ? life / p.rise_fraction : std::pow((1.0 - life) / (1.0 - p.rise_fraction), 2.0);
         Puff puff;
         puff.centre = start + velocity * age + 0.5 * g * (age * age);
         puff.sigma_m = p.sigma_m + p.growth_m_s * age;
@@ -350,8 +353,8 @@ std::vector<Puff> cloud_puffs(const CloudParams& p, uint64_t seed, double time_s
     return puffs;
 }
 
-std::vector<Fragment> simulate_ejecta(const Scene& scene, const EjectaParams& params, uint64_t seed,
-                                      double time_s, double dt_s, int threads) {
+std::vector<Fragment> simulate_ejecta(const Scene& scene, const EjectaParams& params, uint64_t seed, double time_s,
+                                      double dt_s, int threads) {
     params.validate();
     require(std::isfinite(time_s) && time_s >= 0.0, "time_s", "must be finite and >= 0");
     require(dt_s > 0.0 && dt_s <= kMaxDustStep, "dt_s", "must be in (0, " + std::to_string(kMaxDustStep) + "]");

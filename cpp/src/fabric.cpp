@@ -54,8 +54,7 @@ double tape_lobe(const glm::dvec3& wi, const glm::dvec3& wo, double ax, double a
     return tape_lobe2(wi, wo, ax * ax, ay * ay);
 }
 
-double cloth_sheen(const FabricParams& params, const FabricSample& sample, const glm::dvec3& wi,
-                   const glm::dvec3& wo) {
+double cloth_sheen(const FabricParams& params, const FabricSample& sample, const glm::dvec3& wi, const glm::dvec3& wo) {
     const double along2 = params.sheen_along * params.sheen_along, across2 = params.sheen_across * params.sheen_across;
     // α² = 2σ² relates a Beckmann lobe to its per-axis slope variance σ² (Walter et al. 2007); we
     // widen the GGX lobe by the same amount.

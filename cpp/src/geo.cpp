@@ -11,15 +11,12 @@ namespace moonbot {
 struct LunarFrame::Impl {
     GeographicLib::Geocentric body;
     GeographicLib::LocalCartesian local;
-    Impl(double radius, double lat0, double lon0, double h0)
-        : body(radius, 0.0), local(lat0, lon0, h0, body) {}
+    Impl(double radius, double lat0, double lon0, double h0) : body(radius, 0.0), local(lat0, lon0, h0, body) {}
 };
 
-LunarFrame::LunarFrame(double lat0_deg, double lon0_deg, double h0, double radius)
-    : m_radius(radius) {
+LunarFrame::LunarFrame(double lat0_deg, double lon0_deg, double h0, double radius) : m_radius(radius) {
     if (!(std::isfinite(radius) && radius > 0)) throw std::invalid_argument("radius: must be > 0");
-    if (!(lat0_deg >= -90.0 && lat0_deg <= 90.0))
-        throw std::invalid_argument("lat0_deg: must be in [-90, 90] degrees");
+    if (!(lat0_deg >= -90.0 && lat0_deg <= 90.0)) throw std::invalid_argument("lat0_deg: must be in [-90, 90] degrees");
     if (!std::isfinite(lon0_deg)) throw std::invalid_argument("lon0_deg: must be finite");
     if (!(std::isfinite(h0) && h0 > -radius))
         throw std::invalid_argument("h0: must be finite and above the body's centre (metres)");
@@ -31,8 +28,7 @@ LunarFrame::LunarFrame(LunarFrame&&) noexcept = default;
 LunarFrame& LunarFrame::operator=(LunarFrame&&) noexcept = default;
 
 glm::dvec3 LunarFrame::to_enu(double lat_deg, double lon_deg, double h) const {
-    if (!(lat_deg >= -90.0 && lat_deg <= 90.0))
-        throw std::invalid_argument("lat_deg: must be in [-90, 90] degrees");
+    if (!(lat_deg >= -90.0 && lat_deg <= 90.0)) throw std::invalid_argument("lat_deg: must be in [-90, 90] degrees");
     if (!std::isfinite(lon_deg)) throw std::invalid_argument("lon_deg: must be finite");
     if (!std::isfinite(h)) throw std::invalid_argument("h: must be finite (metres)");
     glm::dvec3 enu;

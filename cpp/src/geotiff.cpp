@@ -37,12 +37,11 @@ std::string fmt(double v, int digits = 6) {
 }
 
 // GeoKey ids (GeoTIFF 1.0 §6.2) and the codes this reader accepts.
-constexpr int kGTModelType = 1024, kGTRasterType = 1025, kGeogAngularUnits = 2054,
-              kGeogSemiMajorAxis = 2057, kGeogSemiMinorAxis = 2058, kGeogInvFlattening = 2059,
-              kProjectedCSType = 3072, kProjCoordTrans = 3075, kProjLinearUnits = 3076,
-              kProjStdParallel1 = 3078, kProjNatOriginLong = 3080, kProjNatOriginLat = 3081,
-              kProjFalseEasting = 3082, kProjFalseNorthing = 3083, kProjCenterLong = 3088,
-              kProjCenterLat = 3089, kProjScaleAtNatOrigin = 3092, kProjStraightVertPoleLong = 3095;
+constexpr int kGTModelType = 1024, kGTRasterType = 1025, kGeogAngularUnits = 2054, kGeogSemiMajorAxis = 2057,
+              kGeogSemiMinorAxis = 2058, kGeogInvFlattening = 2059, kProjectedCSType = 3072, kProjCoordTrans = 3075,
+              kProjLinearUnits = 3076, kProjStdParallel1 = 3078, kProjNatOriginLong = 3080, kProjNatOriginLat = 3081,
+              kProjFalseEasting = 3082, kProjFalseNorthing = 3083, kProjCenterLong = 3088, kProjCenterLat = 3089,
+              kProjScaleAtNatOrigin = 3092, kProjStraightVertPoleLong = 3095;
 constexpr int kModelProjected = 1, kModelGeographic = 2;
 constexpr int kRasterPixelIsArea = 1, kRasterPixelIsPoint = 2;
 constexpr int kUserDefined = 32767, kCTEquirectangular = 17, kCTOrthographic = 21, kCTPolarStereographic = 15,
@@ -51,11 +50,9 @@ constexpr int kUserDefined = 32767, kCTEquirectangular = 17, kCTOrthographic = 2
 /// The numeric GeoKeys of a GeoKeyDirectory, each key's first value (SHORT inline or DOUBLE
 /// from GeoDoubleParams); ASCII keys (citations) are skipped.
 std::map<int, double> read_geokeys(const tiff::Directory& dir, const std::string& path) {
-    if (!dir.has(kTagGeoKeyDirectory))
-        throw IoError(path + ": no GeoKeyDirectory tag (34735); not a GeoTIFF?");
+    if (!dir.has(kTagGeoKeyDirectory)) throw IoError(path + ": no GeoKeyDirectory tag (34735); not a GeoTIFF?");
     const std::vector<double> keys = dir.numbers(kTagGeoKeyDirectory, "GeoKeyDirectory (34735)");
-    if (keys.size() < 4 || keys[0] != 1.0)
-        throw IoError(path + ": GeoKeyDirectory (34735) has no version-1 header");
+    if (keys.size() < 4 || keys[0] != 1.0) throw IoError(path + ": GeoKeyDirectory (34735) has no version-1 header");
     const size_t n = static_cast<size_t>(keys[3]);
     if (keys.size() < 4 + 4 * n)
         throw IoError(path + ": GeoKeyDirectory (34735) lists " + std::to_string(n) + " keys but holds " +
@@ -73,8 +70,7 @@ std::map<int, double> read_geokeys(const tiff::Directory& dir, const std::string
             out.emplace(id, static_cast<double>(value));
         } else if (location == kTagGeoDoubleParams) {
             if (value + count > doubles.size())
-                throw IoError(path + ": GeoKey " + std::to_string(id) +
-                              " points past GeoDoubleParams (34736)");
+                throw IoError(path + ": GeoKey " + std::to_string(id) + " points past GeoDoubleParams (34736)");
             out.emplace(id, doubles[value]);
         } else if (location == kTagGeoKeyDirectory) {
             if (value >= keys.size())
@@ -150,8 +146,9 @@ DemGeoref geotiff_georef(const tiff::Directory& dir, int width) {
     const std::string& path = dir.path();
     if (!dir.has(kTagModelPixelScale)) {
         if (dir.has(kTagModelTransformation))
-            throw IoError(path + ": georeferenced by ModelTransformation (34264), which is not supported; "
-                                 "need ModelPixelScale (33550) + ModelTiepoint (33922)");
+            throw IoError(path +
+                          ": georeferenced by ModelTransformation (34264), which is not supported; "
+                          "need ModelPixelScale (33550) + ModelTiepoint (33922)");
         throw IoError(path + ": no ModelPixelScale tag (33550); not a GeoTIFF?");
     }
     if (!dir.has(kTagModelTiepoint)) throw IoError(path + ": no ModelTiepoint tag (33922); not a GeoTIFF?");
@@ -175,8 +172,8 @@ DemGeoref geotiff_georef(const tiff::Directory& dir, int width) {
     };
     auto require_code = [&](int id, const char* name, int want, const char* meaning) {
         if (auto v = key(id); v && *v != want)
-            throw IoError(path + ": " + name + " (" + std::to_string(id) + ") = " + fmt(*v) +
-                          "; only " + std::to_string(want) + " (" + meaning + ") is supported");
+            throw IoError(path + ": " + name + " (" + std::to_string(id) + ") = " + fmt(*v) + "; only " +
+                          std::to_string(want) + " (" + meaning + ") is supported");
     };
 
     // PixelIsArea (the default): raster point (0, 0) is the outer corner of the first pixel, so
@@ -218,8 +215,9 @@ DemGeoref geotiff_georef(const tiff::Directory& dir, int width) {
                 throw IoError(path + ": GeogSemiMajorAxisGeoKey (2057) = " + fmt(*a) + "; must be positive");
             g.radius_m = *a;
             if (auto b = key(kGeogSemiMinorAxis); b && *b != *a)
-                throw IoError(path + ": GeogSemiMinorAxisGeoKey (2058) differs from the semi-major axis; "
-                                     "only a sphere is supported");
+                throw IoError(path +
+                              ": GeogSemiMinorAxisGeoKey (2058) differs from the semi-major axis; "
+                              "only a sphere is supported");
         }
         if (auto f = key(kGeogInvFlattening); f && *f != 0.0)
             throw IoError(path + ": GeogInvFlatteningGeoKey (2059) = " + fmt(*f) + "; only a sphere is supported");
@@ -258,7 +256,6 @@ DemGeoref geotiff_georef(const tiff::Directory& dir, int width) {
     }
     return g;
 }
-
 
 GdalHeightTransform gdal_height_transform(const tiff::Directory& dir) {
     GdalHeightTransform t;

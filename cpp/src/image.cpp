@@ -10,9 +10,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <limits>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <thread>
 
@@ -129,14 +129,12 @@ size_t tonemap_reinhard_srgb8(const float* rgb, size_t n_pixels, double exposure
     return invalid.load();
 }
 
-void write_image(const std::string& path, const void* pixels, int width, int height,
-                 int channels, PixelType type, int png_compression,
-                 const std::vector<ImageAttribute>& attributes) {
+void write_image(const std::string& path, const void* pixels, int width, int height, int channels, PixelType type,
+                 int png_compression, const std::vector<ImageAttribute>& attributes) {
     namespace fs = std::filesystem;
     if (width < 1 || height < 1 || channels < 1 || channels > 4)
         throw std::invalid_argument("image: bad shape for " + path);
-    if (png_compression < 0 || png_compression > 9)
-        throw std::invalid_argument("png_compression: must be in 0..9");
+    if (png_compression < 0 || png_compression > 9) throw std::invalid_argument("png_compression: must be in 0..9");
     for (const auto& a : attributes)
         if (a.name.empty()) throw std::invalid_argument("attributes: names must not be empty");
     require_supported_format(path);
@@ -147,9 +145,8 @@ void write_image(const std::string& path, const void* pixels, int width, int hei
     // OIIO picks the format from the extension, so the temporary keeps it; process and thread in
     // its name keep concurrent writers (threads of one worker, several workers) apart.
     const size_t thread = std::hash<std::thread::id>{}(std::this_thread::get_id());
-    const fs::path tmp = dir / ("." + target.stem().string() + "." + std::to_string(::getpid()) +
-                                "-" + std::to_string(thread % 1000000007u) + ".tmp" +
-                                target.extension().string());
+    const fs::path tmp = dir / ("." + target.stem().string() + "." + std::to_string(::getpid()) + "-" +
+                                std::to_string(thread % 1000000007u) + ".tmp" + target.extension().string());
 
     OIIO::TypeDesc format = type == PixelType::U8    ? OIIO::TypeDesc::UINT8
                             : type == PixelType::U16 ? OIIO::TypeDesc::UINT16
@@ -166,10 +163,8 @@ void write_image(const std::string& path, const void* pixels, int width, int hei
     if (target.extension() == ".exr") spec.attribute("compression", "zip:" + std::to_string(png_compression));
     spec.attribute("oiio:ColorSpace", type == PixelType::F32 ? "Linear" : "sRGB");
     for (const auto& a : attributes) {
-        if (const auto* text = std::get_if<std::string>(&a.value))
-            spec.attribute(a.name, *text);
-        else
-            spec.attribute(a.name, std::get<float>(a.value));
+        if (const auto* text = std::get_if<std::string>(&a.value)) spec.attribute(a.name, *text);
+        else spec.attribute(a.name, std::get<float>(a.value));
     }
     bool ok = output->open(tmp.string(), spec) && output->write_image(format, pixels) && output->close();
     if (!ok) {

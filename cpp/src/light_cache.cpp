@@ -109,7 +109,6 @@ struct Lattice {
     Nodes nodes;
 };
 
-
 /// Instance `inst`'s lattice of spacing `h` over `mesh`: its world bounds and which vertices
 /// are fine enough to read it.
 std::unique_ptr<Lattice> make_lattice(const InstanceData& inst, const Mesh& mesh, double h, int rays) {
@@ -168,25 +167,26 @@ void LightCacheSettings::validate() const {
         throw std::invalid_argument("rays_objects: must be in 1.." + std::to_string(kMaxGatherRays) + ", got " +
                                     std::to_string(rays_objects));
     if (rays_background < 1 || rays_background > kMaxGatherRays)
-        throw std::invalid_argument("rays_background: must be in 1.." + std::to_string(kMaxGatherRays) +
-                                    ", got " + std::to_string(rays_background));
+        throw std::invalid_argument("rays_background: must be in 1.." + std::to_string(kMaxGatherRays) + ", got " +
+                                    std::to_string(rays_background));
     if (!(background_cell_m >= 0.0) || !std::isfinite(background_cell_m))
         throw std::invalid_argument("background_cell_m: must be finite and >= 0, got " +
                                     std::to_string(background_cell_m));
     if (!(object_cell_m >= 0.0) || !std::isfinite(object_cell_m))
-        throw std::invalid_argument("object_cell_m: must be finite and >= 0, got " +
-                                    std::to_string(object_cell_m));
+        throw std::invalid_argument("object_cell_m: must be finite and >= 0, got " + std::to_string(object_cell_m));
     if (threads < 0 || threads > kMaxThreads)
-        throw std::invalid_argument("threads: must be in 0.." + std::to_string(kMaxThreads) +
-                                    " (0 = all), got " + std::to_string(threads));
+        throw std::invalid_argument("threads: must be in 0.." + std::to_string(kMaxThreads) + " (0 = all), got " +
+                                    std::to_string(threads));
 }
 
 LightCache::LightCache(const Scene& scene, const Lights& lights, const LightCacheSettings& settings)
-    : m_scene(scene), m_lights(lights), m_settings(settings), m_revision(scene.static_revision()),
+    : m_scene(scene),
+      m_lights(lights),
+      m_settings(settings),
+      m_revision(scene.static_revision()),
       m_impl(std::make_unique<Impl>()) {
     settings.validate();
-    if (!scene.committed())
-        throw std::invalid_argument("scene: not committed (call commit() after adding geometry)");
+    if (!scene.committed()) throw std::invalid_argument("scene: not committed (call commit() after adding geometry)");
     Impl& m = *m_impl;
     m.instances = instance_table(scene);
     // The cache outlives renders that add instances (a dust task's ejecta, after it is built), which
@@ -319,7 +319,8 @@ IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instan
                 if (!p.alive || glm::dot(p.normal, light.dir) <= 0.0) continue;
                 glm::dvec3 to_light = light.dir;
                 if (!light.point) {
-                    to_light = light.toward(sample_pair(stream, static_cast<uint32_t>(k), pair + 1 + static_cast<uint32_t>(l)));
+                    to_light = light.toward(
+                        sample_pair(stream, static_cast<uint32_t>(k), pair + 1 + static_cast<uint32_t>(l)));
                     if (glm::dot(p.normal, to_light) <= 0.0) continue;  // below the facet's horizon
                 }
                 set_ray(shadow[shadows], p.lifted, to_light);
@@ -334,8 +335,8 @@ IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instan
                 const size_t k = static_cast<size_t>(shadow_of[j]);
                 const GatherPath& p = paths[k];
                 const double mu_i = glm::dot(p.normal, light.dir);
-                const double shape = shape_at(instances[p.instance], mu_i, glm::dot(p.normal, p.wo),
-                                              glm::dot(light.dir, p.wo));
+                const double shape =
+                    shape_at(instances[p.instance], mu_i, glm::dot(p.normal, p.wo), glm::dot(light.dir, p.wo));
                 radiance[k] += (p.albedo * (light.scale * mu_i)) * shape * light.color * p.throughput;
             }
         }
@@ -410,8 +411,7 @@ IndirectLight LightCache::vertex(uint32_t instance, uint32_t vertex) const {
         const int rays = labelled ? m_settings.rays_objects : m_settings.rays_background;
         const uint64_t stream =
             pixel_stream(m_settings.seed ^ kCacheStreamSalt, (static_cast<uint64_t>(instance) << 32) | vertex);
-        value = gather(m_scene.accel(), m.instances, m.lights, point, normal, stream, rays, m_settings.bounces,
-                       counts);
+        value = gather(m_scene.accel(), m.instances, m.lights, point, normal, stream, rays, m_settings.bounces, counts);
     }
     state = kEmpty;
     if (block->state[j].compare_exchange_strong(state, kFilling, std::memory_order_acq_rel)) {
@@ -497,8 +497,8 @@ std::optional<IndirectLight> LightCache::lattice_node(uint32_t instance, int64_t
     FillCounts counts;
     const uint64_t stream =
         pixel_stream(m_settings.seed ^ kNodeStreamSalt, mix64(key) ^ (static_cast<uint64_t>(instance) << 32));
-    slot->second = gather(m_scene.accel(), m.instances, m.lights, point, normal, stream, lattice.rays,
-                          m_settings.bounces, counts);
+    slot->second =
+        gather(m_scene.accel(), m.instances, m.lights, point, normal, stream, lattice.rays, m_settings.bounces, counts);
     m.gather_rays.fetch_add(counts.gather_rays, std::memory_order_relaxed);
     m.shadow_rays.fetch_add(counts.shadow_rays, std::memory_order_relaxed);
     return slot->second;

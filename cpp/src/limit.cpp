@@ -85,8 +85,7 @@ double timer_overhead() {
 /// Seconds spent inside `trace`, tile by tile from a per-thread copy, summed per thread; the
 /// busiest thread's sum, median over the repeats.
 template <typename T, typename Trace>
-double embree_seconds(tbb::task_arena& arena, const Tiled<T>& pristine, int repeats,
-                      double overhead, Trace trace) {
+double embree_seconds(tbb::task_arena& arena, const Tiled<T>& pristine, int repeats, double overhead, Trace trace) {
     std::vector<double> seconds;
     tbb::enumerable_thread_specific<std::vector<T>> scratch;
     for (int r = 0; r < repeats; ++r) {
@@ -115,8 +114,7 @@ double embree_seconds(tbb::task_arena& arena, const Tiled<T>& pristine, int repe
 
 /// Wall seconds of tracing every tile in place over the whole image's rays, median over repeats.
 template <typename Trace>
-double wall_seconds_from_memory(tbb::task_arena& arena, const Tiled<RayHit>& pristine, int repeats,
-                                Trace trace) {
+double wall_seconds_from_memory(tbb::task_arena& arena, const Tiled<RayHit>& pristine, int repeats, Trace trace) {
     std::vector<double> seconds;
     std::vector<RayHit> work;
     for (int r = 0; r < repeats; ++r) {
@@ -145,9 +143,9 @@ bool hit_normal(const InstanceData* instances, const RayHit& ray, const glm::dve
 /// normal on the arriving side, from the lifted hit point, its two uniforms keyed by the pixel and
 /// `generation`. Into `out` (their directions into `out_dirs`, their pixels into `out_pixel`);
 /// returns their number.
-int bounce_rays(const InstanceData* instances, const RayHit* from, const glm::dvec3* origins,
-                const glm::dvec3* dirs, const uint64_t* pixel_of, int n, uint32_t generation,
-                RayHit* out, glm::dvec3* out_origins, glm::dvec3* out_dirs, uint64_t* out_pixel) {
+int bounce_rays(const InstanceData* instances, const RayHit* from, const glm::dvec3* origins, const glm::dvec3* dirs,
+                const uint64_t* pixel_of, int n, uint32_t generation, RayHit* out, glm::dvec3* out_origins,
+                glm::dvec3* out_dirs, uint64_t* out_pixel) {
     int count = 0;
     for (int k = 0; k < n; ++k) {
         const RayHit& ray = from[k];
@@ -185,16 +183,15 @@ int sun_rays(const InstanceData* instances, const RayHit* traced, const glm::dve
 
 }  // namespace
 
-EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const DirectionalLight& sun,
-                                 int threads, int repeats, int bounces) {
+EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const DirectionalLight& sun, int threads,
+                                 int repeats, int bounces) {
     if (repeats < 1) throw std::invalid_argument("repeats: must be >= 1");
     if (bounces < 0 || bounces > kMaxBounces)
         throw std::invalid_argument("bounces: must be in 0.." + std::to_string(kMaxBounces));
     if (threads < 0 || threads > kMaxThreads)
         throw std::invalid_argument("threads: must be in 0.." + std::to_string(kMaxThreads) + " (0 = all)");
     const Scene::ReadLock lock(scene);
-    if (!scene.committed())
-        throw std::invalid_argument("scene: not committed (call commit() after adding geometry)");
+    if (!scene.committed()) throw std::invalid_argument("scene: not committed (call commit() after adding geometry)");
     if (scene.instance_count() == 0) throw std::invalid_argument("scene: has no instances");
 
     // The camera rays of the renderer's centre pass, tile by tile, and the shadow rays of their
@@ -233,8 +230,8 @@ EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const
             hits.resolve(instances.data(), camera.center(), dirs.data(), traced.data(), n, x1 - x0, true);
             int n_shadow = 0;
             if (sun.irradiance() > 0.0)
-                n_shadow = hits.shadow_rays(camera.center(), dirs.data(), sun.direction(),
-                                            shadow.data(), shadow_of.data());
+                n_shadow =
+                    hits.shadow_rays(camera.center(), dirs.data(), sun.direction(), shadow.data(), shadow_of.data());
             const auto us = static_cast<size_t>(n_shadow);
             shadow_rays.items.insert(shadow_rays.items.end(), shadow.begin(), shadow.begin() + n_shadow);
             shadow_rays.end_tile(us);
@@ -250,7 +247,8 @@ EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const
                 gen[i] = traced[i];
                 gen_origin[i] = camera.center();
                 gen_dir[i] = dirs[i];
-                gen_pixel[i] = static_cast<uint64_t>(y0 + i / (x1 - x0)) * w + static_cast<uint64_t>(x0 + i % (x1 - x0));
+                gen_pixel[i] =
+                    static_cast<uint64_t>(y0 + i / (x1 - x0)) * w + static_cast<uint64_t>(x0 + i % (x1 - x0));
             }
             for (int g = 0; g < bounces; ++g) {
                 const int made = bounce_rays(instances.data(), gen.data(), gen_origin.data(), gen_dir.data(),
@@ -260,10 +258,9 @@ EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const
                 out.items.insert(out.items.end(), next.begin(), next.begin() + made);
                 out.end_tile(static_cast<size_t>(made));
                 if (made > 0) scene.accel().intersect(next.data(), static_cast<size_t>(made));
-                const int lit = sun.irradiance() > 0.0
-                                    ? sun_rays(instances.data(), next.data(), next_origin.data(), next_dir.data(),
-                                               made, sun.direction(), shadow.data())
-                                    : 0;
+                const int lit = sun.irradiance() > 0.0 ? sun_rays(instances.data(), next.data(), next_origin.data(),
+                                                                  next_dir.data(), made, sun.direction(), shadow.data())
+                                                       : 0;
                 Tiled<RayHit>& to_sun = bounce_shadow[static_cast<size_t>(g)];
                 to_sun.items.insert(to_sun.items.end(), shadow.begin(), shadow.begin() + lit);
                 to_sun.end_tile(static_cast<size_t>(lit));
@@ -294,27 +291,29 @@ EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const
     };
     std::tie(limit.intersect_single_s, limit.intersect_packet8_s, limit.intersect_packet16_s,
              limit.intersect_stream_s) =
-        four_ways(camera_rays, camera_8, camera_16, [&](RayHit* r, size_t n) { accel.intersect_single(r, n); },
-                  [&](auto* p, size_t n) { accel.intersect_packets(p, n); },
-                  [&](RayHit* r, size_t n) { accel.intersect(r, n); });
+        four_ways(
+            camera_rays, camera_8, camera_16, [&](RayHit* r, size_t n) { accel.intersect_single(r, n); },
+            [&](auto* p, size_t n) { accel.intersect_packets(p, n); },
+            [&](RayHit* r, size_t n) { accel.intersect(r, n); });
     std::tie(limit.occluded_single_s, limit.occluded_packet8_s, limit.occluded_packet16_s, limit.occluded_stream_s) =
-        four_ways(shadow_rays, shadow_8, shadow_16, [&](RayHit* r, size_t n) { accel.occluded_single(r, n); },
-                  [&](auto* p, size_t n) { accel.occluded_packets(p, n); },
-                  [&](RayHit* r, size_t n) { accel.occluded(r, n); });
+        four_ways(
+            shadow_rays, shadow_8, shadow_16, [&](RayHit* r, size_t n) { accel.occluded_single(r, n); },
+            [&](auto* p, size_t n) { accel.occluded_packets(p, n); },
+            [&](RayHit* r, size_t n) { accel.occluded(r, n); });
     for (size_t g = 0; g < bounce.size(); ++g) {
         limit.bounce_rays.push_back(bounce[g].items.size());
-        limit.bounce_stream_s.push_back(embree_seconds(arena, bounce[g], repeats, overhead,
-            [&](RayHit* r, size_t n) { accel.intersect(r, n); }));
+        limit.bounce_stream_s.push_back(
+            embree_seconds(arena, bounce[g], repeats, overhead, [&](RayHit* r, size_t n) { accel.intersect(r, n); }));
         limit.bounce_single_s.push_back(embree_seconds(arena, bounce[g], repeats, overhead,
-            [&](RayHit* r, size_t n) { accel.intersect_single(r, n); }));
+                                                       [&](RayHit* r, size_t n) { accel.intersect_single(r, n); }));
         limit.bounce_shadow_rays.push_back(bounce_shadow[g].items.size());
         limit.bounce_shadow_stream_s.push_back(embree_seconds(arena, bounce_shadow[g], repeats, overhead,
-            [&](RayHit* r, size_t n) { accel.occluded(r, n); }));
+                                                              [&](RayHit* r, size_t n) { accel.occluded(r, n); }));
     }
-    limit.intersect_stream_from_memory_s = wall_seconds_from_memory(arena, camera_rays, repeats,
-        [&](RayHit* r, size_t n) { accel.intersect(r, n); });
-    limit.occluded_stream_from_memory_s = wall_seconds_from_memory(arena, shadow_rays, repeats,
-        [&](RayHit* r, size_t n) { accel.occluded(r, n); });
+    limit.intersect_stream_from_memory_s =
+        wall_seconds_from_memory(arena, camera_rays, repeats, [&](RayHit* r, size_t n) { accel.intersect(r, n); });
+    limit.occluded_stream_from_memory_s =
+        wall_seconds_from_memory(arena, shadow_rays, repeats, [&](RayHit* r, size_t n) { accel.occluded(r, n); });
     return limit;
 }
 

@@ -34,8 +34,8 @@ double optical_depth(const Puff& puff, const glm::dvec3& origin, const glm::dvec
     const double q2 = std::max(0.0, glm::dot(p, p) - b * b);
     const double s = puff.sigma_m * std::sqrt(2.0);
     const double upper = std::isinf(t_max) ? INFINITY : (t_max + b) / s;
-    return puff.peak_extinction * std::exp(-q2 / (2.0 * puff.sigma_m * puff.sigma_m)) * puff.sigma_m *
-           kSqrtHalfPi * erf_span(b / s, upper);
+    return puff.peak_extinction * std::exp(-q2 / (2.0 * puff.sigma_m * puff.sigma_m)) * puff.sigma_m * kSqrtHalfPi *
+           erf_span(b / s, upper);
 }
 
 double henyey_greenstein(double cos_theta, double g) {
@@ -354,8 +354,8 @@ double DustGrid::march(const glm::dvec3& origin, const glm::dvec3& dir, double e
     return depth;
 }
 
-void DustGrid::march_profile(const glm::dvec3& origin, const glm::dvec3& dir, double enter, double exit,
-                             double step, double opaque, std::vector<double>& tau, std::vector<double>& lit) const {
+void DustGrid::march_profile(const glm::dvec3& origin, const glm::dvec3& dir, double enter, double exit, double step,
+                             double opaque, std::vector<double>& tau, std::vector<double>& lit) const {
     const auto count = static_cast<size_t>(std::max(0.0, std::ceil((exit - enter) / step)));
     tau.assign(count + 1, 0.0);
     lit.assign(count + 1, 0.0);

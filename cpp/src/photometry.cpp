@@ -26,8 +26,8 @@ void check(const std::string& field, double value, double scale = 1.0) {
     const ParamRange& r = photometry_range(field);
     const ParamRange stored{r.field, r.lo * scale, r.hi * scale, r.lo_open, r.hi_open};
     if (stored.contains(value)) return;
-    throw std::invalid_argument(field + ": must be in " + (r.lo_open ? "(" : "[") + number(r.lo) + ", " +
-                                number(r.hi) + (r.hi_open ? ")" : "]") + ", got " + number(value / scale));
+    throw std::invalid_argument(field + ": must be in " + (r.lo_open ? "(" : "[") + number(r.lo) + ", " + number(r.hi) +
+                                (r.hi_open ? ")" : "]") + ", got " + number(value / scale));
 }
 
 }  // namespace

@@ -14,9 +14,9 @@
 
 #include "moonbot/accel.h"
 #include "moonbot/camera.h"
+#include "moonbot/light.h"
 #include "moonbot/sampler.h"
 #include "moonbot/scene.h"
-#include "moonbot/light.h"
 #include "orthonormal_basis.h"
 
 namespace moonbot::detail {
@@ -158,12 +158,19 @@ inline std::vector<InstanceData> instance_table(const Scene& scene) {
     for (size_t i = 0; i < table.size(); ++i) {
         const Instance& inst = scene.instance(static_cast<uint32_t>(i));
         const Mesh& mesh = scene.mesh(inst.mesh);
-        table[i] = {inst.normal_to_world, inst.linear,          inst.translation,
-                    glm::dvec3(inst.material.albedo), mesh.triangles.data(), mesh.vertices.data(),
-                    inst.label, inst.material.photometry,
+        table[i] = {inst.normal_to_world,
+                    inst.linear,
+                    inst.translation,
+                    glm::dvec3(inst.material.albedo),
+                    mesh.triangles.data(),
+                    mesh.vertices.data(),
+                    inst.label,
+                    inst.material.photometry,
                     mesh.corner_uvs.empty() ? nullptr : mesh.corner_uvs.data(),
-                    inst.material.woven ? &*inst.material.woven : nullptr, inst.stain,
-                    mesh.vertex_albedo.empty() ? nullptr : mesh.vertex_albedo.data(), mesh.vertex_albedo_channels,
+                    inst.material.woven ? &*inst.material.woven : nullptr,
+                    inst.stain,
+                    mesh.vertex_albedo.empty() ? nullptr : mesh.vertex_albedo.data(),
+                    mesh.vertex_albedo_channels,
                     mesh.vertex_normals.empty() ? nullptr : mesh.vertex_normals.data(),
                     inst.material.grain.get()};
     }
@@ -232,8 +239,7 @@ inline void set_ray(RayHit& r, const glm::dvec3& o, const glm::dvec3& d) {
 /// The pixel-centre camera rays of the tile [x0, x1) × [y0, y1) (at most kTile × kTile pixels),
 /// row by row: directions into `dirs`, Embree rays into `rays`; returns their number. The
 /// renderer's centre pass and the Embree-limit probe both make their rays here.
-inline int centre_rays(const Camera& camera, int x0, int y0, int x1, int y1, glm::dvec3* dirs,
-                       RayHit* rays) {
+inline int centre_rays(const Camera& camera, int x0, int y0, int x1, int y1, glm::dvec3* dirs, RayHit* rays) {
     glm::dvec3 x_parts[kTile];
     for (int x = x0; x < x1; ++x) x_parts[x - x0] = camera.x_part(x + 0.5);
     const glm::dvec3 forward = camera.forward();
@@ -290,8 +296,8 @@ public:
     /// carries an error proportional to the scene's coordinates; with `exact`, the hit distance is
     /// re-solved in double against the triangle's plane, spanned in double by its world vertices
     /// (Embree's own float normal differs in its last bit between kernels with and without FMA).
-    void resolve(const InstanceData* instances, const glm::dvec3& origin, const glm::dvec3* dirs,
-                 const RayHit* rays, int n, int row, bool exact) {
+    void resolve(const InstanceData* instances, const glm::dvec3& origin, const glm::dvec3* dirs, const RayHit* rays,
+                 int n, int row, bool exact) {
         m_n = n;
         m_used = 0;
         int last = -1;  // record of the previous hit: the likeliest match
@@ -304,12 +310,9 @@ public:
             // share a triangle, one of the two nearly always is it.
             const PixelHit* above = i >= row ? &m_pixels[i - row] : nullptr;
             int k;
-            if (last >= 0 && same(m_records[last], ray))
-                k = last;
-            else if (above && above->hit && same(m_records[above->record], ray))
-                k = above->record;
-            else
-                k = add(instances, origin, ray, exact);
+            if (last >= 0 && same(m_records[last], ray)) k = last;
+            else if (above && above->hit && same(m_records[above->record], ray)) k = above->record;
+            else k = add(instances, origin, ray, exact);
             last = k;
             p.record = static_cast<uint8_t>(k);
             const TriangleRecord& tri = m_records[k];
@@ -330,8 +333,7 @@ public:
     /// The shadow ray toward the Sun (unit `to_sun`) from every hit whose surface faces it, offset
     /// along the normal facing the camera ray; ray k belongs to pixel of[k]. Returns their number.
     /// Sets each hit's `side`.
-    int shadow_rays(const glm::dvec3& origin, const glm::dvec3* dirs, const glm::dvec3& to_sun,
-                    RayHit* rays, int* of) {
+    int shadow_rays(const glm::dvec3& origin, const glm::dvec3* dirs, const glm::dvec3& to_sun, RayHit* rays, int* of) {
         int count = 0;
         for (int i = 0; i < m_n; ++i) {
             PixelHit& p = m_pixels[i];

@@ -17,8 +17,7 @@ constexpr double kGainCut = 0.01;
 constexpr int kMaxOctaves = 16;
 // Odd multipliers spreading the three lattice coordinates over the 64-bit key before the mixer
 // (the first is SplitMix's golden-ratio increment; the others any large odd constants).
-constexpr uint64_t kSpreadX = 0x9E3779B97F4A7C15ull, kSpreadY = 0xC2B2AE3D27D4EB4Full,
-                   kSpreadZ = 0x165667B19E3779F9ull;
+constexpr uint64_t kSpreadX = 0x9E3779B97F4A7C15ull, kSpreadY = 0xC2B2AE3D27D4EB4Full, kSpreadZ = 0x165667B19E3779F9ull;
 constexpr uint64_t kGrainDomain = 0x67726169'6E2D7265ull;  // separates these lattices from other uses of a seed
 
 void require(bool ok, const char* field, const std::string& what) {
@@ -32,9 +31,7 @@ int octave_count(const GrainParams& p) {
 }
 
 /// A uniform value on [−1, 1] from 24 bits: the bit patterns' midpoints, a set symmetric about 0.
-inline double signed_unit(uint32_t bits) {
-    return (static_cast<double>(bits >> 8) + 0.5) * (1.0 / 8388608.0) - 1.0;
-}
+inline double signed_unit(uint32_t bits) { return (static_cast<double>(bits >> 8) + 0.5) * (1.0 / 8388608.0) - 1.0; }
 
 /// A rotation by `angle` radians about the unit `axis` (Rodrigues).
 glm::dmat3 rotation(const glm::dvec3& axis, double angle) {
@@ -75,7 +72,8 @@ RegolithGrain::RegolithGrain(const GrainParams& params) : m_params(params) {
     const double albedo_amplitude = params.albedo_rms / std::sqrt(n * kValueNoiseVariance);
     // Σ_k (c_k^H / c_k)²: each octave's slope variance per unit S², before kValueNoiseSlopeVariance.
     double slope_sum = 0.0;
-    for (int k = 0; k < n; ++k) slope_sum += std::pow(params.finest_cell_m * std::ldexp(1.0, k), 2.0 * params.hurst - 2.0);
+    for (int k = 0; k < n; ++k)
+        slope_sum += std::pow(params.finest_cell_m * std::ldexp(1.0, k), 2.0 * params.hurst - 2.0);
     const double height_scale =
         std::tan(params.slope_rms_deg * kPi / 180.0) / std::sqrt(kValueNoiseSlopeVariance * slope_sum);
     const uint64_t base = mix64(params.seed ^ kGrainDomain);
@@ -117,8 +115,8 @@ GrainSample RegolithGrain::eval(const glm::dvec3& p, double footprint_m) const {
         // Corner values: albedo lattice a[c], relief lattice h[c], c = bits (x, y, z).
         double a[8], h[8];
         for (int c = 0; c < 8; ++c) {
-            const uint64_t key = o.key + (ix + (c & 1)) * kSpreadX + (iy + ((c >> 1) & 1)) * kSpreadY +
-                                 (iz + ((c >> 2) & 1)) * kSpreadZ;
+            const uint64_t key =
+                o.key + (ix + (c & 1)) * kSpreadX + (iy + ((c >> 1) & 1)) * kSpreadY + (iz + ((c >> 2) & 1)) * kSpreadZ;
             const uint64_t bits = mix64(key);
             a[c] = signed_unit(static_cast<uint32_t>(bits >> 32));
             h[c] = signed_unit(static_cast<uint32_t>(bits));
@@ -133,7 +131,8 @@ GrainSample RegolithGrain::eval(const glm::dvec3& p, double footprint_m) const {
             const double h01 = lerp(h[4], h[5], s.x), h11 = lerp(h[6], h[7], s.x);
             const double hy0 = lerp(h00, h10, s.y), hy1 = lerp(h01, h11, s.y);
             // Partial derivatives in lattice units.
-            const double dx = ds.x * lerp(lerp(h[1] - h[0], h[3] - h[2], s.y), lerp(h[5] - h[4], h[7] - h[6], s.y), s.z);
+            const double dx =
+                ds.x * lerp(lerp(h[1] - h[0], h[3] - h[2], s.y), lerp(h[5] - h[4], h[7] - h[6], s.y), s.z);
             const double dy = ds.y * lerp(h10 - h00, h11 - h01, s.z);
             const double dz = ds.z * (hy1 - hy0);
             gradient += (w * o.height_amplitude) * (o.to_world * glm::dvec3(dx, dy, dz));

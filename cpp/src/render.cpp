@@ -149,24 +149,33 @@ struct AdaptiveFrame {
         double luminance;       // of its direct light, W/(m²·sr)
     };
     std::vector<glm::dvec3> sum, direct_sum;  // over the base samples (spp >= 2): radiance, and its direct part
-    std::vector<uint8_t> disagree;            // spp >= 2: bit 0 SampleAgreement::disagree, bit 1 its Sun rays partly escape
-    std::vector<CentreSample> centre;         // spp 1 only
-    std::vector<double> dust_through;         // with dust only: the pixel's transmittance ...
-    std::vector<glm::dvec3> dust_glow;        // ... and glow (TileScratch), applied after refining
+    std::vector<uint8_t> disagree;  // spp >= 2: bit 0 SampleAgreement::disagree, bit 1 its Sun rays partly escape
+    std::vector<CentreSample> centre;  // spp 1 only
+    std::vector<double> dust_through;  // with dust only: the pixel's transmittance ...
+    std::vector<glm::dvec3> dust_glow;  // ... and glow (TileScratch), applied after refining
 
     AdaptiveFrame(size_t pixels, bool centre_only, bool dust)
-        : sum(centre_only ? 0 : pixels), direct_sum(centre_only ? 0 : pixels), disagree(centre_only ? 0 : pixels),
-          centre(centre_only ? pixels : 0), dust_through(dust ? pixels : 0), dust_glow(dust ? pixels : 0) {}
+        : sum(centre_only ? 0 : pixels),
+          direct_sum(centre_only ? 0 : pixels),
+          disagree(centre_only ? 0 : pixels),
+          centre(centre_only ? pixels : 0),
+          dust_through(dust ? pixels : 0),
+          dust_glow(dust ? pixels : 0) {}
 };
 
 class TileRenderer {
 public:
-    TileRenderer(const Scene& scene, const Camera& camera, const Lights& lights,
-                 const RenderSettings& settings, const FrameView& out, const DustGrid* medium,
-                 const LightCache* light_cache, AdaptiveFrame* adaptive)
-        : m_scene(scene), m_camera(camera), m_settings(settings), m_out(out),
-          m_instances(instance_table(scene)), m_lights(light_table(lights)), m_medium(medium),
-          m_light_cache(light_cache), m_adaptive(adaptive) {
+    TileRenderer(const Scene& scene, const Camera& camera, const Lights& lights, const RenderSettings& settings,
+                 const FrameView& out, const DustGrid* medium, const LightCache* light_cache, AdaptiveFrame* adaptive)
+        : m_scene(scene),
+          m_camera(camera),
+          m_settings(settings),
+          m_out(out),
+          m_instances(instance_table(scene)),
+          m_lights(light_table(lights)),
+          m_medium(medium),
+          m_light_cache(light_cache),
+          m_adaptive(adaptive) {
         for (const LightData& l : m_lights) m_random = m_random || !l.point;
         m_random = m_random || settings.bounces > 0;
         // Light 0 is the Sun unless the Sun is dark (light_table leaves dark lights out).
@@ -317,9 +326,9 @@ public:
         for (int j = 0; j < count; ++j) {
             const int i = s.refined[j];
             const size_t k = index(x0 + i % tw, y0 + i / tw);
-            glm::dvec3 radiance = whole ? extra[j] / double(total)
-                                        : (a.sum[k] - a.direct_sum[k]) / double(base) +
-                                              (a.direct_sum[k] + extra[j]) / double(total);
+            glm::dvec3 radiance =
+                whole ? extra[j] / double(total)
+                      : (a.sum[k] - a.direct_sum[k]) / double(base) + (a.direct_sum[k] + extra[j]) / double(total);
             if (m_medium) radiance = radiance * a.dust_through[k] + a.dust_glow[k];
             for (int c = 0; c < 3; ++c) m_out.rgb[3 * k + c] = static_cast<float>(radiance[c]);
         }
@@ -350,16 +359,14 @@ private:
         // Depth and masks are ground truth: no camera ray may slip through a shared vertex.
         stats.second_look_rays += m_scene.accel().intersect_watertight(s.rays.data(), n, m_scene.has_background());
         stats.camera_rays += n;
-        s.hits.resolve(m_instances.data(), origin, s.dirs.data(), s.rays.data(), n, tw,
-                       m_settings.exact_depth);
+        s.hits.resolve(m_instances.data(), origin, s.dirs.data(), s.rays.data(), n, tw, m_settings.exact_depth);
     }
 
     /// The radiance of the n resolved camera hits for one sample: the lights at the hit (also
     /// kept apart in `direct` when adaptive_spp > 0), then, with `indirect`, the indirect light
     /// (add_indirect). `refining`: a refinement sample past spp ≥ 2 base samples, which casts
     /// TileScratch::sun_rays Sun-disk rays per pixel (light_vertices).
-    void shade(int n, TileScratch& s, RenderStats& stats, uint32_t sample, bool indirect,
-               bool refining = false) const {
+    void shade(int n, TileScratch& s, RenderStats& stats, uint32_t sample, bool indirect, bool refining = false) const {
         std::fill_n(s.radiance.begin(), n, glm::dvec3(0.0));
         if (m_settings.adaptive_spp > 0) {
             // Where no light shines (or not the Sun), nothing below writes them.
@@ -619,9 +626,8 @@ private:
     /// samples only): the Sun's rays per vertex, R_i ≤ `samples`, at points
     /// spp·samples + (sample − spp)·R_i + k of its sequence, past the base samples' (with R_i =
     /// `samples` the points sample·R_i + k as above).
-    void light_vertices(int n, TileScratch& s, RenderStats& stats, uint32_t sample, int samples,
-                        uint32_t pair, const double* sun_dust, bool camera_hits,
-                        const int* sun_rays = nullptr) const {
+    void light_vertices(int n, TileScratch& s, RenderStats& stats, uint32_t sample, int samples, uint32_t pair,
+                        const double* sun_dust, bool camera_hits, const int* sun_rays = nullptr) const {
         const auto base = static_cast<uint32_t>(m_settings.spp);
         for (size_t l = 0; l < m_lights.size(); ++l) {
             const LightData& light = m_lights[l];
@@ -640,8 +646,8 @@ private:
                     if (!light.point) {
                         // Consecutive points of the light's sequence: stratified over all the pixel's rays to it.
                         const auto rays = static_cast<uint32_t>(rays_of(i));
-                        const uint32_t point = per_pixel ? base * static_cast<uint32_t>(samples) + (sample - base) * rays +
-                                                               static_cast<uint32_t>(k)
+                        const uint32_t point = per_pixel ? base * static_cast<uint32_t>(samples) +
+                                                               (sample - base) * rays + static_cast<uint32_t>(k)
                                                          : sample * rays + static_cast<uint32_t>(k);
                         to_light = light.toward(sample_pair(s.streams[i], point, pair + static_cast<uint32_t>(l)));
                         if (glm::dot(v.normal, to_light) <= 0.0) continue;  // below the facet's horizon
@@ -677,9 +683,10 @@ private:
                 const double dust = sun_dust && &light == m_sun ? sun_dust[i] : 1.0;
                 if (v.sheen > 0.0) {
                     // The cloth's (1 − s)·albedo/π·shape + s·f_sheen.
-                    const glm::dvec3 brdf = (1.0 - v.sheen) * v.albedo * shape + glm::dvec3(v.sheen * sheen_weight(v, light.dir));
-                    s.radiance[i] += (brdf * (light.scale * mu_i)) *
-                                     ((double(s.visible[i]) / rays_of(i)) * dust) * light.color * v.throughput;
+                    const glm::dvec3 brdf =
+                        (1.0 - v.sheen) * v.albedo * shape + glm::dvec3(v.sheen * sheen_weight(v, light.dir));
+                    s.radiance[i] += (brdf * (light.scale * mu_i)) * ((double(s.visible[i]) / rays_of(i)) * dust) *
+                                     light.color * v.throughput;
                     continue;
                 }
                 s.radiance[i] += (v.albedo * (light.scale * mu_i)) *
@@ -762,14 +769,13 @@ private:
             // lobe this broad needs no sampling of its own).
             if (v.sheen > 0.0)
                 v.throughput *= (1.0 - v.sheen) * v.albedo * shape + glm::dvec3(v.sheen * sheen_weight(v, wi));
-            else
-                v.throughput *= v.albedo * shape;
+            else v.throughput *= v.albedo * shape;
             if (!(mu_i > 0.0) || v.throughput == glm::dvec3(0.0)) {
                 v.alive = false;
                 continue;
             }
             v.point = v.lifted;  // the ray's origin, in double
-            v.wo = wi;           // the ray's direction until it hits
+            v.wo = wi;  // the ray's direction until it hits
             set_ray(s.rays[count], v.point, wi);
             s.shadow_of[count++] = i;
         }
@@ -812,10 +818,10 @@ private:
     const FrameView& m_out;
     const std::vector<InstanceData> m_instances;
     const std::vector<LightData> m_lights;
-    const DustGrid* m_medium;           // null: no dust, and none of its code runs
-    const LightCache* m_light_cache;    // null: every path bounces
-    AdaptiveFrame* m_adaptive;          // null: adaptive anti-aliasing is off (or no rgb)
-    const LightData* m_sun = nullptr;   // the Sun's entry in m_lights, if it shines
+    const DustGrid* m_medium;  // null: no dust, and none of its code runs
+    const LightCache* m_light_cache;  // null: every path bounces
+    AdaptiveFrame* m_adaptive;  // null: adaptive anti-aliasing is off (or no rgb)
+    const LightData* m_sun = nullptr;  // the Sun's entry in m_lights, if it shines
     bool m_random = false;  // some shading draws random numbers (disk samples, bounces)
 };
 
@@ -834,20 +840,19 @@ void RenderSettings::validate() const {
         throw std::invalid_argument("bounces: must be in 0.." + std::to_string(kMaxBounces) + ", got " +
                                     std::to_string(bounces));
     if (spp < 1 || spp > kMaxSpp)
-        throw std::invalid_argument("spp: must be in 1.." + std::to_string(kMaxSpp) + ", got " +
-                                    std::to_string(spp));
+        throw std::invalid_argument("spp: must be in 1.." + std::to_string(kMaxSpp) + ", got " + std::to_string(spp));
     if (adaptive_spp != 0) {
         if (adaptive_spp <= spp || adaptive_spp > kMaxSpp)
             throw std::invalid_argument("adaptive_spp: must be 0 (off) or in spp + 1.." + std::to_string(kMaxSpp) +
-                                        " = " + std::to_string(spp + 1) + ".." + std::to_string(kMaxSpp) +
-                                        ", got " + std::to_string(adaptive_spp));
+                                        " = " + std::to_string(spp + 1) + ".." + std::to_string(kMaxSpp) + ", got " +
+                                        std::to_string(adaptive_spp));
     }
     if (!(adaptive_threshold >= 0.0) || !std::isfinite(adaptive_threshold))
         throw std::invalid_argument("adaptive_threshold: must be a finite number >= 0, got " +
                                     std::to_string(adaptive_threshold));
     if (threads < 0 || threads > kMaxThreads)
-        throw std::invalid_argument("threads: must be in 0.." + std::to_string(kMaxThreads) +
-                                    " (0 = all), got " + std::to_string(threads));
+        throw std::invalid_argument("threads: must be in 0.." + std::to_string(kMaxThreads) + " (0 = all), got " +
+                                    std::to_string(threads));
 }
 
 RenderStats render_geometry(const Scene& scene, const Camera& camera, const RenderSettings& settings,
@@ -862,8 +867,8 @@ RenderStats render_geometry(const Scene& scene, const Camera& camera, const Rend
 namespace {
 
 bool same_light(const DirectionalLight& a, const DirectionalLight& b) {
-    return a.direction() == b.direction() && a.irradiance() == b.irradiance() &&
-           a.half_angle() == b.half_angle() && a.color() == b.color();
+    return a.direction() == b.direction() && a.irradiance() == b.irradiance() && a.half_angle() == b.half_angle() &&
+           a.color() == b.color();
 }
 
 /// Throws std::invalid_argument unless `cache` was built for this scene as it is, these lights
@@ -883,13 +888,11 @@ void check_light_cache(const LightCache& cache, const Scene& scene, const Lights
 
 }  // namespace
 
-RenderStats render(const Scene& scene, const Camera& camera, const Lights& lights,
-                   const RenderSettings& settings, const FrameView& out, const Medium* medium,
-                   const LightCache* light_cache) {
+RenderStats render(const Scene& scene, const Camera& camera, const Lights& lights, const RenderSettings& settings,
+                   const FrameView& out, const Medium* medium, const LightCache* light_cache) {
     settings.validate();
     const Scene::ReadLock lock(scene);  // before the checks, so they stay true during the render
-    if (!scene.committed())
-        throw std::invalid_argument("scene: not committed (call commit() after adding geometry)");
+    if (!scene.committed()) throw std::invalid_argument("scene: not committed (call commit() after adding geometry)");
     if (scene.instance_count() == 0) throw std::invalid_argument("scene: has no instances");
     if (light_cache) check_light_cache(*light_cache, scene, lights, settings.bounces);
 
@@ -904,7 +907,8 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
         arena.execute([&] { dust.emplace(*medium, scene, lights.sun.direction()); });
     // Adaptive anti-aliasing (rgb only): a second pass refines.
     std::optional<AdaptiveFrame> adaptive;
-    if (settings.adaptive_spp > 0 && out.rgb) adaptive.emplace(static_cast<size_t>(w) * h, settings.spp == 1, dust.has_value());
+    if (settings.adaptive_spp > 0 && out.rgb)
+        adaptive.emplace(static_cast<size_t>(w) * h, settings.spp == 1, dust.has_value());
     const TileRenderer tiles(scene, camera, lights, settings, out, dust ? &*dust : nullptr, light_cache,
                              adaptive ? &*adaptive : nullptr);
     std::atomic<uint64_t> camera_rays{0}, second_look_rays{0}, shadow_rays{0}, bounce_shadow_rays{0}, bounce_rays{0},
@@ -917,10 +921,8 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
             for (int t = range.begin(); t != range.end(); ++t) {
                 const int x0 = (t % tiles_x) * kTile, y0 = (t / tiles_x) * kTile;
                 const int x1 = std::min(x0 + kTile, w), y1 = std::min(y0 + kTile, h);
-                if (refining)
-                    tiles.refine_tile(x0, y0, x1, y1, scratch, local);
-                else
-                    tiles.render_tile(x0, y0, x1, y1, scratch, local);
+                if (refining) tiles.refine_tile(x0, y0, x1, y1, scratch, local);
+                else tiles.render_tile(x0, y0, x1, y1, scratch, local);
             }
             camera_rays += local.camera_rays;
             second_look_rays += local.second_look_rays;
@@ -954,8 +956,8 @@ Frame render_frame(const Scene& scene, const Camera& camera, const DirectionalLi
     return render_frame(scene, camera, Lights{sun, std::nullopt}, settings);
 }
 
-Frame render_frame(const Scene& scene, const Camera& camera, const Lights& lights,
-                   const RenderSettings& settings, const Medium* medium, const LightCache* light_cache) {
+Frame render_frame(const Scene& scene, const Camera& camera, const Lights& lights, const RenderSettings& settings,
+                   const Medium* medium, const LightCache* light_cache) {
     Frame f;
     f.width = camera.width();
     f.height = camera.height();
@@ -963,8 +965,8 @@ Frame render_frame(const Scene& scene, const Camera& camera, const Lights& light
     f.rgb.assign(3 * n, 0.0f);
     f.depth.assign(n, 0.0f);
     f.instance.assign(n, 0);
-    f.stats = render(scene, camera, lights, settings, {f.rgb.data(), f.depth.data(), f.instance.data()}, medium,
-                     light_cache);
+    f.stats =
+        render(scene, camera, lights, settings, {f.rgb.data(), f.depth.data(), f.instance.data()}, medium, light_cache);
     return f;
 }
 

@@ -12,8 +12,7 @@ namespace {
 void check_material(const Material& m) {
     for (int c = 0; c < 3; ++c)
         if (!(m.albedo[c] >= 0.0f && m.albedo[c] <= 1.0f))
-            throw std::invalid_argument("albedo: each channel must be in [0, 1], got " +
-                                        std::to_string(m.albedo[c]));
+            throw std::invalid_argument("albedo: each channel must be in [0, 1], got " + std::to_string(m.albedo[c]));
     m.photometry.validate();
     if (m.woven) m.woven->validate();
 }
@@ -40,8 +39,7 @@ constexpr double kMaxTransformEntry = 1e9;
 void check_transform(const glm::dmat4& t) {
     for (int c = 0; c < 4; ++c)
         for (int r = 0; r < 4; ++r) {
-            if (!std::isfinite(t[c][r]))
-                throw std::invalid_argument("world_from_object: must be finite");
+            if (!std::isfinite(t[c][r])) throw std::invalid_argument("world_from_object: must be finite");
             if (std::abs(t[c][r]) > kMaxTransformEntry)
                 throw std::invalid_argument("world_from_object: entries must be at most 1e9 in magnitude");
         }
@@ -49,8 +47,7 @@ void check_transform(const glm::dmat4& t) {
     if (t[0][3] != 0.0 || t[1][3] != 0.0 || t[2][3] != 0.0 || t[3][3] != 1.0)
         throw std::invalid_argument("world_from_object: bottom row must be [0, 0, 0, 1]");
     const double det = glm::determinant(glm::dmat3(t));
-    if (!(std::abs(det) > 1e-12))
-        throw std::invalid_argument("world_from_object: linear part is singular");
+    if (!(std::abs(det) > 1e-12)) throw std::invalid_argument("world_from_object: linear part is singular");
 }
 
 }  // namespace
@@ -58,26 +55,24 @@ void check_transform(const glm::dmat4& t) {
 Scene::Scene(Isa isa, bool watertight) : m_accel(isa, watertight) {}
 
 void Scene::require_not_rendering() const {
-    if (m_readers.load() > 0)
-        throw std::logic_error("scene: cannot be modified while a render is using it");
+    if (m_readers.load() > 0) throw std::logic_error("scene: cannot be modified while a render is using it");
 }
 
-uint32_t Scene::add_mesh(const float* vertices, size_t n_vertices, const uint32_t* triangles,
-                         size_t n_triangles, const float* corner_uvs, const float* vertex_albedo,
-                         const float* vertex_normals, int albedo_channels) {
+uint32_t Scene::add_mesh(const float* vertices, size_t n_vertices, const uint32_t* triangles, size_t n_triangles,
+                         const float* corner_uvs, const float* vertex_albedo, const float* vertex_normals,
+                         int albedo_channels) {
     require_not_rendering();
     if (n_vertices == 0) throw std::invalid_argument("vertices: mesh has no vertices");
     if (n_triangles == 0) throw std::invalid_argument("triangles: mesh has no triangles");
     if (n_vertices > 0xFFFFFFFFull) throw std::invalid_argument("vertices: more than 2^32 vertices");
     for (size_t i = 0; i < 3 * n_vertices; ++i)
         if (!std::isfinite(vertices[i]))
-            throw std::invalid_argument("vertices: non-finite coordinate at vertex " +
-                                        std::to_string(i / 3));
+            throw std::invalid_argument("vertices: non-finite coordinate at vertex " + std::to_string(i / 3));
     for (size_t i = 0; i < 3 * n_triangles; ++i)
         if (triangles[i] >= n_vertices)
-            throw std::invalid_argument("triangles: index " + std::to_string(triangles[i]) +
-                                        " out of range for " + std::to_string(n_vertices) +
-                                        " vertices (triangle " + std::to_string(i / 3) + ")");
+            throw std::invalid_argument("triangles: index " + std::to_string(triangles[i]) + " out of range for " +
+                                        std::to_string(n_vertices) + " vertices (triangle " + std::to_string(i / 3) +
+                                        ")");
     if (corner_uvs)
         for (size_t i = 0; i < 6 * n_triangles; ++i)
             if (!std::isfinite(corner_uvs[i]))
@@ -101,15 +96,16 @@ uint32_t Scene::add_mesh(const float* vertices, size_t n_vertices, const uint32_
             const double x = vertex_normals[3 * i], y = vertex_normals[3 * i + 1], z = vertex_normals[3 * i + 2];
             const double len = std::sqrt(x * x + y * y + z * z);
             if (!(std::isfinite(len) && len > 0.0))
-                throw std::invalid_argument("vertex_normals: must be finite and non-zero, at vertex " + std::to_string(i));
-            for (int c = 0; c < 3; ++c) mesh->vertex_normals[3 * i + c] = static_cast<float>(vertex_normals[3 * i + c] / len);
+                throw std::invalid_argument("vertex_normals: must be finite and non-zero, at vertex " +
+                                            std::to_string(i));
+            for (int c = 0; c < 3; ++c)
+                mesh->vertex_normals[3 * i + c] = static_cast<float>(vertex_normals[3 * i + c] / len);
         }
     }
     mesh->vertices.assign(vertices, vertices + 3 * n_vertices);
     mesh->vertices.push_back(0.0f);  // Embree reads 16 bytes at the last vertex
     mesh->triangles.assign(triangles, triangles + 3 * n_triangles);
-    const uint32_t id = m_accel.add_prototype(mesh->vertices.data(), n_vertices,
-                                              mesh->triangles.data(), n_triangles);
+    const uint32_t id = m_accel.add_prototype(mesh->vertices.data(), n_vertices, mesh->triangles.data(), n_triangles);
     m_meshes.push_back(std::move(mesh));
     return id;
 }
@@ -121,10 +117,11 @@ void Scene::update_mesh(uint32_t mesh, const float* vertices, size_t n_vertices)
                                     std::to_string(m_meshes.size()) + ")");
     Mesh& m = *m_meshes[mesh];
     if (!m.vertex_normals.empty())
-        throw std::invalid_argument("mesh: mesh " + std::to_string(mesh) + " has vertex normals, which moving it would leave stale");
+        throw std::invalid_argument("mesh: mesh " + std::to_string(mesh) +
+                                    " has vertex normals, which moving it would leave stale");
     if (n_vertices != m.vertex_count())
-        throw std::invalid_argument("vertices: mesh " + std::to_string(mesh) + " has " + std::to_string(m.vertex_count()) +
-                                    " vertices, got " + std::to_string(n_vertices));
+        throw std::invalid_argument("vertices: mesh " + std::to_string(mesh) + " has " +
+                                    std::to_string(m.vertex_count()) + " vertices, got " + std::to_string(n_vertices));
     for (size_t i = 0; i < 3 * n_vertices; ++i)
         if (!std::isfinite(vertices[i]))
             throw std::invalid_argument("vertices: non-finite coordinate at vertex " + std::to_string(i / 3));
@@ -141,26 +138,24 @@ void Scene::update_mesh(uint32_t mesh, const float* vertices, size_t n_vertices)
     m_committed = false;
 }
 
-uint32_t Scene::add_instance(uint32_t mesh, const glm::dmat4& world_from_object, int label,
-                             const Material& material) {
+uint32_t Scene::add_instance(uint32_t mesh, const glm::dmat4& world_from_object, int label, const Material& material) {
     if (label < 1 || label > 255)
         throw std::invalid_argument("instance_id: must be in 1..255, got " + std::to_string(label));
-    if (m_label_used[label])
-        throw std::invalid_argument("instance_id: " + std::to_string(label) + " is already used");
+    if (m_label_used[label]) throw std::invalid_argument("instance_id: " + std::to_string(label) + " is already used");
     const uint32_t index = add(mesh, world_from_object, static_cast<uint8_t>(label), material, false);
     m_label_used[label] = true;
     return index;
 }
 
-uint32_t Scene::add_background(uint32_t mesh, const glm::dmat4& world_from_object,
-                               const Material& material, bool moving) {
+uint32_t Scene::add_background(uint32_t mesh, const glm::dmat4& world_from_object, const Material& material,
+                               bool moving) {
     const uint32_t id = add(mesh, world_from_object, 0, material, moving);
     m_has_background = true;
     return id;
 }
 
-uint32_t Scene::add(uint32_t mesh, const glm::dmat4& world_from_object, uint8_t label,
-                    const Material& material, bool moving) {
+uint32_t Scene::add(uint32_t mesh, const glm::dmat4& world_from_object, uint8_t label, const Material& material,
+                    bool moving) {
     require_not_rendering();
     if (mesh >= m_meshes.size())
         throw std::invalid_argument("mesh: no mesh " + std::to_string(mesh) + " in the scene (has " +
@@ -205,10 +200,8 @@ uint32_t Scene::add(uint32_t mesh, const glm::dmat4& world_from_object, uint8_t 
     }
     inst.moving = moving;
     const uint32_t index = m_accel.add_instance(mesh, xfm);
-    if (moving)
-        m_accel.set_instance_mask(index, kMovingGeometry);
-    else
-        ++m_static_revision;
+    if (moving) m_accel.set_instance_mask(index, kMovingGeometry);
+    else ++m_static_revision;
     m_instances.push_back(inst);
     m_committed = false;
     return index;

@@ -71,7 +71,8 @@ Soiling::Soiling(const SoilingParams& params, uint64_t seed, const float* vertic
     std::vector<double> low(n_triangles), high(n_triangles);
     double sum_low = 0.0, sum_high = 0.0;
     for (size_t t = 0; t < n_triangles; ++t) {
-        const glm::dvec3 a = vertex(triangles[3 * t]), b = vertex(triangles[3 * t + 1]), c = vertex(triangles[3 * t + 2]);
+        const glm::dvec3 a = vertex(triangles[3 * t]), b = vertex(triangles[3 * t + 1]),
+                         c = vertex(triangles[3 * t + 2]);
         const double area = 0.5 * glm::length(glm::cross(b - a, c - a));
         sum_low += area * low_weight(std::min({a.z, b.z, c.z}));
         sum_high += area * high_weight(std::max({a.z, b.z, c.z}));

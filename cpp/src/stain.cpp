@@ -39,7 +39,7 @@ constexpr Lobe kLobes[] = {{3, 0.12, 0.4}, {5, 0.08, 1.9}, {7, 0.05, 4.1}, {11, 
 struct Droplet {
     double angle_deg, distance, radius;
 };
-constexpr Droplet kDroplets[] = {{20, 0.86, 0.06},  {75, 0.80, 0.04},  {140, 0.90, 0.05},
+constexpr Droplet kDroplets[] = {{20, 0.86, 0.06},   {75, 0.80, 0.04},   {140, 0.90, 0.05},
                                  {205, 0.84, 0.035}, {260, 0.92, 0.045}, {320, 0.82, 0.055}};
 constexpr double kSupportRadius = 0.99;  // B = 0 for r ≥ this
 
@@ -178,7 +178,8 @@ std::unique_ptr<StainMask> paint_stain(const StainParams& params, uint64_t seed,
                     }
                 }
                 for (int i = 0; i < n; ++i)
-                    out[static_cast<size_t>(j) * n + i] = static_cast<float>(std::min(sum[static_cast<size_t>(i)], 1.0));
+                    out[static_cast<size_t>(j) * n + i] =
+                        static_cast<float>(std::min(sum[static_cast<size_t>(i)], 1.0));
             }
         });
     });

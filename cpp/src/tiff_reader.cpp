@@ -64,10 +64,14 @@ std::string compression_name(uint64_t c) {
     switch (c) {
         case kCompressionNone: return "none";
         case kCompressionLzw: return "LZW";
-        case kCompressionDeflate: case kCompressionDeflateOld: return "Deflate";
+        case kCompressionDeflate:
+        case kCompressionDeflateOld: return "Deflate";
         case kCompressionPackBits: return "PackBits";
-        case 2: case 3: case 4: return "CCITT";
-        case 6: case 7: return "JPEG";
+        case 2:
+        case 3:
+        case 4: return "CCITT";
+        case 6:
+        case 7: return "JPEG";
         case 34887: return "LERC";
         case 34925: return "LZMA";
         case 50000: return "ZSTD";
@@ -109,9 +113,11 @@ size_t inflate_block(const std::vector<uint8_t>& in, std::vector<uint8_t>& out) 
     inflateEnd(&z);
     if (rc == Z_STREAM_END && produced <= out.size()) return produced;
     if (produced > out.size())
-        throw DecodeError("the Deflate stream decodes to more than the " + std::to_string(out.size()) + " bytes expected");
+        throw DecodeError("the Deflate stream decodes to more than the " + std::to_string(out.size()) +
+                          " bytes expected");
     if (rc == Z_DATA_ERROR || rc == Z_NEED_DICT)
-        throw DecodeError("the Deflate stream is corrupt after " + std::to_string(produced) + " bytes (zlib: " + why + ")");
+        throw DecodeError("the Deflate stream is corrupt after " + std::to_string(produced) + " bytes (zlib: " + why +
+                          ")");
     throw DecodeError("the Deflate stream stops after " + std::to_string(produced) + " bytes, without its end marker");
 }
 
@@ -137,7 +143,8 @@ size_t lzw_block(const std::vector<uint8_t>& in, std::vector<uint8_t>& out) {
     auto emit = [&](unsigned code) {
         const size_t length = table[code].length;
         if (produced + length > out.size())
-            throw DecodeError("the LZW stream decodes to more than the " + std::to_string(out.size()) + " bytes expected");
+            throw DecodeError("the LZW stream decodes to more than the " + std::to_string(out.size()) +
+                              " bytes expected");
         for (size_t k = length; k-- > 0;) {  // a string is its prefix's string plus its last byte
             out[produced + k] = table[code].last;
             code = table[code].prefix;
@@ -156,14 +163,15 @@ size_t lzw_block(const std::vector<uint8_t>& in, std::vector<uint8_t>& out) {
             continue;
         }
         if (previous < 0) {
-            if (code > 255) throw DecodeError("the LZW stream is corrupt: code " + std::to_string(code) + " follows a Clear");
+            if (code > 255)
+                throw DecodeError("the LZW stream is corrupt: code " + std::to_string(code) + " follows a Clear");
             emit(code);
             previous = static_cast<int>(code);
             continue;
         }
         if (code > next || (code == next && next >= kTableSize))
-            throw DecodeError("the LZW stream is corrupt: code " + std::to_string(code) + " is not in the table (after " +
-                              std::to_string(produced) + " bytes)");
+            throw DecodeError("the LZW stream is corrupt: code " + std::to_string(code) +
+                              " is not in the table (after " + std::to_string(produced) + " bytes)");
         if (next < kTableSize) {
             const auto p = static_cast<unsigned>(previous);
             // The new string is the previous one plus the first byte of the current one; a code
@@ -184,15 +192,16 @@ size_t packbits_block(const std::vector<uint8_t>& in, std::vector<uint8_t>& out)
     size_t i = 0, produced = 0;
     auto room = [&](size_t n) {
         if (produced + n > out.size())
-            throw DecodeError("the PackBits data decode to more than the " + std::to_string(out.size()) + " bytes expected");
+            throw DecodeError("the PackBits data decode to more than the " + std::to_string(out.size()) +
+                              " bytes expected");
     };
     while (i < in.size()) {
         const int header = static_cast<int8_t>(in[i++]);
         if (header >= 0) {  // a literal run of header + 1 bytes
             const size_t n = static_cast<size_t>(header) + 1;
             if (n > in.size() - i)
-                throw DecodeError("the PackBits data are cut short in a literal run (after " + std::to_string(produced) +
-                                  " bytes)");
+                throw DecodeError("the PackBits data are cut short in a literal run (after " +
+                                  std::to_string(produced) + " bytes)");
             room(n);
             std::memcpy(out.data() + produced, in.data() + i, n);
             i += n;
@@ -309,8 +318,7 @@ Directory::Directory(const std::string& path) : m_path(path) {
         const unsigned size = type_size(type);
         if (size == 0) continue;  // TIFF 6.0: readers skip fields of unknown type
         if (count > kMaxFieldBytes / size)
-            throw IoError(path + ": " + tag_name(tag) + " is implausibly large (" + std::to_string(count) +
-                          " values)");
+            throw IoError(path + ": " + tag_name(tag) + " is implausibly large (" + std::to_string(count) + " values)");
         Field f{type, count, {}};
         const uint64_t bytes = count * size;
         const size_t value_at = at + (m_big ? 12 : 8);
@@ -334,22 +342,31 @@ std::vector<double> Directory::numbers(uint16_t tag, const std::string& name) co
         const uint64_t u = uint_at(f.bytes, at, std::min(size, 8u));
         double v;
         switch (f.type) {
-            case 1: case 3: case 4: case 16: v = static_cast<double>(u); break;  // unsigned
+            case 1:
+            case 3:
+            case 4:
+            case 16: v = static_cast<double>(u); break;  // unsigned
             case 6: v = static_cast<int8_t>(u); break;
             case 8: v = static_cast<int16_t>(u); break;
             case 9: v = static_cast<int32_t>(u); break;
             case 17: v = static_cast<double>(static_cast<int64_t>(u)); break;
-            case 11: { uint32_t b = static_cast<uint32_t>(u); float x; std::memcpy(&x, &b, 4); v = x; break; }
+            case 11: {
+                uint32_t b = static_cast<uint32_t>(u);
+                float x;
+                std::memcpy(&x, &b, 4);
+                v = x;
+                break;
+            }
             case 12: std::memcpy(&v, &u, 8); break;
-            case 5: case 10: {
+            case 5:
+            case 10: {
                 const uint64_t num = uint_at(f.bytes, at, 4), den = uint_at(f.bytes, at + 4, 4);
                 v = f.type == 5 ? static_cast<double>(num) / static_cast<double>(den)
                                 : static_cast<double>(static_cast<int32_t>(num)) /
                                       static_cast<double>(static_cast<int32_t>(den));
                 break;
             }
-            default:
-                throw IoError(m_path + ": " + name + " is not numeric (TIFF type " + std::to_string(f.type) + ")");
+            default: throw IoError(m_path + ": " + name + " is not numeric (TIFF type " + std::to_string(f.type) + ")");
         }
         out.push_back(v);
     }
@@ -386,25 +403,51 @@ std::string Directory::text(uint16_t tag, const std::string& name) const {
 
 bool Directory::wanted(uint16_t tag) {
     switch (tag) {
-        case kTagImageWidth: case kTagImageLength: case kTagBitsPerSample: case kTagCompression:
-        case kTagFillOrder: case kTagStripOffsets: case kTagSamplesPerPixel: case kTagRowsPerStrip:
-        case kTagStripByteCounts: case kTagPredictor: case kTagTileWidth: case kTagTileLength:
-        case kTagTileOffsets: case kTagTileByteCounts: case kTagSampleFormat:
-        case kTagModelPixelScale: case kTagModelTiepoint:
-        case kTagModelTransformation: case kTagGeoKeyDirectory: case kTagGeoDoubleParams:
-        case kTagGeoAsciiParams: case kTagGdalMetadata: case kTagGdalNodata:
-            return true;
-        default:
-            return false;
+        case kTagImageWidth:
+        case kTagImageLength:
+        case kTagBitsPerSample:
+        case kTagCompression:
+        case kTagFillOrder:
+        case kTagStripOffsets:
+        case kTagSamplesPerPixel:
+        case kTagRowsPerStrip:
+        case kTagStripByteCounts:
+        case kTagPredictor:
+        case kTagTileWidth:
+        case kTagTileLength:
+        case kTagTileOffsets:
+        case kTagTileByteCounts:
+        case kTagSampleFormat:
+        case kTagModelPixelScale:
+        case kTagModelTiepoint:
+        case kTagModelTransformation:
+        case kTagGeoKeyDirectory:
+        case kTagGeoDoubleParams:
+        case kTagGeoAsciiParams:
+        case kTagGdalMetadata:
+        case kTagGdalNodata: return true;
+        default: return false;
     }
 }
 
 unsigned Directory::type_size(uint16_t type) {
     switch (type) {
-        case 1: case 2: case 6: case 7: return 1;
-        case 3: case 8: return 2;
-        case 4: case 9: case 11: case 13: return 4;
-        case 5: case 10: case 12: case 16: case 17: case 18: return 8;
+        case 1:
+        case 2:
+        case 6:
+        case 7: return 1;
+        case 3:
+        case 8: return 2;
+        case 4:
+        case 9:
+        case 11:
+        case 13: return 4;
+        case 5:
+        case 10:
+        case 12:
+        case 16:
+        case 17:
+        case 18: return 8;
         default: return 0;
     }
 }
@@ -440,9 +483,13 @@ std::string m_path;
 
 unsigned sample_bytes(SampleType t) {
     switch (t) {
-        case SampleType::UInt8: case SampleType::Int8: return 1;
-        case SampleType::UInt16: case SampleType::Int16: return 2;
-        case SampleType::UInt32: case SampleType::Int32: case SampleType::Float32: return 4;
+        case SampleType::UInt8:
+        case SampleType::Int8: return 1;
+        case SampleType::UInt16:
+        case SampleType::Int16: return 2;
+        case SampleType::UInt32:
+        case SampleType::Int32:
+        case SampleType::Float32: return 4;
         case SampleType::Float64: return 8;
     }
     return 0;
@@ -467,8 +514,8 @@ std::string Layout::block_name(size_t k) const {
     const int bx = static_cast<int>(k % static_cast<size_t>(blocks_across));
     const int by = static_cast<int>(k / static_cast<size_t>(blocks_across));
     const int y0 = by * block_height, y1 = std::min(height, y0 + block_height) - 1;
-    std::string s = std::string(tiled ? "tile " : "strip ") + std::to_string(k) + " (rows " + std::to_string(y0) +
-                    "–" + std::to_string(y1);
+    std::string s = std::string(tiled ? "tile " : "strip ") + std::to_string(k) + " (rows " + std::to_string(y0) + "–" +
+                    std::to_string(y1);
     if (tiled) {
         const int x0 = bx * block_width, x1 = std::min(width, x0 + block_width) - 1;
         s += ", columns " + std::to_string(x0) + "–" + std::to_string(x1);
@@ -497,8 +544,10 @@ Layout read_layout(const Directory& dir) {
     if (channels != 1)
         throw IoError(path + ": " + std::to_string(channels) + " channels (SamplesPerPixel); a DEM has one band");
     const uint64_t bits = dir.uint_or(kTagBitsPerSample, 1), format = dir.uint_or(kTagSampleFormat, 1);
-    const char* format_name = format == 1 ? "unsigned integer" : format == 2 ? "signed integer"
-                              : format == 3 ? "floating point" : "undefined";
+    const char* format_name = format == 1   ? "unsigned integer"
+                              : format == 2 ? "signed integer"
+                              : format == 3 ? "floating point"
+                                            : "undefined";
     switch (format * 100 + bits) {
         case 108: t.type = SampleType::UInt8; break;
         case 208: t.type = SampleType::Int8; break;
@@ -518,11 +567,15 @@ Layout read_layout(const Directory& dir) {
 
     t.compression = dir.uint_or(kTagCompression, kCompressionNone);
     switch (t.compression) {
-        case kCompressionNone: case kCompressionLzw: case kCompressionDeflate: case kCompressionDeflateOld:
+        case kCompressionNone:
+        case kCompressionLzw:
+        case kCompressionDeflate:
+        case kCompressionDeflateOld:
         case kCompressionPackBits: break;
         default:
             throw IoError(path + ": Compression (259) = " + std::to_string(t.compression) + " (" +
-                          compression_name(t.compression) + ") is not supported; use none, LZW, Deflate or PackBits "
+                          compression_name(t.compression) +
+                          ") is not supported; use none, LZW, Deflate or PackBits "
                           "(e.g. gdal_translate -co COMPRESS=DEFLATE)");
     }
     // libtiff applies a predictor only to the LZW and Deflate codecs and ignores the tag otherwise.
@@ -576,8 +629,8 @@ Layout read_layout(const Directory& dir) {
     t.offsets = dir.uints(offsets_tag);
     t.byte_counts = dir.uints(counts_tag);
     const size_t blocks = t.block_count();
-    for (const auto& [tag, list] : {std::pair<uint16_t, const std::vector<uint64_t>*>{offsets_tag, &t.offsets},
-                                    {counts_tag, &t.byte_counts}})
+    for (const auto& [tag, list] :
+         {std::pair<uint16_t, const std::vector<uint64_t>*>{offsets_tag, &t.offsets}, {counts_tag, &t.byte_counts}})
         if (list->size() < blocks)
             throw IoError(path + ": " + tag_name(tag) + " lists " + std::to_string(list->size()) + " " +
                           (t.tiled ? "tiles" : "strips") + "; " + std::to_string(width) + " × " +
@@ -594,8 +647,8 @@ Layout read_layout(const Directory& dir) {
                           " 0; a sparse file? re-save it with every block written)");
         if (at > size || n > size - at)
             throw IoError(path + ": " + t.block_name(k) + " lies past the end of the file: it needs bytes " +
-                          std::to_string(at) + "–" + std::to_string(at + n - 1) + " (" + tag_name(offsets_tag) +
-                          " " + std::to_string(at) + ", " + tag_name(counts_tag) + " " + std::to_string(n) +
+                          std::to_string(at) + "–" + std::to_string(at + n - 1) + " (" + tag_name(offsets_tag) + " " +
+                          std::to_string(at) + ", " + tag_name(counts_tag) + " " + std::to_string(n) +
                           "), the file has " + std::to_string(size) + " bytes (truncated?)");
         if (t.compression == kCompressionNone && n < t.decoded_bytes(k))
             throw IoError(path + ": " + t.block_name(k) + " holds " + std::to_string(n) + " bytes (" +
@@ -644,8 +697,8 @@ std::vector<double> Pixels::read(int x0, int y0, int x1, int y1) const {
 
 /// Image rows [ry0, ry1) × columns [cx0, cx1) of block k (at block column bx, row by) →
 /// `out`, whose pixel (0, 0) is image (x0, y0) and rows are w wide.
-void Pixels::read_block(std::ifstream& in, size_t k, int bx, int by, int cx0, int cx1, int ry0, int ry1, int x0,
-                        int y0, int w, std::vector<uint8_t>& stored, std::vector<uint8_t>& decoded,
+void Pixels::read_block(std::ifstream& in, size_t k, int bx, int by, int cx0, int cx1, int ry0, int ry1, int x0, int y0,
+                        int w, std::vector<uint8_t>& stored, std::vector<uint8_t>& decoded,
                         std::vector<uint8_t>& scratch, std::vector<double>& out) const {
     const Layout& t = m_layout;
     const unsigned bytes = sample_bytes(t.type);
@@ -660,7 +713,9 @@ void Pixels::read_block(std::ifstream& in, size_t k, int bx, int by, int cx0, in
             const uint64_t at = t.offsets[k] + static_cast<uint64_t>(r - by * t.block_height) * row_bytes + skip;
             in.seekg(static_cast<std::streamoff>(at));
             in.read(reinterpret_cast<char*>(stored.data()), static_cast<std::streamsize>(stored.size()));
-            if (!in) throw IoError(where() + "cannot read row " + std::to_string(r) + " (the file changed since it was opened?)");
+            if (!in)
+                throw IoError(where() + "cannot read row " + std::to_string(r) +
+                              " (the file changed since it was opened?)");
             widen(t.type, stored.data(), n, m_big_endian, out.data() + static_cast<size_t>(r - y0) * w + (cx0 - x0));
         }
         return;
@@ -668,7 +723,9 @@ void Pixels::read_block(std::ifstream& in, size_t k, int bx, int by, int cx0, in
     stored.resize(static_cast<size_t>(t.byte_counts[k]));
     in.seekg(static_cast<std::streamoff>(t.offsets[k]));
     in.read(reinterpret_cast<char*>(stored.data()), static_cast<std::streamsize>(stored.size()));
-    if (!in) throw IoError(where() + "cannot read its " + std::to_string(stored.size()) + " bytes (the file changed since it was opened?)");
+    if (!in)
+        throw IoError(where() + "cannot read its " + std::to_string(stored.size()) +
+                      " bytes (the file changed since it was opened?)");
     // Room for a whole strip: some writers pad the last strip to RowsPerStrip rows, which
     // libtiff reads; a stream longer than that is refused.
     decoded.resize(static_cast<size_t>(t.block_height * row_bytes));

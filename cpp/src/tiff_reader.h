@@ -104,8 +104,8 @@ const char* sample_type_name(SampleType t);
 
 // TIFF compression and predictor codes (TIFF 6.0 §§9, 13, 14; Adobe Photoshop TIFF Technical
 // Notes (2002) for Deflate 8; Adobe TIFF Technical Note 3 (2005) for the floating-point predictor).
-constexpr uint64_t kCompressionNone = 1, kCompressionLzw = 5, kCompressionDeflate = 8,
-                   kCompressionDeflateOld = 32946, kCompressionPackBits = 32773;
+constexpr uint64_t kCompressionNone = 1, kCompressionLzw = 5, kCompressionDeflate = 8, kCompressionDeflateOld = 32946,
+                   kCompressionPackBits = 32773;
 constexpr uint64_t kPredictorNone = 1, kPredictorHorizontal = 2, kPredictorFloatingPoint = 3;
 
 /// How a GeoTIFF's samples are laid out: strips (blocks of whole rows) or tiles, each stored at

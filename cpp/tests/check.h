@@ -48,40 +48,39 @@ inline int run(int argc, char** argv) {
 
 }  // namespace check
 
-#define TEST_CASE(name)                                              \
-    static void name();                                              \
-    static const check::Register register_##name(#name, name);       \
+#define TEST_CASE(name)                                        \
+    static void name();                                        \
+    static const check::Register register_##name(#name, name); \
     static void name()
 
-#define CHECK(expr)                                                                  \
-    do {                                                                             \
-        if (!(expr)) {                                                               \
-            std::printf("  %s:%d: CHECK(%s) failed\n", __FILE__, __LINE__, #expr);   \
-            ++check::failures();                                                     \
-        }                                                                            \
+#define CHECK(expr)                                                                \
+    do {                                                                           \
+        if (!(expr)) {                                                             \
+            std::printf("  %s:%d: CHECK(%s) failed\n", __FILE__, __LINE__, #expr); \
+            ++check::failures();                                                   \
+        }                                                                          \
     } while (0)
 
-#define CHECK_NEAR(a, b, tol)                                                              \
-    do {                                                                                   \
-        const double check_a = (a), check_b = (b);                                         \
-        if (!(std::abs(check_a - check_b) <= (tol))) {                                     \
-            std::printf("  %s:%d: CHECK_NEAR(%s, %s) failed: %.12g vs %.12g (tol %.3g)\n", \
-                        __FILE__, __LINE__, #a, #b, check_a, check_b, double(tol));        \
-            ++check::failures();                                                           \
-        }                                                                                  \
+#define CHECK_NEAR(a, b, tol)                                                                                          \
+    do {                                                                                                               \
+        const double check_a = (a), check_b = (b);                                                                     \
+        if (!(std::abs(check_a - check_b) <= (tol))) {                                                                 \
+            std::printf("  %s:%d: CHECK_NEAR(%s, %s) failed: %.12g vs %.12g (tol %.3g)\n", __FILE__, __LINE__, #a, #b, \
+                        check_a, check_b, double(tol));                                                                \
+            ++check::failures();                                                                                       \
+        }                                                                                                              \
     } while (0)
 
-#define CHECK_THROWS(exception_type, ...)                                                  \
-    do {                                                                                    \
-        bool check_thrown = false;                                                          \
-        try {                                                                               \
-            (void)(__VA_ARGS__);                                                                   \
-        } catch (const exception_type&) {                                                   \
-            check_thrown = true;                                                            \
-        }                                                                                   \
-        if (!check_thrown) {                                                                \
-            std::printf("  %s:%d: %s did not throw %s\n", __FILE__, __LINE__, #__VA_ARGS__, \
-                        #exception_type);                                                   \
-            ++check::failures();                                                            \
-        }                                                                                   \
+#define CHECK_THROWS(exception_type, ...)                                                                     \
+    do {                                                                                                      \
+        bool check_thrown = false;                                                                            \
+        try {                                                                                                 \
+            (void)(__VA_ARGS__);                                                                              \
+        } catch (const exception_type&) {                                                                     \
+            check_thrown = true;                                                                              \
+        }                                                                                                     \
+        if (!check_thrown) {                                                                                  \
+            std::printf("  %s:%d: %s did not throw %s\n", __FILE__, __LINE__, #__VA_ARGS__, #exception_type); \
+            ++check::failures();                                                                              \
+        }                                                                                                     \
     } while (0)

@@ -29,7 +29,6 @@ DemRaster constant_geographic(double lat0, double lon0, double span_lat, double 
     return DemRaster::from_heights("constant.tif", w, ht, std::vector<double>(static_cast<size_t>(w) * ht, h), g);
 }
 
-
 template <typename F>
 std::string message_of(F f) {
     try {

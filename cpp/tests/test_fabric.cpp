@@ -305,7 +305,8 @@ TEST_CASE(cloth_sheen_mixes_the_two_tape_directions) {
     s.warp_share = 0.25;
     const glm::dvec3 wi = glm::normalize(glm::dvec3(0.4, 0.1, 0.9)), wo = glm::normalize(glm::dvec3(-0.3, 0.2, 0.8));
     CHECK_NEAR(cloth_sheen(p, s, wi, wo),
-               0.25 * tape_lobe(wi, wo, p.sheen_along, p.sheen_across) + 0.75 * tape_lobe(wi, wo, p.sheen_across, p.sheen_along),
+               0.25 * tape_lobe(wi, wo, p.sheen_along, p.sheen_across) +
+                   0.75 * tape_lobe(wi, wo, p.sheen_across, p.sheen_along),
                1e-12);
     FabricParams bad = p;
     bad.sheen = 1.5;

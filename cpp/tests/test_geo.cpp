@@ -80,7 +80,8 @@ TEST_CASE(enu_round_trip_at_10_km_all_bearings_and_heights) {
                 for (double h : {-3000.0, 0.0, 8000.0}) {
                     // The point 10 km away along bearing b·45° (spherical destination formula).
                     const double bearing = rad(45.0 * b), p0 = rad(lat0);
-                    const double p1 = std::asin(std::sin(p0) * std::cos(s) + std::cos(p0) * std::sin(s) * std::cos(bearing));
+                    const double p1 =
+                        std::asin(std::sin(p0) * std::cos(s) + std::cos(p0) * std::sin(s) * std::cos(bearing));
                     const double l1 = rad(137.0) + std::atan2(std::sin(bearing) * std::sin(s) * std::cos(p0),
                                                               std::cos(s) - std::sin(p0) * std::sin(p1));
                     const glm::dvec3 enu = frame.to_enu(deg(p1), deg(l1), h);

@@ -2,11 +2,11 @@
 #include <stdexcept>
 #include <string>
 
+#include "../src/rays.h"
 #include "check.h"
 #include "fixtures.h"
 #include "moonbot/light_cache.h"
 #include "moonbot/render.h"
-#include "../src/rays.h"
 
 using namespace moonbot;
 

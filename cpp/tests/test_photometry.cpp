@@ -211,8 +211,7 @@ TEST_CASE(hapke_smooth_isotropic_closed_form) {
         for (int n = 0; n < 2000; ++n) {
             const Geometry g = random_geometry(rng);
             const double r = g.mu_i * hapke_brdf(p, g.mu_i, g.mu_o, g.cos_g);
-            const double want =
-                w / (4.0 * kPi) * g.mu_i / (g.mu_i + g.mu_o) * H_2002(w, g.mu_i) * H_2002(w, g.mu_o);
+            const double want = w / (4.0 * kPi) * g.mu_i / (g.mu_i + g.mu_o) * H_2002(w, g.mu_i) * H_2002(w, g.mu_o);
             CHECK_NEAR(r / want, 1.0, 1e-12);
         }
     }
@@ -226,8 +225,8 @@ TEST_CASE(h_function_against_chandrasekhar) {
         const ExactH exact(w);
         CHECK_NEAR(exact.moment0(), 2.0 / w * (1.0 - std::sqrt(1.0 - w)), 2e-6);
         if (w == 1.0) CHECK_NEAR(exact(1.0), 2.90781, 2e-5);
-        std::printf("  w = %.2f: exact H(0.5) = %.5f, H(1) = %.5f; Hapke 2002: %.5f, %.5f\n", w, exact(0.5),
-                    exact(1.0), hapke_H(w, 0.5), hapke_H(w, 1.0));
+        std::printf("  w = %.2f: exact H(0.5) = %.5f, H(1) = %.5f; Hapke 2002: %.5f, %.5f\n", w, exact(0.5), exact(1.0),
+                    hapke_H(w, 0.5), hapke_H(w, 1.0));
         for (int k = 1; k <= 100; ++k) {
             const double mu = k / 100.0;
             const double err = std::abs(hapke_H(w, mu) / exact(mu) - 1.0);
@@ -246,8 +245,7 @@ TEST_CASE(hapke_phase_function) {
     gauss_legendre01(200, x, a);
     for (double b : {0.0, 0.24, 0.6}) {
         double s = 0.0;
-        for (size_t k = 0; k < x.size(); ++k)
-            s += a[k] * (hapke_phase(b, 0.3, x[k]) + hapke_phase(b, 0.3, -x[k]));
+        for (size_t k = 0; k < x.size(); ++k) s += a[k] * (hapke_phase(b, 0.3, x[k]) + hapke_phase(b, 0.3, -x[k]));
         CHECK_NEAR(0.5 * s, 1.0, 1e-9);
     }
     // c > 0: back-scattering (brighter at g = 0 than at g = 180°); b = 0 isotropic.
@@ -286,8 +284,9 @@ TEST_CASE(hapke_roughness_limits) {
                 worst[2] = std::acos(hapke_cos_psi(g.mu_i, g.mu_o, g.cos_g)) / kDeg;
             }
         }
-        std::printf("  theta_bar = %4.1f deg: max S over 20000 geometries = %.6f at i = %.1f, e = %.1f, psi = %.1f deg\n",
-                    deg, smax, worst[0], worst[1], worst[2]);
+        std::printf(
+            "  theta_bar = %4.1f deg: max S over 20000 geometries = %.6f at i = %.1f, e = %.1f, psi = %.1f deg\n", deg,
+            smax, worst[0], worst[1], worst[2]);
         // Hapke's S is NOT bounded by 1: with e near grazing and ψ near π, μe/η(e) ≈
         // (1 − sin²(ψ/2)·E2(i))/(1 − (ψ/π)·E1(i)) > 1 because E1(i) ≫ E2(i) for moderate i. The
         // overshoot peaks at 1.0987 (0.5° grid over i, e, ψ at θ̄ = 5–60°: e = 90°, ψ = 180°).
@@ -305,8 +304,8 @@ TEST_CASE(hapke_roughness_limits) {
 }
 
 TEST_CASE(hapke_finite_everywhere) {
-    const Photometry sets[] = {lunar_hapke(), lunar_hapke(1.0, 60.0, 0.75, 10.0, 0.9, 1.0, 1.0, 0.01),
-                               lunar_hapke(0.0), lunar_hapke(0.5, 0.0, 0.0, 0.0)};
+    const Photometry sets[] = {lunar_hapke(), lunar_hapke(1.0, 60.0, 0.75, 10.0, 0.9, 1.0, 1.0, 0.01), lunar_hapke(0.0),
+                               lunar_hapke(0.5, 0.0, 0.0, 0.0)};
     const double mus[] = {1e-300, 1e-12, 1e-6, 0.01, 0.5, 0.999999, 1.0, 1.0 + 1e-15};
     const double cgs[] = {-1.0, -1.0 + 1e-15, -0.5, 0.0, 0.5, 1.0 - 1e-15, 1.0, -2.0, 2.0};
     for (const Photometry& p : sets)
@@ -381,8 +380,9 @@ TEST_CASE(phase_curves_report) {
     ll.model = Photometry::Model::LunarLambert;
     ll.surge_amplitude = 1.8;
     ll.surge_width = 0.07;
-    std::printf("  g[deg]   mirror i=e=g/2: Hapke  LunarLambert | nadir e=0, i=g: Hapke  LunarLambert  (radiance "
-                "factor mu_i*shape, /g=0)\n");
+    std::printf(
+        "  g[deg]   mirror i=e=g/2: Hapke  LunarLambert | nadir e=0, i=g: Hapke  LunarLambert  (radiance "
+        "factor mu_i*shape, /g=0)\n");
     const double h0 = photometric_shape(h, 1, 1, 1), l0 = photometric_shape(ll, 1, 1, 1);
     for (double g : {0.0, 2.0, 5.0, 10.0, 20.0, 30.0, 45.0, 60.0, 75.0, 90.0, 120.0}) {
         const double mi = std::cos(g / 2 * kDeg), cg = std::cos(g * kDeg);

@@ -175,8 +175,8 @@ TEST_CASE(tile_records_change_no_bit_against_a_per_pixel_reference) {
     Scene scene;
     scene.add_background(fixtures::add_plane_mesh(scene, 40.0f), identity(), Material{glm::vec3(0.12f)});
     const uint32_t box = fixtures::add_box_mesh(scene, 0.5f, 0.3f, 0.25f);
-    glm::dmat4 turned = glm::rotate(glm::translate(identity(), glm::dvec3(0.1, -0.05, 0.0)), 0.6,
-                                    glm::dvec3(0.2, 0.1, 1.0));
+    glm::dmat4 turned =
+        glm::rotate(glm::translate(identity(), glm::dvec3(0.1, -0.05, 0.0)), 0.6, glm::dvec3(0.2, 0.1, 1.0));
     scene.add_instance(box, turned, 3, Material{glm::vec3(0.55f, 0.45f, 0.32f)});
     scene.add_instance(box, glm::translate(identity(), glm::dvec3(-0.7, 0.4, 0.0)), 9, Material{glm::vec3(0.3f)});
     scene.commit();
@@ -242,8 +242,7 @@ TEST_CASE(tile_records_change_no_bit_against_a_per_pixel_reference) {
                     if (shadows[k].tfar < 0.0f) continue;
                     const size_t i = shadow_pixel[k];
                     const glm::dvec3 albedo(scene.instance(rays[i].inst_id).material.albedo);
-                    const glm::dvec3 radiance =
-                        albedo * (kInvPi * sun.irradiance() * glm::dot(normals[i], l));
+                    const glm::dvec3 radiance = albedo * (kInvPi * sun.irradiance() * glm::dot(normals[i], l));
                     for (int c = 0; c < 3; ++c) rgb[3 * pixels[i] + c] = static_cast<float>(radiance[c]);
                 }
             }

@@ -78,7 +78,8 @@ TEST_CASE(pixels_and_pairs_get_different_points) {
     // same index in neighbouring pixels is near 0 (1/12 would be full correlation).
     double product = 0.0;
     for (uint32_t pixel = 0; pixel < 4000; ++pixel) {
-        const SamplePair a = sample_pair(pixel_stream(5, pixel), 3, 2), b = sample_pair(pixel_stream(5, pixel + 1), 3, 2);
+        const SamplePair a = sample_pair(pixel_stream(5, pixel), 3, 2),
+                         b = sample_pair(pixel_stream(5, pixel + 1), 3, 2);
         product += (a.u - 0.5) * (b.u - 0.5);
     }
     CHECK(std::abs(product / 4000) < 0.005);

@@ -1,6 +1,6 @@
 #include <cmath>
-#include <string>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "check.h"
@@ -68,7 +68,8 @@ TEST_CASE(dust_gathers_at_the_bottom_and_where_handled) {
     CHECK(high_above > 150);
     // Every centre is on the box's surface, and radii are 0.6–1.4 × 4 cm.
     for (const auto& d : low.deposits()) {
-        const bool on_face = std::abs(std::abs(d.centre.x) - 0.16) < 1e-6 || std::abs(std::abs(d.centre.y) - 0.10) < 1e-6 ||
+        const bool on_face = std::abs(std::abs(d.centre.x) - 0.16) < 1e-6 ||
+                             std::abs(std::abs(d.centre.y) - 0.10) < 1e-6 ||
                              std::abs(std::abs(d.centre.z) - 0.06) < 1e-6;
         CHECK(on_face);
         CHECK(d.radius >= 0.024 && d.radius <= 0.056);

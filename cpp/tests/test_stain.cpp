@@ -130,8 +130,7 @@ TEST_CASE(edges_wrap_in_u_and_clip_in_v) {
         if (!straddles_u && !straddles_v) continue;
         const auto mask = paint_stain(p, seed);
         for (int j = 0; j < p.resolution; ++j)
-            for (int i = 0; i < p.resolution; ++i)
-                CHECK_NEAR(mask->texel(i, j), reference_sum(p, seed, i, j), 1e-7);
+            for (int i = 0; i < p.resolution; ++i) CHECK_NEAR(mask->texel(i, j), reference_sum(p, seed, i, j), 1e-7);
         if (straddles_u) {
             const int jc = std::min(int(c.y * p.resolution), p.resolution - 1);
             wrapped |= mask->texel(p.resolution - 1, jc) > 0.4f;  // the blob continues past u = 1

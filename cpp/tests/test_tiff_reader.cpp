@@ -143,7 +143,8 @@ std::filesystem::path scratch_dir(const std::string& name) {
 }
 
 void write_file(const std::string& path, const std::vector<uint8_t>& bytes, size_t n) {
-    std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(n));
+    std::ofstream(path, std::ios::binary)
+        .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(n));
 }
 
 /// Opens a GeoTIFF and reads every pixel; "" if that worked, else the IoError's message (any

@@ -91,8 +91,12 @@ class ModelCloud:
 
     @classmethod
     def from_model(cls, model: Model) -> ModelCloud:
-        return cls(model.obj_id, Surface.sample(model, FINE_SPACING_MM), Surface.sample(model, COARSE_SPACING_MM),
-                   tuple(S[:3, :3] for S in model.symmetries))
+        return cls(
+            model.obj_id,
+            Surface.sample(model, FINE_SPACING_MM),
+            Surface.sample(model, COARSE_SPACING_MM),
+            tuple(S[:3, :3] for S in model.symmetries),
+        )
 
 
 @dataclass(frozen=True)
@@ -158,8 +162,9 @@ def hypotheses(points: np.ndarray, cloud: ModelCloud) -> list[tuple[np.ndarray, 
     return starts
 
 
-def icp(points: np.ndarray, surface: Surface, R: np.ndarray, t: np.ndarray,
-        iterations: int) -> tuple[np.ndarray, np.ndarray]:
+def icp(
+    points: np.ndarray, surface: Surface, R: np.ndarray, t: np.ndarray, iterations: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Point-to-plane ICP of the observed points (n, 3) camera mm onto the model's `surface` from
     the pose (R, t) model→camera; returns the refined (R, t). Solves in the model frame for the
     small motion of the observed points (Gauss–Newton on the linearised rotation)."""
@@ -195,8 +200,15 @@ def icp(points: np.ndarray, surface: Surface, R: np.ndarray, t: np.ndarray,
     return R_new, -R_new @ tg
 
 
-def score(points: np.ndarray, surface: Surface, cloud: ModelCloud, R: np.ndarray, t: np.ndarray,
-          depth_mm: np.ndarray, K: np.ndarray) -> tuple[float, float, float]:
+def score(
+    points: np.ndarray,
+    surface: Surface,
+    cloud: ModelCloud,
+    R: np.ndarray,
+    t: np.ndarray,
+    depth_mm: np.ndarray,
+    K: np.ndarray,
+) -> tuple[float, float, float]:
     """(score, inlier share, free-space violation share) of the pose (R, t) model→camera against
     the observed points (n, 3), their distances taken to `surface`, and the image's depth (H, W)
     mm (0 = none), which the model's coarse samples must not stand in front of."""
@@ -217,8 +229,9 @@ def score(points: np.ndarray, surface: Surface, cloud: ModelCloud, R: np.ndarray
     return inliers - violations, inliers, violations
 
 
-def estimate_pose(depth_mm: np.ndarray, mask: np.ndarray, K: np.ndarray, cloud: ModelCloud,
-                  settings: Settings = Settings()) -> Estimate | None:
+def estimate_pose(
+    depth_mm: np.ndarray, mask: np.ndarray, K: np.ndarray, cloud: ModelCloud, settings: Settings = Settings()
+) -> Estimate | None:
     """The best pose of `cloud`'s object for one instance: depth_mm (H, W) z-depth mm (0 = none),
     mask (H, W) bool its visible pixels, K (3, 3). None when fewer than MIN_POINTS pixels have
     depth."""
@@ -233,7 +246,7 @@ def estimate_pose(depth_mm: np.ndarray, mask: np.ndarray, K: np.ndarray, cloud: 
         coarse.append((score(coarse_points, cloud.coarse, cloud, R, t, depth_mm, K)[0], R, t))
     coarse.sort(key=lambda c: -c[0])  # stable: ties keep the hypotheses' order
     best = None
-    for _, R, t in coarse[:settings.fine_hypotheses]:
+    for _, R, t in coarse[: settings.fine_hypotheses]:
         R, t = icp(fine_points, cloud.fine, R, t, settings.fine_iterations)
         s, inliers, violations = score(fine_points, cloud.fine, cloud, R, t, depth_mm, K)
         if best is None or s > best.score:

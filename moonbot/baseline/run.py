@@ -67,8 +67,14 @@ def estimate_image(scene: Scene, im_id: int, settings: Settings) -> tuple[list[E
     return estimates, skipped, seconds
 
 
-def run_baseline(dataset: Path, split: str = "test", out: Path | None = None, workers: int = 1,
-                 settings: Settings = Settings(), progress=None) -> BaselineReport:
+def run_baseline(
+    dataset: Path,
+    split: str = "test",
+    out: Path | None = None,
+    workers: int = 1,
+    settings: Settings = Settings(),
+    progress=None,
+) -> BaselineReport:
     """Estimates every instance of `split` and writes the CSV to `out` (default
     DATASET/eval/baseline_<split>.csv). `progress(done, total)` is called after each image.
     Raises DatasetError naming a missing or malformed file."""

@@ -40,8 +40,11 @@ def machine(embree_isa: str = "auto") -> dict:
     """What the numbers were measured on: with the CPU's model, id and SIMD flags, the ISA a scene
     asked for `embree_isa` traces in (moonbot.host.host_record)."""
     mem_kb = int(re.search(r"MemTotal:\s+(\d+)", Path("/proc/meminfo").read_text()).group(1))
-    os_name = dict(line.split("=", 1) for line in Path("/etc/os-release").read_text().splitlines()
-                   if "=" in line).get("PRETTY_NAME", "").strip('"')
+    os_name = (
+        dict(line.split("=", 1) for line in Path("/etc/os-release").read_text().splitlines() if "=" in line)
+        .get("PRETTY_NAME", "")
+        .strip('"')
+    )
 
     def run(*cmd: str) -> str:
         try:
@@ -55,15 +58,25 @@ def machine(embree_isa: str = "auto") -> dict:
     root = installed_from()
     commit = run("git", "-C", str(root), "rev-parse", "HEAD") if root is not None else ""
     # Dirty means uncommitted source changes; the result files themselves do not count.
-    dirty = bool(commit) and bool(run("git", "-C", str(root), "status", "--porcelain", "--untracked-files=no",
-                                      "--", ".", ":!bench/results"))
+    dirty = bool(commit) and bool(
+        run("git", "-C", str(root), "status", "--porcelain", "--untracked-files=no", "--", ".", ":!bench/results")
+    )
     host = host_record(embree_isa)
     return {
-        "cpu": host["cpu_model"], "cpu_id": host["cpu_id"], "simd_flags": host["simd_flags"],
-        "embree_isa": host["embree_isa"], "embree_isas": host["embree_isas"], "cores": os.cpu_count(), "memory_gib": round(mem_kb / 2**20, 1), "os": os_name,
-        "python": platform.python_version(), "compiler": run("c++", "--version").split("\n")[0],
-        "embree": deb("libembree-dev"), "openimageio": deb("libopenimageio-dev"),
-        "tbb": deb("libtbb-dev"), "git_commit": commit + ("-dirty" if dirty else ""),
+        "cpu": host["cpu_model"],
+        "cpu_id": host["cpu_id"],
+        "simd_flags": host["simd_flags"],
+        "embree_isa": host["embree_isa"],
+        "embree_isas": host["embree_isas"],
+        "cores": os.cpu_count(),
+        "memory_gib": round(mem_kb / 2**20, 1),
+        "os": os_name,
+        "python": platform.python_version(),
+        "compiler": run("c++", "--version").split("\n")[0],
+        "embree": deb("libembree-dev"),
+        "openimageio": deb("libopenimageio-dev"),
+        "tbb": deb("libtbb-dev"),
+        "git_commit": commit + ("-dirty" if dirty else ""),
         "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
     }
 

@@ -33,31 +33,70 @@ class Level:
     description: str
 
 
-LEVELS: dict[str, Level] = {level.name: level for level in (
-    Level("draft", {"render.spp": 1, "render.adaptive_spp": 16, "render.adaptive_threshold": 0.5,
-                    "render.light_samples": 1, "render.bounces": 2, "render.indirect": "cache"},
-          "the pixel-centre sample, refined to 16 where its 3x3 neighbourhood disagrees, 1 Sun-disk shadow ray, "
-          "2 bounces through the light cache"),
-    Level("default", {"render.spp": 4, "render.adaptive_spp": 32, "render.adaptive_threshold": 0.5,
-                      "render.light_samples": 2, "render.bounces": 2, "render.indirect": "cache"},
-          "4 spp refined to 32, 2 Sun-disk shadow rays, 2 bounces through the light cache (the config defaults)"),
-    Level("high", {"render.spp": 4, "render.adaptive_spp": 64, "render.adaptive_threshold": 0.25,
-                   "render.light_samples": 2, "render.bounces": 2, "render.indirect": "cache"},
-          "4 spp refined to 64, 2 Sun-disk shadow rays, 2 bounces through the light cache"),
-    Level("path", {"render.spp": 4, "render.adaptive_spp": 0, "render.light_samples": 2, "render.bounces": 2,
-                   "render.indirect": "path"},
-          "4 spp, 2 Sun-disk shadow rays, 2 bounce paths per pixel (the brute-force reference mode)"),
-)}
+LEVELS: dict[str, Level] = {
+    level.name: level
+    for level in (
+        Level(
+            "draft",
+            {
+                "render.spp": 1,
+                "render.adaptive_spp": 16,
+                "render.adaptive_threshold": 0.5,
+                "render.light_samples": 1,
+                "render.bounces": 2,
+                "render.indirect": "cache",
+            },
+            "the pixel-centre sample, refined to 16 where its 3x3 neighbourhood disagrees, 1 Sun-disk shadow ray, "
+            "2 bounces through the light cache",
+        ),
+        Level(
+            "default",
+            {
+                "render.spp": 4,
+                "render.adaptive_spp": 32,
+                "render.adaptive_threshold": 0.5,
+                "render.light_samples": 2,
+                "render.bounces": 2,
+                "render.indirect": "cache",
+            },
+            "4 spp refined to 32, 2 Sun-disk shadow rays, 2 bounces through the light cache (the config defaults)",
+        ),
+        Level(
+            "high",
+            {
+                "render.spp": 4,
+                "render.adaptive_spp": 64,
+                "render.adaptive_threshold": 0.25,
+                "render.light_samples": 2,
+                "render.bounces": 2,
+                "render.indirect": "cache",
+            },
+            "4 spp refined to 64, 2 Sun-disk shadow rays, 2 bounces through the light cache",
+        ),
+        Level(
+            "path",
+            {
+                "render.spp": 4,
+                "render.adaptive_spp": 0,
+                "render.light_samples": 2,
+                "render.bounces": 2,
+                "render.indirect": "path",
+            },
+            "4 spp, 2 Sun-disk shadow rays, 2 bounce paths per pixel (the brute-force reference mode)",
+        ),
+    )
+}
 
 
 def parse_levels(text: str) -> list[str]:
-    """"draft,default" → ["draft", "default"] (in the order given, without repeats); raises
+    """ "draft,default" → ["draft", "default"] (in the order given, without repeats); raises
     ValueError naming an unknown level."""
     names = list(dict.fromkeys(n.strip() for n in text.split(",") if n.strip()))
     unknown = [n for n in names if n not in LEVELS]
     if unknown or not names:
-        raise ValueError(f"levels: unknown {', '.join(map(repr, unknown)) or 'empty list'}; "
-                         f"choose from {', '.join(LEVELS)}")
+        raise ValueError(
+            f"levels: unknown {', '.join(map(repr, unknown)) or 'empty list'}; choose from {', '.join(LEVELS)}"
+        )
     return names
 
 

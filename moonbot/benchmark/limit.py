@@ -45,6 +45,7 @@ from moonbot.render.view import view_inputs
 from moonbot.scene import compose_scene
 from moonbot.sweep import Task, task_config
 
+
 @dataclasses.dataclass
 class ProbeView:
     """View 0 of a benchmark task as the probe sees it: the task's config (`config`, the sweep's
@@ -65,8 +66,9 @@ def limit_scene(config: Config, task: Task) -> ProbeView:
     """View 0 of `task` of `config`'s sweep, built as the task builds it but with its bags
     unsettled, and with a dust scene's view-0 ejecta fragments in place."""
     c = task_config(config, task)
-    c = dataclasses.replace(c, bags=dataclasses.replace(c.bags, settle=dataclasses.replace(c.bags.settle,
-                                                                                           enabled=False)))
+    c = dataclasses.replace(
+        c, bags=dataclasses.replace(c.bags, settle=dataclasses.replace(c.bags.settle, enabled=False))
+    )
     spec = compose_scene(c)
     scene = build_scene(spec, c.render.embree_isa)
     medium = None
@@ -87,26 +89,31 @@ def embree_limit(config: Config, task: Task, threads: list[int], bounces: int, r
 def probe(view: ProbeView, task_id: str, threads: int, bounces: int, repeats: int = 3) -> dict:
     """`_core.measure_embree_limit` on `view` with `threads` threads and `bounces` bounce
     generations (median of `repeats`), as the dict embree_limit returns for one thread count."""
-    m = _core.measure_embree_limit(view.scene, view.camera, view.sun, threads=threads, repeats=repeats,
-                                   bounces=bounces)
+    m = _core.measure_embree_limit(view.scene, view.camera, view.sun, threads=threads, repeats=repeats, bounces=bounces)
     cam, sh = int(m["camera_rays"]), int(m["shadow_rays"])
     bounce_rays = [int(n) for n in m["bounce_rays"]]
     return {
-        "task_id": task_id, "threads": threads, "camera_rays": cam, "shadow_rays": sh,
+        "task_id": task_id,
+        "threads": threads,
+        "camera_rays": cam,
+        "shadow_rays": sh,
         "bounce_rays": bounce_rays,
-        "intersect_stream_s": m["intersect_stream_s"], "occluded_stream_s": m["occluded_stream_s"],
+        "intersect_stream_s": m["intersect_stream_s"],
+        "occluded_stream_s": m["occluded_stream_s"],
         "bounce_stream_s": list(m["bounce_stream_s"]),
         "bounce_shadow_rays": [int(n) for n in m["bounce_shadow_rays"]],
         "bounce_shadow_stream_s": list(m["bounce_shadow_stream_s"]),
-        "intersect_single_s": m["intersect_single_s"], "occluded_single_s": m["occluded_single_s"],
+        "intersect_single_s": m["intersect_single_s"],
+        "occluded_single_s": m["occluded_single_s"],
         "bounce_single_s": list(m["bounce_single_s"]),
         "camera_s_per_ray": _per(m["intersect_stream_s"], cam),
         "shadow_s_per_ray": _per(m["occluded_stream_s"], sh),
         "primary_mrays_per_s": _mrays(cam, m["intersect_stream_s"]),
         "shadow_mrays_per_s": _mrays(sh, m["occluded_stream_s"]),
         "bounce_mrays_per_s": [_mrays(n, s) for n, s in zip(bounce_rays, m["bounce_stream_s"])],
-        "bounce_shadow_mrays_per_s": [_mrays(n, s) for n, s in zip(m["bounce_shadow_rays"],
-                                                                    m["bounce_shadow_stream_s"])],
+        "bounce_shadow_mrays_per_s": [
+            _mrays(n, s) for n, s in zip(m["bounce_shadow_rays"], m["bounce_shadow_stream_s"])
+        ],
         "primary_single_mrays_per_s": _mrays(cam, m["intersect_single_s"]),
         "shadow_single_mrays_per_s": _mrays(sh, m["occluded_single_s"]),
         "bounce_single_mrays_per_s": [_mrays(n, s) for n, s in zip(bounce_rays, m["bounce_single_s"])],
@@ -135,10 +142,12 @@ def ray_limit_seconds(rays: dict, row: dict, bounces: int) -> float:
     shadow rays at the shadow-ray rate, bounce rays and the bounce vertices' shadow rays at their
     pooled rates. Amodal rays are not counted."""
     bounce_shadow = rays.get("bounce_shadow_rays", 0)
-    return (row["camera_s_per_ray"] * (rays.get("camera_rays", 0) + rays.get("medium_rays", 0))
-            + row["shadow_s_per_ray"] * (rays.get("shadow_rays", 0) - bounce_shadow)
-            + bounce_s_per_ray(row, bounces) * rays.get("bounce_rays", 0)
-            + bounce_s_per_ray(row, bounces, "bounce_shadow") * bounce_shadow)
+    return (
+        row["camera_s_per_ray"] * (rays.get("camera_rays", 0) + rays.get("medium_rays", 0))
+        + row["shadow_s_per_ray"] * (rays.get("shadow_rays", 0) - bounce_shadow)
+        + bounce_s_per_ray(row, bounces) * rays.get("bounce_rays", 0)
+        + bounce_s_per_ray(row, bounces, "bounce_shadow") * bounce_shadow
+    )
 
 
 def _median_seconds(fn, repeats: int) -> float:
@@ -168,8 +177,9 @@ def encode_view(view_dir: Path, png_compression: int, scratch: Path, repeats: in
                 seconds = _median_seconds(lambda: _core.write_image(str(target), array), repeats)
         else:
             continue  # gt.json: ours, not an encoder's
-        rows.append({"file": path.name, "raw_bytes": int(array.nbytes), "file_bytes": target.stat().st_size,
-                     "seconds": seconds})
+        rows.append(
+            {"file": path.name, "raw_bytes": int(array.nbytes), "file_bytes": target.stat().st_size, "seconds": seconds}
+        )
     return rows
 
 
@@ -181,19 +191,33 @@ def encode_limit(task_dirs: list[Path], png_compression: int, repeats: int = 3) 
         for task in task_dirs:
             for view in sorted(task.glob("view_*")):
                 files = encode_view(view, png_compression, Path(tmp), repeats)
-                views.append({"task_id": task.name, "view": view.name, "files": len(files),
-                              "raw_bytes": sum(f["raw_bytes"] for f in files),
-                              "file_bytes": sum(f["file_bytes"] for f in files),
-                              "serial_s": sum(f["seconds"] for f in files),
-                              "longest_s": max((f["seconds"] for f in files), default=0.0)})
+                views.append(
+                    {
+                        "task_id": task.name,
+                        "view": view.name,
+                        "files": len(files),
+                        "raw_bytes": sum(f["raw_bytes"] for f in files),
+                        "file_bytes": sum(f["file_bytes"] for f in files),
+                        "serial_s": sum(f["seconds"] for f in files),
+                        "longest_s": max((f["seconds"] for f in files), default=0.0),
+                    }
+                )
     serial = sum(v["serial_s"] for v in views)
     raw = sum(v["raw_bytes"] for v in views)
-    return {"views": views, "serial_s": serial, "raw_bytes": raw, "file_bytes": sum(v["file_bytes"] for v in views),
-            "raw_mb_per_s": raw / serial / 1e6 if serial > 0 else 0.0}
+    return {
+        "views": views,
+        "serial_s": serial,
+        "raw_bytes": raw,
+        "file_bytes": sum(v["file_bytes"] for v in views),
+        "raw_mb_per_s": raw / serial / 1e6 if serial > 0 else 0.0,
+    }
 
 
 def encode_limit_seconds(limit: dict, threads: int, task_id: str | None = None) -> float:
     """The encoders' best time for the views of `limit` (all, or one task's) on `threads` threads:
     Σ over views of max(longest file, serial sum / threads)."""
-    return sum(max(v["longest_s"], v["serial_s"] / max(threads, 1)) for v in limit["views"]
-               if task_id is None or v["task_id"] == task_id)
+    return sum(
+        max(v["longest_s"], v["serial_s"] / max(threads, 1))
+        for v in limit["views"]
+        if task_id is None or v["task_id"] == task_id
+    )

@@ -186,8 +186,9 @@ def _fraction_along(indicator: np.ndarray, axis: int, start: int, stop: int) -> 
     count = stop - start + 1
     pad = max(abs(start), abs(stop))
     padded = np.pad(indicator.astype(np.float64), [(pad, pad) if a == axis else (0, 0) for a in range(2)])
-    cumulative = np.concatenate([np.zeros_like(np.take(padded, [0], axis=axis)), np.cumsum(padded, axis=axis)],
-                                axis=axis)
+    cumulative = np.concatenate(
+        [np.zeros_like(np.take(padded, [0], axis=axis)), np.cumsum(padded, axis=axis)], axis=axis
+    )
     n = indicator.shape[axis]
     index = np.arange(n) + pad
     upper = np.take(cumulative, index + stop + 1, axis=axis)
@@ -195,9 +196,15 @@ def _fraction_along(indicator: np.ndarray, axis: int, start: int, stop: int) -> 
     return (upper - lower) / count
 
 
-def reseau_cross_mask(y: np.ndarray, px_per_deg: float, arm_deg: float = RESEAU_ARM_DEG,
-                      contrast: float = RESEAU_CONTRAST, agreement: float = RESEAU_AGREEMENT,
-                      grid_deg: float = RESEAU_GRID_DEG, grid_tolerance: float = RESEAU_GRID_TOLERANCE) -> np.ndarray:
+def reseau_cross_mask(
+    y: np.ndarray,
+    px_per_deg: float,
+    arm_deg: float = RESEAU_ARM_DEG,
+    contrast: float = RESEAU_CONTRAST,
+    agreement: float = RESEAU_AGREEMENT,
+    grid_deg: float = RESEAU_GRID_DEG,
+    grid_tolerance: float = RESEAU_GRID_TOLERANCE,
+) -> np.ndarray:
     """(H, W) bool: squares of half-width 1.5 × the arm around detected reseau crosses.
 
     A cross is a thin horizontal line and a thin vertical line crossing, each reaching an arm's
@@ -241,7 +248,7 @@ def reseau_cross_mask(y: np.ndarray, px_per_deg: float, arm_deg: float = RESEAU_
     half = round(1.5 * arm)
     for r, c in centres[aligned.any(axis=1)]:
         r, c = int(round(r)), int(round(c))
-        mask[max(0, r - half):r + half + 1, max(0, c - half):c + half + 1] = True
+        mask[max(0, r - half) : r + half + 1, max(0, c - half) : c + half + 1] = True
     return mask
 
 
@@ -255,8 +262,9 @@ class GroundMask:
     reseau: np.ndarray
 
 
-def ground_mask(y: np.ndarray, px_per_deg: float, roi: RegionOfInterest = RegionOfInterest(),
-                detect_reseau: bool = True) -> GroundMask:
+def ground_mask(
+    y: np.ndarray, px_per_deg: float, roi: RegionOfInterest = RegionOfInterest(), detect_reseau: bool = True
+) -> GroundMask:
     """The ground of luma `y` at the analysis scale: inside `roi`, not sky, not within
     HORIZON_MARGIN_PX below it, not on a reseau cross."""
     sky = below_horizon_margin(sky_mask(y))
@@ -264,8 +272,13 @@ def ground_mask(y: np.ndarray, px_per_deg: float, roi: RegionOfInterest = Region
     return GroundMask(mask=roi.mask(y.shape) & ~sky & ~reseau, sky=sky, reseau=reseau)
 
 
-def shadow_fraction(y: np.ndarray, mask: np.ndarray, level: float = SHADOW_LEVEL,
-                    reference_percentile: float = SHADOW_REFERENCE_PERCENTILE, black: float = 0.0) -> float:
+def shadow_fraction(
+    y: np.ndarray,
+    mask: np.ndarray,
+    level: float = SHADOW_LEVEL,
+    reference_percentile: float = SHADOW_REFERENCE_PERCENTILE,
+    black: float = 0.0,
+) -> float:
     """Fraction of masked pixels with luma below `level` × the masked pixels'
     `reference_percentile`, both measured above `black` (a black level: 0, or the frame's own,
     see black_level)."""
@@ -305,8 +318,8 @@ def ground_tiles(y: np.ndarray, mask: np.ndarray, tile: int = TILE_PX) -> np.nda
     out = []
     for r in range(rows.min(), rows.max() - tile + 2, tile):
         for c in range(cols.min(), cols.max() - tile + 2, tile):
-            if mask[r:r + tile, c:c + tile].all():
-                out.append(y[r:r + tile, c:c + tile])
+            if mask[r : r + tile, c : c + tile].all():
+                out.append(y[r : r + tile, c : c + tile])
     return np.array(out).reshape(-1, tile, tile)
 
 
@@ -335,7 +348,7 @@ def contrast_periodogram(tiles: np.ndarray, reference_mean: float) -> np.ndarray
     window = np.outer(np.hanning(t), np.hanning(t))
     contrast = remove_planes(tiles) / reference_mean
     spectra = np.abs(np.fft.fft2(contrast * window)) ** 2
-    return spectra.mean(axis=0) / (t ** 4 * np.mean(window ** 2))
+    return spectra.mean(axis=0) / (t**4 * np.mean(window**2))
 
 
 def radial_frequency(t: int) -> np.ndarray:
@@ -366,7 +379,7 @@ def spectrum_slope(periodogram: np.ndarray, band: tuple[float, float] = SPECTRUM
 
 def octave_bands(octaves: int = OCTAVES) -> list[tuple[float, float]]:
     """[(low, high)] cycles per pixel, finest first: [0.25, 0.5), [0.125, 0.25), ..."""
-    return [(0.5 / 2 ** (k + 1), 0.5 / 2 ** k) for k in range(octaves)]
+    return [(0.5 / 2 ** (k + 1), 0.5 / 2**k) for k in range(octaves)]
 
 
 def octave_rms_contrast(periodogram: np.ndarray, octaves: int = OCTAVES) -> list[float]:
@@ -423,9 +436,15 @@ def masked_gaussian(y: np.ndarray, mask: np.ndarray, sigma_px: float) -> np.ndar
         return np.where(weight > 1e-6, total / weight, np.nan)
 
 
-def dark_blobs(y: np.ndarray, mask: np.ndarray, px_per_deg: float, darkness: float = BLOB_DARKNESS,
-               background_sigma_deg: float = BLOB_BACKGROUND_SIGMA_DEG, min_area_px: int = BLOB_MIN_AREA_PX,
-               max_diameter_deg: float = BLOB_MAX_DIAMETER_DEG) -> Blobs:
+def dark_blobs(
+    y: np.ndarray,
+    mask: np.ndarray,
+    px_per_deg: float,
+    darkness: float = BLOB_DARKNESS,
+    background_sigma_deg: float = BLOB_BACKGROUND_SIGMA_DEG,
+    min_area_px: int = BLOB_MIN_AREA_PX,
+    max_diameter_deg: float = BLOB_MAX_DIAMETER_DEG,
+) -> Blobs:
     """The dark blobs of `y` in `mask` (see the module's definition): 8-connected pixels below
     `darkness` × their local background, kept if not touching the mask's edge or the image's,
     at least `min_area_px`, and at most `max_diameter_deg` across (area-equivalent)."""
@@ -452,14 +471,19 @@ BLOB_SIZE_EDGES_DEG = (0.1, 0.2, 0.4, 0.8)  # octaves of blob diameter for the s
 def blob_statistics(blobs: Blobs, px_per_deg: float) -> dict:
     """Blobs per square degree of ground, the fraction of ground they cover, quantiles of their
     diameters (degrees) and their count per square degree in diameter octaves (degrees)."""
-    ground_deg2 = blobs.ground_px / px_per_deg ** 2
+    ground_deg2 = blobs.ground_px / px_per_deg**2
     d = blobs.diameters_px / px_per_deg
     quantiles = {f"d{q}_deg": (float(np.percentile(d, q)) if d.size else float("nan")) for q in (25, 50, 75, 90)}
     edges = (0.0,) + BLOB_SIZE_EDGES_DEG + (math.inf,)
-    per_octave = {f"{lo:g}-{hi:g}_deg": float(((d >= lo) & (d < hi)).sum() / ground_deg2)
-                  for lo, hi in zip(edges[:-1], edges[1:])}
-    return {"blobs_per_deg2": float(d.size / ground_deg2), "blob_cover_fraction": blobs.covered_px / blobs.ground_px,
-            **quantiles, "blobs_per_deg2_by_diameter": per_octave}
+    per_octave = {
+        f"{lo:g}-{hi:g}_deg": float(((d >= lo) & (d < hi)).sum() / ground_deg2) for lo, hi in zip(edges[:-1], edges[1:])
+    }
+    return {
+        "blobs_per_deg2": float(d.size / ground_deg2),
+        "blob_cover_fraction": blobs.covered_px / blobs.ground_px,
+        **quantiles,
+        "blobs_per_deg2_by_diameter": per_octave,
+    }
 
 
 @dataclass(frozen=True)
@@ -472,8 +496,13 @@ class Measured:
     ground: GroundMask
 
 
-def measure(rgb8: np.ndarray, hfov_deg: float, px_per_deg: float, roi: RegionOfInterest = RegionOfInterest(),
-            tile_px: int = TILE_PX) -> Measured:
+def measure(
+    rgb8: np.ndarray,
+    hfov_deg: float,
+    px_per_deg: float,
+    roi: RegionOfInterest = RegionOfInterest(),
+    tile_px: int = TILE_PX,
+) -> Measured:
     """The one code path for photos and renders: 8-bit sRGB (H, W, 3) whose width spans
     `hfov_deg` → luma at `px_per_deg` → ground mask in `roi` → every statistic. Raises
     ValueError when the ground mask is empty."""
@@ -484,8 +513,9 @@ def measure(rgb8: np.ndarray, hfov_deg: float, px_per_deg: float, roi: RegionOfI
     return Measured(image_statistics(y, ground.mask, px_per_deg, tile_px, black_level(y)), y, ground)
 
 
-def image_statistics(y: np.ndarray, mask: np.ndarray, px_per_deg: float, tile_px: int = TILE_PX,
-                     black: float = 0.0) -> dict:
+def image_statistics(
+    y: np.ndarray, mask: np.ndarray, px_per_deg: float, tile_px: int = TILE_PX, black: float = 0.0
+) -> dict:
     """Every statistic of the module's list for luma `y` (H, W) at `px_per_deg` over `mask`;
     `black` is the frame's black level (shadow_fraction_black_corrected)."""
     tiles = ground_tiles(y, mask, tile_px)
@@ -494,7 +524,7 @@ def image_statistics(y: np.ndarray, mask: np.ndarray, px_per_deg: float, tile_px
     blobs = dark_blobs(y, mask, px_per_deg)
     return {
         "ground_px": int(mask.sum()),
-        "ground_deg2": float(mask.sum() / px_per_deg ** 2),
+        "ground_deg2": float(mask.sum() / px_per_deg**2),
         "tiles": int(len(tiles)),
         "shadow_fraction": shadow_fraction(y, mask),
         "black_level": black,
@@ -502,8 +532,10 @@ def image_statistics(y: np.ndarray, mask: np.ndarray, px_per_deg: float, tile_px
         "luma_median": float(np.median(y[mask])),
         "luma_percentiles_over_median": luma_percentiles(y, mask),
         "spectrum_slope": spectrum_slope(periodogram),
-        "octave_rms_contrast": {f"{lo * px_per_deg:.3g}-{hi * px_per_deg:.3g}_cyc_per_deg": v
-                                for (lo, hi), v in zip(octave_bands(), octaves)},
+        "octave_rms_contrast": {
+            f"{lo * px_per_deg:.3g}-{hi * px_per_deg:.3g}_cyc_per_deg": v
+            for (lo, hi), v in zip(octave_bands(), octaves)
+        },
         "fine_to_coarse_contrast": fine_to_coarse(octaves),
         "laplacian_contrast": laplacian_contrast(y, mask),
         **blob_statistics(blobs, px_per_deg),
@@ -527,8 +559,16 @@ def flatten(stats: dict, prefix: str = "") -> dict[str, float]:
 
 PATCH_PX = 32
 PATCH_MIN_MEDIAN = 0.02  # luma; patches darker than this (≈ code 5) are skipped
-PATCH_FEATURES = ("log_contrast", "p10_over_median", "p90_over_median", "dark_fraction", "log_laplacian",
-                  "log_fine_octave", "log_mid_octave", "log_coarse_octave")
+PATCH_FEATURES = (
+    "log_contrast",
+    "p10_over_median",
+    "p90_over_median",
+    "dark_fraction",
+    "log_laplacian",
+    "log_fine_octave",
+    "log_mid_octave",
+    "log_coarse_octave",
+)
 
 
 def patch_features(y: np.ndarray, mask: np.ndarray, patch_px: int = PATCH_PX) -> np.ndarray:
@@ -548,11 +588,21 @@ def patch_features(y: np.ndarray, mask: np.ndarray, patch_px: int = PATCH_PX) ->
             continue
         q10, q90 = np.percentile(p, (10, 90))
         lap = p[:-2, 1:-1] + p[2:, 1:-1] + p[1:-1, :-2] + p[1:-1, 2:] - 4.0 * p[1:-1, 1:-1]
-        spectrum = np.abs(np.fft.fft2((p - mean) / mean * window)) ** 2 / (patch_px ** 4 * np.mean(window ** 2))
-        octave = [np.sqrt(spectrum[(radius >= lo) & (radius <= hi if k == 0 else radius < hi)].sum())
-                  for k, (lo, hi) in enumerate(bands)]
-        rows.append([np.log(p.std() / mean + tiny), q10 / median, q90 / median, np.mean(p < 0.5 * median),
-                     np.log(np.sqrt(np.mean(lap ** 2)) / mean + tiny)] + [np.log(o + tiny) for o in octave])
+        spectrum = np.abs(np.fft.fft2((p - mean) / mean * window)) ** 2 / (patch_px**4 * np.mean(window**2))
+        octave = [
+            np.sqrt(spectrum[(radius >= lo) & (radius <= hi if k == 0 else radius < hi)].sum())
+            for k, (lo, hi) in enumerate(bands)
+        ]
+        rows.append(
+            [
+                np.log(p.std() / mean + tiny),
+                q10 / median,
+                q90 / median,
+                np.mean(p < 0.5 * median),
+                np.log(np.sqrt(np.mean(lap**2)) / mean + tiny),
+            ]
+            + [np.log(o + tiny) for o in octave]
+        )
     return np.array(rows, dtype=np.float64).reshape(-1, len(PATCH_FEATURES))
 
 
@@ -574,8 +624,7 @@ def fit_logistic(x: np.ndarray, labels: np.ndarray, l2: float = 1e-2, iterations
     return w
 
 
-def two_sample_accuracy(a: np.ndarray, b: np.ndarray, folds: int = 5, seed: int = 0,
-                        max_per_class: int = 2000) -> dict:
+def two_sample_accuracy(a: np.ndarray, b: np.ndarray, folds: int = 5, seed: int = 0, max_per_class: int = 2000) -> dict:
     """How well logistic regression tells rows of `a` (n_a, k) from rows of `b` (n_b, k):
     classes balanced by drawing min(n_a, n_b, max_per_class) rows of each (seeded), `folds`-fold
     cross-validated accuracy (0.5 = indistinguishable, 1 = fully separated) on features
@@ -602,8 +651,13 @@ def two_sample_accuracy(a: np.ndarray, b: np.ndarray, folds: int = 5, seed: int 
     mu, sd = x.mean(axis=0), x.std(axis=0) + 1e-12
     weights = fit_logistic((x - mu) / sd, labels)
     k = x.shape[1]
-    return {"patches_per_class": n, "folds": folds, "accuracy": cross_validated(list(range(k))),
-            "weights": weights[:-1].tolist(), "single_feature_accuracy": [cross_validated([j]) for j in range(k)]}
+    return {
+        "patches_per_class": n,
+        "folds": folds,
+        "accuracy": cross_validated(list(range(k))),
+        "weights": weights[:-1].tolist(),
+        "single_feature_accuracy": [cross_validated([j]) for j in range(k)],
+    }
 
 
 # ----------------------------------------------------------------------------------------------

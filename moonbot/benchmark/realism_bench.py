@@ -124,11 +124,18 @@ def look_pose(eye: np.ndarray, azimuth_deg: float, pitch_deg: float):
 def base_overrides(location: str, options: Options) -> dict:
     """The config overrides every render of `location` shares. The orbit's depression angle is
     set to the pitch so that `tonemap.ev100: auto` meters the regolith as this camera sees it."""
-    out = {"terrain.location": location, "camera.width": options.width, "camera.height": options.height,
-           "camera.hfov_deg": options.hfov_deg, "render.spp": options.spp,
-           "render.light_samples": options.light_samples, "render.bounces": options.bounces,
-           "render.threads": options.threads, "orbit.radius_m": 1.0,
-           "orbit.height_m": math.tan(math.radians(options.pitch_deg))}
+    out = {
+        "terrain.location": location,
+        "camera.width": options.width,
+        "camera.height": options.height,
+        "camera.hfov_deg": options.hfov_deg,
+        "render.spp": options.spp,
+        "render.light_samples": options.light_samples,
+        "render.bounces": options.bounces,
+        "render.threads": options.threads,
+        "orbit.radius_m": 1.0,
+        "orbit.height_m": math.tan(math.radians(options.pitch_deg)),
+    }
     if options.detail_extent_m > 0:
         out["terrain.detail_extent_m"] = options.detail_extent_m
     out.update(options.overrides)
@@ -150,8 +157,8 @@ def render_all(plans: list[RenderPlan], options: Options, say: Callable[[str], N
     """Renders every plan, building each location's scene once (the Sun only changes lights)."""
     from moonbot.config import load_config
     from moonbot.render import build_scene, render_view
-    from moonbot.render.view import build_light_cache
     from moonbot.render.exposure import resolve_exposure, tonemap
+    from moonbot.render.view import build_light_cache
     from moonbot.scene import compose_scene, intrinsics
 
     out = []
@@ -173,7 +180,9 @@ def render_all(plans: list[RenderPlan], options: Options, say: Callable[[str], N
             ground = float(spec.ground.height(np.array([xy[0]]), np.array([xy[1]]))[0])
             pose = look_pose(np.array([xy[0], xy[1], ground + options.camera_height_m]), azimuth, options.pitch_deg)
             # The product's indirect light: a light cache for this Sun (None where render.indirect is path).
-            view = render_view(scene, view_config, K, pose, plan.seed, light_cache=build_light_cache(scene, view_config))
+            view = render_view(
+                scene, view_config, K, pose, plan.seed, light_cache=build_light_cache(scene, view_config)
+            )
             exposure = resolve_exposure(view_config)
             rgb8, _ = tonemap(view.rgb, exposure)
             out.append(Rendered(plan, np.asarray(rgb8), exposure.ev100, view.stats))
@@ -208,8 +217,12 @@ def separation(photo_values: list[float], render_values: list[float]) -> dict:
     iqr = float(np.subtract(*np.percentile(p, [75, 25])))
     score = gap / iqr if iqr > 0 else (math.inf if gap > 0 else 0.0)
     outside = float(np.mean((r < p.min()) | (r > p.max())))
-    return {"score": score, "outside_fraction": outside, "photos_median": float(np.median(p)),
-            "renders_median": float(np.median(r))}
+    return {
+        "score": score,
+        "outside_fraction": outside,
+        "photos_median": float(np.median(p)),
+        "renders_median": float(np.median(r)),
+    }
 
 
 def noise_record(a: realism.Measured, b: realism.Measured, tile_px: int) -> dict:
@@ -221,20 +234,33 @@ def noise_record(a: realism.Measured, b: realism.Measured, tile_px: int) -> dict
     mean = float(a.luma[mask].mean())
     tiles = realism.ground_tiles(diff, mask, tile_px)
     window = np.outer(np.hanning(tile_px), np.hanning(tile_px))
-    spectrum = (np.abs(np.fft.fft2(tiles / mean * window)) ** 2).mean(axis=0) / (tile_px ** 4 * np.mean(window ** 2))
+    spectrum = (np.abs(np.fft.fft2(tiles / mean * window)) ** 2).mean(axis=0) / (tile_px**4 * np.mean(window**2))
     noise_octaves = realism.octave_rms_contrast(spectrum)
     fa, fb = realism.flatten(a.stats), realism.flatten(b.stats)
-    return {"pixel_noise_over_mean": float(diff[mask].std() / mean),
-            "noise_octave_rms_contrast": dict(zip(a.stats["octave_rms_contrast"], noise_octaves)),
-            "render_octave_rms_contrast": a.stats["octave_rms_contrast"],
-            "statistic_change_between_seeds": {k: fb[k] - fa[k] for k in fa if k in fb}}
+    return {
+        "pixel_noise_over_mean": float(diff[mask].std() / mean),
+        "noise_octave_rms_contrast": dict(zip(a.stats["octave_rms_contrast"], noise_octaves)),
+        "render_octave_rms_contrast": a.stats["octave_rms_contrast"],
+        "statistic_change_between_seeds": {k: fb[k] - fa[k] for k in fa if k in fb},
+    }
 
 
-COMPARED = ("shadow_fraction", "shadow_fraction_black_corrected", "luma_percentiles_over_median.p5",
-            "luma_percentiles_over_median.p25",
-            "luma_percentiles_over_median.p75", "luma_percentiles_over_median.p95",
-            "luma_percentiles_over_median.p99", "spectrum_slope", "fine_to_coarse_contrast",
-            "laplacian_contrast", "blobs_per_deg2", "blob_cover_fraction", "d50_deg", "d90_deg")
+COMPARED = (
+    "shadow_fraction",
+    "shadow_fraction_black_corrected",
+    "luma_percentiles_over_median.p5",
+    "luma_percentiles_over_median.p25",
+    "luma_percentiles_over_median.p75",
+    "luma_percentiles_over_median.p95",
+    "luma_percentiles_over_median.p99",
+    "spectrum_slope",
+    "fine_to_coarse_contrast",
+    "laplacian_contrast",
+    "blobs_per_deg2",
+    "blob_cover_fraction",
+    "d50_deg",
+    "d90_deg",
+)
 
 
 def compared_statistics(stats: dict) -> dict[str, float]:
@@ -243,9 +269,14 @@ def compared_statistics(stats: dict) -> dict[str, float]:
     return {k: v for k, v in flat.items() if k in COMPARED or k.startswith("octave_rms_contrast.")}
 
 
-def run_realism(photos: Path, regions_path: Path | None = None, options: Options = Options(),
-                out: Path | None = None, sheet: Path | None = None,
-                say: Callable[[str], None] = lambda text: None) -> tuple[dict, Path]:
+def run_realism(
+    photos: Path,
+    regions_path: Path | None = None,
+    options: Options = Options(),
+    out: Path | None = None,
+    sheet: Path | None = None,
+    say: Callable[[str], None] = lambda text: None,
+) -> tuple[dict, Path]:
     """Measures the photos in `photos` (SOURCES.csv, realism.read_sources) and the renders of
     `options`, compares them, writes the JSON record (default bench/results/realism-<machine>.json)
     and the side-by-side sheet (default realism-sheet.png beside it). Returns (record, path)."""
@@ -265,17 +296,22 @@ def run_realism(photos: Path, regions_path: Path | None = None, options: Options
         except ValueError as e:
             raise ValueError(f"{source.path}: {e}") from None
         photo_measured.append((source, measured))
-        photo_records.append({"file": source.path.name,
-                              "sun_elevation_deg": [source.sun_low_deg, source.sun_high_deg],
-                              "region": dataclasses.asdict(region), "listed_region": source.path.name in regions,
-                              "reseau_px": int(measured.ground.reseau.sum()), "stats": measured.stats})
+        photo_records.append(
+            {
+                "file": source.path.name,
+                "sun_elevation_deg": [source.sun_low_deg, source.sun_high_deg],
+                "region": dataclasses.asdict(region),
+                "listed_region": source.path.name in regions,
+                "reseau_px": int(measured.ground.reseau.sum()),
+                "stats": measured.stats,
+            }
+        )
     say(f"{len(sources)} photos measured")
 
     elevations = sorted({s.sun_mid_deg for s in sources})
     plans = render_plans(elevations, options)
     renders = render_all(plans, options, say)
-    render_measured = [(r, realism.measure(r.rgb8, options.hfov_deg, ppd, tile_px=options.tile_px))
-                       for r in renders]
+    render_measured = [(r, realism.measure(r.rgb8, options.hfov_deg, ppd, tile_px=options.tile_px)) for r in renders]
 
     compared_photos = {s.path.name: compared_statistics(m.stats) for s, m in photo_measured}
     render_records = []
@@ -285,26 +321,37 @@ def run_realism(photos: Path, regions_path: Path | None = None, options: Options
         in_band = {}
         for key, value in values.items():
             span = band_range([compared_photos[s.path.name].get(key, float("nan")) for s in band])
-            in_band[key] = {"value": value, **span,
-                            "inside": bool(span["n"] and span["min"] <= value <= span["max"])}
-        render_records.append({"name": r.plan.name, **dataclasses.asdict(r.plan), "ev100": r.ev100,
-                               "render": {k: r.stats[k] for k in ("camera_rays", "shadow_rays", "bounce_rays",
-                                                                   "core_seconds")},
-                               "band_photos": [s.path.name for s in band], "stats": m.stats,
-                               "against_band": in_band})
+            in_band[key] = {"value": value, **span, "inside": bool(span["n"] and span["min"] <= value <= span["max"])}
+        render_records.append(
+            {
+                "name": r.plan.name,
+                **dataclasses.asdict(r.plan),
+                "ev100": r.ev100,
+                "render": {k: r.stats[k] for k in ("camera_rays", "shadow_rays", "bounce_rays", "core_seconds")},
+                "band_photos": [s.path.name for s in band],
+                "stats": m.stats,
+                "against_band": in_band,
+            }
+        )
 
     bands = {}
     for elevation in elevations:
         band = [s.path.name for s in sources if s.sun_low_deg <= elevation <= s.sun_high_deg]
         keys = sorted(set().union(*(compared_photos[name] for name in band)))
-        bands[f"{elevation:g}"] = {"photos": band, "range": {
-            key: band_range([compared_photos[name].get(key, float("nan")) for name in band]) for key in keys}}
+        bands[f"{elevation:g}"] = {
+            "photos": band,
+            "range": {key: band_range([compared_photos[name].get(key, float("nan")) for name in band]) for key in keys},
+        }
 
     main_renders = [(r, m) for r, m in render_measured if r.plan.seed != options.noise_seed]
     keys = sorted(set().union(*compared_photos.values()))
-    ranking = {key: separation([v.get(key, float("nan")) for v in compared_photos.values()],
-                               [compared_statistics(m.stats).get(key, float("nan")) for _, m in main_renders])
-               for key in keys}
+    ranking = {
+        key: separation(
+            [v.get(key, float("nan")) for v in compared_photos.values()],
+            [compared_statistics(m.stats).get(key, float("nan")) for _, m in main_renders],
+        )
+        for key in keys
+    }
     noise_pair = [m for r, m in render_measured if r.plan.name in (plans[0].name, plans[-1].name)]
     noise = noise_record(noise_pair[0], noise_pair[1], options.tile_px)
 
@@ -320,11 +367,15 @@ def run_realism(photos: Path, regions_path: Path | None = None, options: Options
         classifier = {"error": str(e)}
 
     record = {
-        "schema_version": SCHEMA_VERSION, "machine": machine(),
+        "schema_version": SCHEMA_VERSION,
+        "machine": machine(),
         "options": {**dataclasses.asdict(options), "px_per_deg": ppd, "photo_hfov_deg": HASSELBLAD_HFOV_DEG},
-        "photos_dir_name": Path(photos).name, "regions_file": str(Path(regions_path or DEFAULT_REGIONS).name),
+        "photos_dir_name": Path(photos).name,
+        "regions_file": str(Path(regions_path or DEFAULT_REGIONS).name),
         "definitions": "moonbot/benchmark/realism.py; comparison: moonbot/benchmark/realism_bench.py",
-        "photos": photo_records, "sun_bands": bands, "renders": render_records,
+        "photos": photo_records,
+        "sun_bands": bands,
+        "renders": render_records,
         "separation": dict(sorted(ranking.items(), key=lambda kv: -_finite_or(kv[1]["score"], -1.0))),
         "monte_carlo_noise": {"renders": [plans[0].name, plans[-1].name], **noise},
         "patch_classifier": classifier,
@@ -383,31 +434,44 @@ def write_sheet(path: Path, renders: list, photos: list, px_per_deg: float) -> N
     rows = sorted(renders, key=lambda rm: (rm[0].plan.elevation_deg, rm[0].plan.location != "flat", rm[0].plan.name))
     used: dict[float, int] = {}
     size = ((2 * 4 / 3 + 2) * SHEET_ROW_PX / 100, len(rows) * SHEET_ROW_PX / 100 + 0.3)
-    fig, axes = plt.subplots(len(rows), 4, figsize=size, dpi=100, squeeze=False,
-                             gridspec_kw={"width_ratios": [4 / 3, 4 / 3, 1, 1]})
+    fig, axes = plt.subplots(
+        len(rows), 4, figsize=size, dpi=100, squeeze=False, gridspec_kw={"width_ratios": [4 / 3, 4 / 3, 1, 1]}
+    )
     for row, (r, m) in enumerate(rows):
         band = [(s, pm) for s, pm in photos if s.sun_low_deg <= r.plan.elevation_deg <= s.sun_high_deg]
         axes[row, 0].imshow(r.rgb8)
-        axes[row, 0].contour(m.ground.mask, levels=[0.5], colors="cyan", linewidths=0.4,
-                             extent=(0, r.rgb8.shape[1], 0, r.rgb8.shape[0]))
-        axes[row, 0].set_title(f"render {r.plan.name} (shadow {m.stats['shadow_fraction']:.2f}, "
-                               f"blobs {m.stats['blobs_per_deg2']:.2f}/deg²)", fontsize=5)
+        axes[row, 0].contour(
+            m.ground.mask, levels=[0.5], colors="cyan", linewidths=0.4, extent=(0, r.rgb8.shape[1], 0, r.rgb8.shape[0])
+        )
+        axes[row, 0].set_title(
+            f"render {r.plan.name} (shadow {m.stats['shadow_fraction']:.2f}, "
+            f"blobs {m.stats['blobs_per_deg2']:.2f}/deg²)",
+            fontsize=5,
+        )
         if band:
             k = used.get(r.plan.elevation_deg, 0)
             used[r.plan.elevation_deg] = k + 1
             s, pm = band[k % len(band)]
             image = read_photo(s.path)
             axes[row, 1].imshow(image)
-            axes[row, 1].contour(pm.ground.mask, levels=[0.5], colors="cyan", linewidths=0.4,
-                                 extent=(0, image.shape[1], 0, image.shape[0]))
-            axes[row, 1].set_title(f"photo {s.path.stem} (Sun {s.sun_low_deg:g}-{s.sun_high_deg:g}°; shadow "
-                                   f"{pm.stats['shadow_fraction']:.2f}, blobs {pm.stats['blobs_per_deg2']:.2f}/deg²)",
-                                   fontsize=5)
+            axes[row, 1].contour(
+                pm.ground.mask,
+                levels=[0.5],
+                colors="cyan",
+                linewidths=0.4,
+                extent=(0, image.shape[1], 0, image.shape[0]),
+            )
+            axes[row, 1].set_title(
+                f"photo {s.path.stem} (Sun {s.sun_low_deg:g}-{s.sun_high_deg:g}°; shadow "
+                f"{pm.stats['shadow_fraction']:.2f}, blobs {pm.stats['blobs_per_deg2']:.2f}/deg²)",
+                fontsize=5,
+            )
             for column, crop, what in zip((2, 3), matched_crops(m, pm), ("render", "photo")):
                 if crop.size:
                     axes[row, column].imshow(crop, cmap="gray", vmin=0, vmax=1, interpolation="nearest")
-                    axes[row, column].set_title(f"{what} ground, {crop.shape[1] / px_per_deg:.1f}° at the "
-                                                f"analysis scale", fontsize=5)
+                    axes[row, column].set_title(
+                        f"{what} ground, {crop.shape[1] / px_per_deg:.1f}° at the analysis scale", fontsize=5
+                    )
         for ax in axes[row]:
             ax.set_axis_off()
     fig.tight_layout(pad=0.2)
@@ -427,25 +491,30 @@ def format_summary(record: dict) -> str:
     median, how many renders fall inside their Sun band's photo range, and the separation score
     (largest first); then the Monte-Carlo noise and the patch classifier."""
     renders = [r for r in record["renders"] if r["seed"] != record["options"]["noise_seed"]]
-    lines = [f"{'statistic':<44} {'photos min':>10} {'median':>8} {'max':>8} {'renders':>8} "
-             f"{'in band':>8} {'sep':>6}"]
+    lines = [f"{'statistic':<44} {'photos min':>10} {'median':>8} {'max':>8} {'renders':>8} {'in band':>8} {'sep':>6}"]
     for key, sep in record["separation"].items():
         photos = [p for p in (realism.flatten(ph["stats"]).get(key) for ph in record["photos"]) if p is not None]
         photos = [p for p in photos if math.isfinite(p)]
         inside = sum(1 for r in renders if r["against_band"].get(key, {}).get("inside"))
         lo, hi = (min(photos), max(photos)) if photos else (float("nan"),) * 2
-        lines.append(f"{key:<44} {lo:>10.3g} {sep.get('photos_median', float('nan')):>8.3g} {hi:>8.3g} "
-                     f"{sep.get('renders_median', float('nan')):>8.3g} {inside:>4}/{len(renders):<3} "
-                     f"{sep['score']:>6.2f}")
+        lines.append(
+            f"{key:<44} {lo:>10.3g} {sep.get('photos_median', float('nan')):>8.3g} {hi:>8.3g} "
+            f"{sep.get('renders_median', float('nan')):>8.3g} {inside:>4}/{len(renders):<3} "
+            f"{sep['score']:>6.2f}"
+        )
     noise = record["monte_carlo_noise"]
-    lines.append(f"\nMonte-Carlo noise ({noise['renders'][0]} vs seed {record['options']['noise_seed']}): "
-                 f"pixel RMS {noise['pixel_noise_over_mean']:.4f} of the mean luma")
+    lines.append(
+        f"\nMonte-Carlo noise ({noise['renders'][0]} vs seed {record['options']['noise_seed']}): "
+        f"pixel RMS {noise['pixel_noise_over_mean']:.4f} of the mean luma"
+    )
     for band, n in noise["noise_octave_rms_contrast"].items():
         lines.append(f"  {band:<28} noise {n:.4f}  render {noise['render_octave_rms_contrast'][band]:.4f}")
     c = record["patch_classifier"]
     if "accuracy" in c:
-        lines.append(f"\npatch classifier (renders vs photos, {c['patches_per_class']} patches each, "
-                     f"{c['folds']}-fold): accuracy {c['accuracy']:.3f}")
+        lines.append(
+            f"\npatch classifier (renders vs photos, {c['patches_per_class']} patches each, "
+            f"{c['folds']}-fold): accuracy {c['accuracy']:.3f}"
+        )
         for name, w, a in zip(c["features"], c["weights"], c["single_feature_accuracy"]):
             lines.append(f"  {name:<20} weight {w:>7.2f}  alone {a:.3f}")
     else:

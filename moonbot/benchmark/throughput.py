@@ -54,8 +54,12 @@ from moonbot.records.stats import StatsRecord
 DEFAULT_CONFIG = Path("configs") / "bench" / "throughput-v1.yaml"
 SWEEP_CONFIG = Path("configs") / "synbag-1.0.yaml"
 NODES = (1, 10, 50, 100)
-STAGE_GROUPS = {"scene_build": ("terrain", "compose", "settle", "build_bvh"), "dust": ("dust",),
-                "render": ("render", "amodal", "tonemap"), "encode_write": ("encode_write",)}
+STAGE_GROUPS = {
+    "scene_build": ("terrain", "compose", "settle", "build_bvh"),
+    "dust": ("dust",),
+    "render": ("render", "amodal", "tonemap"),
+    "encode_write": ("encode_write",),
+}
 RAY_KINDS = ("camera_rays", "shadow_rays", "bounce_shadow_rays", "bounce_rays", "medium_rays", "amodal_rays")
 
 
@@ -68,8 +72,12 @@ def config_identity(path: Path) -> dict:
     """The benchmark config's file name, version (from its name: throughput-v<N>.yaml) and sha256."""
     path = Path(path)
     match = re.search(r"-v(\d+)$", path.stem)
-    return {"file": path.name, "name": path.stem, "version": int(match.group(1)) if match else 0,
-            "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
+    return {
+        "file": path.name,
+        "name": path.stem,
+        "version": int(match.group(1)) if match else 0,
+        "sha256": hashlib.sha256(path.read_bytes()).hexdigest(),
+    }
 
 
 def _peak_rss_mib() -> float:
@@ -101,21 +109,34 @@ def summarize_run(level: str, workers: int, threads: int, stats: list[StatsRecor
     traced = rays["camera_rays"] + rays["shadow_rays"] + rays["bounce_rays"] + rays["medium_rays"]
     render_s = stages.get("render", 0.0)
     return {
-        "level": level, "workers": workers, "threads_per_worker": threads, "tasks": len(stats),
-        "samples": samples, "views_per_task": samples / len(stats), "span_s": span,
+        "level": level,
+        "workers": workers,
+        "threads_per_worker": threads,
+        "tasks": len(stats),
+        "samples": samples,
+        "views_per_task": samples / len(stats),
+        "span_s": span,
         "samples_per_s": samples / span if span > 0 else 0.0,
         "seconds_per_sample": span / samples if samples else 0.0,
         "task_wall_s": sum(s.wall_s for s in stats),
         "scene_build_s": groups["scene_build"],
         "bytes": sum(s.bytes_written for s in stats),
         "bytes_per_sample": sum(s.bytes_written for s in stats) / samples if samples else 0.0,
-        "stages_s": stages, "stage_groups_s": groups,
+        "stages_s": stages,
+        "stage_groups_s": groups,
         "stage_groups_s_per_sample": {g: v / samples for g, v in groups.items()} if samples else {},
         "rays": rays,
         "mrays_per_s": traced / render_s / 1e6 if render_s > 0 else 0.0,
-        "tasks_detail": [{"task_id": s.task_id, "samples": s.samples, "wall_s": s.wall_s,
-                          "stage_groups_s": _groups(s.stages_s), "rays": s.rays or {}}
-                         for s in sorted(stats, key=lambda s: s.task_id)],
+        "tasks_detail": [
+            {
+                "task_id": s.task_id,
+                "samples": s.samples,
+                "wall_s": s.wall_s,
+                "stage_groups_s": _groups(s.stages_s),
+                "rays": s.rays or {},
+            }
+            for s in sorted(stats, key=lambda s: s.task_id)
+        ],
     }
 
 
@@ -136,7 +157,10 @@ def add_limits(run: dict, embree: list[dict], encode: dict, bounces: int) -> Non
         return a / b if b > 0 else 0.0
 
     run["limit"] = {
-        "threads": p, "embree_s": rays_s, "encode_s": enc_s, "bounce_cost": "measured",
+        "threads": p,
+        "embree_s": rays_s,
+        "encode_s": enc_s,
+        "bounce_cost": "measured",
         "seconds_per_sample": (rays_s + enc_s) / samples if samples else 0.0,
         "encode_raw_mb_per_s": encode["raw_mb_per_s"],
     }
@@ -156,8 +180,15 @@ def scaling(runs: list[dict]) -> list[dict]:
         base = mine[0]
         for r in mine:
             e = (r["samples_per_s"] / r["workers"]) / (base["samples_per_s"] / base["workers"])
-            out.append({"level": level, "workers": r["workers"], "threads_per_worker": r["threads_per_worker"],
-                        "reference_workers": base["workers"], "efficiency": e})
+            out.append(
+                {
+                    "level": level,
+                    "workers": r["workers"],
+                    "threads_per_worker": r["threads_per_worker"],
+                    "reference_workers": base["workers"],
+                    "efficiency": e,
+                }
+            )
     return out
 
 
@@ -181,22 +212,38 @@ def projection(runs: list[dict], sweep_path: Path, image: dict) -> dict:
         scale = (fixed / views + per_view) / (fixed / bench_views + per_view)
         seconds_per_sample = best["seconds_per_sample"] * scale
         seconds = seconds_per_sample * samples
-        levels.append({
-            "level": level, "from_run": {"workers": best["workers"], "threads_per_worker": best["threads_per_worker"]},
-            "task_fixed_s": fixed, "per_view_s": per_view, "seconds_per_sample": seconds_per_sample,
-            "samples_per_s": 1.0 / seconds_per_sample if seconds_per_sample > 0 else 0.0,
-            "ratio_pipeline": (seconds_per_sample / best["limit"]["seconds_per_sample"]
-                               if best.get("limit", {}).get("seconds_per_sample") else 0.0),
-            "bytes": best["bytes_per_sample"] * samples,
-            "hours": [{"nodes": k, "hours": seconds / k / 3600.0} for k in NODES],
-        })
+        levels.append(
+            {
+                "level": level,
+                "from_run": {"workers": best["workers"], "threads_per_worker": best["threads_per_worker"]},
+                "task_fixed_s": fixed,
+                "per_view_s": per_view,
+                "seconds_per_sample": seconds_per_sample,
+                "samples_per_s": 1.0 / seconds_per_sample if seconds_per_sample > 0 else 0.0,
+                "ratio_pipeline": (
+                    seconds_per_sample / best["limit"]["seconds_per_sample"]
+                    if best.get("limit", {}).get("seconds_per_sample")
+                    else 0.0
+                ),
+                "bytes": best["bytes_per_sample"] * samples,
+                "hours": [{"nodes": k, "hours": seconds / k / 3600.0} for k in NODES],
+            }
+        )
     same_image = (sweep.camera.width, sweep.camera.height) == (image["width"], image["height"])
-    return {"sweep": sweep_path.name, "tasks": len(sweep_tasks), "samples": samples, "views_per_task": views,
-            "image_matches_sweep": same_image, "levels": levels,
-            "note": ("linear in nodes of this machine's kind; each node runs the level's fastest layout measured "
-                     "here; the benchmark's four scenes stand for the sweep's mix (mean 6 bags against 5.7, half "
-                     "dusty as in the sweep); per-worker terrain warm-up and the merge are left out"
-                     + ("" if same_image else "; NOT the sweep's image size: the figures are not the sweep's"))}
+    return {
+        "sweep": sweep_path.name,
+        "tasks": len(sweep_tasks),
+        "samples": samples,
+        "views_per_task": views,
+        "image_matches_sweep": same_image,
+        "levels": levels,
+        "note": (
+            "linear in nodes of this machine's kind; each node runs the level's fastest layout measured "
+            "here; the benchmark's four scenes stand for the sweep's mix (mean 6 bags against 5.7, half "
+            "dusty as in the sweep); per-worker terrain warm-up and the merge are left out"
+            + ("" if same_image else "; NOT the sweep's image size: the figures are not the sweep's")
+        ),
+    }
 
 
 def _generate_level(client, config, threads: int, png_compression: int, encode: dict | None, repeats: int):
@@ -217,9 +264,16 @@ def _generate_level(client, config, threads: int, png_compression: int, encode: 
     return stats, wall, encode
 
 
-def run_throughput(config_path: Path | None = None, levels: list[str] | None = None,
-                   workers: list[int] | None = None, threads: int | None = None, overrides: dict | None = None,
-                   out: Path | None = None, repeats: int = 3, say=print) -> tuple[dict, Path]:
+def run_throughput(
+    config_path: Path | None = None,
+    levels: list[str] | None = None,
+    workers: list[int] | None = None,
+    threads: int | None = None,
+    overrides: dict | None = None,
+    out: Path | None = None,
+    repeats: int = 3,
+    say=print,
+) -> tuple[dict, Path]:
     """Runs the benchmark (module docstring) and writes its result; returns (record, path).
     `threads`: render threads a worker (default: cores // the most workers, at least 1)."""
     from distributed import Client, LocalCluster
@@ -239,51 +293,88 @@ def run_throughput(config_path: Path | None = None, levels: list[str] | None = N
     base = configs[levels[0]]
     bench_tasks = tasks(base)
     record = {
-        "schema_version": SCHEMA_VERSION, "benchmark": "throughput",
-        "config": config_identity(config_path), "overrides": overrides,
+        "schema_version": SCHEMA_VERSION,
+        "benchmark": "throughput",
+        "config": config_identity(config_path),
+        "overrides": overrides,
         "image": {"width": base.camera.width, "height": base.camera.height},
         "levels": {n: {"overrides": LEVELS[n].overrides, "description": LEVELS[n].description} for n in levels},
-        "tasks": [t.task_id for t in bench_tasks], "workers": workers, "threads_per_worker": threads,
-        "machine": m, "libraries": library_versions(), "started_utc": m["date"], "load_before": _load(),
-        "terrain_warmup_s": {}, "runs": [], "embree_limit": [], "encode_limit": {},
-        "limit_notes": ("Embree: view 0's pixel-centre camera rays, Sun shadow rays and diffuse bounce rays (as many "
-                        "generations as the level's bounces) on each task's scene (bags unsettled), as the renderer "
-                        "traces them (64-ray streams), busiest thread; medium rays at the camera rays' rate; amodal "
-                        "passes and the dust medium's marching have no counterpart. Encoders: every file re-encoded "
-                        "alone by the same encoder, best schedule on the run's threads. moonbot/benchmark/limit.py"),
+        "tasks": [t.task_id for t in bench_tasks],
+        "workers": workers,
+        "threads_per_worker": threads,
+        "machine": m,
+        "libraries": library_versions(),
+        "started_utc": m["date"],
+        "load_before": _load(),
+        "terrain_warmup_s": {},
+        "runs": [],
+        "embree_limit": [],
+        "encode_limit": {},
+        "limit_notes": (
+            "Embree: view 0's pixel-centre camera rays, Sun shadow rays and diffuse bounce rays (as many "
+            "generations as the level's bounces) on each task's scene (bags unsettled), as the renderer "
+            "traces them (64-ray streams), busiest thread; medium rays at the camera rays' rate; amodal "
+            "passes and the dust medium's marching have no counterpart. Encoders: every file re-encoded "
+            "alone by the same encoder, best schedule on the run's threads. moonbot/benchmark/limit.py"
+        ),
     }
     say(f"machine  {m['cpu']}, {m['cores']} cores, {m['memory_gib']} GiB, {m['os']}, commit {m['git_commit'][:12]}")
-    say(f"config   {config_path.name}: {len(bench_tasks)} tasks × {base.orbit.views} views at "
-        f"{base.camera.width}×{base.camera.height}; levels {', '.join(levels)}; workers {workers} × {threads} threads")
+    say(
+        f"config   {config_path.name}: {len(bench_tasks)} tasks × {base.orbit.views} views at "
+        f"{base.camera.width}×{base.camera.height}; levels {', '.join(levels)}; workers {workers} × {threads} threads"
+    )
     thread_counts = sorted({w * threads for w in workers})
     most_bounces = max(c.render.bounces for c in configs.values())  # the probe's bounce generations
     encode: dict[str, dict] = {}
     for w in workers:
-        with LocalCluster(n_workers=w, threads_per_worker=1, processes=True, dashboard_address=":0",
-                          silence_logs=40) as cluster, Client(cluster) as client:
+        with (
+            LocalCluster(
+                n_workers=w, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=40
+            ) as cluster,
+            Client(cluster) as client,
+        ):
             start = time.perf_counter()
             terrains = list({task_config(base, t).terrain: None for t in bench_tasks})
             client.register_plugin(TerrainWarmup(terrains))
             record["terrain_warmup_s"][str(w)] = time.perf_counter() - start
             for level in levels:
                 load_before = _load()
-                stats, wall, encode[level] = _generate_level(client, configs[level], threads,
-                                                             configs[level].output.png_compression,
-                                                             encode.get(level), repeats)
+                stats, wall, encode[level] = _generate_level(
+                    client, configs[level], threads, configs[level].output.png_compression, encode.get(level), repeats
+                )
                 run = summarize_run(level, w, threads, stats)
                 rss = client.run(_peak_rss_mib)
-                run.update(generate_wall_s=wall, load_before=load_before, load_after=_load(),
-                           peak_rss_mib={"workers": sorted(rss.values()), "max_worker": max(rss.values()),
-                                         "driver": _peak_rss_mib()})
+                run.update(
+                    generate_wall_s=wall,
+                    load_before=load_before,
+                    load_after=_load(),
+                    peak_rss_mib={
+                        "workers": sorted(rss.values()),
+                        "max_worker": max(rss.values()),
+                        "driver": _peak_rss_mib(),
+                    },
+                )
                 record["runs"].append(run)
-                say(f"  {level:<8} {w} worker(s) × {threads}: {run['samples']} samples in {run['span_s']:.1f} s = "
+                say(
+                    f"  {level:<8} {w} worker(s) × {threads}: {run['samples']} samples in {run['span_s']:.1f} s = "
                     f"{run['samples_per_s']:.3f} samples/s, {run['mrays_per_s']:.1f} Mrays/s, "
                     f"{run['bytes_per_sample'] / 1e6:.2f} MB a sample, worker peak {run['peak_rss_mib']['max_worker']:.0f} MiB "
-                    f"(load {load_before[0]:.1f} → {run['load_after'][0]:.1f})")
+                    f"(load {load_before[0]:.1f} → {run['load_after'][0]:.1f})"
+                )
             if not record["embree_limit"]:  # the same scenes for every W: measured once, on a warm worker
                 load_before = _load()
-                futures = [client.submit(embree_limit, configs["default" if "default" in configs else levels[0]], t,
-                                         thread_counts, most_bounces, repeats, pure=False) for t in bench_tasks]
+                futures = [
+                    client.submit(
+                        embree_limit,
+                        configs["default" if "default" in configs else levels[0]],
+                        t,
+                        thread_counts,
+                        most_bounces,
+                        repeats,
+                        pure=False,
+                    )
+                    for t in bench_tasks
+                ]
                 record["embree_limit"] = [row for f in futures for row in f.result()]
                 record["embree_limit_load"] = {"before": load_before, "after": _load()}
     for level in levels:

@@ -71,9 +71,16 @@ def coco_categories(dataset_name: str, obj_ids: Iterable[int]) -> list[dict]:
 
 
 def image_info(image_id: int, file_name: str, width: int, height: int) -> dict:
-    return {"id": image_id, "file_name": file_name, "width": width, "height": height,
-            "date_captured": _EPOCH.replace(tzinfo=None).isoformat(" "), "license": 1, "coco_url": "",
-            "flickr_url": ""}
+    return {
+        "id": image_id,
+        "file_name": file_name,
+        "width": width,
+        "height": height,
+        "date_captured": _EPOCH.replace(tzinfo=None).isoformat(" "),
+        "license": 1,
+        "coco_url": "",
+        "flickr_url": "",
+    }
 
 
 def amodal_bbox(mask: np.ndarray) -> list[int]:
@@ -120,8 +127,10 @@ def scene_annotations(scene_dir: Path, width: int, height: int):
             infos = gt_info[im_key]
             pairs = [(int(inst["obj_id"]), float(infos[k]["visib_fract"])) for k, inst in enumerate(instances)]
         except (KeyError, IndexError, TypeError, ValueError) as e:
-            raise DatasetError(f"{scene_dir / 'scene_gt.json'}: image {im_key!r} lacks obj_id, or "
-                              f"scene_gt_info.json its visib_fract ({e!r})") from None
+            raise DatasetError(
+                f"{scene_dir / 'scene_gt.json'}: image {im_key!r} lacks obj_id, or "
+                f"scene_gt_info.json its visib_fract ({e!r})"
+            ) from None
         annotations = []
         for k, (obj_id, visib_fract) in enumerate(pairs):
             mask_name = f"{im_id:06d}_{k:06d}.png"
@@ -131,22 +140,36 @@ def scene_annotations(scene_dir: Path, width: int, height: int):
             amodal = read_mask(scene_dir / "mask" / mask_name, height, width)
             if not amodal.any():
                 continue
-            annotations.append({"category_id": obj_id, "iscrowd": 0, "area": int(np.count_nonzero(visible)),
-                                "bbox": amodal_bbox(amodal), "segmentation": encode_rle(visible),
-                                "width": width, "height": height,
-                                "ignore": visib_fract < IGNORE_BELOW_VISIB_FRACT})
+            annotations.append(
+                {
+                    "category_id": obj_id,
+                    "iscrowd": 0,
+                    "area": int(np.count_nonzero(visible)),
+                    "bbox": amodal_bbox(amodal),
+                    "segmentation": encode_rle(visible),
+                    "width": width,
+                    "height": height,
+                    "ignore": visib_fract < IGNORE_BELOW_VISIB_FRACT,
+                }
+            )
         yield im_id, annotations
 
 
-def scene_coco(scene_dir: Path, dataset_name: str, split: str, obj_ids: Sequence[int],
-               im_size: tuple[int, int]) -> dict:
+def scene_coco(
+    scene_dir: Path, dataset_name: str, split: str, obj_ids: Sequence[int], im_size: tuple[int, int]
+) -> dict:
     """The content of `scene_dir`'s scene_gt_coco.json (see the module's docstring). `im_size`:
     (width, height) pixels. DatasetError naming the file when a scene file is missing or
     malformed."""
     scene_dir = Path(scene_dir)
     width, height = im_size
-    coco = {"info": coco_info(dataset_name, split), "licenses": [],
-            "categories": coco_categories(dataset_name, obj_ids), "images": [], "annotations": []}
+    coco = {
+        "info": coco_info(dataset_name, split),
+        "licenses": [],
+        "categories": coco_categories(dataset_name, obj_ids),
+        "images": [],
+        "annotations": [],
+    }
     for im_id, image_annotations in scene_annotations(scene_dir, width, height):
         coco["images"].append(image_info(im_id, rgb_name(scene_dir, im_id), width, height))
         for annotation in image_annotations:
@@ -154,7 +177,8 @@ def scene_coco(scene_dir: Path, dataset_name: str, split: str, obj_ids: Sequence
     return coco
 
 
-def scene_gt_coco_bytes(scene_dir: Path, dataset_name: str, split: str, obj_ids: Sequence[int],
-                        im_size: tuple[int, int]) -> bytes:
+def scene_gt_coco_bytes(
+    scene_dir: Path, dataset_name: str, split: str, obj_ids: Sequence[int], im_size: tuple[int, int]
+) -> bytes:
     """scene_gt_coco.json's bytes for `scene_dir`, laid out as calc_gt_coco saves it."""
     return dumps_toolkit_json(scene_coco(scene_dir, dataset_name, split, obj_ids, im_size))

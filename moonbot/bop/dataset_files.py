@@ -65,8 +65,10 @@ def dumps_json(value) -> bytes:
 def dumps_scene_json(per_image: dict) -> bytes:
     """A BOP per-scene file: {"im_id": value}, one image a line (bop_toolkit's own layout), image
     ids in numeric order, each value compact with sorted keys."""
-    lines = [f'  "{im}": {json.dumps(_canonical(per_image[im]), separators=(", ", ": "))}'
-             for im in sorted(per_image, key=int)]
+    lines = [
+        f'  "{im}": {json.dumps(_canonical(per_image[im]), separators=(", ", ": "))}'
+        for im in sorted(per_image, key=int)
+    ]
     return ("{\n" + ",\n".join(lines) + "\n}\n").encode("utf-8")
 
 
@@ -78,10 +80,13 @@ def write_manifest(root: Path, entries: dict, links: dict[str, str]) -> tuple[di
         rel = path.relative_to(root).as_posix()
         if rel not in entries:
             entries[rel] = file_sha256(path)
-    manifest = {"algorithm": "sha256", "file_count": len(entries),
-                "total_bytes": sum(size for size, _ in entries.values()),
-                "files": {rel: {"bytes": size, "sha256": sha} for rel, (size, sha) in sorted(entries.items())},
-                "links": dict(sorted(links.items()))}
+    manifest = {
+        "algorithm": "sha256",
+        "file_count": len(entries),
+        "total_bytes": sum(size for size, _ in entries.values()),
+        "files": {rel: {"bytes": size, "sha256": sha} for rel, (size, sha) in sorted(entries.items())},
+        "links": dict(sorted(links.items())),
+    }
     manifest_bytes = dumps_json(manifest)
     (root / MANIFEST).write_bytes(manifest_bytes)
     return manifest, manifest_bytes

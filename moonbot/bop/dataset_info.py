@@ -16,8 +16,9 @@ from moonbot.config.schema import MeshesConfig
 DATASET_INFO = "dataset_info.json"
 
 
-def dataset_info(outputs: list[SceneOutput], splits: list[str], inventory: Inventory, config: Config | None,
-                 meshes: MeshesConfig) -> dict:
+def dataset_info(
+    outputs: list[SceneOutput], splits: list[str], inventory: Inventory, config: Config | None, meshes: MeshesConfig
+) -> dict:
     """dataset_info.json's content for the scenes `outputs` (dataset order) in `splits`;
     `inventory`: the tasks found, missing, unusable and extra; `config`: the sweep's (None: not
     known); `meshes`: the tasks' meshes section."""
@@ -35,7 +36,7 @@ def dataset_info(outputs: list[SceneOutput], splits: list[str], inventory: Inven
         "name": "moonbot",
         "description": "Synthetic lunar sandbag scenes for 6-DoF pose estimation (BOP layout), by moonbot",
         "layout": "BOP: <bop split>/<scene_id:06d>/ (train_pbr, val_pbr, test); the paper's "
-                  "<split>/<mesh>/<location>/scene_NNNNNN as links under by_condition/",
+        "<split>/<mesh>/<location>/scene_NNNNNN as links under by_condition/",
         "bop_splits": {s: bop_split(s) for s in splits},
         "moonbot_version": __version__,
         "task_moonbot_versions": versions,
@@ -55,18 +56,18 @@ def dataset_info(outputs: list[SceneOutput], splits: list[str], inventory: Inven
         "conventions": {
             "units": "millimetres (poses, models, depth × depth_scale); depth_npy in metres",
             "camera": "OpenCV: x right, y down, z forward; pixel (u, v) spans [u, u+1) x [v, v+1), rays "
-                      "through its centre (u + 0.5, v + 0.5)",
+            "through its centre (u + 0.5, v + 0.5)",
             "depth": "z-depth along the optical axis; 0 = no valid depth",
             "mask": "the instance rendered alone (amodal), 0/255",
             "mask_visib": "pixels whose centre ray meets this instance first (exact instance segmentation; "
-                          "bop_toolkit's depth-tolerance estimate would add pixels within delta behind "
-                          "another surface)",
+            "bop_toolkit's depth-tolerance estimate would add pixels within delta behind "
+            "another surface)",
             "px_count_all": "pixels of the instance alone on a 3W x 3H canvas (bop_toolkit calc_gt_info)",
             "bbox": "[x, y, w, h], w = max x - min x (bop_toolkit calc_2d_bbox); [-1, -1, -1, -1] when "
-                    "nothing is visible",
+            "nothing is visible",
             "image_ids": "task_in_scene * views_per_task + index of the view in the task",
             "yolo": "class = obj_id - 1; rows from the visible masks; detect: boxes over pixel edges, "
-                    "segment: one polygon per instance",
+            "segment: one polygon per instance",
         },
     }
     return info

@@ -40,8 +40,13 @@ def bbox_of(mask: np.ndarray) -> tuple[int, int, int, int]:
     return int(cols[0]), int(rows[0]), int(cols[-1] - cols[0]), int(rows[-1] - rows[0])
 
 
-def gt_info_entry(amodal: np.ndarray, visible: np.ndarray, depth_valid: np.ndarray, px_count_all: int,
-                  bbox_all: tuple[int, int, int, int] | list[int]) -> dict:
+def gt_info_entry(
+    amodal: np.ndarray,
+    visible: np.ndarray,
+    depth_valid: np.ndarray,
+    px_count_all: int,
+    bbox_all: tuple[int, int, int, int] | list[int],
+) -> dict:
     """One scene_gt_info.json entry. `amodal` (H, W) bool: the instance alone, in the image;
     `visible` (H, W) bool: its visible part; `depth_valid` (H, W) bool: depth.png > 0;
     `px_count_all` and `bbox_all` ([x, y, w, h], image pixels): its silhouette alone on the

@@ -21,8 +21,19 @@ from moonbot.records.task import TASK, TaskRecord, read_task
 from moonbot.sweep import task_config, tasks
 
 # Fields every task of one scene shares.
-SCENE_FIELDS = ("split", "scene_id", "mesh", "obj_id", "location", "bags", "stain_seeds", "dust",
-                "tasks_per_scene", "views_per_task", "seed")
+SCENE_FIELDS = (
+    "split",
+    "scene_id",
+    "mesh",
+    "obj_id",
+    "location",
+    "bags",
+    "stain_seeds",
+    "dust",
+    "tasks_per_scene",
+    "views_per_task",
+    "seed",
+)
 
 
 class MergeError(ValueError):
@@ -109,8 +120,9 @@ def scan_tasks(tasks_dir: Path, config: Config | None = None) -> Inventory:
             continue
         files = complete_files(directory)
         if files is None:
-            inventory.invalid[directory.name] = (f"{directory / DONE}: missing, unreadable, or a listed file "
-                                                 "is missing or truncated")
+            inventory.invalid[directory.name] = (
+                f"{directory / DONE}: missing, unreadable, or a listed file is missing or truncated"
+            )
             continue
         try:
             record = read_task_record(directory, files[TASK].sha256 if TASK in files else None)
@@ -131,9 +143,11 @@ def scan_tasks(tasks_dir: Path, config: Config | None = None) -> Inventory:
                 continue
             want = config_hash(task_config(config, sweep_task))
             if task.task.config_hash != want:
-                inventory.invalid[task.task_id] = (f"{task.path / TASK}: config_hash: is "
-                                                   f"{task.task.config_hash[:12]}..., the sweep's config "
-                                                   f"gives {want[:12]}... (rendered with another config)")
+                inventory.invalid[task.task_id] = (
+                    f"{task.path / TASK}: config_hash: is "
+                    f"{task.task.config_hash[:12]}..., the sweep's config "
+                    f"gives {want[:12]}... (rendered with another config)"
+                )
                 inventory.missing.append(task.task_id)
                 continue
             kept.append(task)
@@ -152,15 +166,19 @@ def scan_tasks(tasks_dir: Path, config: Config | None = None) -> Inventory:
         group = scenes.setdefault((r.split, r.scene_id), {})
         if r.task_in_scene in group:
             other = group[r.task_in_scene]
-            raise MergeError(f"{task.path / TASK}: split {r.split!r}, scene_id {r.scene_id} and task_in_scene "
-                             f"{r.task_in_scene} are also those of {other.path / TASK}")
+            raise MergeError(
+                f"{task.path / TASK}: split {r.split!r}, scene_id {r.scene_id} and task_in_scene "
+                f"{r.task_in_scene} are also those of {other.path / TASK}"
+            )
         first = next(iter(group.values()), None)
         if first is not None:
             for name in SCENE_FIELDS:
                 mine, theirs = getattr(r, name), getattr(first.task, name)
                 if mine != theirs:
-                    raise MergeError(f"{task.path / TASK}: {name}: is {mine!r}, but {first.path / TASK} "
-                                     f"of the same scene has {theirs!r}")
+                    raise MergeError(
+                        f"{task.path / TASK}: {name}: is {mine!r}, but {first.path / TASK} "
+                        f"of the same scene has {theirs!r}"
+                    )
         group[r.task_in_scene] = task
     for (split, scene_id), group in sorted(scenes.items(), key=lambda kv: (order.index(kv[0][0]), kv[0][1])):
         ordered = tuple(group[k] for k in sorted(group))
@@ -180,5 +198,7 @@ def _check_shared(complete: list[TaskDir], name: str, get) -> None:
     first = get(complete[0].task)
     for task in complete[1:]:
         if get(task.task) != first:
-            raise MergeError(f"{task.path / TASK}: {name}: differs from {complete[0].path / TASK}'s "
-                             "(one dataset has one camera and one set of object models)")
+            raise MergeError(
+                f"{task.path / TASK}: {name}: differs from {complete[0].path / TASK}'s "
+                "(one dataset has one camera and one set of object models)"
+            )

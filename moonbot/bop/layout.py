@@ -76,6 +76,7 @@ def scene_dirs(dataset: Path) -> list[Path]:
     for split_dir in sorted(p for p in dataset.iterdir() if p.is_dir() and not p.is_symlink()):
         if split_dir.name == VIEW_ROOT or split_dir.name.startswith("."):
             continue
-        found += sorted(p for p in split_dir.iterdir()
-                        if _SCENE_NAME.fullmatch(p.name) and p.is_dir() and not p.is_symlink())
+        found += sorted(
+            p for p in split_dir.iterdir() if _SCENE_NAME.fullmatch(p.name) and p.is_dir() and not p.is_symlink()
+        )
     return found

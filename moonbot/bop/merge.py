@@ -156,16 +156,27 @@ def sweep_stale(dataset_dir: Path) -> list[Path]:
     parent = dataset_dir.parent
     if not parent.is_dir():
         return []
-    stale = sorted(p for pattern in (f".{dataset_dir.name}.*.tmp", f".{dataset_dir.name}.*.old")
-                   for p in parent.glob(pattern) if p.is_dir())
+    stale = sorted(
+        p
+        for pattern in (f".{dataset_dir.name}.*.tmp", f".{dataset_dir.name}.*.old")
+        for p in parent.glob(pattern)
+        if p.is_dir()
+    )
     for p in stale:
         shutil.rmtree(p, ignore_errors=True)
     return stale
 
 
-def merge_dataset(out_dir: Path, dataset_dir: Path | None = None, config: Config | None = None, *,
-                  link: bool = False, workers: int | None = None, progress=sys.stderr,
-                  exporters: Sequence[Exporter] = ()) -> MergeReport:
+def merge_dataset(
+    out_dir: Path,
+    dataset_dir: Path | None = None,
+    config: Config | None = None,
+    *,
+    link: bool = False,
+    workers: int | None = None,
+    progress=sys.stderr,
+    exporters: Sequence[Exporter] = (),
+) -> MergeReport:
     """Merges the complete tasks of `out_dir`/tasks into the BOP dataset `dataset_dir` (default
     `out_dir`/dataset), replacing a previous one whole. `config`: the sweep's config, which names
     the missing tasks and goes into dataset_info.json (None: `out_dir`/config.json when present,
@@ -190,8 +201,10 @@ def merge_dataset(out_dir: Path, dataset_dir: Path | None = None, config: Config
             raise MergeError(str(e)) from None
     inventory = scan_tasks(out_dir / "tasks", config)
     if not inventory.scenes:
-        raise MergeError(f"{out_dir / 'tasks'}: no complete task to merge"
-                         + (f" ({len(inventory.invalid)} unusable)" if inventory.invalid else ""))
+        raise MergeError(
+            f"{out_dir / 'tasks'}: no complete task to merge"
+            + (f" ({len(inventory.invalid)} unusable)" if inventory.invalid else "")
+        )
     first = inventory.scenes[0].tasks[0]
     try:
         meshes = from_mapping(MeshesConfig, first.record["config"]["meshes"])
@@ -207,8 +220,10 @@ def merge_dataset(out_dir: Path, dataset_dir: Path | None = None, config: Config
         last = len(inventory.position)
         inventory.missing = sorted(set(inventory.missing), key=lambda t: (inventory.position.get(t, last), t))
         if not outputs:
-            raise MergeError(f"{out_dir / 'tasks'}: no task could be merged: "
-                             + "; ".join(f"{k}: {v}" for k, v in sorted(inventory.invalid.items())))
+            raise MergeError(
+                f"{out_dir / 'tasks'}: no task could be merged: "
+                + "; ".join(f"{k}: {v}" for k, v in sorted(inventory.invalid.items()))
+            )
         entries: dict = {}
         for output in outputs:
             entries.update(output.entries)
@@ -235,9 +250,18 @@ def merge_dataset(out_dir: Path, dataset_dir: Path | None = None, config: Config
             export(stage, entries)
         manifest, manifest_bytes = write_manifest(stage, entries, links)
     return MergeReport(
-        dataset=dataset_dir, splits=tuple(splits), scenes=len(outputs), tasks=info["tasks_merged"],
-        images=info["images"], instances=sum(o.instances for o in outputs), missing=tuple(inventory.missing),
-        invalid=dict(sorted(inventory.invalid.items())), extra=tuple(inventory.extra),
+        dataset=dataset_dir,
+        splits=tuple(splits),
+        scenes=len(outputs),
+        tasks=info["tasks_merged"],
+        images=info["images"],
+        instances=sum(o.instances for o in outputs),
+        missing=tuple(inventory.missing),
+        invalid=dict(sorted(inventory.invalid.items())),
+        extra=tuple(inventory.extra),
         amodal_outside_px=info["amodal_outside_visible_px"],
-        files=len(entries) + 1, bytes=manifest["total_bytes"] + len(manifest_bytes),
-        seconds=time.perf_counter() - start, models_reused=models_reused)
+        files=len(entries) + 1,
+        bytes=manifest["total_bytes"] + len(manifest_bytes),
+        seconds=time.perf_counter() - start,
+        models_reused=models_reused,
+    )

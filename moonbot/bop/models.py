@@ -48,14 +48,21 @@ class ModelInfo:
     continuous: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
 
     def to_json(self) -> dict:
-        info = {"diameter": self.diameter,
-                "min_x": self.minimum[0], "min_y": self.minimum[1], "min_z": self.minimum[2],
-                "size_x": self.size[0], "size_y": self.size[1], "size_z": self.size[2]}
+        info = {
+            "diameter": self.diameter,
+            "min_x": self.minimum[0],
+            "min_y": self.minimum[1],
+            "min_z": self.minimum[2],
+            "size_x": self.size[0],
+            "size_y": self.size[1],
+            "size_z": self.size[2],
+        }
         if self.symmetries:
             info["symmetries_discrete"] = [s.reshape(-1).tolist() for s in self.symmetries]
         if self.continuous:
-            info["symmetries_continuous"] = [{"axis": axis.tolist(), "offset": offset.tolist()}
-                                             for axis, offset in self.continuous]
+            info["symmetries_continuous"] = [
+                {"axis": axis.tolist(), "offset": offset.tolist()} for axis, offset in self.continuous
+            ]
         return info
 
 
@@ -64,20 +71,21 @@ def diameter(vertices: np.ndarray) -> float:
     `vertices`): it is attained at two vertices of the convex hull, so only those are paired."""
     v = vertices.astype(np.float64)
     hull = v[ConvexHull(v).vertices]
-    return float(max(np.linalg.norm(hull[i:i + 512, None] - hull[None], axis=2).max()
-                     for i in range(0, len(hull), 512)))
+    return float(
+        max(np.linalg.norm(hull[i : i + 512, None] - hull[None], axis=2).max() for i in range(0, len(hull), 512))
+    )
 
 
-def sample_surface(vertices: np.ndarray, triangles: np.ndarray, spacing: float,
-                   seed: int = 0) -> np.ndarray:
+def sample_surface(vertices: np.ndarray, triangles: np.ndarray, spacing: float, seed: int = 0) -> np.ndarray:
     """Points (K, 3) float64 spread evenly over the surface, about one per spacing² of area: each
     triangle gets its share of the count by area, placed uniformly inside it. Deterministic for
     `seed`."""
     return sample_surface_faces(vertices, triangles, spacing, seed)[0]
 
 
-def sample_surface_faces(vertices: np.ndarray, triangles: np.ndarray, spacing: float,
-                         seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+def sample_surface_faces(
+    vertices: np.ndarray, triangles: np.ndarray, spacing: float, seed: int = 0
+) -> tuple[np.ndarray, np.ndarray]:
     """sample_surface's points (K, 3) float64 and the triangle each lies on (K,) int64, so a
     caller can give each point its face's normal."""
     v = vertices.astype(np.float64)
@@ -116,8 +124,11 @@ def resample_mesh(vertices: np.ndarray, triangles: np.ndarray, spacing: float) -
         weights = np.stack([(n - i - j) / n, i / n, j / n], axis=1)  # (P, 3)
         chosen = np.flatnonzero(steps == n)
         group = corners[chosen]  # (G, 3, 3)
-        lattice = weights[None, :, 0, None] * group[:, None, 0] + weights[None, :, 1, None] * group[:, None, 1] \
-            + weights[None, :, 2, None] * group[:, None, 2]  # (G, P, 3)
+        lattice = (
+            weights[None, :, 0, None] * group[:, None, 0]
+            + weights[None, :, 1, None] * group[:, None, 1]
+            + weights[None, :, 2, None] * group[:, None, 2]
+        )  # (G, P, 3)
         template = np.array(up + down, np.int64)
         points.append(lattice.reshape(-1, 3))
         faces.append((template[None] + (offset + np.arange(len(chosen)) * len(weights))[:, None, None]).reshape(-1, 3))
@@ -139,8 +150,9 @@ def axis_rotations() -> list[np.ndarray]:
     return out
 
 
-def find_symmetries(vertices: np.ndarray, triangles: np.ndarray, tolerance: float,
-                    spacing: float) -> tuple[list[np.ndarray], dict[str, float]]:
+def find_symmetries(
+    vertices: np.ndarray, triangles: np.ndarray, tolerance: float, spacing: float
+) -> tuple[list[np.ndarray], dict[str, float]]:
     """Rotations of the axis-aligned candidate group that map the surface onto itself: the
     largest distance from a rotated surface sample to the unrotated samples must be within
     `tolerance` (same unit as `vertices`). Returns the symmetries as 3×3 rotations and, per
@@ -182,8 +194,9 @@ def axis_turn(axis: np.ndarray, angle: float) -> np.ndarray:
     return np.eye(3) + math.sin(angle) * K + (1.0 - math.cos(angle)) * (K @ K)
 
 
-def find_all_symmetries(vertices: np.ndarray, triangles: np.ndarray, tolerance: float, spacing: float
-                        ) -> tuple[list[np.ndarray], list[tuple[np.ndarray, np.ndarray]]]:
+def find_all_symmetries(
+    vertices: np.ndarray, triangles: np.ndarray, tolerance: float, spacing: float
+) -> tuple[list[np.ndarray], list[tuple[np.ndarray, np.ndarray]]]:
     """Discrete and continuous symmetries of the surface within `tolerance` (find_symmetries'
     test), in the model frame, same unit as `vertices`. Candidate axes: x, y and z through the
     origin, and the surface's principal axes (of its samples' second moments, each whose moment
@@ -202,8 +215,10 @@ def find_all_symmetries(vertices: np.ndarray, triangles: np.ndarray, tolerance: 
         if min(abs(moments[k] - moments[j]) for j in range(3) if j != k) <= 0.01 * moments.max():
             continue  # a repeated moment: any axis in its plane is principal, none is the body's
         axis = vectors[:, k] * (1.0 if vectors[:, k][np.argmax(np.abs(vectors[:, k]))] > 0 else -1.0)
-        if not any(abs(axis @ a) > math.cos(math.radians(1.0))
-                   and np.linalg.norm(np.cross(centroid - o, a)) <= tolerance for a, o in axes):
+        if not any(
+            abs(axis @ a) > math.cos(math.radians(1.0)) and np.linalg.norm(np.cross(centroid - o, a)) <= tolerance
+            for a, o in axes
+        ):
             axes.append((axis, centroid))
 
     def motion(R: np.ndarray, offset: np.ndarray) -> np.ndarray:
@@ -211,27 +226,34 @@ def find_all_symmetries(vertices: np.ndarray, triangles: np.ndarray, tolerance: 
         T[:3, :3], T[:3, 3] = R, offset - R @ offset
         return T
 
-    continuous = [(a, o) for a, o in axes
-                  if all(test.worst(axis_turn(a, math.radians(d)), o - axis_turn(a, math.radians(d)) @ o) <= tolerance
-                         for d in CONTINUOUS_TRIAL_DEG)]
+    continuous = [
+        (a, o)
+        for a, o in axes
+        if all(
+            test.worst(axis_turn(a, math.radians(d)), o - axis_turn(a, math.radians(d)) @ o) <= tolerance
+            for d in CONTINUOUS_TRIAL_DEG
+        )
+    ]
 
     def about_continuous(T: np.ndarray) -> bool:
         """Whether T turns about a continuous axis (it is then implied by that axis)."""
         for a, o in continuous:
-            if np.allclose(T[:3, :3] @ a, a, atol=1e-9) and np.allclose(T @ np.append(o, 1.0), np.append(o, 1.0),
-                                                                           atol=1e-6 * max(1.0, tolerance)):
+            if np.allclose(T[:3, :3] @ a, a, atol=1e-9) and np.allclose(
+                T @ np.append(o, 1.0), np.append(o, 1.0), atol=1e-6 * max(1.0, tolerance)
+            ):
                 return True
         return False
 
     candidates = [motion(R, np.zeros(3)) for R in axis_rotations()[1:]]
     for a, o in axes:
         for n in range(2, MAX_FOLD + 1):
-            candidates += [motion(axis_turn(a, 2 * math.pi * k / n), o) for k in range(1, n)
-                           if math.gcd(k, n) == 1]
+            candidates += [motion(axis_turn(a, 2 * math.pi * k / n), o) for k in range(1, n) if math.gcd(k, n) == 1]
     found: list[np.ndarray] = []
     tried: set[bytes] = set()
     for T in candidates:
-        key = (np.round(T, 9) + 0.0).tobytes()  # (+ 0.0: no -0.0) a turn reached twice (a half-turn is every even fold's) is tried once
+        key = (
+            np.round(T, 9) + 0.0
+        ).tobytes()  # (+ 0.0: no -0.0) a turn reached twice (a half-turn is every even fold's) is tried once
         if key in tried:
             continue
         tried.add(key)
@@ -246,12 +268,16 @@ def model_info(vertices_mm: np.ndarray, triangles: np.ndarray) -> ModelInfo:
     symmetries, continuous = find_all_symmetries(vertices_mm, triangles, SYMMETRY_TOLERANCE * d, EVAL_SPACING_MM)
     lo = vertices_mm.min(axis=0).astype(np.float64)
     hi = vertices_mm.max(axis=0).astype(np.float64)
-    return ModelInfo(diameter=d, minimum=tuple(lo.tolist()), size=tuple((hi - lo).tolist()),
-                     symmetries=tuple(symmetries), continuous=tuple(continuous))
+    return ModelInfo(
+        diameter=d,
+        minimum=tuple(lo.tolist()),
+        size=tuple((hi - lo).tolist()),
+        symmetries=tuple(symmetries),
+        continuous=tuple(continuous),
+    )
 
 
-def write_ply(path: Path, vertices: np.ndarray, triangles: np.ndarray,
-              normals: np.ndarray | None = None) -> None:
+def write_ply(path: Path, vertices: np.ndarray, triangles: np.ndarray, normals: np.ndarray | None = None) -> None:
     """Binary little-endian PLY: float x y z (and nx ny nz), triangles as uchar-counted int
     lists, the layout bop_toolkit reads. Written atomically."""
     fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
@@ -263,11 +289,9 @@ def write_ply(path: Path, vertices: np.ndarray, triangles: np.ndarray,
         vertex["nx"], vertex["ny"], vertex["nz"] = normals.T
     face = np.empty(len(triangles), dtype=[("n", "u1"), ("i", "<i4", (3,))])
     face["n"], face["i"] = 3, triangles
-    header = ["ply", "format binary_little_endian 1.0", "comment made by moonbot",
-              f"element vertex {len(vertices)}"]
+    header = ["ply", "format binary_little_endian 1.0", "comment made by moonbot", f"element vertex {len(vertices)}"]
     header += [f"property float {name}" for name, _ in fields]
-    header += [f"element face {len(triangles)}", "property list uchar int vertex_indices",
-               "end_header"]
+    header += [f"element face {len(triangles)}", "property list uchar int vertex_indices", "end_header"]
 
     def write(f) -> None:
         f.write(("\n".join(header) + "\n").encode("ascii"))
@@ -292,12 +316,16 @@ def read_ply(path: Path) -> tuple[np.ndarray, np.ndarray]:
     except (StopIteration, ValueError, IndexError):
         raise ValueError(f"{path}: PLY header lacks vertex or face counts") from None
     props = [line.split()[2] for line in header if line.startswith("property float")]
-    if "format binary_little_endian 1.0" not in header or props[:3] != ["x", "y", "z"] or \
-            "property list uchar int vertex_indices" not in header:
+    if (
+        "format binary_little_endian 1.0" not in header
+        or props[:3] != ["x", "y", "z"]
+        or "property list uchar int vertex_indices" not in header
+    ):
         raise ValueError(f"{path}: not the layout moonbot writes (binary little-endian, float xyz, uchar/int faces)")
     vertex = np.frombuffer(data, dtype=[(p, "<f4") for p in props], count=n_vertex, offset=end + len("end_header\n"))
-    face = np.frombuffer(data, dtype=[("n", "u1"), ("i", "<i4", (3,))], count=n_face,
-                         offset=end + len("end_header\n") + vertex.nbytes)
+    face = np.frombuffer(
+        data, dtype=[("n", "u1"), ("i", "<i4", (3,))], count=n_face, offset=end + len("end_header\n") + vertex.nbytes
+    )
     if np.any(face["n"] != 3):
         raise ValueError(f"{path}: faces must be triangles")
     vertices = np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=1).astype(np.float64)
@@ -312,11 +340,19 @@ def write_models(out_dir: Path, meshes: dict[int, tuple[np.ndarray, np.ndarray]]
     infos = {}
     for obj_id, (vertices, triangles) in sorted(meshes.items()):
         mm = vertices.astype(np.float64) * 1000.0
-        write_ply(out_dir / "models" / f"obj_{obj_id:06d}.ply", mm.astype(np.float32), triangles,
-                  vertex_normals(vertices, triangles))
+        write_ply(
+            out_dir / "models" / f"obj_{obj_id:06d}.ply",
+            mm.astype(np.float32),
+            triangles,
+            vertex_normals(vertices, triangles),
+        )
         evaluation, faces = resample_mesh(mm, triangles, EVAL_SPACING_MM)
-        write_ply(out_dir / "models_eval" / f"obj_{obj_id:06d}.ply", evaluation.astype(np.float32), faces,
-                  vertex_normals(evaluation, faces))
+        write_ply(
+            out_dir / "models_eval" / f"obj_{obj_id:06d}.ply",
+            evaluation.astype(np.float32),
+            faces,
+            vertex_normals(evaluation, faces),
+        )
         infos[obj_id] = model_info(mm, triangles)
     text = json.dumps({str(k): v.to_json() for k, v in infos.items()}, indent=2) + "\n"
     for folder in ("models", "models_eval"):

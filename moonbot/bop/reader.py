@@ -101,16 +101,35 @@ def read_scene(path: Path) -> Scene:
             instances = []
             for k, entry in enumerate(entries):
                 gi = info[im][k]
-                instances.append(Instance(k, int(entry["obj_id"]), np.array(entry["cam_R_m2c"], np.float64).reshape(3, 3),
-                                          np.array(entry["cam_t_m2c"], np.float64).reshape(3), int(gi["px_count_visib"]),
-                                          float(gi["visib_fract"])))
+                instances.append(
+                    Instance(
+                        k,
+                        int(entry["obj_id"]),
+                        np.array(entry["cam_R_m2c"], np.float64).reshape(3, 3),
+                        np.array(entry["cam_t_m2c"], np.float64).reshape(3),
+                        int(gi["px_count_visib"]),
+                        float(gi["visib_fract"]),
+                    )
+                )
             images[int(im)] = instances
             cameras[int(im)] = np.array(camera[im]["cam_K"], np.float64).reshape(3, 3)
     except (KeyError, IndexError, TypeError, ValueError) as e:
-        raise DatasetError(f"{path}: scene_gt/scene_gt_info/scene_camera.json disagree or lack a field ({e!r})") from None
+        raise DatasetError(
+            f"{path}: scene_gt/scene_gt_info/scene_camera.json disagree or lack a field ({e!r})"
+        ) from None
     try:
-        return Scene(path, str(meta["split"]), int(meta["scene_id"]), str(meta["mesh"]), str(meta["location"]),
-                     int(meta["bags"]), int(meta["stain_seeds"]), bool(meta["dust"]), images, cameras)
+        return Scene(
+            path,
+            str(meta["split"]),
+            int(meta["scene_id"]),
+            str(meta["mesh"]),
+            str(meta["location"]),
+            int(meta["bags"]),
+            int(meta["stain_seeds"]),
+            bool(meta["dust"]),
+            images,
+            cameras,
+        )
     except (KeyError, TypeError, ValueError) as e:
         raise DatasetError(f"{path / SCENE_META}: lacks a field ({e!r})") from None
 
@@ -128,8 +147,10 @@ def scenes(dataset: Path, split: str | None = None) -> list[Scene]:
         found = [s for s in found if split in (s.split, bop_split(s.split))]
     if not found:
         where = f"{dataset}/{bop_split(split)}" if split else str(dataset)
-        raise DatasetError(f"{where}: no scene directory (<bop split>/NNNNNN/ with {SCENE_META}); "
-                           "a dataset is what `moonbot merge` writes")
+        raise DatasetError(
+            f"{where}: no scene directory (<bop split>/NNNNNN/ with {SCENE_META}); "
+            "a dataset is what `moonbot merge` writes"
+        )
     return sorted(found, key=lambda s: (s.split, s.scene_id))
 
 

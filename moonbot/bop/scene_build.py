@@ -154,8 +154,10 @@ def _build_scene(job: _SceneJob) -> SceneOutput:
         try:
             level = int(r["config"]["output"]["png_compression"])
         except (KeyError, TypeError, ValueError):
-            raise _BadTask(task.task_id, f"{task.path / 'task.json'}: field 'config.output.png_compression' "
-                           "is missing or not an integer") from None
+            raise _BadTask(
+                task.task_id,
+                f"{task.path / 'task.json'}: field 'config.output.png_compression' is missing or not an integer",
+            ) from None
         first_image = r["task_in_scene"] * r["views_per_task"]
         for i, v in enumerate(r["views"]):
             im = first_image + i
@@ -171,17 +173,30 @@ def _build_scene(job: _SceneJob) -> SceneOutput:
             ids = []
             for k, inst in enumerate(instances):
                 if "mask_amodal" not in inst:
-                    raise _BadTask(task.task_id, f"{gt_path}: instances[{k}].mask_amodal: missing (rendered "
-                                   "before amodal masks were written: render the task again)")
+                    raise _BadTask(
+                        task.task_id,
+                        f"{gt_path}: instances[{k}].mask_amodal: missing (rendered "
+                        "before amodal masks were written: render the task again)",
+                    )
                 ids.append((inst["instance_id"], inst["obj_id"]))
             if reference_instances is None:
                 reference_instances = ids
             elif ids != reference_instances:
-                raise _BadTask(task.task_id, f"{gt_path}: field 'instances' holds (instance_id, obj_id) {ids}, "
-                               f"other images of the scene {reference_instances}")
+                raise _BadTask(
+                    task.task_id,
+                    f"{gt_path}: field 'instances' holds (instance_id, obj_id) {ids}, "
+                    f"other images of the scene {reference_instances}",
+                )
             if camera is None:
-                camera = {"fx": K[0], "fy": K[4], "cx": K[2], "cy": K[5], "width": width, "height": height,
-                          "depth_scale": depth_scale}
+                camera = {
+                    "fx": K[0],
+                    "fy": K[4],
+                    "cx": K[2],
+                    "cy": K[5],
+                    "width": width,
+                    "height": height,
+                    "depth_scale": depth_scale,
+                }
 
             name = f"{im:06d}"
             files.put(f"{view}/rgb.png", root, f"{job.rel}/rgb/{name}.png", entries)
@@ -194,8 +209,11 @@ def _build_scene(job: _SceneJob) -> SceneOutput:
             labels = files.image(f"{view}/mask.png")
             depth = files.image(f"{view}/depth.png")
             if labels.shape != (height, width) or depth.shape != (height, width):
-                raise _BadTask(task.task_id, f"{task.path / view}: mask.png {labels.shape} or depth.png {depth.shape} "
-                               f"is not {height} x {width} as gt.json says")
+                raise _BadTask(
+                    task.task_id,
+                    f"{task.path / view}: mask.png {labels.shape} or depth.png {depth.shape} "
+                    f"is not {height} x {width} as gt.json says",
+                )
             depth_valid = depth > 0
             put_png(root, f"{job.rel}/mask_color/{name}.png", colour_mask(labels), level, entries)
 
@@ -203,17 +221,21 @@ def _build_scene(job: _SceneJob) -> SceneOutput:
             for k, inst in enumerate(instances):
                 amodal = files.image(f"{view}/{inst['mask_amodal']}")
                 if amodal.shape != (height, width):
-                    raise _BadTask(task.task_id, f"{task.path / view / inst['mask_amodal']}: {amodal.shape} is not "
-                                   f"{height} x {width}")
+                    raise _BadTask(
+                        task.task_id,
+                        f"{task.path / view / inst['mask_amodal']}: {amodal.shape} is not {height} x {width}",
+                    )
                 amodal = amodal > 0
                 visible = labels == inst["instance_id"]
                 outside_total += int(np.count_nonzero(visible & ~amodal))
                 mask_name = f"{name}_{k:06d}.png"
                 files.put(f"{view}/{inst['mask_amodal']}", root, f"{job.rel}/mask/{mask_name}", entries)
-                put_png(root, f"{job.rel}/mask_visib/{mask_name}", visible.astype(np.uint8) * np.uint8(255),
-                         level, entries)
-                image_gt.append({"obj_id": inst["obj_id"], "cam_R_m2c": inst["cam_R_m2c"],
-                                 "cam_t_m2c": inst["cam_t_m2c"]})
+                put_png(
+                    root, f"{job.rel}/mask_visib/{mask_name}", visible.astype(np.uint8) * np.uint8(255), level, entries
+                )
+                image_gt.append(
+                    {"obj_id": inst["obj_id"], "cam_R_m2c": inst["cam_R_m2c"], "cam_t_m2c": inst["cam_t_m2c"]}
+                )
                 image_info.append(gt_info_entry(amodal, visible, depth_valid, inst["px_count_all"], inst["bbox_all"]))
             instances_total += len(instances)
             visible_counts[im] = {}
@@ -226,17 +248,27 @@ def _build_scene(job: _SceneJob) -> SceneOutput:
             if "site" in gt:  # a dem location: the world frame (cam_R_w2c's) is the site's East-North-Up
                 scene_camera[im]["site"] = gt["site"]
             images_meta[im] = {
-                "task_in_scene": r["task_in_scene"], "view": v,
-                **{key: gt[key] for key in ("camera_azimuth_deg", "camera_height_m", "sun", "render_seed", "dust",
-                                            "site") if key in gt},
+                "task_in_scene": r["task_in_scene"],
+                "view": v,
+                **{
+                    key: gt[key]
+                    for key in ("camera_azimuth_deg", "camera_height_m", "sun", "render_seed", "dust", "site")
+                    if key in gt
+                },
                 **({"ev100": gt["exposure"].get("ev100")} if isinstance(gt.get("exposure"), dict) else {}),
             }
-        tasks_meta.append({
-            "task_in_scene": r["task_in_scene"], "task_id": r["task_id"], "config_hash": r["config_hash"],
-            "sun_azimuth_deg": r["sun_azimuth_deg"], "sun_elevation_deg": r["sun_elevation_deg"],
-            "camera_height_m": r["camera_height_m"], "views": r["views"],
-            "image_ids": [first_image, first_image + len(r["views"]) - 1],
-        })
+        tasks_meta.append(
+            {
+                "task_in_scene": r["task_in_scene"],
+                "task_id": r["task_id"],
+                "config_hash": r["config_hash"],
+                "sun_azimuth_deg": r["sun_azimuth_deg"],
+                "sun_elevation_deg": r["sun_elevation_deg"],
+                "camera_height_m": r["camera_height_m"],
+                "views": r["views"],
+                "image_ids": [first_image, first_image + len(r["views"]) - 1],
+            }
+        )
     meta = {
         **shared,
         "bop_split": bop_split(shared["split"]),
@@ -250,13 +282,23 @@ def _build_scene(job: _SceneJob) -> SceneOutput:
     put_bytes(root, f"{job.rel}/scene_gt_info.json", dumps_scene_json(scene_gt_info), entries)
     put_bytes(root, f"{job.rel}/scene_camera.json", dumps_scene_json(scene_camera), entries)
     put_bytes(root, f"{job.rel}/{SCENE_META}", dumps_json({**meta, "images": images_meta}), entries)
-    coco = scene_gt_coco_bytes(scene_root, "moonbot", bop_split(shared["split"]), job.obj_ids,
-                               (camera["width"], camera["height"]))
+    coco = scene_gt_coco_bytes(
+        scene_root, "moonbot", bop_split(shared["split"]), job.obj_ids, (camera["width"], camera["height"])
+    )
     put_bytes(root, f"{job.rel}/{SCENE_COCO}", coco, entries)
-    return SceneOutput(job.rel, entries, len(scene_gt), instances_total, outside_total, camera or {},
-                        shared["split"], [t.task_id for t in job.scene.tasks],
-                        [str(t.record.get("moonbot_version", "unknown")) for t in job.scene.tasks],
-                        meta, visible_counts)
+    return SceneOutput(
+        job.rel,
+        entries,
+        len(scene_gt),
+        instances_total,
+        outside_total,
+        camera or {},
+        shared["split"],
+        [t.task_id for t in job.scene.tasks],
+        [str(t.record.get("moonbot_version", "unknown")) for t in job.scene.tasks],
+        meta,
+        visible_counts,
+    )
 
 
 def _scene_rel(scene: SceneTasks) -> str:
@@ -275,8 +317,9 @@ def _without(scene: SceneTasks, task_id: str) -> SceneTasks | None:
     return dataclasses.replace(scene, tasks=kept, missing=tuple(sorted(set(scene.missing) | gone)))
 
 
-def run_scenes(stage: Path, inventory: Inventory, link: bool, workers: int, say,
-                obj_ids: tuple[int, ...]) -> list[SceneOutput]:
+def run_scenes(
+    stage: Path, inventory: Inventory, link: bool, workers: int, say, obj_ids: tuple[int, ...]
+) -> list[SceneOutput]:
     """Builds every scene folder, `workers` processes at a time (1: in this process). A scene whose
     task turns out bad is rebuilt without it; the task goes to inventory.invalid / missing.
     `obj_ids`: the dataset's objects, the scenes' COCO categories."""
@@ -285,8 +328,7 @@ def run_scenes(stage: Path, inventory: Inventory, link: bool, workers: int, say,
     pool = None
     if workers > 1 and len(jobs) > 1:
         # spawn: the core's thread pool does not survive a fork.
-        pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)),
-                                   mp_context=multiprocessing.get_context("spawn"))
+        pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=multiprocessing.get_context("spawn"))
 
     def finished(k: int, result) -> None:
         if isinstance(result, _BadTask):

@@ -25,15 +25,38 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 COLUMNS: dict[str, pa.DataType] = {
-    "bop_split": pa.string(), "split": pa.string(), "scene_id": pa.int64(),
-    "im_id_first": pa.int64(), "im_id_last": pa.int64(), "scene_dir": pa.string(), "view": pa.string(),
-    "mesh": pa.string(), "obj_id": pa.int64(), "location": pa.string(), "bags": pa.int64(),
-    "stain_seeds": pa.int64(), "dust": pa.bool_(), "sun_elevation_deg": pa.float64(),
-    "sun_azimuth_deg": pa.float64(), "camera_height_m": pa.float64(), "task_in_scene": pa.int64(),
+    "bop_split": pa.string(),
+    "split": pa.string(),
+    "scene_id": pa.int64(),
+    "im_id_first": pa.int64(),
+    "im_id_last": pa.int64(),
+    "scene_dir": pa.string(),
+    "view": pa.string(),
+    "mesh": pa.string(),
+    "obj_id": pa.int64(),
+    "location": pa.string(),
+    "bags": pa.int64(),
+    "stain_seeds": pa.int64(),
+    "dust": pa.bool_(),
+    "sun_elevation_deg": pa.float64(),
+    "sun_azimuth_deg": pa.float64(),
+    "camera_height_m": pa.float64(),
+    "task_in_scene": pa.int64(),
     "task_id": pa.string(),
 }
-_SCENE_COLUMNS = ("bop_split", "split", "scene_id", "scene_dir", "view", "mesh", "obj_id", "location", "bags",
-                  "stain_seeds", "dust")
+_SCENE_COLUMNS = (
+    "bop_split",
+    "split",
+    "scene_id",
+    "scene_dir",
+    "view",
+    "mesh",
+    "obj_id",
+    "location",
+    "bags",
+    "stain_seeds",
+    "dust",
+)
 _TASK_COLUMNS = ("sun_elevation_deg", "sun_azimuth_deg", "camera_height_m", "task_in_scene", "task_id")
 
 
@@ -72,7 +95,10 @@ def test_targets(visible_counts: dict[int, dict[int, dict[int, int]]]) -> list[d
     with at least one visible pixel). These are the instances `moonbot eval` evaluates by default,
     so bop_toolkit's eval_bop19_pose (whose default takes the inst_count most visible ground-truth
     instances of an object in an image) counts the same ones."""
-    return [{"im_id": im_id, "inst_count": count, "obj_id": obj_id, "scene_id": scene_id}
-            for scene_id in sorted(visible_counts)
-            for im_id in sorted(visible_counts[scene_id])
-            for obj_id, count in sorted(visible_counts[scene_id][im_id].items()) if count > 0]
+    return [
+        {"im_id": im_id, "inst_count": count, "obj_id": obj_id, "scene_id": scene_id}
+        for scene_id in sorted(visible_counts)
+        for im_id in sorted(visible_counts[scene_id])
+        for obj_id, count in sorted(visible_counts[scene_id][im_id].items())
+        if count > 0
+    ]

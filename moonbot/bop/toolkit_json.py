@@ -19,10 +19,12 @@ def dumps_toolkit_json(content: dict | list) -> bytes:
     if isinstance(content, dict):
         items = sorted(content.items(), key=lambda item: item[0])
         lines = [f'  "{key}": {json.dumps(value, sort_keys=True)}' for key, value in items]
-        return ("{\n" + "".join(line + (",\n" if k < len(lines) - 1 else "\n")
-                                for k, line in enumerate(lines)) + "}").encode("utf-8")
+        return (
+            "{\n" + "".join(line + (",\n" if k < len(lines) - 1 else "\n") for k, line in enumerate(lines)) + "}"
+        ).encode("utf-8")
     if isinstance(content, list):
         lines = [f"  {json.dumps(value, sort_keys=True)}" for value in content]
-        return ("[\n" + "".join(line + (",\n" if k < len(lines) - 1 else "\n")
-                                for k, line in enumerate(lines)) + "]").encode("utf-8")
+        return (
+            "[\n" + "".join(line + (",\n" if k < len(lines) - 1 else "\n") for k, line in enumerate(lines)) + "]"
+        ).encode("utf-8")
     raise TypeError(f"expected a dict or a list, got {type(content).__name__}")

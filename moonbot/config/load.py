@@ -139,8 +139,13 @@ def _reject_duplicate_keys(document: yaml.Node, loader: yaml.SafeLoader, source:
                     first_line[key] = line
                 stack.append((value_node, key_path))
     if duplicates:
-        raise ConfigError("\n".join(f"{source}:{line}: {key_path}: duplicate key (first given at line {first}; "
-                                     "YAML would keep only the last)" for line, key_path, first in sorted(duplicates)))
+        raise ConfigError(
+            "\n".join(
+                f"{source}:{line}: {key_path}: duplicate key (first given at line {first}; "
+                "YAML would keep only the last)"
+                for line, key_path, first in sorted(duplicates)
+            )
+        )
 
 
 def config_hash(config: Any) -> str:
@@ -270,8 +275,9 @@ def _describe(kind: Any) -> str:
         return "a mapping"
     if get_origin(kind) is tuple:
         return "a list"
-    return {float: "a number", int: "an integer", str: "a string", bool: "true or false",
-            type(None): "null"}.get(kind, str(kind))
+    return {float: "a number", int: "an integer", str: "a string", bool: "true or false", type(None): "null"}.get(
+        kind, str(kind)
+    )
 
 
 def _check_range(value: float, meta: typing.Mapping[str, Any], path: str) -> Any:

@@ -124,9 +124,14 @@ def _norms(v: np.ndarray) -> np.ndarray:
     return np.sqrt(np.einsum("ij,ij->i", v, v))
 
 
-def assign_greedy(scores: Sequence[float], n_gt: int, error: Callable[[int, int], float],
-                  lower_bound: Callable[[int, int], float], threshold: float = math.inf,
-                  estimate_of: np.ndarray | None = None) -> np.ndarray:
+def assign_greedy(
+    scores: Sequence[float],
+    n_gt: int,
+    error: Callable[[int, int], float],
+    lower_bound: Callable[[int, int], float],
+    threshold: float = math.inf,
+    estimate_of: np.ndarray | None = None,
+) -> np.ndarray:
     """metrics.match_greedy computing errors only where needed: the estimates in decreasing score
     (ties: lower index first) each take the not yet matched instance of lowest error(e, g) (ties:
     lower index) if that error is strictly below `threshold`. `lower_bound(e, g)` ≤ error(e, g)
@@ -183,8 +188,14 @@ class _Pairs:
         return self._get("add", e, g, self.mp.add)
 
     def add_bound(self, e: int, g: int) -> float:
-        return self._get("add_bound", e, g, lambda Re, te, Rg, tg: float(np.linalg.norm(
-            (np.asarray(Re) - np.asarray(Rg)) @ self.centroid + np.asarray(te) - np.asarray(tg))))
+        return self._get(
+            "add_bound",
+            e,
+            g,
+            lambda Re, te, Rg, tg: float(
+                np.linalg.norm((np.asarray(Re) - np.asarray(Rg)) @ self.centroid + np.asarray(te) - np.asarray(tg))
+            ),
+        )
 
     def toolkit_correct(self, kind: str, threshold: float) -> np.ndarray:
         """(n_gt,) bool: the instances the BOP toolkit counts correct for error `kind` ('add' or
@@ -255,9 +266,14 @@ class Evaluation:
         return [r for r in self.instances if r.evaluated]
 
 
-def evaluate(scenes: Iterable[Scene], models: dict[int, Model], estimates: Iterable[Estimate],
-             min_visib_fract: float = 0.0, workers: int = 1,
-             progress: Callable[[int, int], None] | None = None) -> Evaluation:
+def evaluate(
+    scenes: Iterable[Scene],
+    models: dict[int, Model],
+    estimates: Iterable[Estimate],
+    min_visib_fract: float = 0.0,
+    workers: int = 1,
+    progress: Callable[[int, int], None] | None = None,
+) -> Evaluation:
     """Matches `estimates` to the ground truth of `scenes` (one split) and computes each evaluated
     instance's errors (module docstring). `models`: models_eval by obj_id. `workers`: threads of
     each KD-tree query (−1: all cores). `progress(done, total)` is called after each image.
@@ -303,35 +319,72 @@ def evaluate(scenes: Iterable[Scene], models: dict[int, Model], estimates: Itera
             estimate_of = None
             for gate in (*(f * mp.diameter for f in RECALL_FRACTIONS), math.inf):
                 estimate_of = assign_greedy(scores, len(valid), pairs.adds, pairs.adds_bound, gate, estimate_of)
-            correct = {(kind, f): pairs.toolkit_correct(kind, f * mp.diameter)
-                       for kind in ("add", "adds") for f in RECALL_FRACTIONS} if ests and valid else {}
-            common = dict(split=scene.split, scene_id=scene_id, im_id=im_id, obj_id=obj_id, mesh=scene.mesh,
-                          location=scene.location, stain=scene.stain, dust=DUST_LABELS[scene.dust],
-                          diameter_mm=mp.diameter)
+            correct = (
+                {
+                    (kind, f): pairs.toolkit_correct(kind, f * mp.diameter)
+                    for kind in ("add", "adds")
+                    for f in RECALL_FRACTIONS
+                }
+                if ests and valid
+                else {}
+            )
+            common = dict(
+                split=scene.split,
+                scene_id=scene_id,
+                im_id=im_id,
+                obj_id=obj_id,
+                mesh=scene.mesh,
+                location=scene.location,
+                stain=scene.stain,
+                dust=DUST_LABELS[scene.dust],
+                diameter_mm=mp.diameter,
+            )
             for inst in gts:
-                rows[inst.index] = InstanceResult(index=inst.index, px_visib=inst.px_visib,
-                                                  visib_fract=inst.visib_fract, evaluated=False, matched=False,
-                                                  **common)
+                rows[inst.index] = InstanceResult(
+                    index=inst.index,
+                    px_visib=inst.px_visib,
+                    visib_fract=inst.visib_fract,
+                    evaluated=False,
+                    matched=False,
+                    **common,
+                )
             for g, inst in enumerate(valid):
                 e = int(estimate_of[g])
                 flags = {f"{kind}_correct_{round(100 * f)}": bool(c[g]) for (kind, f), c in correct.items()}
                 if e < 0:
-                    rows[inst.index] = InstanceResult(index=inst.index, px_visib=inst.px_visib,
-                                                      visib_fract=inst.visib_fract, evaluated=True,
-                                                      matched=False, **common, **flags)
+                    rows[inst.index] = InstanceResult(
+                        index=inst.index,
+                        px_visib=inst.px_visib,
+                        visib_fract=inst.visib_fract,
+                        evaluated=True,
+                        matched=False,
+                        **common,
+                        **flags,
+                    )
                     continue
                 est = ests[e]
                 matched_estimates += 1
                 rows[inst.index] = InstanceResult(
-                    index=inst.index, px_visib=inst.px_visib, visib_fract=inst.visib_fract, evaluated=True,
-                    matched=True, add_mm=pairs.add(e, g), adds_mm=pairs.adds(e, g),
-                    te_mm=float(np.linalg.norm(est.t - inst.t)), score=est.score, line=est.line, **common, **flags)
+                    index=inst.index,
+                    px_visib=inst.px_visib,
+                    visib_fract=inst.visib_fract,
+                    evaluated=True,
+                    matched=True,
+                    add_mm=pairs.add(e, g),
+                    adds_mm=pairs.adds(e, g),
+                    te_mm=float(np.linalg.norm(est.t - inst.t)),
+                    score=est.score,
+                    line=est.line,
+                    **common,
+                    **flags,
+                )
         results.extend(rows[k] for k in sorted(rows))
         if progress is not None:
             progress(done, len(images))
     known = sum(len(v) for per_obj in by_image.values() for v in per_obj.values())
-    return Evaluation(split, results, len(estimates), matched_estimates, known - matched_estimates, unknown,
-                      min_visib_fract)
+    return Evaluation(
+        split, results, len(estimates), matched_estimates, known - matched_estimates, unknown, min_visib_fract
+    )
 
 
 def unknown_message(evaluation: Evaluation, results_path: Path, limit: int = 5) -> str:

@@ -43,17 +43,24 @@ def adds_vs_visible_pixels(evaluation: Evaluation, edges: Sequence[float], title
         y = np.array([100 * r.adds_mm / r.diameter_mm for r in mine])
         n_missed = sum(1 for r in rows if r.mesh == mesh and not r.matched)
         inside = y <= top
-        ax.scatter(x[inside], y[inside], s=14, alpha=0.6, color=colour, edgecolors="none",
-                   label=f"{mesh} ({len(mine)} matched" + (f", {n_missed} missed)" if n_missed else ")"))
+        ax.scatter(
+            x[inside],
+            y[inside],
+            s=14,
+            alpha=0.6,
+            color=colour,
+            edgecolors="none",
+            label=f"{mesh} ({len(mine)} matched" + (f", {n_missed} missed)" if n_missed else ")"),
+        )
         if (~inside).any():
-            ax.scatter(x[~inside], np.full((~inside).sum(), top * 0.985), marker="^", s=30, color=colour,
-                       clip_on=False)
+            ax.scatter(x[~inside], np.full((~inside).sum(), top * 0.985), marker="^", s=30, color=colour, clip_on=False)
         missed = np.array([r.px_visib for r in rows if r.mesh == mesh and not r.matched], np.float64)
         if missed.size:
             ax.scatter(missed, np.full(missed.size, top), marker="x", s=30, color=colour, clip_on=False)
     for fraction, style in zip(RECALL_FRACTIONS, ("--", "-.")):
-        ax.axhline(100 * fraction, color="0.25", linestyle=style, linewidth=1.0,
-                   label=f"{100 * fraction:g} % of the diameter")
+        ax.axhline(
+            100 * fraction, color="0.25", linestyle=style, linewidth=1.0, label=f"{100 * fraction:g} % of the diameter"
+        )
     for edge in edges:
         if edge > 0:
             ax.axvline(edge, color="0.8", linestyle=":", linewidth=0.9, zorder=0)
@@ -66,8 +73,15 @@ def adds_vs_visible_pixels(evaluation: Evaluation, edges: Sequence[float], title
             centres.append(float(np.exp(np.mean(np.log(px_matched[inside])))))
             medians.append(float(np.median(y_all[inside])))
     if centres:
-        ax.plot(centres, np.minimum(medians, top), color="black", marker="o", markersize=4, linewidth=1.2,
-                label="median per pixel bin")
+        ax.plot(
+            centres,
+            np.minimum(medians, top),
+            color="black",
+            marker="o",
+            markersize=4,
+            linewidth=1.2,
+            label="median per pixel bin",
+        )
     if any(not r.matched for r in rows):
         ax.scatter([], [], marker="x", color="0.3", label="missed (no estimate), at the top")
     if y_all.size and (y_all > top).any():
@@ -116,8 +130,14 @@ def recall_by_condition(rows: Sequence[ConditionRow], title: str) -> bytes:
     ax.barh(y, np.nan_to_num(r10), height=0.4, color=colours)
     for k, r in enumerate(rows):
         s = r.summary
-        note = (f"20 %: {s.adds_recall_20:5.1f}   10 %: {s.adds_recall_10:5.1f}   n={s.instances}"
-                + (f", {s.missed} missed" if s.missed else "")) if s.instances else "no instances"
+        note = (
+            (
+                f"20 %: {s.adds_recall_20:5.1f}   10 %: {s.adds_recall_10:5.1f}   n={s.instances}"
+                + (f", {s.missed} missed" if s.missed else "")
+            )
+            if s.instances
+            else "no instances"
+        )
         ax.text(101, k, note, va="center", fontsize=8)
     ax.set_yticks(y, [_label(r) for r in rows], fontsize=8)
     ax.set_ylim(len(rows) - 0.5, -0.5)  # first row at the top

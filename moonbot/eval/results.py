@@ -80,8 +80,10 @@ def read_results(path: Path) -> list[Estimate]:
         time_s = _numbers(fields[6], 1, "time", where)[0]
         key = (ids[0], ids[1])
         if key in times and not math.isclose(times[key], time_s, abs_tol=TIME_TOLERANCE_S):
-            raise ResultsError(f"{where}: time {time_s} differs from {times[key]} given earlier for scene "
-                               f"{ids[0]} image {ids[1]} (one time per image)")
+            raise ResultsError(
+                f"{where}: time {time_s} differs from {times[key]} given earlier for scene "
+                f"{ids[0]} image {ids[1]} (one time per image)"
+            )
         times.setdefault(key, time_s)
         estimates.append(Estimate(ids[0], ids[1], ids[2], float(score), R, t, float(time_s), number))
     return estimates

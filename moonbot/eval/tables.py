@@ -59,13 +59,21 @@ def summarize(instances: Sequence[InstanceResult]) -> Summary:
         return 100 * float(np.mean([getattr(r, flag) for r in instances])) if instances else math.nan
 
     return Summary(
-        instances=len(instances), matched=int(matched.sum()), missed=int((~matched).sum()),
-        add_mm=_mean(add_mm), add_pct=_mean(100 * add_mm / diam[matched]),
-        adds_mm=_mean(adds_mm[matched]), adds_pct=_mean(adds_pct),
-        adds_pct_median=float(np.median(adds_pct)) if adds_pct.size else math.nan, te_mm=_mean(te_mm),
-        add_recall_10=share("add_correct_10"), add_recall_20=share("add_correct_20"),
-        adds_recall_10=share("adds_correct_10"), adds_recall_20=share("adds_correct_20"),
-        adds_auc=100 * auc(adds_mm, AUC_MAX_MM))
+        instances=len(instances),
+        matched=int(matched.sum()),
+        missed=int((~matched).sum()),
+        add_mm=_mean(add_mm),
+        add_pct=_mean(100 * add_mm / diam[matched]),
+        adds_mm=_mean(adds_mm[matched]),
+        adds_pct=_mean(adds_pct),
+        adds_pct_median=float(np.median(adds_pct)) if adds_pct.size else math.nan,
+        te_mm=_mean(te_mm),
+        add_recall_10=share("add_correct_10"),
+        add_recall_20=share("add_correct_20"),
+        adds_recall_10=share("adds_correct_10"),
+        adds_recall_20=share("adds_correct_20"),
+        adds_auc=100 * auc(adds_mm, AUC_MAX_MM),
+    )
 
 
 @dataclass(frozen=True)
@@ -121,8 +129,7 @@ class PixelRow:
 def check_bins(edges: Sequence[float]) -> tuple[float, ...]:
     """`edges` as a tuple if they are finite, ≥ 0 and strictly increasing; ValueError otherwise."""
     edges = tuple(float(e) for e in edges)
-    if not edges or any(not math.isfinite(e) or e < 0 for e in edges) or any(
-            b <= a for a, b in zip(edges, edges[1:])):
+    if not edges or any(not math.isfinite(e) or e < 0 for e in edges) or any(b <= a for a, b in zip(edges, edges[1:])):
         raise ValueError(f"visible-pixel bin edges must be finite, >= 0 and increasing, got {list(edges)}")
     return edges
 

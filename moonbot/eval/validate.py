@@ -27,8 +27,15 @@ import pyarrow.parquet as pq
 
 from moonbot import _core
 from moonbot.bop.gt_info import bbox_of
-from moonbot.bop.layout import (SCENE_INDEX_JSON, SCENE_INDEX_PARQUET, SCENE_META, VIEW_ROOT, scene_dirs, scene_rel,
-                                view_rel)
+from moonbot.bop.layout import (
+    SCENE_INDEX_JSON,
+    SCENE_INDEX_PARQUET,
+    SCENE_META,
+    VIEW_ROOT,
+    scene_dirs,
+    scene_rel,
+    view_rel,
+)
 from moonbot.bop.models import read_ply
 from moonbot.bop.scene_index import COLUMNS, index_rows
 from moonbot.render.view import core_camera
@@ -99,8 +106,11 @@ def check_manifest(dataset: Path, report: ValidationReport) -> None:
 
 
 def _numbers(value, n: int) -> bool:
-    return (isinstance(value, list) and len(value) == n
-            and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value))
+    return (
+        isinstance(value, list)
+        and len(value) == n
+        and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+    )
 
 
 def _check_json(scene: Path, report: ValidationReport) -> tuple[dict, dict, dict] | None:
@@ -115,17 +125,26 @@ def _check_json(scene: Path, report: ValidationReport) -> tuple[dict, dict, dict
     for im, cam in camera.items():
         report.count("json")
         where = scene / "scene_camera.json"
-        if not (_numbers(cam.get("cam_K"), 9) and _numbers(cam.get("cam_R_w2c"), 9) and _numbers(cam.get("cam_t_w2c"), 3)):
+        if not (
+            _numbers(cam.get("cam_K"), 9) and _numbers(cam.get("cam_R_w2c"), 9) and _numbers(cam.get("cam_t_w2c"), 3)
+        ):
             report.fail(where, "json", f"image {im}: cam_K (9), cam_R_w2c (9) and cam_t_w2c (3, mm) must be numbers")
         if not (isinstance(cam.get("depth_scale"), (int, float)) and cam["depth_scale"] > 0):
             report.fail(where, "json", f"image {im}: depth_scale must be a positive number (mm per PNG unit)")
     for im, instances in gt.items():
         for k, inst in enumerate(instances):
             report.count("json")
-            if not (_numbers(inst.get("cam_R_m2c"), 9) and _numbers(inst.get("cam_t_m2c"), 3)
-                    and isinstance(inst.get("obj_id"), int) and inst["obj_id"] > 0):
-                report.fail(scene / "scene_gt.json", "json", f"image {im} instance {k}: cam_R_m2c (9), cam_t_m2c (3, mm) "
-                            "and obj_id (int > 0) required")
+            if not (
+                _numbers(inst.get("cam_R_m2c"), 9)
+                and _numbers(inst.get("cam_t_m2c"), 3)
+                and isinstance(inst.get("obj_id"), int)
+                and inst["obj_id"] > 0
+            ):
+                report.fail(
+                    scene / "scene_gt.json",
+                    "json",
+                    f"image {im} instance {k}: cam_R_m2c (9), cam_t_m2c (3, mm) and obj_id (int > 0) required",
+                )
             elif abs(np.linalg.det(np.array(inst["cam_R_m2c"]).reshape(3, 3)) - 1) > 1e-6:
                 report.fail(scene / "scene_gt.json", "json", f"image {im} instance {k}: cam_R_m2c is not a rotation")
         entries = info.get(im)
@@ -146,7 +165,9 @@ def depth_holes(depth: np.ndarray, K: np.ndarray, R_w2c: np.ndarray) -> np.ndarr
     return (depth <= 0) & (down > math.sin(math.radians(HOLE_DEPRESSION_DEG)))
 
 
-def render_at_gt(models: dict, instances: list[dict], cam: dict, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+def render_at_gt(
+    models: dict, instances: list[dict], cam: dict, shape: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray]:
     """The image's models at their ground-truth poses, seen through cam_K from the camera's own
     frame (millimetres): (z-depth (H, W) mm, 0 = none; labels (H, W) uint8, instance index + 1)."""
     scene = _core.Scene()
@@ -190,14 +211,23 @@ def check_scene(scene: Path, report: ValidationReport, models: dict | None = Non
         bad = (representable & (np.abs(png - mm) > DEPTH_TOLERANCE_MM)) | (~representable & (png != 0))
         if bad.any():
             y, x = np.argwhere(bad)[0]
-            report.fail(png_path, "depth", f"{int(bad.sum())} pixels disagree with {npy_path.name} (first at x={x}, "
-                        f"y={y}: {png[y, x]:.1f} mm vs {mm[y, x]:.3f} mm)")
-        holes = depth_holes(metres, np.reshape(camera[im]["cam_K"], (3, 3)),
-                            np.reshape(camera[im]["cam_R_w2c"], (3, 3)))
+            report.fail(
+                png_path,
+                "depth",
+                f"{int(bad.sum())} pixels disagree with {npy_path.name} (first at x={x}, "
+                f"y={y}: {png[y, x]:.1f} mm vs {mm[y, x]:.3f} mm)",
+            )
+        holes = depth_holes(
+            metres, np.reshape(camera[im]["cam_K"], (3, 3)), np.reshape(camera[im]["cam_R_w2c"], (3, 3))
+        )
         if holes.any():
             y, x = np.argwhere(holes)[0]
-            report.fail(npy_path, "depth", f"{int(holes.sum())} pixels below the horizon have no depth (first at "
-                        f"x={x}, y={y}): rays slipped between triangles")
+            report.fail(
+                npy_path,
+                "depth",
+                f"{int(holes.sum())} pixels below the horizon have no depth (first at "
+                f"x={x}, y={y}): rays slipped between triangles",
+            )
         valid = png > 0
         seen = np.zeros(metres.shape, bool)
         rendered = None
@@ -221,31 +251,48 @@ def check_scene(scene: Path, report: ValidationReport, models: dict | None = Non
             if (visible & seen).any():
                 report.fail(where, "masks", "visible pixels shared with another instance")
             seen |= visible
-            expected = {"px_count_visib": int(visible.sum()), "bbox_visib": list(bbox_of(visible)),
-                        "px_count_valid": int((amodal & valid).sum())}
+            expected = {
+                "px_count_visib": int(visible.sum()),
+                "bbox_visib": list(bbox_of(visible)),
+                "px_count_valid": int((amodal & valid).sum()),
+            }
             for key, value in expected.items():
                 if entry.get(key) != value:
-                    report.fail(where, "gt_info", f"{key} is {entry.get(key)} in scene_gt_info.json, the masks give {value}")
+                    report.fail(
+                        where, "gt_info", f"{key} is {entry.get(key)} in scene_gt_info.json, the masks give {value}"
+                    )
             all_px = entry.get("px_count_all", -1)
             if not isinstance(all_px, int) or all_px < int(amodal.sum()):
-                report.fail(scene / "mask" / f"{name}_{k:06d}.png", "gt_info",
-                            f"px_count_all {all_px} is below the amodal mask's {int(amodal.sum())} pixels")
-            elif not math.isclose(entry.get("visib_fract", -1.0), expected["px_count_visib"] / all_px if all_px else 0.0,
-                                  abs_tol=1e-9):
+                report.fail(
+                    scene / "mask" / f"{name}_{k:06d}.png",
+                    "gt_info",
+                    f"px_count_all {all_px} is below the amodal mask's {int(amodal.sum())} pixels",
+                )
+            elif not math.isclose(
+                entry.get("visib_fract", -1.0), expected["px_count_visib"] / all_px if all_px else 0.0, abs_tol=1e-9
+            ):
                 report.fail(where, "gt_info", "visib_fract is not px_count_visib / px_count_all")
             if rendered is not None and visible.any():
                 report.count("pose")
                 depth_mm, labels = rendered
                 here = visible & (labels == k + 1)
                 if here.sum() < 0.9 * visible.sum():
-                    report.fail(scene / "scene_gt.json", "pose", f"image {im} instance {k}: the model at its pose "
-                                f"covers {int(here.sum())} of its {int(visible.sum())} visible pixels")
+                    report.fail(
+                        scene / "scene_gt.json",
+                        "pose",
+                        f"image {im} instance {k}: the model at its pose "
+                        f"covers {int(here.sum())} of its {int(visible.sum())} visible pixels",
+                    )
                     continue
                 residual = np.abs(depth_mm[here] - mm[here])
                 median, p95 = float(np.median(residual)), float(np.percentile(residual, 95))
                 if median > POSE_MEDIAN_MM or p95 > POSE_P95_MM:
-                    report.fail(scene / "scene_gt.json", "pose", f"image {im} instance {k}: depth residual median "
-                                f"{median:.3f} mm, 95th percentile {p95:.3f} mm against the model at its pose")
+                    report.fail(
+                        scene / "scene_gt.json",
+                        "pose",
+                        f"image {im} instance {k}: depth residual median "
+                        f"{median:.3f} mm, 95th percentile {p95:.3f} mm against the model at its pose",
+                    )
 
 
 def validate_dataset(dataset: Path) -> ValidationReport:
@@ -279,16 +326,22 @@ def check_layout(dataset: Path, scene: Path, report: ValidationReport) -> dict |
     path = scene / SCENE_META
     try:
         meta = json.loads(path.read_text())
-        want, view = scene_rel(meta["split"], meta["scene_id"]), view_rel(meta["split"], meta["mesh"],
-                                                                         meta["location"], meta["scene_id"])
+        want, view = (
+            scene_rel(meta["split"], meta["scene_id"]),
+            view_rel(meta["split"], meta["mesh"], meta["location"], meta["scene_id"]),
+        )
     except (OSError, ValueError, KeyError, TypeError) as e:
         report.fail(path, "layout", f"unreadable or lacks split, scene_id, mesh or location ({e})")
         return None
     report.count("layout")
     here = scene.relative_to(dataset).as_posix()
     if here != want or meta.get("scene_dir") != want:
-        report.fail(path, "layout", f"the scene is at {here} and says scene_dir {meta.get('scene_dir')!r}; its split "
-                    f"{meta['split']!r} and scene_id {meta['scene_id']} put it at {want}")
+        report.fail(
+            path,
+            "layout",
+            f"the scene is at {here} and says scene_dir {meta.get('scene_dir')!r}; its split "
+            f"{meta['split']!r} and scene_id {meta['scene_id']} put it at {want}",
+        )
     if meta.get("view") != view or not (dataset / view).is_dir() or (dataset / view).resolve() != scene.resolve():
         report.fail(dataset / view, "layout", f"the {VIEW_ROOT}/ link does not lead to {here}")
     return meta
@@ -321,5 +374,7 @@ def check_index(dataset: Path, metas: list[dict], report: ValidationReport) -> N
         got = {(r["bop_split"], r["scene_id"], r["task_in_scene"]): r for r in rows}
         for key in sorted(set(want) | set(got), key=str):
             if want.get(key) != got.get(key):
-                report.fail(path, "index", f"row {key} is {got.get(key)}, the scene's {SCENE_META} gives {want.get(key)}")
+                report.fail(
+                    path, "index", f"row {key} is {got.get(key)}, the scene's {SCENE_META} gives {want.get(key)}"
+                )
                 break

@@ -35,8 +35,9 @@ class DatasetFacts:
 def dataset_facts(dataset: Path) -> DatasetFacts:
     """The dataset's name, object ids and image size. DatasetError naming the file and field."""
     dataset = Path(dataset)
-    info, models, camera = (load_json(dataset / name) for name in
-                            ("dataset_info.json", "models/models_info.json", "camera.json"))
+    info, models, camera = (
+        load_json(dataset / name) for name in ("dataset_info.json", "models/models_info.json", "camera.json")
+    )
     try:
         name = info["name"]
         if not isinstance(name, str) or not name:
@@ -56,16 +57,22 @@ def dataset_facts(dataset: Path) -> DatasetFacts:
     return DatasetFacts(name, obj_ids, *size)
 
 
-def split_coco(dataset: Path, split: str, facts: DatasetFacts | None = None,
-               scenes: Sequence[SceneDir] | None = None) -> dict:
+def split_coco(
+    dataset: Path, split: str, facts: DatasetFacts | None = None, scenes: Sequence[SceneDir] | None = None
+) -> dict:
     """One COCO file's content for a split of `dataset`: its scenes' images and annotations with
     dataset-root-relative file names and split-unique ids (module docstring). `facts` and
     `scenes` (the dataset's, as dataset_facts and dataset_scenes find them) are read when not
     given. DatasetError when the split has no scene."""
     dataset = Path(dataset)
     facts = facts or dataset_facts(dataset)
-    coco = {"info": coco_info(facts.name, split), "licenses": [],
-            "categories": coco_categories(facts.name, facts.obj_ids), "images": [], "annotations": []}
+    coco = {
+        "info": coco_info(facts.name, split),
+        "licenses": [],
+        "categories": coco_categories(facts.name, facts.obj_ids),
+        "images": [],
+        "annotations": [],
+    }
     found = [s for s in (scenes if scenes is not None else dataset_scenes(dataset)) if s.split == split]
     if not found:
         raise DatasetError(f"{dataset}: no scene of split {split!r}")
@@ -73,14 +80,15 @@ def split_coco(dataset: Path, split: str, facts: DatasetFacts | None = None,
         prefix = scene.path.relative_to(dataset).as_posix()
         for im_id, image_annotations in scene_annotations(scene.path, facts.width, facts.height):
             if not 0 <= im_id < IMAGE_ID_STRIDE:
-                raise DatasetError(f"{scene.path / 'scene_gt.json'}: image id {im_id} is not a BOP image id "
-                                  f"(0 to {IMAGE_ID_STRIDE - 1})")
+                raise DatasetError(
+                    f"{scene.path / 'scene_gt.json'}: image id {im_id} is not a BOP image id "
+                    f"(0 to {IMAGE_ID_STRIDE - 1})"
+                )
             image_id = scene.scene_id * IMAGE_ID_STRIDE + im_id
             image = image_info(image_id, f"{prefix}/{rgb_name(scene.path, im_id)}", facts.width, facts.height)
             coco["images"].append({**image, "scene_id": scene.scene_id, "im_id": im_id})
             for annotation in image_annotations:
-                coco["annotations"].append({"id": len(coco["annotations"]) + 1, "image_id": image_id,
-                                            **annotation})
+                coco["annotations"].append({"id": len(coco["annotations"]) + 1, "image_id": image_id, **annotation})
     return coco
 
 

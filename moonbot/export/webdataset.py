@@ -119,21 +119,31 @@ class _SceneFiles:
             gt = [_floats(inst, ("cam_R_m2c", "cam_t_m2c")) for inst in gt]
             camera = _floats(camera, ("cam_K", "cam_R_w2c", "cam_t_w2c"))
         except (KeyError, TypeError, ValueError, AttributeError) as e:
-            raise DatasetError(f"{self.path}: scene_gt, scene_gt_info and scene_camera.json disagree on image "
-                              f"{im_id} ({e})") from None
+            raise DatasetError(
+                f"{self.path}: scene_gt, scene_gt_info and scene_camera.json disagree on image {im_id} ({e})"
+            ) from None
         depth = _read(self.path / "depth" / f"{im_id:06d}.png")
         rgb_file = rgb_name(self.path, im_id)
         rgb = _read(self.path / rgb_file)
         height, width = _png_size(depth, self.path / "depth" / f"{im_id:06d}.png")
         masks = {}
         for folder in ("mask", "mask_visib"):
-            masks[folder] = dumps_toolkit_json({
-                k: encode_rle(read_mask(self.path / folder / f"{im_id:06d}_{k:06d}.png", height, width))
-                for k in range(len(gt))})
+            masks[folder] = dumps_toolkit_json(
+                {
+                    k: encode_rle(read_mask(self.path / folder / f"{im_id:06d}_{k:06d}.png", height, width))
+                    for k in range(len(gt))
+                }
+            )
         suffix = rgb_file.rsplit(".", 1)[1]
-        return [("camera.json", dumps_toolkit_json(camera)), ("depth.png", depth),
-                ("gt.json", dumps_toolkit_json(gt)), ("gt_info.json", dumps_toolkit_json(gt_info)),
-                ("mask.json", masks["mask"]), ("mask_visib.json", masks["mask_visib"]), (f"rgb.{suffix}", rgb)]
+        return [
+            ("camera.json", dumps_toolkit_json(camera)),
+            ("depth.png", depth),
+            ("gt.json", dumps_toolkit_json(gt)),
+            ("gt_info.json", dumps_toolkit_json(gt_info)),
+            ("mask.json", masks["mask"]),
+            ("mask_visib.json", masks["mask_visib"]),
+            (f"rgb.{suffix}", rgb),
+        ]
 
 
 def _png_size(data: bytes, path: Path) -> tuple[int, int]:
@@ -153,11 +163,12 @@ def _member(name: str, data: bytes) -> tarfile.TarInfo:
 
 def _chunks(items: list, size: int) -> Iterator[list]:
     for start in range(0, len(items), size):
-        yield items[start:start + size]
+        yield items[start : start + size]
 
 
-def write_split_shards(scenes: list[SceneDir], split: str, folder: Path, shard_size: int,
-                       shuffle_seed: int | None = None) -> SplitShards:
+def write_split_shards(
+    scenes: list[SceneDir], split: str, folder: Path, shard_size: int, shuffle_seed: int | None = None
+) -> SplitShards:
     """Writes the shards and key_to_shard.json of one split's `scenes` into `folder` (replaced
     whole). DatasetError naming the file when a scene file is missing or malformed; then
     `folder` is left as it was."""
@@ -177,8 +188,10 @@ def write_split_shards(scenes: list[SceneDir], split: str, folder: Path, shard_s
                         # Shuffled images visit scenes in any order: their JSON files stay loaded.
                         scene_files = files[image.scene.path] = _SceneFiles(image.scene)
                     if image.key in key_to_shard:
-                        raise DatasetError(f"{image.scene.path}: image key {image.key} also names an image of "
-                                          "another scene of the split (scene ids must be unique in a split)")
+                        raise DatasetError(
+                            f"{image.scene.path}: image key {image.key} also names an image of "
+                            "another scene of the split (scene ids must be unique in a split)"
+                        )
                     for field, data in scene_files.sample(image.im_id):
                         tar.addfile(_member(f"{image.key}.{field}", data), io.BytesIO(data))
                     key_to_shard[image.key] = shard
@@ -186,11 +199,16 @@ def write_split_shards(scenes: list[SceneDir], split: str, folder: Path, shard_s
     return SplitShards(split, Path(folder), len(images), -(-len(images) // shard_size))
 
 
-def write_shards(dataset: Path, out_dir: Path, shard_size: int = DEFAULT_SHARD_SIZE,
-                 shuffle_seed: int | None = None) -> list[SplitShards]:
+def write_shards(
+    dataset: Path, out_dir: Path, shard_size: int = DEFAULT_SHARD_SIZE, shuffle_seed: int | None = None
+) -> list[SplitShards]:
     """BOP-webdataset shards of every split of `dataset` under `out_dir`/<split>_web/ (module
     docstring). DatasetError or DatasetError naming the file when the dataset is malformed."""
     scenes = dataset_scenes(Path(dataset))
     splits = list(dict.fromkeys(s.split for s in scenes))
-    return [write_split_shards([s for s in scenes if s.split == split], split, Path(out_dir) / f"{split}_web",
-                               shard_size, shuffle_seed) for split in splits]
+    return [
+        write_split_shards(
+            [s for s in scenes if s.split == split], split, Path(out_dir) / f"{split}_web", shard_size, shuffle_seed
+        )
+        for split in splits
+    ]

@@ -32,8 +32,7 @@ from moonbot.atomic_io import atomic_write
 from moonbot.bop.merge import merge_dataset
 from moonbot.config import Config, ConfigError, config_hash, load_config
 from moonbot.pipeline.heartbeat import Beat, Heartbeat, StallLimit, Watchdog, heartbeat_dir
-from moonbot.pipeline.placements import (TASK_PREFIX, layout_id, place_layout, placement_for, placement_path,
-                                         read_record)
+from moonbot.pipeline.placements import TASK_PREFIX, layout_id, place_layout, placement_for, placement_path, read_record
 from moonbot.pipeline.stats import collect
 from moonbot.pipeline.tasks import is_complete, run_task, sweep_temporaries, task_dir
 from moonbot.records.done import DONE, read_done
@@ -103,13 +102,18 @@ def _run_on_worker(config: Config, task: Task, out_dir: str, threads: int | None
     try:
         heartbeat.stage("start")
         placement = None if placed is None else placement_for(task_config(config, task), placed["record"])
-        outcome = run_task(config, task, Path(out_dir), threads=threads, worker=worker, on_stage=heartbeat.stage,
-                           placement=placement)
+        outcome = run_task(
+            config, task, Path(out_dir), threads=threads, worker=worker, on_stage=heartbeat.stage, placement=placement
+        )
     finally:
         heartbeat.close()
-    return {"task_id": outcome.task_id, "skipped": outcome.skipped, "samples": outcome.samples,
-            "seconds": outcome.stats.wall_s if outcome.stats else 0.0,
-            "longest_stage_s": heartbeat.longest_stage_s}
+    return {
+        "task_id": outcome.task_id,
+        "skipped": outcome.skipped,
+        "samples": outcome.samples,
+        "seconds": outcome.stats.wall_s if outcome.stats else 0.0,
+        "longest_stage_s": heartbeat.longest_stage_s,
+    }
 
 
 @dataclass
@@ -168,10 +172,19 @@ def pending_tasks(config: Config, out_dir: Path) -> tuple[list[Task], int]:
     return pending, len(all_tasks) - len(pending)
 
 
-def generate(config: Config | str | Path | None, out_dir: Path, *, client: Client | None = None,
-             workers: int | None = None, threads: int | None = None, scheduler: str | None = None,
-             scheduler_file: str | None = None, merge: bool = True, task_timeout: float | None = None,
-             progress=sys.stderr) -> GenerateResult:
+def generate(
+    config: Config | str | Path | None,
+    out_dir: Path,
+    *,
+    client: Client | None = None,
+    workers: int | None = None,
+    threads: int | None = None,
+    scheduler: str | None = None,
+    scheduler_file: str | None = None,
+    merge: bool = True,
+    task_timeout: float | None = None,
+    progress=sys.stderr,
+) -> GenerateResult:
     """Renders every task of the config's sweep missing from `out_dir` (OUT/tasks/<task_id>/).
     The cluster: `client` if given; else the scheduler at `scheduler` (an address) or in
     `scheduler_file`; else a LocalCluster of `workers` processes (default: one per core, at most
@@ -204,8 +217,20 @@ def generate(config: Config | str | Path | None, out_dir: Path, *, client: Clien
     try:
         with sigterm_interrupts():
             if pending:
-                render_pending(config, out_dir, pending, result, client, workers, threads, scheduler,
-                               scheduler_file, start, say, StallLimit(config, task_timeout))
+                render_pending(
+                    config,
+                    out_dir,
+                    pending,
+                    result,
+                    client,
+                    workers,
+                    threads,
+                    scheduler,
+                    scheduler_file,
+                    start,
+                    say,
+                    StallLimit(config, task_timeout),
+                )
     except KeyboardInterrupt as e:  # Ctrl-C, or SIGTERM as Interrupted; the cluster is closed by now
         result.interrupted = e.signal_name if isinstance(e, Interrupted) else "SIGINT"
     sweep_temporaries(out_dir)
@@ -232,20 +257,36 @@ def keep_config(config: Config, out_dir: Path) -> None:
         except ConfigError as e:
             raise OSError(f"{path}: not a moonbot config ({e})") from None
         if config_hash(kept) != config_hash(config):
-            raise OSError(f"{path}: {out_dir} holds a sweep of another config (hash {config_hash(kept)[:12]}, "
-                          f"this one {config_hash(config)[:12]}); render it into another --out")
+            raise OSError(
+                f"{path}: {out_dir} holds a sweep of another config (hash {config_hash(kept)[:12]}, "
+                f"this one {config_hash(config)[:12]}); render it into another --out"
+            )
         return
     atomic_write(path, "w", lambda f: f.write(text))
 
 
-def render_pending(config: Config, out_dir: Path, pending: list[Task], result: GenerateResult, client, workers,
-                   threads, scheduler, scheduler_file, start: float, say, limit: StallLimit) -> None:
+def render_pending(
+    config: Config,
+    out_dir: Path,
+    pending: list[Task],
+    result: GenerateResult,
+    client,
+    workers,
+    threads,
+    scheduler,
+    scheduler_file,
+    start: float,
+    say,
+    limit: StallLimit,
+) -> None:
     """Runs `pending` on the cluster (see generate) and records outcomes in `result`. A local
     cluster keeps its scratch space (worker folders, lock files) in a folder of its own under the
     system's temporary folder, removed when it closes, however the run ends."""
     own_cluster = own_client = scratch = None
-    settings = {"distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
-                "distributed.scheduler.worker-saturation": 1.0}
+    settings = {
+        "distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
+        "distributed.scheduler.worker-saturation": 1.0,
+    }
     if client is None and not (scheduler or scheduler_file):
         scratch = tempfile.mkdtemp(prefix="moonbot-dask-")
         settings["temporary-directory"] = scratch
@@ -253,13 +294,19 @@ def render_pending(config: Config, out_dir: Path, pending: list[Task], result: G
         try:
             if client is None:
                 if scheduler or scheduler_file:
-                    own_client = client = (Client(scheduler) if scheduler else Client(scheduler_file=scheduler_file))
+                    own_client = client = Client(scheduler) if scheduler else Client(scheduler_file=scheduler_file)
                 else:
                     cores = os.cpu_count() or 1
                     n = max(1, min(workers or cores, len(pending)))
                     threads = threads or max(1, cores // n)
-                    own_cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                               dashboard_address=":0", silence_logs=40, local_directory=scratch)
+                    own_cluster = LocalCluster(
+                        n_workers=n,
+                        threads_per_worker=1,
+                        processes=True,
+                        dashboard_address=":0",
+                        silence_logs=40,
+                        local_directory=scratch,
+                    )
                     own_client = client = Client(own_cluster)
             watch_pending(config, out_dir, pending, result, client, threads, start, say, limit)
         finally:
@@ -272,8 +319,17 @@ def render_pending(config: Config, out_dir: Path, pending: list[Task], result: G
                 shutil.rmtree(scratch, ignore_errors=True)
 
 
-def watch_pending(config: Config, out_dir: Path, pending: list[Task], result: GenerateResult, client: Client,
-                  threads, start: float, say, limit: StallLimit) -> None:
+def watch_pending(
+    config: Config,
+    out_dir: Path,
+    pending: list[Task],
+    result: GenerateResult,
+    client: Client,
+    threads,
+    start: float,
+    say,
+    limit: StallLimit,
+) -> None:
     """Submits `pending` (and their layouts' placements) to `client` and watches them to the end."""
     # Heartbeats of an earlier, interrupted run are not this run's tasks'.
     shutil.rmtree(heartbeat_dir(out_dir), ignore_errors=True)
@@ -287,14 +343,24 @@ def watch_pending(config: Config, out_dir: Path, pending: list[Task], result: Ge
     # task waits for its own layout's only.
     layouts = {layout_id(t): t for t in reversed(pending)}
     kept = {layout for layout in layouts if read_record(placement_path(out_dir, layout)) is not None}
-    placements = {layout: client.submit(_place_on_worker, config, t, str(out_dir), key=TASK_PREFIX + layout,
-                                        pure=False, retries=RETRIES)
-                  for layout, t in sorted(layouts.items(), key=lambda item: item[1].index)}
-    futures = client.map(_run_on_worker, [config] * len(pending), pending, [str(out_dir)] * len(pending),
-                         [threads] * len(pending), [placements[layout_id(t)] for t in pending],
-                         key=[f"render-{t.task_id}" for t in pending], pure=False, retries=RETRIES)
-    SweepWatch(client, futures, pending, result, Watchdog(out_dir, limit), start, say, out_dir,
-               placements, kept).run()
+    placements = {
+        layout: client.submit(
+            _place_on_worker, config, t, str(out_dir), key=TASK_PREFIX + layout, pure=False, retries=RETRIES
+        )
+        for layout, t in sorted(layouts.items(), key=lambda item: item[1].index)
+    }
+    futures = client.map(
+        _run_on_worker,
+        [config] * len(pending),
+        pending,
+        [str(out_dir)] * len(pending),
+        [threads] * len(pending),
+        [placements[layout_id(t)] for t in pending],
+        key=[f"render-{t.task_id}" for t in pending],
+        pure=False,
+        retries=RETRIES,
+    )
+    SweepWatch(client, futures, pending, result, Watchdog(out_dir, limit), start, say, out_dir, placements, kept).run()
 
 
 @dataclass(frozen=True)
@@ -309,8 +375,10 @@ class Hang:
     restart: str
 
     def describe(self) -> str:
-        return (f"no progress for {self.stalled_s:.0f} s in {self.beat.where()}, {self.task_s:.0f} s into "
-                f"the task; worker {self.restart}")
+        return (
+            f"no progress for {self.stalled_s:.0f} s in {self.beat.where()}, {self.task_s:.0f} s into "
+            f"the task; worker {self.restart}"
+        )
 
 
 class SweepWatch:
@@ -322,9 +390,19 @@ class SweepWatch:
     heartbeat names place-<layout>; one that fails or hangs for good fails the tasks of its layout
     (a failure reaches them through Dask, as the placement's error; a hang is reported to them here)."""
 
-    def __init__(self, client: Client, futures: list, tasks: list[Task], result: GenerateResult,
-                 watchdog: Watchdog, start: float, say, out_dir: Path, placements: dict | None = None,
-                 kept_before: set[str] = frozenset()) -> None:
+    def __init__(
+        self,
+        client: Client,
+        futures: list,
+        tasks: list[Task],
+        result: GenerateResult,
+        watchdog: Watchdog,
+        start: float,
+        say,
+        out_dir: Path,
+        placements: dict | None = None,
+        kept_before: set[str] = frozenset(),
+    ) -> None:
         self.client = client
         self.out_dir = Path(out_dir)
         self.tasks = {t.task_id: t for t in tasks}
@@ -388,7 +466,8 @@ class SweepWatch:
         else:
             earlier = self.hangs.get(task_id)
             self.result.failed[task_id] = repr(future.exception()) + (
-                f"; it had hung {len(earlier)} times before: {hang_history(earlier)}" if earlier else "")
+                f"; it had hung {len(earlier)} times before: {hang_history(earlier)}" if earlier else ""
+            )
         self.report(task_id, future)
 
     def hung(self, beat: Beat) -> None:
@@ -485,8 +564,10 @@ class SweepWatch:
         elapsed = time.perf_counter() - self.start
         rate = self.result.samples / elapsed if elapsed > 0 else 0.0
         eta = elapsed / self.done * (self.total - self.done)
-        self.line(f"{task_id}: {'failed' if task_id in self.result.failed else 'done'}; {self.result.samples} "
-                  f"samples, {rate:.2f} samples/s, ETA {eta:.0f} s{self.running(time.monotonic())}")
+        self.line(
+            f"{task_id}: {'failed' if task_id in self.result.failed else 'done'}; {self.result.samples} "
+            f"samples, {rate:.2f} samples/s, ETA {eta:.0f} s{self.running(time.monotonic())}"
+        )
 
     def running(self, now: float) -> str:
         """The running tasks as running_tasks() says them, after "; " (empty: none known)."""
@@ -499,7 +580,7 @@ class SweepWatch:
 
 
 def running_tasks(beats: list[Beat], now: float) -> str:
-    """"N running: <task> for A s (in <stage> for S s), ..." for the RUNNING_SHOWN oldest of the
+    """ "N running: <task> for A s (in <stage> for S s), ..." for the RUNNING_SHOWN oldest of the
     tasks whose last heartbeats are `beats`, then "and K more": each task's age (seconds since
     it started) and its stage's (seconds without progress), on the driver's clock at `now`
     (time.monotonic()). Oldest first by the whole seconds shown, ties by task id: a worker's
@@ -507,8 +588,10 @@ def running_tasks(beats: list[Beat], now: float) -> str:
     if not beats:
         return ""
     oldest = sorted(beats, key=lambda b: (-round(b.task_s(now)), b.task_id))
-    shown = ", ".join(f"{b.task_id} for {b.task_s(now):.0f} s (in {b.stage!r} for {b.stalled_s(now):.0f} s)"
-                      for b in oldest[:RUNNING_SHOWN])
+    shown = ", ".join(
+        f"{b.task_id} for {b.task_s(now):.0f} s (in {b.stage!r} for {b.stalled_s(now):.0f} s)"
+        for b in oldest[:RUNNING_SHOWN]
+    )
     more = len(oldest) - RUNNING_SHOWN
     return f"{len(oldest)} running: {shown}" + (f", and {more} more" if more > 0 else "")
 

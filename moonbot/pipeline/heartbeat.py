@@ -89,9 +89,16 @@ class Heartbeat:
             self.longest_stage_s = max(self.longest_stage_s, now - self._stage_started)
         self._stage_started = now
         self.beats += 1
-        record = {"task_id": self.task_id, "attempt": self.attempt, "beat": self.beats, "stage": name,
-                  "worker": self.worker, "host": socket.gethostname(), "pid": os.getpid(),
-                  "elapsed_s": now - self._started}
+        record = {
+            "task_id": self.task_id,
+            "attempt": self.attempt,
+            "beat": self.beats,
+            "stage": name,
+            "worker": self.worker,
+            "host": socket.gethostname(),
+            "pid": os.getpid(),
+            "elapsed_s": now - self._started,
+        }
         atomic_write(self.path, "w", lambda f: f.write(json.dumps(record) + "\n"))
         if self._hang_stage is not None and self._hang_stage in ("", name):
             hang_holding_the_gil()
@@ -184,8 +191,10 @@ class StallLimit:
     def describe(self) -> str:
         if self.fixed_s is not None:
             return "off (--task-timeout 0)" if not self.fixed_s else f"{self.fixed_s:g} s (--task-timeout)"
-        return (f"{self.seconds:.0f} s without progress (the larger of {self.floor_s:.0f} s and "
-                f"{STALL_FACTOR:g}x the longest stage of the tasks finished; --task-timeout sets it)")
+        return (
+            f"{self.seconds:.0f} s without progress (the larger of {self.floor_s:.0f} s and "
+            f"{STALL_FACTOR:g}x the longest stage of the tasks finished; --task-timeout sets it)"
+        )
 
 
 def default_floor_s(config: Config) -> float:
@@ -228,9 +237,17 @@ class Watchdog:
                 continue
             known = self.beats.get(task_id)
             if known is None or (known.attempt, known.beat) != key:
-                self.beats[task_id] = Beat(task_id, record["attempt"], record["beat"], str(record["stage"]),
-                                           str(record["worker"]), str(record["host"]), int(record["pid"]),
-                                           float(record["elapsed_s"]), now)
+                self.beats[task_id] = Beat(
+                    task_id,
+                    record["attempt"],
+                    record["beat"],
+                    str(record["stage"]),
+                    str(record["worker"]),
+                    str(record["host"]),
+                    int(record["pid"]),
+                    float(record["elapsed_s"]),
+                    now,
+                )
         limit = self.limit.seconds
         if limit is None:
             return []

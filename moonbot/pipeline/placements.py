@@ -63,13 +63,18 @@ def placement_inputs(config: Config) -> str:
     have the same poses; a task handed a record of another digest refuses it."""
     bags = dataclasses.asdict(config.bags)
     bags.pop("stain")
-    inputs = {"seed": config.seed, "meshes": dataclasses.asdict(config.meshes), "bags": bags,
-              "terrain": dataclasses.asdict(config.terrain)}
+    inputs = {
+        "seed": config.seed,
+        "meshes": dataclasses.asdict(config.meshes),
+        "bags": bags,
+        "terrain": dataclasses.asdict(config.terrain),
+    }
     return hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()
 
 
-def place_layout(config: Config, task: Task, out_dir: Path, worker: str = "local",
-                 on_stage: Callable[[str], None] | None = None) -> dict:
+def place_layout(
+    config: Config, task: Task, out_dir: Path, worker: str = "local", on_stage: Callable[[str], None] | None = None
+) -> dict:
     """The placement record of `task`'s layout: read from OUT/placements/<layout>.json when a
     sound one for the same inputs is there, else computed (placed, settled when bags.settle is on,
     checked against the ground's mesh: moonbot.scene.placement.arrange_bags) and written there
@@ -94,15 +99,24 @@ def place_layout(config: Config, task: Task, out_dir: Path, worker: str = "local
     wall_s = time.perf_counter() - wall
     settle_s = placement.settle_seconds or 0.0
     record = {
-        "layout_id": layout, "inputs_sha256": digest, "seed": tconfig.seed,
+        "layout_id": layout,
+        "inputs_sha256": digest,
+        "seed": tconfig.seed,
         "poses": [pose.ravel().tolist() for pose in placement.poses],
-        "settle": None if placement.settle_seconds is None else {
-            "simulated_s": placement.settle_simulated_s, "steps": placement.settle_steps},
+        "settle": None
+        if placement.settle_seconds is None
+        else {"simulated_s": placement.settle_simulated_s, "steps": placement.settle_steps},
         # Seconds: settling (MuJoCo) and the rest (placing, the exact overlap checks) of wall_s.
-        "stages_s": {"place": wall_s - settle_s, **({"settle": settle_s} if placement.settle_seconds is not None
-                                                    else {})},
-        "wall_s": wall_s, "cpu_s": time.process_time() - cpu, "started_utc": started.isoformat(),
-        "host": socket.gethostname(), "pid": os.getpid(), "worker": worker,
+        "stages_s": {
+            "place": wall_s - settle_s,
+            **({"settle": settle_s} if placement.settle_seconds is not None else {}),
+        },
+        "wall_s": wall_s,
+        "cpu_s": time.process_time() - cpu,
+        "started_utc": started.isoformat(),
+        "host": socket.gethostname(),
+        "pid": os.getpid(),
+        "worker": worker,
     }
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write(path, "w", lambda f: f.write(json.dumps(record, indent=2, sort_keys=True) + "\n"))
@@ -115,8 +129,12 @@ def read_record(path: Path) -> dict | None:
     try:
         record = json.loads(path.read_text())
         poses = record["poses"]
-        if not (isinstance(record["inputs_sha256"], str) and isinstance(poses, list) and poses
-                and all(isinstance(p, list) and len(p) == 16 for p in poses)):
+        if not (
+            isinstance(record["inputs_sha256"], str)
+            and isinstance(poses, list)
+            and poses
+            and all(isinstance(p, list) and len(p) == 16 for p in poses)
+        ):
             return None
         return record
     except (OSError, ValueError, KeyError, TypeError):
@@ -128,14 +146,19 @@ def placement_for(config: Config, record: dict) -> Placement:
     Raises PlacementError when the record was made for other inputs (another seed, mesh, bag
     count or ground): such poses would not be the ones this task's scene settles to."""
     if record["inputs_sha256"] != placement_inputs(config):
-        raise PlacementError(f"scene layout {record['layout_id']}: its placement was made for other inputs "
-                             f"than this task's (seed {config.seed}, {config.bags.count} × {config.bags.mesh} "
-                             f"on {config.terrain.location})")
+        raise PlacementError(
+            f"scene layout {record['layout_id']}: its placement was made for other inputs "
+            f"than this task's (seed {config.seed}, {config.bags.count} × {config.bags.mesh} "
+            f"on {config.terrain.location})"
+        )
     poses = [np.array(p, dtype=np.float64).reshape(4, 4) for p in record["poses"]]
     settle = record["settle"]
-    return Placement(poses=poses, settle_simulated_s=None if settle is None else settle["simulated_s"],
-                     settle_steps=None if settle is None else settle["steps"],
-                     settle_seconds=None if settle is None else record["stages_s"]["settle"])
+    return Placement(
+        poses=poses,
+        settle_simulated_s=None if settle is None else settle["simulated_s"],
+        settle_steps=None if settle is None else settle["steps"],
+        settle_seconds=None if settle is None else record["stages_s"]["settle"],
+    )
 
 
 def read_placements(out_dir: Path) -> list[dict]:

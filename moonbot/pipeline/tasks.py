@@ -93,8 +93,15 @@ def task_record(config: Config, task: Task, views: list[int]) -> TaskRecord:
     )
 
 
-def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = None, worker: str = "local",
-             on_stage: Callable[[str], None] | None = None, placement: Placement | None = None) -> TaskOutcome:
+def run_task(
+    config: Config,
+    task: Task,
+    out_dir: Path,
+    threads: int | None = None,
+    worker: str = "local",
+    on_stage: Callable[[str], None] | None = None,
+    placement: Placement | None = None,
+) -> TaskOutcome:
     """Renders `task` of `config`'s sweep into OUT/tasks/<task_id>/ unless it is complete there
     already. `threads` overrides render.threads (the images do not depend on it); `on_stage(name)`
     is told each stage as it starts (run_views's, then "finish task": task.json, stats.json, the
@@ -124,10 +131,18 @@ def run_task(config: Config, task: Task, out_dir: Path, threads: int | None = No
         # CPU model, id and SIMD flags, and the ISA Embree traced this task's rays in.
         machine = host_record(tconfig.render.embree_isa)
         stats = StatsRecord(
-            task_id=task.task_id, host=socket.gethostname(), pid=os.getpid(), cpu_model=machine.pop("cpu_model"),
-            cores=os.cpu_count() or 1, threads=threads or tconfig.render.threads or render_threads_default(),
-            worker=worker, started_utc=started.isoformat(), wall_s=wall_s, cpu_s=time.process_time() - cpu,
-            stages_s=stages, samples=len(results),
+            task_id=task.task_id,
+            host=socket.gethostname(),
+            pid=os.getpid(),
+            cpu_model=machine.pop("cpu_model"),
+            cores=os.cpu_count() or 1,
+            threads=threads or tconfig.render.threads or render_threads_default(),
+            worker=worker,
+            started_utc=started.isoformat(),
+            wall_s=wall_s,
+            cpu_s=time.process_time() - cpu,
+            stages_s=stages,
+            samples=len(results),
             # Rays traced, summed over the views (moonbot.pipeline.views.ViewResult.rays).
             rays=rays,
             # Everything but stats.json and DONE.json themselves (a few hundred bytes).
@@ -153,4 +168,3 @@ def render_threads_default() -> int:
         return len(os.sched_getaffinity(0))
     except (AttributeError, OSError):
         return os.cpu_count() or 1
-

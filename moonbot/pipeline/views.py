@@ -51,9 +51,14 @@ def view_seed(dataset_seed: int, view: int) -> int:
     return z ^ (z >> 31)
 
 
-def run_views(config: Config, views: list[int], out_root: Path, threads: int | None = None,
-              on_stage: Callable[[str], None] | None = None,
-              placement: Placement | None = None) -> list[ViewResult]:
+def run_views(
+    config: Config,
+    views: list[int],
+    out_root: Path,
+    threads: int | None = None,
+    on_stage: Callable[[str], None] | None = None,
+    placement: Placement | None = None,
+) -> list[ViewResult]:
     """Renders `views` (orbit indices) of the config's scene into `out_root/view_NNN/` and returns
     per-view timings. A `placement` given (the scene's bags placed and settled once for all its
     tasks: moonbot.pipeline.placements) is used as it is, and its cost is not this run's: the
@@ -113,8 +118,7 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
             view_dust = dust.for_view(v)
         stage(f"render view {v}")
         cache_before = light_cache.stats() if light_cache is not None else None
-        rendered = render_view(scene, config, K, pose, seed, view_dust.medium if view_dust else None,
-                               light_cache)
+        rendered = render_view(scene, config, K, pose, seed, view_dust.medium if view_dust else None, light_cache)
         out_dir = out_root / f"view_{v:03d}"
         timings = {"terrain": terrain_s, "compose": compose_s, "build_bvh": build_s}
         if light_cache is not None:
@@ -126,8 +130,9 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
             timings["dust"] = view_dust.seconds
         timings["render"] = rendered.stats["seconds"]
         stage(f"amodal view {v}")
-        amodal = render_amodal_masks(amodal_scenes, K, pose, config.camera.width, config.camera.height,
-                                     config.render.threads)
+        amodal = render_amodal_masks(
+            amodal_scenes, K, pose, config.camera.width, config.camera.height, config.render.threads
+        )
         timings["amodal"] = amodal_build_s + amodal.seconds
         if settle_s is not None:
             timings["settle"] = settle_s
@@ -135,8 +140,11 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
             "view": v,
             "camera_azimuth_deg": azimuth,
             "camera_height_m": height,  # above the target; above orbit.height_m where the ground rises
-            "sun": {"azimuth_deg": config.sun.azimuth_deg, "elevation_deg": config.sun.elevation_deg,
-                    "irradiance_w_m2": config.sun.irradiance_w_m2},
+            "sun": {
+                "azimuth_deg": config.sun.azimuth_deg,
+                "elevation_deg": config.sun.elevation_deg,
+                "irradiance_w_m2": config.sun.irradiance_w_m2,
+            },
             "render_seed": seed,
             "config_hash": digest,
             "moonbot_version": __version__,
@@ -147,19 +155,33 @@ def run_views(config: Config, views: list[int], out_root: Path, threads: int | N
             meta["site"] = spec.site.as_json()
         stage(f"encode view {v}")
         with staged_directory(out_dir) as staging:
-            gt = write_sample(staging, rendered, exposure, K, pose, spec.bags,
-                              config.output.png_compression, meta, timings, exr=config.output.exr,
-                              amodal=amodal)
-        rays = {k: rendered.stats[k] for k in ("camera_rays", "shadow_rays", "bounce_shadow_rays", "bounce_rays",
-                                                "medium_rays")}
+            gt = write_sample(
+                staging,
+                rendered,
+                exposure,
+                K,
+                pose,
+                spec.bags,
+                config.output.png_compression,
+                meta,
+                timings,
+                exr=config.output.exr,
+                amodal=amodal,
+            )
+        rays = {
+            k: rendered.stats[k]
+            for k in ("camera_rays", "shadow_rays", "bounce_shadow_rays", "bounce_rays", "medium_rays")
+        }
         rays["amodal_rays"] = amodal.rays
         cache_record = None
         if light_cache is not None:  # what this view filled (each vertex once: deterministic)
             rays["light_cache_rays"] = cache_after["gather_rays"] - cache_before["gather_rays"]
             rays["light_cache_shadow_rays"] = cache_after["shadow_rays"] - cache_before["shadow_rays"]
-            cache_record = {"vertices_filled": cache_after["vertices"] - cache_before["vertices"],
-                            "fill_thread_s": cache_after["fill_seconds"] - cache_before["fill_seconds"],
-                            "bytes": cache_after["bytes"]}
+            cache_record = {
+                "vertices_filled": cache_after["vertices"] - cache_before["vertices"],
+                "fill_thread_s": cache_after["fill_seconds"] - cache_before["fill_seconds"],
+                "bytes": cache_after["bytes"],
+            }
         pixels = {i.instance_id: i.px_count_visib for i in gt.instances}
         results.append(ViewResult(v, out_dir, gt.timings_s, rays, pixels, meta.get("dust"), cache_record))
         terrain_s = compose_s = build_s = amodal_build_s = 0.0  # paid once, by the first view

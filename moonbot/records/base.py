@@ -44,8 +44,9 @@ def decode(cls: type[R], data: Any, source: str, upgrades: Upgrades) -> R:
     if isinstance(version, bool) or not isinstance(version, int):
         raise RecordError(f"{source}: schema_version: must be an integer, got {version!r}")
     if version > SCHEMA_VERSION:
-        raise RecordError(f"{source}: schema_version: {version} is newer than this moonbot reads "
-                          f"({SCHEMA_VERSION}); update moonbot")
+        raise RecordError(
+            f"{source}: schema_version: {version} is newer than this moonbot reads ({SCHEMA_VERSION}); update moonbot"
+        )
     if version < 1:
         raise RecordError(f"{source}: schema_version: must be at least 1, got {version}")
     while version < SCHEMA_VERSION:

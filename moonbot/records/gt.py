@@ -14,8 +14,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from moonbot.records.base import (SCHEMA_VERSION, add_schema_version, decode, parse_bytes, read_bytes, to_json,
-                                  write_json)
+from moonbot.records.base import (
+    SCHEMA_VERSION,
+    add_schema_version,
+    decode,
+    parse_bytes,
+    read_bytes,
+    to_json,
+    write_json,
+)
 
 GT = "gt.json"
 

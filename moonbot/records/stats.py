@@ -13,8 +13,15 @@ from pathlib import Path
 from typing import Any
 
 from moonbot.config.load import KEEP_UNKNOWN
-from moonbot.records.base import (SCHEMA_VERSION, add_schema_version, decode, parse_bytes, read_bytes, to_json,
-                                  write_json)
+from moonbot.records.base import (
+    SCHEMA_VERSION,
+    add_schema_version,
+    decode,
+    parse_bytes,
+    read_bytes,
+    to_json,
+    write_json,
+)
 
 STATS = "stats.json"
 _SECONDS = {"lo": 0.0}

@@ -12,8 +12,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from moonbot.records.base import (SCHEMA_VERSION, add_schema_version, decode, parse_bytes, read_bytes, to_json,
-                                  write_json)
+from moonbot.records.base import (
+    SCHEMA_VERSION,
+    add_schema_version,
+    decode,
+    parse_bytes,
+    read_bytes,
+    to_json,
+    write_json,
+)
 
 TASK = "task.json"
 _NON_NEGATIVE = {"lo": 0}
@@ -55,8 +62,9 @@ class TaskRecord:
 
     def __post_init__(self) -> None:
         if not self.task_in_scene < self.tasks_per_scene:
-            raise ValueError(f"task_in_scene: must be in 0..tasks_per_scene-1 ({self.tasks_per_scene - 1}), "
-                             f"got {self.task_in_scene}")
+            raise ValueError(
+                f"task_in_scene: must be in 0..tasks_per_scene-1 ({self.tasks_per_scene - 1}), got {self.task_in_scene}"
+            )
         if len(set(self.views)) != len(self.views) or not self.views:
             raise ValueError(f"views: must be distinct orbit indices, got {list(self.views)}")
         if len(self.views) != self.views_per_task:

@@ -98,13 +98,21 @@ def build_amodal_scenes(spec: SceneSpec, embree_isa: str = "auto") -> AmodalScen
         mesh = scene.add_mesh(vertices, triangles)
         scene.add_instance(mesh, bag.world_from_model, bag.instance_id, (1.0, 1.0, 1.0))
         scene.commit()
-        bags.append(_SoloBag(bag.instance_id, bag.obj_id, scene, np.asarray(bag.world_from_model, np.float64),
-                             np.asarray(vertices, np.float64)))
+        bags.append(
+            _SoloBag(
+                bag.instance_id,
+                bag.obj_id,
+                scene,
+                np.asarray(bag.world_from_model, np.float64),
+                np.asarray(vertices, np.float64),
+            )
+        )
     return AmodalScenes(tuple(bags), time.perf_counter() - start)
 
 
-def canvas_window(K: np.ndarray, pose: CameraPose, world_from_model: np.ndarray, vertices: np.ndarray,
-                  width: int, height: int) -> tuple[int, int, int, int] | None:
+def canvas_window(
+    K: np.ndarray, pose: CameraPose, world_from_model: np.ndarray, vertices: np.ndarray, width: int, height: int
+) -> tuple[int, int, int, int] | None:
     """The window of bop_toolkit's 3W × 3H canvas that can hold the silhouette of a mesh with
     model-frame `vertices` (N, 3) metres placed at `world_from_model` (4, 4), seen by the camera
     (K (3, 3) pixels, `pose` world-to-camera): (x0, y0, x1, y1) in image pixel coordinates,
@@ -130,8 +138,9 @@ def canvas_window(K: np.ndarray, pose: CameraPose, world_from_model: np.ndarray,
     return x0, y0, x1, y1
 
 
-def render_amodal_masks(scenes: AmodalScenes, K: np.ndarray, pose: CameraPose, width: int, height: int,
-                        threads: int = 0) -> AmodalMasks:
+def render_amodal_masks(
+    scenes: AmodalScenes, K: np.ndarray, pose: CameraPose, width: int, height: int, threads: int = 0
+) -> AmodalMasks:
     """Renders every bag of `scenes` alone through the view camera (K (3, 3) pixels, `pose`
     world-to-camera, an image of `width` × `height` pixels) with the instance pass only, over its
     canvas window, on `threads` core threads (0 = all). Returns each bag's in-image mask and its
@@ -147,8 +156,9 @@ def render_amodal_masks(scenes: AmodalScenes, K: np.ndarray, pose: CameraPose, w
         if window is not None:
             x0, y0, x1, y1 = window
             camera = _core.Camera(fx, fy, cx - x0, cy - y0, x1 - x0, y1 - y0, pose.R, pose.t)
-            out = _core.render(bag.scene, camera, None, _core.RenderSettings(threads=threads, exact_depth=False),
-                               passes=["instance"])
+            out = _core.render(
+                bag.scene, camera, None, _core.RenderSettings(threads=threads, exact_depth=False), passes=["instance"]
+            )
             hit = out["instance"] == bag.instance_id
             rays = int(out["camera_rays"])
             count = int(np.count_nonzero(hit))
@@ -159,7 +169,7 @@ def render_amodal_masks(scenes: AmodalScenes, K: np.ndarray, pose: CameraPose, w
                 # The in-image part: window rows/columns that fall inside [0, W) × [0, H).
                 ix0, iy0, ix1, iy1 = max(x0, 0), max(y0, 0), min(x1, width), min(y1, height)
                 if ix0 < ix1 and iy0 < iy1:
-                    mask[iy0:iy1, ix0:ix1] = hit[iy0 - y0:iy1 - y0, ix0 - x0:ix1 - x0]
+                    mask[iy0:iy1, ix0:ix1] = hit[iy0 - y0 : iy1 - y0, ix0 - x0 : ix1 - x0]
         total_rays += rays
         masks.append(AmodalMask(bag.instance_id, bag.obj_id, mask, count, bbox, rays))
     return AmodalMasks(tuple(masks), time.perf_counter() - start, total_rays)

@@ -26,9 +26,11 @@ from moonbot.render.view import regolith, regolith_grain
 from moonbot.scene.compose import SceneSpec
 
 # What a dataset user must know about a dust sample's annotations (gt.json "dust").
-DUST_NOTE = ("dust changes RGB only: the fine-dust cloud is a medium that attenuates and scatters "
-             "sunlight in rgb, and depth and masks stay geometric; the ejecta fragments are opaque "
-             "background geometry (label 0), so they do appear in depth and masks, occluding bags")
+DUST_NOTE = (
+    "dust changes RGB only: the fine-dust cloud is a medium that attenuates and scatters "
+    "sunlight in rgb, and depth and masks stay geometric; the ejecta fragments are opaque "
+    "background geometry (label 0), so they do appear in depth and masks, occluding bags"
+)
 
 
 # How far below the emitter's ground the dust grid reaches, metres: under it, dust is never seen.
@@ -56,14 +58,16 @@ def emitter_origin(spec: SceneSpec, dust: DustConfig) -> np.ndarray:
     return np.array([x, y, z])
 
 
-def ejecta_state(scene: _core.Scene, dust: DustConfig, seed: int, origin: np.ndarray, time_s: float,
-                 threads: int = 0) -> dict:
+def ejecta_state(
+    scene: _core.Scene, dust: DustConfig, seed: int, origin: np.ndarray, time_s: float, threads: int = 0
+) -> dict:
     """The ejecta of `dust.ejecta` thrown from `origin` ((3,) world metres) at `time_s` seconds
     after the emitter starts, flown on `scene` (committed, without the fragments' own mesh) in
     steps of `dust.time_step_s`: `_core.simulate_ejecta`'s state, every fragment of the burst
     (none is ever dropped)."""
-    return _core.simulate_ejecta(scene, params.ejecta(dust.ejecta, origin), seed, time_s, dt_s=dust.time_step_s,
-                                 threads=threads)
+    return _core.simulate_ejecta(
+        scene, params.ejecta(dust.ejecta, origin), seed, time_s, dt_s=dust.time_step_s, threads=threads
+    )
 
 
 @dataclass(frozen=True)
@@ -101,8 +105,14 @@ class SceneDust:
         # Every capture first: the fragments must not collide with their own mesh.
         for v in dict.fromkeys(views):
             start = time.perf_counter()
-            state = ejecta_state(scene, config.dust, self._seed, self._origin, capture_time(config.dust, v),
-                                 threads=config.render.threads)
+            state = ejecta_state(
+                scene,
+                config.dust,
+                self._seed,
+                self._origin,
+                capture_time(config.dust, v),
+                threads=config.render.threads,
+            )
             self._fragments[v] = (len(state["position"]), state["vertices"])
             self._triangles = state["triangles"]
             self._seconds[v] = time.perf_counter() - start
@@ -120,8 +130,9 @@ class SceneDust:
             if self._mesh is None:
                 self._mesh = self._scene.add_mesh(vertices, self._triangles)
                 # Moving: a light cache neither caches the fragments nor lets them shade what it does.
-                self._scene.add_background(self._mesh, np.eye(4), self._albedo, self._photometry, grain=self._grain,
-                                           moving=True)
+                self._scene.add_background(
+                    self._mesh, np.eye(4), self._albedo, self._photometry, grain=self._grain, moving=True
+                )
                 self._scene.commit()
             elif self._current != view:
                 self._scene.update_mesh(self._mesh, vertices)
@@ -133,6 +144,11 @@ class SceneDust:
         # stops there (the default plume rises from 1.7 m below).
         medium = params.medium(c, puffs, float(self._origin[2]) - FLOOR_DEPTH_M) if len(puffs) else None
         seconds += time.perf_counter() - start
-        meta = {"capture_time_s": t, "fragments": fragments, "puffs": int(len(puffs)),
-                "emitter_m": self._origin.tolist(), "note": DUST_NOTE}
+        meta = {
+            "capture_time_s": t,
+            "fragments": fragments,
+            "puffs": int(len(puffs)),
+            "emitter_m": self._origin.tolist(),
+            "note": DUST_NOTE,
+        }
         return ViewDust(medium=medium, seconds=seconds, meta=meta)

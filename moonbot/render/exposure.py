@@ -70,7 +70,7 @@ EV100_MIN, EV100_MAX = -10.0, 30.0
 
 def saturation_luminance(ev100: float) -> float:
     """L_sat (cd/m²): the luminance that saturates an ISO 100 sensor at `ev100`, 1.2 · 2^EV100."""
-    return SATURATION_CONSTANT / (ISO_SPEED * LENS_Q) * 2.0 ** ev100
+    return SATURATION_CONSTANT / (ISO_SPEED * LENS_Q) * 2.0**ev100
 
 
 def metered_ev100(luminance_cd_m2: float) -> float:
@@ -102,16 +102,25 @@ class Exposure:
 
     def metadata(self) -> dict:
         """What gt.json records about the exposure."""
-        return {"ev100": self.ev100, "ev100_setting": self.setting,
-                "saturation_luminance_cd_m2": saturation_luminance(self.ev100),
-                "luminous_efficacy_lm_w": LUMINOUS_EFFICACY_LM_W, "scale_sr_m2_w": self.scale,
-                "veiling_glare_index": self.veiling_glare, "tonemap": "reinhard2002-luminance-srgb8"}
+        return {
+            "ev100": self.ev100,
+            "ev100_setting": self.setting,
+            "saturation_luminance_cd_m2": saturation_luminance(self.ev100),
+            "luminous_efficacy_lm_w": LUMINOUS_EFFICACY_LM_W,
+            "scale_sr_m2_w": self.scale,
+            "veiling_glare_index": self.veiling_glare,
+            "tonemap": "reinhard2002-luminance-srgb8",
+        }
 
 
 def exposure_for_ev100(ev100: float, setting: float | str | None = None, veiling_glare: float = 0.0) -> Exposure:
     """The exposure at `ev100`: scale = K_sun / L_sat(EV100) in sr·m²/W."""
-    return Exposure(ev100=ev100, setting=ev100 if setting is None else setting,
-                    scale=LUMINOUS_EFFICACY_LM_W / saturation_luminance(ev100), veiling_glare=veiling_glare)
+    return Exposure(
+        ev100=ev100,
+        setting=ev100 if setting is None else setting,
+        scale=LUMINOUS_EFFICACY_LM_W / saturation_luminance(ev100),
+        veiling_glare=veiling_glare,
+    )
 
 
 def add_veiling_glare(rgb: np.ndarray, glare_index: float) -> np.ndarray:
@@ -149,8 +158,10 @@ def regolith_reflectance(config: Config, azimuths: int = 36) -> float:
     depression = math.atan2(config.orbit.height_m, config.orbit.radius_m)
     mu_o = math.sin(max(depression, math.radians(5.0)))
     across = math.sqrt(max(0.0, 1.0 - mu_i * mu_i)) * math.sqrt(max(0.0, 1.0 - mu_o * mu_o))
-    shapes = [photometry.shape(mu_i, mu_o, mu_i * mu_o + across * math.cos(2 * math.pi * (k + 0.5) / azimuths))
-              for k in range(azimuths)]
+    shapes = [
+        photometry.shape(mu_i, mu_o, mu_i * mu_o + across * math.cos(2 * math.pi * (k + 0.5) / azimuths))
+        for k in range(azimuths)
+    ]
     return albedo[0] * sum(shapes) / azimuths
 
 

@@ -11,9 +11,8 @@ from moonbot import _core
 from moonbot.config.schema import Config, GrainConfig, PhotometryConfig
 from moonbot.render import params
 from moonbot.scene.compose import TERRAIN_MESH, SceneSpec
-from moonbot.scene.orbit import CameraPose, intrinsics, orbit_height, orbit_pose
 from moonbot.scene.normals import vertex_normals
-
+from moonbot.scene.orbit import CameraPose, intrinsics, orbit_height, orbit_pose
 
 # The Earth seen from the Moon: 2·asin(6371 km / 384 400 km) = 1.90° (docs/physics.md).
 EARTH_DIAMETER_DEG = 1.9
@@ -55,9 +54,10 @@ def build_scene(spec: SceneSpec, embree_isa: str = "auto", watertight: bool = Tr
             return {"vertex_normals": vertex_normals(v, t), "vertex_albedo": spec.bag_vertex_albedo}
         return {}
 
-    mesh_index = {key: scene.add_mesh(v, t, spec.bag_uvs.reshape(len(t), 6) if key in bag_ids else None,
-                                      **extras(key, v, t))
-                  for key, (v, t) in spec.meshes.items()}
+    mesh_index = {
+        key: scene.add_mesh(v, t, spec.bag_uvs.reshape(len(t), 6) if key in bag_ids else None, **extras(key, v, t))
+        for key, (v, t) in spec.meshes.items()
+    }
     photometry, albedo = regolith(spec.terrain_photometry, spec.terrain_albedo)
     grain = regolith_grain(spec.terrain_photometry.grain)
     scene.add_background(mesh_index[TERRAIN_MESH], np.eye(4), albedo, photometry, grain=grain)
@@ -95,8 +95,13 @@ def scene_lights(config: Config) -> tuple[_core.DirectionalLight, _core.Directio
     second light, no shadow rays toward it)."""
     s = config.sun
     sun = _core.DirectionalLight(s.azimuth_deg, s.elevation_deg, s.irradiance_w_m2, s.angular_diameter_deg)
-    earth = (_core.DirectionalLight(s.earth_azimuth_deg, s.earth_elevation_deg, s.earth_irradiance_w_m2,
-                                    EARTH_DIAMETER_DEG, s.earth_color) if s.earthshine else None)
+    earth = (
+        _core.DirectionalLight(
+            s.earth_azimuth_deg, s.earth_elevation_deg, s.earth_irradiance_w_m2, EARTH_DIAMETER_DEG, s.earth_color
+        )
+        if s.earthshine
+        else None
+    )
     return sun, earth
 
 
@@ -145,9 +150,15 @@ def build_light_cache(scene: _core.Scene, config: Config) -> _core.LightCache | 
     return _core.LightCache(scene, sun, earth, params.light_cache_settings(r, config.seed))
 
 
-def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraPose,
-                seed: int, medium: _core.Medium | None = None,
-                light_cache: _core.LightCache | None = None) -> RenderedView:
+def render_view(
+    scene: _core.Scene,
+    config: Config,
+    K: np.ndarray,
+    pose: CameraPose,
+    seed: int,
+    medium: _core.Medium | None = None,
+    light_cache: _core.LightCache | None = None,
+) -> RenderedView:
     """Renders rgb, depth and instance passes of one view with the config's Sun and quality, and
     with `medium` (a dust scene's cloud; moonbot.render.dust) attenuating and scattering the
     sunlight in rgb only. `light_cache` (build_light_cache's, for this scene and config) gives
@@ -155,12 +166,25 @@ def render_view(scene: _core.Scene, config: Config, K: np.ndarray, pose: CameraP
     camera = core_camera(K, config.camera.width, config.camera.height, pose)
     sun, earth = scene_lights(config)
     start = time.perf_counter()
-    out = _core.render(scene, camera, sun, params.render_settings(config.render, seed), earth=earth, medium=medium,
-                       light_cache=light_cache)
-    stats = {"camera_rays": out["camera_rays"], "second_look_rays": out["second_look_rays"],
-             "shadow_rays": out["shadow_rays"], "bounce_shadow_rays": out["bounce_shadow_rays"],
-             "bounce_rays": out["bounce_rays"], "medium_rays": out["medium_rays"],
-             "refined_pixels": out["refined_pixels"], "refinement_rays": out["refinement_rays"],
-             "core_seconds": out["seconds"],
-             "seconds": time.perf_counter() - start}
+    out = _core.render(
+        scene,
+        camera,
+        sun,
+        params.render_settings(config.render, seed),
+        earth=earth,
+        medium=medium,
+        light_cache=light_cache,
+    )
+    stats = {
+        "camera_rays": out["camera_rays"],
+        "second_look_rays": out["second_look_rays"],
+        "shadow_rays": out["shadow_rays"],
+        "bounce_shadow_rays": out["bounce_shadow_rays"],
+        "bounce_rays": out["bounce_rays"],
+        "medium_rays": out["medium_rays"],
+        "refined_pixels": out["refined_pixels"],
+        "refinement_rays": out["refinement_rays"],
+        "core_seconds": out["seconds"],
+        "seconds": time.perf_counter() - start,
+    }
     return RenderedView(rgb=out["rgb"], depth=out["depth"], instance=out["instance"], stats=stats)

@@ -4,5 +4,4 @@
 from moonbot.scene.compose import BagInstance, SceneSpec, compose_scene
 from moonbot.scene.orbit import CameraPose, intrinsics, orbit_pose, pixel_directions
 
-__all__ = ["BagInstance", "CameraPose", "SceneSpec", "compose_scene", "intrinsics", "orbit_pose",
-           "pixel_directions"]
+__all__ = ["BagInstance", "CameraPose", "SceneSpec", "compose_scene", "intrinsics", "orbit_pose", "pixel_directions"]

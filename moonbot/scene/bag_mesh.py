@@ -47,7 +47,6 @@ import numpy as np
 
 from moonbot.config.schema import BUILTIN_MESHES, BagShape, MeshesConfig
 
-
 # The variants' default shapes.
 FILLED = MeshesConfig().sandbag_01
 SEAMED = MeshesConfig().sandbag_02
@@ -118,9 +117,11 @@ class _Body:
         ratio[side, 2] = np.abs((v[side] - v0) / (1.0 - v0 * v[side]))
         ratio[rows, face_axis] = 0.0  # the face's own axis does not weigh
         weight = np.prod((1.0 - ratio**2) ** 2, axis=1)
-        amplitude = np.where(side, shape.bulge_m + shape.belly_m,
-                             np.where(face_sign > 0, shape.bulge_m - shape.sag_m,
-                                      0.0 if shape.flat_bottom else shape.bulge_m))
+        amplitude = np.where(
+            side,
+            shape.bulge_m + shape.belly_m,
+            np.where(face_sign > 0, shape.bulge_m - shape.sag_m, 0.0 if shape.flat_bottom else shape.bulge_m),
+        )
         smooth = rounded + (amplitude * weight)[:, None] * direction
         # Seams: their height, and its envelope without the stitches' dips.
         self.seam = self.seam_envelope = np.zeros(len(points))
@@ -139,18 +140,27 @@ class _Body:
         return vertices
 
 
-def _wrinkles(points: np.ndarray, normal: np.ndarray, x: np.ndarray, half: np.ndarray,
-              shape: BagShape) -> tuple[np.ndarray, np.ndarray]:
+def _wrinkles(
+    points: np.ndarray, normal: np.ndarray, x: np.ndarray, half: np.ndarray, shape: BagShape
+) -> tuple[np.ndarray, np.ndarray]:
     """Creases and puckers: displacement (N,) metres along the rounded box's unit `normal`
     (N, 3), outward positive, at `points` (N, 3) of the sharp box whose smooth body's point lies
     at length coordinate `x` (N,), metres; and their outward envelope (N,) metres, at least the
     displacement everywhere. The +x half's layout plus its image under the half-turn about z;
     faded off the pressed bottom and inside the folds."""
     turned = points * [-1.0, -1.0, 1.0]
-    out = (_creases(points, shape) + _creases(turned, shape)
-           + _puckers(points, half, shape) + _puckers(turned, half, shape))
-    envelope = (_creases(points, shape, envelope=True) + _creases(turned, shape, envelope=True)
-                + _puckers(points, half, shape, envelope=True) + _puckers(turned, half, shape, envelope=True))
+    out = (
+        _creases(points, shape)
+        + _creases(turned, shape)
+        + _puckers(points, half, shape)
+        + _puckers(turned, half, shape)
+    )
+    envelope = (
+        _creases(points, shape, envelope=True)
+        + _creases(turned, shape, envelope=True)
+        + _puckers(points, half, shape, envelope=True)
+        + _puckers(turned, half, shape, envelope=True)
+    )
     # On the top, where the next course rests, the load presses the fabric in: what would stand
     # out is turned inward there. Wrinkles standing out of the top (even as their smooth
     # envelope) left the bag above chattering on its support's crests without coming to rest.
@@ -230,8 +240,14 @@ def crease_lines(shape: BagShape) -> list[tuple[np.ndarray, np.ndarray, float, f
                 direction[b] = -signs[b] * np.cos(angle)
                 direction[c] = -signs[c] * np.sin(angle)
                 sign = 1.0 if k % 2 == 0 else -1.0
-                lines.append((corner, direction, shape.crease_length_m * (0.6 + 0.4 * stretch[k]),
-                              sign * shape.crease_depth_m * deep[k]))
+                lines.append(
+                    (
+                        corner,
+                        direction,
+                        shape.crease_length_m * (0.6 + 0.4 * stretch[k]),
+                        sign * shape.crease_depth_m * deep[k],
+                    )
+                )
     return lines
 
 
@@ -268,8 +284,11 @@ def _puckers(points: np.ndarray, half: np.ndarray, shape: BagShape, envelope: bo
         return out
     rng = _wrinkle_rng(shape, 1)
     pitch = shape.pucker_pitch_m
-    for k, i, j, owned_i, owned_j in ((0, 1, 2, (1.0,), (-1.0, 1.0)), (1, 2, 0, (-1.0, 1.0), (1.0,)),
-                                      (2, 0, 1, (1.0,), (-1.0, 1.0))):
+    for k, i, j, owned_i, owned_j in (
+        (0, 1, 2, (1.0,), (-1.0, 1.0)),
+        (1, 2, 0, (-1.0, 1.0), (1.0,)),
+        (2, 0, 1, (1.0,), (-1.0, 1.0)),
+    ):
         for si, sj in itertools.product(owned_i, owned_j):
             phases = 2 * np.pi * rng.random(4)
             ell = points[:, k]
@@ -278,12 +297,15 @@ def _puckers(points: np.ndarray, half: np.ndarray, shape: BagShape, envelope: bo
             if not near.any():
                 continue
             ell = ell[near]
-            wander = (0.5 * np.sin(2 * np.pi * ell / (3.7 * pitch) + phases[0])
-                      + 0.5 * np.sin(2 * np.pi * ell / (2.3 * pitch) + phases[1]))
+            wander = 0.5 * np.sin(2 * np.pi * ell / (3.7 * pitch) + phases[0]) + 0.5 * np.sin(
+                2 * np.pi * ell / (2.3 * pitch) + phases[1]
+            )
             amplitude = 0.65 + 0.35 * np.sin(2 * np.pi * ell / (5.3 * pitch) + phases[2])
             wave = 1.0 if envelope else np.cos(2 * np.pi * ell / pitch + wander + phases[3])
             out[near] += shape.pucker_depth_m * amplitude * wave * _bump(e[near] / shape.pucker_length_m)
     return out
+
+
 def folded_cuboid(shape: BagShape = FOLDED, wrinkles: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """sandbag-03: the filled cuboid with its short ends gathered and pleated."""
     if shape.fold_length_m <= 0:
@@ -344,14 +366,18 @@ def _seam_profile(points: np.ndarray, offset: np.ndarray, shape: BagShape, stitc
         theta = np.arctan2(o[:, j], o[:, i])
         distance = shape.edge_radius_m * np.abs(theta - np.pi / 4)  # arc length to the seam line
         ridge = np.clip(1.0 - (2.0 * distance / shape.seam_width_m) ** 2, 0.0, 1.0)
-        stitch = 1.0 - shape.stitch_depth * 0.5 * (1.0 - np.cos(2 * np.pi * points[:, k] / shape.stitch_pitch_m)) \
-            if stitched else 1.0
+        stitch = (
+            1.0 - shape.stitch_depth * 0.5 * (1.0 - np.cos(2 * np.pi * points[:, k] / shape.stitch_pitch_m))
+            if stitched
+            else 1.0
+        )
         profile = np.maximum(profile, np.where(on_arc, ridge * stitch, 0.0))
     return profile
 
 
-def _box_surface_grid(half: np.ndarray, edge_length: float, band: float,
-                      band_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _box_surface_grid(
+    half: np.ndarray, edge_length: float, band: float, band_steps: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Vertices of a subdivided box surface in lattice coordinates [-1, 1]³ (each vertex once,
     shared by the faces that meet at it) and its outward triangles. Along each axis the flat
     part is split evenly (an even count, so a vertex sits at every face centre and the set is
@@ -405,11 +431,9 @@ def uv_atlas(shape: BagShape = FILLED) -> np.ndarray:
     face = faces[:, None]
     s = np.select(
         [face == 2, face == 1, face == 3, face == 0, face == 5, face == 4],  # −y, +x, +y, −x, +z, −z
-        [x + hx, L + (y + hy), L + W + (hx - x), 2 * L + W + (hy - y), x + hx, x + hx])
-    t = np.select(
-        [face == 5, face == 4],
-        [H + (y + hy), -(y + hy)],
-        default=z + hz)
+        [x + hx, L + (y + hy), L + W + (hx - x), 2 * L + W + (hy - y), x + hx, x + hx],
+    )
+    t = np.select([face == 5, face == 4], [H + (y + hy), -(y + hy)], default=z + hz)
     scale = atlas_metres_per_uv(shape)
     uv = np.stack([s / scale, (t + W) / scale], axis=-1)
     return uv.astype(np.float32)
@@ -480,8 +504,16 @@ def bag_model(meshes: MeshesConfig, name: str) -> BagModel:
     from moonbot.scene.user_mesh import load_user_mesh  # here: built-in scenes never load trimesh
 
     user = load_user_mesh(entry)
-    return BagModel(obj_id, name, user.vertices, user.triangles, user.corner_uvs, user.metres_per_uv,
-                    user.albedo, user.vertex_albedo)
+    return BagModel(
+        obj_id,
+        name,
+        user.vertices,
+        user.triangles,
+        user.corner_uvs,
+        user.metres_per_uv,
+        user.albedo,
+        user.vertex_albedo,
+    )
 
 
 def bag_collision(meshes: MeshesConfig, name: str) -> list[np.ndarray]:

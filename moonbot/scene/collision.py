@@ -21,8 +21,7 @@ def transform(vertices: np.ndarray, pose: np.ndarray) -> np.ndarray:
     return np.asarray(vertices, dtype=np.float64) @ pose[:3, :3].T + pose[:3, 3]
 
 
-def segments_cross_triangles(p0: np.ndarray, p1: np.ndarray, a: np.ndarray, b: np.ndarray,
-                             c: np.ndarray) -> np.ndarray:
+def segments_cross_triangles(p0: np.ndarray, p1: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     """For matching rows of segments p0→p1 and triangles abc (all (K, 3) float64): whether the
     closed segment meets the closed triangle (bool (K,)). A segment parallel to its triangle's
     plane never counts; a coplanar touch is left to the neighbouring edges' tests."""
@@ -75,17 +74,15 @@ def surfaces_cross(va: np.ndarray, ta: np.ndarray, vb: np.ndarray, tb: np.ndarra
     close = np.linalg.norm(ca[i] - cb[j], axis=1) <= ra[i] + rb[j]
     i, j = i[close], j[close]
     for start in range(0, len(i), _PAIR_CHUNK):
-        A, B = va[ta[i[start:start + _PAIR_CHUNK]]], vb[tb[j[start:start + _PAIR_CHUNK]]]
+        A, B = va[ta[i[start : start + _PAIR_CHUNK]]], vb[tb[j[start : start + _PAIR_CHUNK]]]
         for edges, tri in ((A, B), (B, A)):
             for k in range(3):
-                if segments_cross_triangles(edges[:, k], edges[:, (k + 1) % 3],
-                                            tri[:, 0], tri[:, 1], tri[:, 2]).any():
+                if segments_cross_triangles(edges[:, k], edges[:, (k + 1) % 3], tri[:, 0], tri[:, 1], tri[:, 2]).any():
                     return True
     return False
 
 
-def vertical_extent(xy: np.ndarray, v: np.ndarray, t: np.ndarray,
-                    facing: int = 0) -> tuple[np.ndarray, np.ndarray]:
+def vertical_extent(xy: np.ndarray, v: np.ndarray, t: np.ndarray, facing: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Lowest and highest z (float64 (P,) each, NaN where the vertical line misses the mesh) at
     which vertical lines through the points `xy` (P, 2) meet the mesh (v (N, 3), t (M, 3)):
     exact plane heights of the triangles whose plan projection holds each point. `facing` +1
@@ -131,8 +128,12 @@ def winding_number(points: np.ndarray, v: np.ndarray, t: np.ndarray) -> np.ndarr
         a, b, c = v[t[:, 0]] - p, v[t[:, 1]] - p, v[t[:, 2]] - p
         la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
         num = np.einsum("ij,ij->i", a, np.cross(b, c))
-        den = (la * lb * lc + np.einsum("ij,ij->i", a, b) * lc + np.einsum("ij,ij->i", b, c) * la
-               + np.einsum("ij,ij->i", c, a) * lb)
+        den = (
+            la * lb * lc
+            + np.einsum("ij,ij->i", a, b) * lc
+            + np.einsum("ij,ij->i", b, c) * la
+            + np.einsum("ij,ij->i", c, a) * lb
+        )
         out[n] = 2.0 * np.arctan2(num, den).sum() / (4.0 * np.pi)
     return out
 

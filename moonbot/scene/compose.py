@@ -71,8 +71,9 @@ ROCK_MESH_BASE = 1000  # rock prototype p is SceneSpec.meshes[ROCK_MESH_BASE + p
 ROCK_PLAN_RADIUS = math.sqrt(0.5)  # a rock's plan radius over its diameter (unit longest extent)
 
 
-def clear_site(rocks: RockField, bag_poses: list[np.ndarray], bag_radius: float, orbit_radius: float,
-               clearance: float) -> RockField:
+def clear_site(
+    rocks: RockField, bag_poses: list[np.ndarray], bag_radius: float, orbit_radius: float, clearance: float
+) -> RockField:
     """The rocks that neither touch a bag (plan discs of `bag_radius` around each bag centre,
     plus `clearance`, metres) nor stand on the camera's orbit circle around the target: the
     work site is cleared, and no camera sits inside a rock."""
@@ -116,15 +117,23 @@ def compose_scene(config: Config, placement: Placement | None = None) -> SceneSp
         placement = place_bags(config, terrain.ground)
     elif len(placement.poses) != config.bags.count:
         raise ValueError(f"bags.count: {config.bags.count} bags, but the placement given has {len(placement.poses)}")
-    instances = tuple(BagInstance(obj_id=obj_id, instance_id=i + 1, world_from_model=pose,
-                                  albedo=albedo, stain_seed=stain_seed(config.seed, i + 1))
-                      for i, pose in enumerate(placement.poses))
+    instances = tuple(
+        BagInstance(
+            obj_id=obj_id,
+            instance_id=i + 1,
+            world_from_model=pose,
+            albedo=albedo,
+            stain_seed=stain_seed(config.seed, i + 1),
+        )
+        for i, pose in enumerate(placement.poses)
+    )
     meshes = {TERRAIN_MESH: terrain.mesh, obj_id: (vertices, triangles)}
     rocks: tuple[tuple[int, np.ndarray], ...] = ()
     if terrain.rocks is not None and len(terrain.rocks):
         bag_radius = float(np.hypot(vertices[:, 0], vertices[:, 1]).max())
-        field = clear_site(terrain.rocks, placement.poses, bag_radius, config.orbit.radius_m,
-                           config.terrain.rocks.clearance_m)
+        field = clear_site(
+            terrain.rocks, placement.poses, bag_radius, config.orbit.radius_m, config.terrain.rocks.clearance_m
+        )
         poses = rock_poses(field, terrain.rock_meshes, terrain.ground.height)
         rocks = tuple((ROCK_MESH_BASE + int(p), pose) for p, pose in zip(field.prototype, poses))
         meshes.update({ROCK_MESH_BASE + p: m for p, m in enumerate(terrain.rock_meshes)})

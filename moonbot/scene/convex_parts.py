@@ -20,8 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import ConvexHull
-from scipy.spatial import QhullError
+from scipy.spatial import ConvexHull, QhullError
 
 from moonbot.scene.collision import winding_number
 
@@ -61,8 +60,14 @@ def hull_volume(points: np.ndarray) -> float:
         return 0.0
 
 
-def convex_parts(vertices: np.ndarray, triangles: np.ndarray, volume: float, target_fit: float = 1.1,
-                 max_parts: int = 16, min_gain: float = 0.01) -> ConvexParts:
+def convex_parts(
+    vertices: np.ndarray,
+    triangles: np.ndarray,
+    volume: float,
+    target_fit: float = 1.1,
+    max_parts: int = 16,
+    min_gain: float = 0.01,
+) -> ConvexParts:
     """Splits the closed, outward-wound mesh (vertices (N, 3) float, triangles (M, 3) int) of
     enclosed `volume` into convex parts (module docstring)."""
     from trimesh.intersections import slice_faces_plane  # the triangle clipper; user meshes only
@@ -120,9 +125,14 @@ def convex_parts(vertices: np.ndarray, triangles: np.ndarray, volume: float, tar
         """The cut of `part` whose halves' own best cuts then shrink the hull volume most, with
         that total gain: for a ring, whose halves (two C's) have the hulls it had."""
         if part.ahead is None:
-            part.ahead = max(((gain + best_cut(lower)[0] + best_cut(upper)[0], lower, upper)
-                              for gain, lower, upper in candidate_cuts(part)),
-                             key=lambda c: c[0], default=(0.0, part, part))
+            part.ahead = max(
+                (
+                    (gain + best_cut(lower)[0] + best_cut(upper)[0], lower, upper)
+                    for gain, lower, upper in candidate_cuts(part)
+                ),
+                key=lambda c: c[0],
+                default=(0.0, part, part),
+            )
         return part.ahead
 
     root = make(v.min(axis=0), v.max(axis=0), v, t)
@@ -134,6 +144,7 @@ def convex_parts(vertices: np.ndarray, triangles: np.ndarray, volume: float, tar
             k, (gain, lower, upper) = max(enumerate(best_two_cuts(p) for p in parts), key=lambda c: c[1][0])
             if gain < min_gain * volume:
                 break
-        parts[k:k + 1] = [lower, upper]
-    return ConvexParts(parts=tuple(p.points for p in parts), hull_fit=hull_fit,
-                       parts_fit=sum(p.hull_volume for p in parts) / volume)
+        parts[k : k + 1] = [lower, upper]
+    return ConvexParts(
+        parts=tuple(p.points for p in parts), hull_fit=hull_fit, parts_fit=sum(p.hull_volume for p in parts) / volume
+    )

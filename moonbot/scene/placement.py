@@ -64,8 +64,7 @@ def _pose(R: np.ndarray, t: tuple[float, float, float]) -> np.ndarray:
     return pose
 
 
-def _on_ground(vertices: np.ndarray, R: np.ndarray, x: float, y: float, ground: Ground,
-               clearance: float) -> np.ndarray:
+def _on_ground(vertices: np.ndarray, R: np.ndarray, x: float, y: float, ground: Ground, clearance: float) -> np.ndarray:
     """The pose with rotation R over (x, y) lowered until its lowest point relative to the
     ground is `clearance` above it (a vertical shift moves no vertex in plan, so this is exact
     at the vertices)."""
@@ -74,8 +73,9 @@ def _on_ground(vertices: np.ndarray, R: np.ndarray, x: float, y: float, ground: 
     return _pose(R, (x, y, z))
 
 
-def _on_bags(vertices: np.ndarray, triangles: np.ndarray, pose: np.ndarray, below: list[np.ndarray],
-             clearance: float) -> np.ndarray:
+def _on_bags(
+    vertices: np.ndarray, triangles: np.ndarray, pose: np.ndarray, below: list[np.ndarray], clearance: float
+) -> np.ndarray:
     """`pose` raised (never lowered) until the bag is `clearance` above the bags `below` (their
     world vertices) along every vertical line through a vertex of either: exact at vertices."""
     world = transform(vertices, pose)
@@ -93,14 +93,21 @@ def _on_bags(vertices: np.ndarray, triangles: np.ndarray, pose: np.ndarray, belo
     for lower in below:
         # Only this bag's underside over the lower bag's plan box, and the lower bag's top under
         # this bag's plan box, can meet.
-        over = underside & np.all((world[:, :2] >= lower[:, :2].min(axis=0))
-                                  & (world[:, :2] <= lower[:, :2].max(axis=0)), axis=1)
-        under = on_faces(lower, +1) & np.all((lower[:, :2] >= world[:, :2].min(axis=0))
-                                             & (lower[:, :2] <= world[:, :2].max(axis=0)), axis=1)
+        over = underside & np.all(
+            (world[:, :2] >= lower[:, :2].min(axis=0)) & (world[:, :2] <= lower[:, :2].max(axis=0)), axis=1
+        )
+        under = on_faces(lower, +1) & np.all(
+            (lower[:, :2] >= world[:, :2].min(axis=0)) & (lower[:, :2] <= world[:, :2].max(axis=0)), axis=1
+        )
         _, top_below = vertical_extent(world[over, :2], lower, triangles, facing=+1)
         bottom_above, _ = vertical_extent(lower[under, :2], world, triangles, facing=-1)
-        lift = np.nanmax([lift, np.nanmax(top_below - world[over, 2], initial=-np.inf),
-                          np.nanmax(lower[under, 2] - bottom_above, initial=-np.inf)])
+        lift = np.nanmax(
+            [
+                lift,
+                np.nanmax(top_below - world[over, 2], initial=-np.inf),
+                np.nanmax(lower[under, 2] - bottom_above, initial=-np.inf),
+            ]
+        )
     raised = pose.copy()
     if np.isfinite(lift):
         raised[2, 3] += max(lift + clearance, 0.0)
@@ -145,10 +152,19 @@ def _wall_slots(count: int, pitch: float) -> list[tuple[float, int]]:
     return [(slots[i][0] - along0, slots[i][1]) for i in order]
 
 
-def place_bags(vertices: np.ndarray, triangles: np.ndarray, count: int, layout: str, seed: int,
-               ground: Ground | None = None,
-               yaw_deg: float = 0.0, gap_m: float = 0.02, radius_m: float = 1.0,
-               clearance_m: float = 0.001, max_tries: int = 10000) -> list[np.ndarray]:
+def place_bags(
+    vertices: np.ndarray,
+    triangles: np.ndarray,
+    count: int,
+    layout: str,
+    seed: int,
+    ground: Ground | None = None,
+    yaw_deg: float = 0.0,
+    gap_m: float = 0.02,
+    radius_m: float = 1.0,
+    clearance_m: float = 0.001,
+    max_tries: int = 10000,
+) -> list[np.ndarray]:
     """Geometric resting poses of `count` bags of the mesh (`vertices` (N, 3) model frame,
     metres; `triangles` (M, 3)) on `ground` (flat if None): the first is the orbit target at the origin, yawed by
     `yaw_deg`. Raises ValueError naming the field when the layout cannot hold them."""
@@ -175,8 +191,10 @@ def place_bags(vertices: np.ndarray, triangles: np.ndarray, count: int, layout: 
         while len(poses) < count:
             tries += 1
             if tries > max_tries:
-                raise ValueError(f"count: {count} bags do not fit within scatter_radius_m = {radius_m} "
-                                 f"with gap_m = {gap_m} (placed {len(poses)})")
+                raise ValueError(
+                    f"count: {count} bags do not fit within scatter_radius_m = {radius_m} "
+                    f"with gap_m = {gap_m} (placed {len(poses)})"
+                )
             r = radius_m * math.sqrt(rng.random())
             phi = 2 * math.pi * rng.random()
             candidate = resting(r * math.cos(phi), r * math.sin(phi), 2 * math.pi * rng.random())
@@ -194,8 +212,9 @@ def place_bags(vertices: np.ndarray, triangles: np.ndarray, count: int, layout: 
         along, course = slots[k]
         pose = resting(along * c, along * s, yaw)
         if course > 0:
-            below = [world[j] for j in world if slots[j][1] == course - 1
-                     and abs(slots[j][0] - along) < 2 * half[0] + gap_m]
+            below = [
+                world[j] for j in world if slots[j][1] == course - 1 and abs(slots[j][0] - along) < 2 * half[0] + gap_m
+            ]
             pose = _on_bags(vertices, triangles, pose, below, clearance_m)
         poses[k] = pose
         world[k] = transform(vertices, pose)
@@ -213,8 +232,14 @@ class Placement:
     settle_seconds: float | None = None
 
 
-def arrange_bags(vertices: np.ndarray, triangles: np.ndarray, bags: BagsConfig, ground: Ground,
-                 seed: int, collision: np.ndarray | list[np.ndarray] | None = None) -> Placement:
+def arrange_bags(
+    vertices: np.ndarray,
+    triangles: np.ndarray,
+    bags: BagsConfig,
+    ground: Ground,
+    seed: int,
+    collision: np.ndarray | list[np.ndarray] | None = None,
+) -> Placement:
     """Places the configured bags on `ground`, settles them when `bags.settle.enabled`, and
     checks the result against the ground's mesh (the triangles the renderer draws).
     `collision` (K, 3), model frame, metres: points whose convex hull holds the mesh, the shape
@@ -222,21 +247,34 @@ def arrange_bags(vertices: np.ndarray, triangles: np.ndarray, bags: BagsConfig, 
     it together (convex parts: bag_mesh.bag_collision); None: the mesh's vertices."""
     settle_cfg = bags.settle
     clearance = settle_cfg.margin_m + (settle_cfg.drop_m if settle_cfg.enabled else 0.0)
-    poses = place_bags(vertices, triangles, bags.count, bags.layout, seed=seed, ground=ground, yaw_deg=bags.yaw_deg,
-                       gap_m=bags.gap_m, radius_m=bags.scatter_radius_m, clearance_m=clearance)
+    poses = place_bags(
+        vertices,
+        triangles,
+        bags.count,
+        bags.layout,
+        seed=seed,
+        ground=ground,
+        yaw_deg=bags.yaw_deg,
+        gap_m=bags.gap_m,
+        radius_m=bags.scatter_radius_m,
+        clearance_m=clearance,
+    )
     placement = Placement(poses=poses)
     if settle_cfg.enabled:
         from moonbot.scene.settle import settle
 
         result = settle(vertices if collision is None else collision, poses, ground, settle_cfg)
-        placement = Placement(poses=result.poses, settle_simulated_s=result.simulated_s,
-                              settle_steps=result.steps, settle_seconds=result.seconds)
+        placement = Placement(
+            poses=result.poses,
+            settle_simulated_s=result.simulated_s,
+            settle_steps=result.steps,
+            settle_seconds=result.seconds,
+        )
     check_placement(vertices, triangles, placement.poses, ground)
     return placement
 
 
-def check_placement(vertices: np.ndarray, triangles: np.ndarray, poses: list[np.ndarray],
-                    ground: Ground) -> None:
+def check_placement(vertices: np.ndarray, triangles: np.ndarray, poses: list[np.ndarray], ground: Ground) -> None:
     """Raises ValueError when a bag cuts into the ground's mesh, lies below the ground, or
     shares volume with another bag (exact triangle tests, moonbot.scene.collision)."""
     world = [transform(vertices, p) for p in poses]

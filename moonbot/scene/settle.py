@@ -67,8 +67,9 @@ def _grid(poses: list[np.ndarray], reach: float, step: float) -> tuple[np.ndarra
     return step * np.arange(lo[0], hi[0] + 1), step * np.arange(lo[1], hi[1] + 1)
 
 
-def settle(vertices: np.ndarray | list[np.ndarray], poses: list[np.ndarray], ground: Ground,
-           config: SettleConfig) -> Settled:
+def settle(
+    vertices: np.ndarray | list[np.ndarray], poses: list[np.ndarray], ground: Ground, config: SettleConfig
+) -> Settled:
     """Drops bags whose collision shape is the convex hull of `vertices` ((N, 3) model frame,
     metres: the mesh's, or bag_mesh.collision_points; or a list of such arrays, one convex part
     each) from `poses` (world-from-model
@@ -108,16 +109,24 @@ def settle(vertices: np.ndarray | list[np.ndarray], poses: list[np.ndarray], gro
     plane = ground.plane()
     if plane is not None:  # exact, and far cheaper than the many prisms of a height field
         point, normal = plane
-        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 1.0], pos=point.tolist(),
-                                quat=_quat(_frame_with_z(normal)).tolist(), **contact)
+        spec.worldbody.add_geom(
+            type=mujoco.mjtGeom.mjGEOM_PLANE,
+            size=[0.0, 0.0, 1.0],
+            pos=point.tolist(),
+            quat=_quat(_frame_with_z(normal)).tolist(),
+            **contact,
+        )
     else:  # rows along y, columns along x, as MuJoCo stores a height field
         heights = ground.height(*np.meshgrid(xs, ys, indexing="xy"))
         base, span = float(heights.min()), float(heights.max() - heights.min())
-        spec.add_hfield(name="ground", size=[rx, ry, max(span, 1e-6), reach],
-                        nrow=heights.shape[0], ncol=heights.shape[1],
-                        userdata=((heights - base) / max(span, 1e-300)).ravel().tolist())
-        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_HFIELD, hfieldname="ground",
-                                pos=[cx, cy, base], **contact)
+        spec.add_hfield(
+            name="ground",
+            size=[rx, ry, max(span, 1e-6), reach],
+            nrow=heights.shape[0],
+            ncol=heights.shape[1],
+            userdata=((heights - base) / max(span, 1e-300)).ravel().tolist(),
+        )
+        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_HFIELD, hfieldname="ground", pos=[cx, cy, base], **contact)
     for k, pose in enumerate(poses):
         body = spec.worldbody.add_body(name=f"bag{k}", pos=pose[:3, 3].tolist(), quat=_quat(pose[:3, :3]).tolist())
         body.add_freejoint()
@@ -142,16 +151,19 @@ def settle(vertices: np.ndarray | list[np.ndarray], poses: list[np.ndarray], gro
             break
         outside = np.any(np.abs(data.xpos[bodies, :2] - [cx, cy]) > [rx, ry], axis=1)
         if outside.any():
-            raise ValueError(f"bags.settle.friction: bag {int(np.argmax(outside)) + 1} slid off the ground "
-                             f"(friction {config.friction} cannot hold it on this slope)")
+            raise ValueError(
+                f"bags.settle.friction: bag {int(np.argmax(outside)) + 1} slid off the ground "
+                f"(friction {config.friction} cannot hold it on this slope)"
+            )
         if steps >= max_steps:
-            raise ValueError(f"bags.settle.max_time_s: bags still moving after {config.max_time_s} s "
-                             f"(fastest point {speed.max():.3g} m/s)")
+            raise ValueError(
+                f"bags.settle.max_time_s: bags still moving after {config.max_time_s} s "
+                f"(fastest point {speed.max():.3g} m/s)"
+            )
     settled = []
     for k in range(len(poses)):
         pose = np.eye(4)
         pose[:3, :3] = data.xmat[1 + k].reshape(3, 3)
         pose[:3, 3] = data.xpos[1 + k]
         settled.append(pose)
-    return Settled(poses=settled, simulated_s=float(data.time), steps=steps,
-                   seconds=time.perf_counter() - start)
+    return Settled(poses=settled, simulated_s=float(data.time), steps=steps, seconds=time.perf_counter() - start)

@@ -109,8 +109,10 @@ def _load(entry: UserMeshConfig) -> UserMesh:
     n_read, m_read = len(vertices), len(triangles)
     bad = ~np.isfinite(vertices).all(axis=1)
     if bad.any():
-        raise ValueError(f"{path}: {int(bad.sum())} of {len(vertices)} vertices are not finite "
-                         f"(NaN or infinite; the first is vertex {int(np.argmax(bad))})")
+        raise ValueError(
+            f"{path}: {int(bad.sum())} of {len(vertices)} vertices are not finite "
+            f"(NaN or infinite; the first is vertex {int(np.argmax(bad))})"
+        )
     if len(triangles) == 0:
         raise ValueError(f"{path}: no triangles (a point cloud or an empty file)")
     vertices = vertices * _UNITS_M[entry.unit] @ up_rotation(entry.up_axis).T
@@ -134,22 +136,42 @@ def _load(entry: UserMeshConfig) -> UserMesh:
     if not low <= diagonal <= high:
         raw = diagonal / _UNITS_M[entry.unit]
         fits = [f"unit {u!r} gives {raw * f:.4g} m" for u, f in _UNITS_M.items() if low <= raw * f <= high]
-        raise ValueError(f"{path}: its bounding box's diagonal is {diagonal:.4g} m in unit {entry.unit!r}, outside "
-                         f"the {low}..{high} m a bag may span" + (f" ({'; '.join(fits)}: set meshes.user's unit)"
-                                                                 if fits else ""))
+        raise ValueError(
+            f"{path}: its bounding box's diagonal is {diagonal:.4g} m in unit {entry.unit!r}, outside "
+            f"the {low}..{high} m a bag may span" + (f" ({'; '.join(fits)}: set meshes.user's unit)" if fits else "")
+        )
     vertices = vertices - (lo + hi) / 2.0
     volume = signed_volume(vertices, triangles)
     hull = ConvexHull(vertices)
-    report = MeshReport(path=path, vertices_read=n_read, triangles_read=m_read, merged_vertices=merged,
-                        dropped_triangles=dropped, filled_holes=filled, flipped_triangles=flipped,
-                        non_manifold_edges=non_manifold, pieces=pieces, diagonal_m=diagonal, volume_m3=volume,
-                        hull_fit=float(hull.volume / volume), warnings=tuple(warnings))
+    report = MeshReport(
+        path=path,
+        vertices_read=n_read,
+        triangles_read=m_read,
+        merged_vertices=merged,
+        dropped_triangles=dropped,
+        filled_holes=filled,
+        flipped_triangles=flipped,
+        non_manifold_edges=non_manifold,
+        pieces=pieces,
+        diagonal_m=diagonal,
+        volume_m3=volume,
+        hull_fit=float(hull.volume / volume),
+        warnings=tuple(warnings),
+    )
     vertices32 = vertices.astype(np.float32)
     triangles32 = triangles.astype(np.int32)
     corner_uvs, metres_per_uv = box_atlas(vertices, triangles)
     albedo, factor = _albedo(vertices, triangles, colours)
-    return UserMesh(name=entry.name, vertices=vertices32, triangles=triangles32, corner_uvs=corner_uvs,
-                    metres_per_uv=metres_per_uv, albedo=albedo, vertex_albedo=factor, report=report)
+    return UserMesh(
+        name=entry.name,
+        vertices=vertices32,
+        triangles=triangles32,
+        corner_uvs=corner_uvs,
+        metres_per_uv=metres_per_uv,
+        albedo=albedo,
+        vertex_albedo=factor,
+        report=report,
+    )
 
 
 def _read(path: str, texture: str, warnings: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
@@ -234,7 +256,7 @@ def _refuse_draco(path: str) -> None:
         data = Path(path).read_bytes()
         if suffix == ".glb" and data[:4] == b"glTF" and len(data) >= 20:
             length, kind = struct.unpack_from("<I4s", data, 12)
-            document = json.loads(data[20:20 + length]) if kind == b"JSON" else {}
+            document = json.loads(data[20 : 20 + length]) if kind == b"JSON" else {}
         elif suffix == ".gltf":
             document = json.loads(data)
         else:
@@ -246,8 +268,10 @@ def _refuse_draco(path: str) -> None:
         try:
             import DracoPy  # noqa: F401
         except ImportError:
-            raise ValueError(f"{path}: its geometry is Draco-compressed (KHR_draco_mesh_compression), which needs the "
-                             f"DracoPy package; decompress it first (e.g. gltf-transform copy)") from None
+            raise ValueError(
+                f"{path}: its geometry is Draco-compressed (KHR_draco_mesh_compression), which needs the "
+                f"DracoPy package; decompress it first (e.g. gltf-transform copy)"
+            ) from None
 
 
 def up_rotation(up_axis: str) -> np.ndarray:
@@ -282,20 +306,28 @@ def _texture_colours(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
     def at(i, j):
         return linear[np.mod(j, h), np.mod(i, w)]
 
-    return ((1 - fx) * (1 - fy) * at(x0, y0) + fx * (1 - fy) * at(x0 + 1, y0)
-            + (1 - fx) * fy * at(x0, y0 + 1) + fx * fy * at(x0 + 1, y0 + 1))
+    return (
+        (1 - fx) * (1 - fy) * at(x0, y0)
+        + fx * (1 - fy) * at(x0 + 1, y0)
+        + (1 - fx) * fy * at(x0, y0 + 1)
+        + fx * fy * at(x0 + 1, y0 + 1)
+    )
 
 
-def _merge_vertices(vertices: np.ndarray, triangles: np.ndarray, colours: np.ndarray | None,
-                    tolerance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, int]:
+def _merge_vertices(
+    vertices: np.ndarray, triangles: np.ndarray, colours: np.ndarray | None, tolerance: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, int]:
     """Vertices within `tolerance` (metres) of each other, directly or through a chain, become
     the first of them (in file order); colours are averaged over each group. Unused vertices
     go. Returns the vertices, triangles re-indexed, colours and how many vertices merged away."""
     used = np.unique(triangles)
     pairs = cKDTree(vertices[used]).query_pairs(tolerance, output_type="ndarray")
     n = len(used)
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n)) if len(pairs) else \
-        coo_matrix((n, n))
+    graph = (
+        coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+        if len(pairs)
+        else coo_matrix((n, n))
+    )
     _, label = connected_components(graph, directed=False)
     # Number the groups by their first member, so the result follows the file's order.
     first = np.full(label.max() + 1, n)
@@ -338,8 +370,9 @@ def _edge_table(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarr
     return half, edge.reshape(-1), count
 
 
-def _fill_holes(path: str, vertices: np.ndarray, triangles: np.ndarray, colours: np.ndarray | None,
-                diagonal: float) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, int]:
+def _fill_holes(
+    path: str, vertices: np.ndarray, triangles: np.ndarray, colours: np.ndarray | None, diagonal: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, int]:
     """Closes each boundary loop spanning at most HOLE_TOLERANCE of `diagonal` by a fan of
     triangles from a new vertex at its centroid, wound against the loop's own edges. Raises
     ValueError naming the file when a larger hole remains."""
@@ -373,9 +406,11 @@ def _fill_holes(path: str, vertices: np.ndarray, triangles: np.ndarray, colours:
         # A boundary half-edge a→b belongs to a triangle; its neighbour across must run b→a.
         new_triangles += [(b, a, centre) for a, b in zip(loop, loop[1:] + loop[:1])]
     if largest > 0:
-        raise ValueError(f"{path}: not watertight: an open boundary spans {largest:.4g} m, "
-                         f"{100 * largest / diagonal:.3g} % of the diagonal (holes up to {100 * HOLE_TOLERANCE:g} % "
-                         f"are closed)")
+        raise ValueError(
+            f"{path}: not watertight: an open boundary spans {largest:.4g} m, "
+            f"{100 * largest / diagonal:.3g} % of the diagonal (holes up to {100 * HOLE_TOLERANCE:g} % "
+            f"are closed)"
+        )
     vertices = np.concatenate([vertices, np.array(new_vertices)])
     triangles = np.concatenate([triangles, np.array(new_triangles, dtype=np.int64)])
     if colours is not None:
@@ -414,8 +449,10 @@ def _orient(path: str, vertices: np.ndarray, triangles: np.ndarray) -> tuple[np.
                     queue.append(j)
                     piece.append(j)
                 elif flip[j] != want:
-                    raise ValueError(f"{path}: a piece of the surface is one-sided (its triangles cannot be "
-                                     f"wound consistently, as on a Möbius strip)")
+                    raise ValueError(
+                        f"{path}: a piece of the surface is one-sided (its triangles cannot be "
+                        f"wound consistently, as on a Möbius strip)"
+                    )
         pieces.append(np.array(piece))
     out = np.where(flip[:, None] == 1, triangles[:, ::-1], triangles)
     for piece in pieces:
@@ -430,7 +467,9 @@ def _check_closed(path: str, vertices: np.ndarray, triangles: np.ndarray) -> int
     and the surface encloses a positive volume; returns the number of non-manifold edges."""
     _, edge, count = _edge_table(triangles)
     if np.any(count == 1):
-        raise ValueError(f"{path}: not watertight after repair: {int(np.sum(count == 1))} edges bound a single triangle")
+        raise ValueError(
+            f"{path}: not watertight after repair: {int(np.sum(count == 1))} edges bound a single triangle"
+        )
     if not signed_volume(vertices, triangles) > 0:
         raise ValueError(f"{path}: encloses no volume")
     return int(np.sum(count > 2))
@@ -463,8 +502,9 @@ def box_atlas(vertices: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, 
     return uv.astype(np.float32), 3.0 * side
 
 
-def _albedo(vertices: np.ndarray, triangles: np.ndarray,
-            colours: np.ndarray | None) -> tuple[tuple[float, float, float] | None, np.ndarray | None]:
+def _albedo(
+    vertices: np.ndarray, triangles: np.ndarray, colours: np.ndarray | None
+) -> tuple[tuple[float, float, float] | None, np.ndarray | None]:
     """From per-vertex linear colours (N, 3): their area-weighted mean over the surface (each
     vertex weighs a third of its triangles' area) and each vertex's colour over that mean, per
     channel (N, 3), so that mean × factor is the vertex's colour (at most 1). (None, None)
@@ -500,17 +540,21 @@ def describe(entry: UserMeshConfig) -> list[str]:
     """Lines telling what reading `entry` repaired and found, and how settling will collide it
     (its hull, or its convex parts with their fit), for `moonbot meshes`."""
     r = load_user_mesh(entry).report
-    lines = [f"{entry.name}: {r.path} ({entry.unit}, up {entry.up_axis}): {r.vertices_read} vertices, "
-             f"{r.triangles_read} triangles read",
-             f"  repaired: {r.merged_vertices} vertices merged (within {MERGE_TOLERANCE:g} of the diagonal), "
-             f"{r.dropped_triangles} degenerate or repeated triangles dropped, {r.filled_holes} holes closed "
-             f"(up to {100 * HOLE_TOLERANCE:g} % of the diagonal), {r.flipped_triangles} triangles turned outward",
-             f"  {r.pieces} piece(s), diagonal {1000 * r.diagonal_m:.1f} mm, volume {1e6 * r.volume_m3:.4g} cm³, "
-             f"convex hull {r.hull_fit:.3f} × the volume"]
+    lines = [
+        f"{entry.name}: {r.path} ({entry.unit}, up {entry.up_axis}): {r.vertices_read} vertices, "
+        f"{r.triangles_read} triangles read",
+        f"  repaired: {r.merged_vertices} vertices merged (within {MERGE_TOLERANCE:g} of the diagonal), "
+        f"{r.dropped_triangles} degenerate or repeated triangles dropped, {r.filled_holes} holes closed "
+        f"(up to {100 * HOLE_TOLERANCE:g} % of the diagonal), {r.flipped_triangles} triangles turned outward",
+        f"  {r.pieces} piece(s), diagonal {1000 * r.diagonal_m:.1f} mm, volume {1e6 * r.volume_m3:.4g} cm³, "
+        f"convex hull {r.hull_fit:.3f} × the volume",
+    ]
     if r.hull_fit > DECOMPOSE_ABOVE_HULL_FIT:
         parts = user_convex_parts(entry)
-        lines.append(f"  settles as {len(parts.parts)} convex parts, {parts.parts_fit:.3f} × the volume "
-                     f"(the hull is above {DECOMPOSE_ABOVE_HULL_FIT})")
+        lines.append(
+            f"  settles as {len(parts.parts)} convex parts, {parts.parts_fit:.3f} × the volume "
+            f"(the hull is above {DECOMPOSE_ABOVE_HULL_FIT})"
+        )
     else:
         lines.append("  settles as its convex hull")
     lines += [f"  warning: {w}" for w in r.warnings]

@@ -39,8 +39,8 @@ class SplitPlan:
     tasks: int
     samples: int
     megapixel_samples: float  # Σ samples × width × height × spp / 1e6: what render time scales with
-    megapixels: float         # Σ samples × width × height / 1e6: what disk scales with
-    layouts: int = 0          # bag layouts (split, mesh, location, bag count): placed and settled once each
+    megapixels: float  # Σ samples × width × height / 1e6: what disk scales with
+    layouts: int = 0  # bag layouts (split, mesh, location, bag count): placed and settled once each
 
 
 def split_plans(config: Config) -> list[SplitPlan]:
@@ -98,18 +98,26 @@ def provenance(estimate: Estimate) -> list[str]:
     here = f"{cpu_model()} ({cpu_id()}), {os.cpu_count()} cores"
     m = estimate.machine
     if not m.get("cpu"):
-        return [f"from    {estimate.source}, a record that names no machine",
-                f"here    {here}: not measured; run bench/bench_generate.py here for this machine's record"]
+        return [
+            f"from    {estimate.source}, a record that names no machine",
+            f"here    {here}: not measured; run bench/bench_generate.py here for this machine's record",
+        ]
     there = f"{m['cpu']} ({m.get('cpu_id', '?')}), {m.get('cores', '?')} cores"
-    lines = [f"from    {estimate.source}: measured on {there}, Embree {m.get('embree_isa', '?')}, "
-             f"{str(m.get('date', '?'))[:10]}"]
+    lines = [
+        f"from    {estimate.source}: measured on {there}, Embree {m.get('embree_isa', '?')}, "
+        f"{str(m.get('date', '?'))[:10]}"
+    ]
     if (m["cpu"], m.get("cpu_id"), m.get("cores")) == (cpu_model(), cpu_id(), os.cpu_count()):
-        lines.append(f"here    {here}, the same CPU model and cores, not measured here: load, clock and memory "
-                     f"can make it up to {LOADED_SLOWDOWN:g}x slower (one such machine loaded by other processes "
-                     "against itself quiet)")
+        lines.append(
+            f"here    {here}, the same CPU model and cores, not measured here: load, clock and memory "
+            f"can make it up to {LOADED_SLOWDOWN:g}x slower (one such machine loaded by other processes "
+            "against itself quiet)"
+        )
     else:
-        lines.append(f"here    {here}: another CPU or core count, so the time above is that machine's, "
-                     "not this one's; run bench/bench_generate.py here for this machine's record")
+        lines.append(
+            f"here    {here}: another CPU or core count, so the time above is that machine's, "
+            "not this one's; run bench/bench_generate.py here for this machine's record"
+        )
     return lines
 
 
@@ -136,5 +144,11 @@ def estimate(plans: list[SplitPlan], record_path: Path) -> Estimate | None:
         return None
     mp = sum(p.megapixels for p in plans)
     machine = record.get("machine") if isinstance(record.get("machine"), dict) else {}
-    return Estimate(bytes=b_per_mp * mp, seconds=best["seconds"] * scale, workers=best["workers"],
-                    threads=best.get("threads_per_worker", 1), source=str(record_path), machine=machine)
+    return Estimate(
+        bytes=b_per_mp * mp,
+        seconds=best["seconds"] * scale,
+        workers=best["workers"],
+        threads=best.get("threads_per_worker", 1),
+        source=str(record_path),
+        machine=machine,
+    )

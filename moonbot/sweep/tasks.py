@@ -49,9 +49,11 @@ class Task:
     def task_id(self) -> str:
         """A readable, file-name-safe name, unique in the sweep: split, scene and task numbers,
         then what they vary (e.g. train-s000041-t07-sandbag-02-hilly-b05-st30-dust-el8-az210-h0.5)."""
-        return (f"{self.split}-s{self.scene_id:06d}-t{self.task_in_scene:02d}-{self.mesh}-{self.location}"
-                f"-b{self.bags:02d}-st{self.stain_seeds:02d}-{'dust' if self.dust else 'clear'}"
-                f"-el{self.sun_elevation_deg:g}-az{self.sun_azimuth_deg:g}-h{self.camera_height_m:g}")
+        return (
+            f"{self.split}-s{self.scene_id:06d}-t{self.task_in_scene:02d}-{self.mesh}-{self.location}"
+            f"-b{self.bags:02d}-st{self.stain_seeds:02d}-{'dust' if self.dust else 'clear'}"
+            f"-el{self.sun_elevation_deg:g}-az{self.sun_azimuth_deg:g}-h{self.camera_height_m:g}"
+        )
 
 
 def tasks(config: Config) -> list[Task]:
@@ -65,23 +67,47 @@ def tasks(config: Config) -> list[Task]:
 
         def axis(values: tuple, base):
             return values if values else (base,)
-        scenes = list(itertools.product(
-            axis(grid.meshes, config.bags.mesh), axis(grid.locations, config.terrain.location),
-            axis(grid.bag_counts, config.bags.count), axis(grid.stain_seeds, config.bags.stain.seeds),
-            axis(grid.dust, config.dust.enabled)))
-        shots = list(itertools.product(
-            axis(grid.sun_elevations_deg, config.sun.elevation_deg),
-            axis(grid.sun_azimuths_deg, config.sun.azimuth_deg),
-            axis(grid.camera_heights_m, config.orbit.height_m)))
+
+        scenes = list(
+            itertools.product(
+                axis(grid.meshes, config.bags.mesh),
+                axis(grid.locations, config.terrain.location),
+                axis(grid.bag_counts, config.bags.count),
+                axis(grid.stain_seeds, config.bags.stain.seeds),
+                axis(grid.dust, config.dust.enabled),
+            )
+        )
+        shots = list(
+            itertools.product(
+                axis(grid.sun_elevations_deg, config.sun.elevation_deg),
+                axis(grid.sun_azimuths_deg, config.sun.azimuth_deg),
+                axis(grid.camera_heights_m, config.orbit.height_m),
+            )
+        )
         if split.draw_from:
             chosen = draw(config.seed, split.name, scenes, shots, split.scenes, split.tasks_per_scene)
         else:
             chosen = [(scene, shots) for scene in scenes]
         for scene_id, ((mesh, location, bags, stain, dust), scene_shots) in enumerate(chosen):
             for k, (elevation, azimuth, height) in enumerate(scene_shots):
-                out.append(Task(len(out), split.name, scene_id, k, len(scene_shots), mesh, config.meshes.obj_id(mesh),
-                                location, bags, stain, dust,
-                                float(elevation), float(azimuth), float(height)))
+                out.append(
+                    Task(
+                        len(out),
+                        split.name,
+                        scene_id,
+                        k,
+                        len(scene_shots),
+                        mesh,
+                        config.meshes.obj_id(mesh),
+                        location,
+                        bags,
+                        stain,
+                        dust,
+                        float(elevation),
+                        float(azimuth),
+                        float(height),
+                    )
+                )
     return out
 
 
@@ -91,8 +117,9 @@ def _rank(seed: int, split: str, item: tuple) -> bytes:
     return hashlib.blake2b(f"moonbot.draw:{seed}:{split}:{item!r}".encode(), digest_size=16).digest()
 
 
-def draw(seed: int, split: str, scenes: list[tuple], shots: list[tuple], count: int,
-         tasks_per_scene: int) -> list[tuple[tuple, list[tuple]]]:
+def draw(
+    seed: int, split: str, scenes: list[tuple], shots: list[tuple], count: int, tasks_per_scene: int
+) -> list[tuple[tuple, list[tuple]]]:
     """The scenes (mesh, location, bags, stain, dust) and, for each, the shots (elevation,
     azimuth, height) that split `split` draws from another split's grid (`scenes` and `shots`
     in that split's sweep order). Balanced over meshes: each mesh's scenes are ranked by `_rank`,
@@ -112,7 +139,7 @@ def draw(seed: int, split: str, scenes: list[tuple], shots: list[tuple], count: 
     chosen = []
     for k in sorted(turns[:count]):
         order = sorted(range(len(shots)), key=lambda j: _rank(seed, split, scenes[k] + shots[j]))
-        keep = sorted(order[:tasks_per_scene or len(shots)])
+        keep = sorted(order[: tasks_per_scene or len(shots)])
         chosen.append((scenes[k], [shots[j] for j in keep]))
     return chosen
 
@@ -135,8 +162,9 @@ def task_config(config: Config, task: Task) -> Config:
     data = dataclasses.asdict(config)
     if config.sweep.splits:  # a config without a sweep renders as itself, seed and all
         data["seed"] = scene_seed(config.seed, task.split, task.mesh, task.location, task.bags)
-    data["bags"].update(mesh=task.mesh, count=task.bags,
-                        layout="single" if task.bags == 1 else config.sweep.many_bags_layout)
+    data["bags"].update(
+        mesh=task.mesh, count=task.bags, layout="single" if task.bags == 1 else config.sweep.many_bags_layout
+    )
     data["bags"]["stain"]["seeds"] = task.stain_seeds
     data["terrain"]["location"] = task.location
     data["dust"]["enabled"] = task.dust

@@ -101,9 +101,17 @@ def get_terrain(config: TerrainConfig) -> tuple[Terrain, bool]:
     per_vertex = [a for a in (albedo_scale, normals) if a is not None]
     for array in (*mesh, *(a for m in rock_meshes for a in m), *per_vertex):
         array.setflags(write=False)  # shared by every task of this process: nobody may edit it
-    terrain = Terrain(ground=ground, mesh=mesh, albedo_scale=albedo_scale, normals=normals, rocks=rocks,
-                      rock_meshes=rock_meshes, key=key, build_seconds=time.perf_counter() - start,
-                      site=dem_site(config, dem) if dem is not None else None)
+    terrain = Terrain(
+        ground=ground,
+        mesh=mesh,
+        albedo_scale=albedo_scale,
+        normals=normals,
+        rocks=rocks,
+        rock_meshes=rock_meshes,
+        key=key,
+        build_seconds=time.perf_counter() - start,
+        site=dem_site(config, dem) if dem is not None else None,
+    )
     _cache[key] = terrain
     while len(_cache) > max(CACHE_SIZE, _capacity):
         _cache.popitem(last=False)

@@ -58,7 +58,7 @@ def fresh_profile(s: np.ndarray) -> np.ndarray:
     depth DEPTH_RATIO to the rim crest at s = 1 (RIM_RATIO high), ejecta (r/R)^-3 outside, shifted
     so it reaches exactly 0 at the cut-off EJECTA_CUTOFF and stays 0 beyond."""
     s = np.asarray(s, dtype=np.float64)
-    floor = RIM_RATIO * EJECTA_CUTOFF ** -EJECTA_EXPONENT  # ejecta height at the cut-off, removed
+    floor = RIM_RATIO * EJECTA_CUTOFF**-EJECTA_EXPONENT  # ejecta height at the cut-off, removed
     inside = RIM_RATIO - floor - DEPTH_RATIO * (1.0 - s * s)
     outside = np.where(s < EJECTA_CUTOFF, RIM_RATIO * np.clip(s, 1.0, EJECTA_CUTOFF) ** -EJECTA_EXPONENT - floor, 0.0)
     return np.where(s < 1.0, inside, outside)
@@ -105,9 +105,11 @@ def crater_profile(s: np.ndarray, diameter: float | np.ndarray, degradation: flo
     (`fresh_profile` × diameter) diffused by σ/R = `degradation` in [0, DIFFUSION_MAX] (0 = fresh,
     exact), interpolated in the tabulated profiles (linear in σ and in s); 0 from the reach
     EJECTA_CUTOFF + 3σ on. Arguments broadcast."""
-    s, diameter, degradation = np.broadcast_arrays(np.asarray(s, dtype=np.float64),
-                                                   np.asarray(diameter, dtype=np.float64),
-                                                   np.asarray(degradation, dtype=np.float64))
+    s, diameter, degradation = np.broadcast_arrays(
+        np.asarray(s, dtype=np.float64),
+        np.asarray(diameter, dtype=np.float64),
+        np.asarray(degradation, dtype=np.float64),
+    )
     if np.any((degradation < 0.0) | (degradation > DIFFUSION_MAX)):
         raise ValueError(f"degradation: must be in [0, {DIFFUSION_MAX}], got {degradation.min()}..{degradation.max()}")
     if np.all(degradation == 0.0):
@@ -142,7 +144,7 @@ def sample_degradation(rng: np.random.Generator, count: int) -> np.ndarray:
 def expected_count(half_size_m: float, density: float, lo: float, hi: float) -> float:
     """The mean number of craters with lo ≤ D < hi in the square ±half_size_m under
     N(≥D) = density·D^-2 per m²."""
-    return density * (2.0 * half_size_m) ** 2 * (lo ** -2.0 - hi ** -2.0)
+    return density * (2.0 * half_size_m) ** 2 * (lo**-2.0 - hi**-2.0)
 
 
 @dataclass(frozen=True)
@@ -155,8 +157,9 @@ class CraterField:
     degradation: np.ndarray
 
     @staticmethod
-    def sample(seed: int | list[int], half_size_m: float, density: float = 0.05, d_min: float = 0.5,
-               d_max: float = 50.0) -> CraterField:
+    def sample(
+        seed: int | list[int], half_size_m: float, density: float = 0.05, d_min: float = 0.5, d_max: float = 50.0
+    ) -> CraterField:
         """A Poisson sample over the square ±half_size_m with N(≥D) = density·D^-2 per m²,
         D in [d_min, d_max] (inverse-CDF sampling of the truncated power law)."""
         if not 0 < d_min < d_max:
@@ -165,7 +168,7 @@ class CraterField:
             raise ValueError(f"density: must be >= 0, got {density}")
         rng = np.random.default_rng([*np.atleast_1d(seed).tolist(), 0xC7A7E5])
         area = (2.0 * half_size_m) ** 2
-        a, b = d_min ** -2.0, d_max ** -2.0
+        a, b = d_min**-2.0, d_max**-2.0
         count = rng.poisson(density * area * (a - b))
         u = rng.random(count)
         diameters = (a - u * (a - b)) ** -0.5
@@ -178,8 +181,9 @@ class CraterField:
         return CraterField(self.centres[keep], self.diameters[keep], self.degradation[keep])
 
     @staticmethod
-    def sample_graded(seed: int, half_size: Callable[[float], float], density: float = 0.05,
-                      d_min: float = 0.5, d_max: float = 200.0) -> CraterField:
+    def sample_graded(
+        seed: int, half_size: Callable[[float], float], density: float = 0.05, d_min: float = 0.5, d_max: float = 200.0
+    ) -> CraterField:
         """Craters for a mesh that coarsens away from the origin: diameters in octave bands
         [d, 2d) from d_min up to d_max, each band a Poisson sample (`sample`) over the square
         ±half_size(d) in which the mesh can still draw a crater of the band's smallest size.
@@ -195,9 +199,11 @@ class CraterField:
             lo, band = hi, band + 1
         if not parts:
             return CraterField(np.zeros((0, 2)), np.zeros(0), np.zeros(0))
-        return CraterField(np.concatenate([p.centres for p in parts]),
-                           np.concatenate([p.diameters for p in parts]),
-                           np.concatenate([p.degradation for p in parts]))
+        return CraterField(
+            np.concatenate([p.centres for p in parts]),
+            np.concatenate([p.diameters for p in parts]),
+            np.concatenate([p.degradation for p in parts]),
+        )
 
     def height(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Sum of all craters' profiles at world (x, y) (metres, float64, shaped like x)."""

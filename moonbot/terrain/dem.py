@@ -67,8 +67,11 @@ class LocalDem:
         object.__setattr__(self, "heights", h)
         for name in ("spacing_m", "lat_deg", "lon_deg", "h0_m"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
-                    or not math.isfinite(value):
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, (int, float, np.floating, np.integer))
+                or not math.isfinite(value)
+            ):
                 raise ValueError(f"{name}: must be a finite number, got {value!r}")
             object.__setattr__(self, name, float(value))
         if self.spacing_m <= 0:
@@ -161,19 +164,34 @@ class LocalDem:
         if missing:
             raise ValueError(f"{source}: LocalDem file lacks {', '.join(sorted(missing))}")
         try:
-            return cls(heights=members["heights"], spacing_m=float(members["spacing_m"]),
-                       lat_deg=float(members["lat_deg"]), lon_deg=float(members["lon_deg"]),
-                       h0_m=float(members["h0_m"]), curvature=bool(members["curvature"]),
-                       source=json.loads(str(members["source"])))
+            return cls(
+                heights=members["heights"],
+                spacing_m=float(members["spacing_m"]),
+                lat_deg=float(members["lat_deg"]),
+                lon_deg=float(members["lon_deg"]),
+                h0_m=float(members["h0_m"]),
+                curvature=bool(members["curvature"]),
+                source=json.loads(str(members["source"])),
+            )
         except (ValueError, TypeError) as e:
             raise ValueError(f"{source}: {e}") from None
 
 
-def import_dem(path: str | os.PathLike[str], lat_deg: float, lon_deg: float, size_m: float, *,
-               spacing_m: float | None = None, curvature: bool = True, scale: float = 1.0,
-               offset: float = 0.0, nodata: float | None = None,
-               png_range: tuple[float, float] | None = None, png_pixel_m: float | None = None,
-               png_center: tuple[float, float] | None = None) -> LocalDem:
+def import_dem(
+    path: str | os.PathLike[str],
+    lat_deg: float,
+    lon_deg: float,
+    size_m: float,
+    *,
+    spacing_m: float | None = None,
+    curvature: bool = True,
+    scale: float = 1.0,
+    offset: float = 0.0,
+    nodata: float | None = None,
+    png_range: tuple[float, float] | None = None,
+    png_pixel_m: float | None = None,
+    png_center: tuple[float, float] | None = None,
+) -> LocalDem:
     """Crops a square of `size_m` metres centred on (lat_deg, lon_deg) from a DEM file and
     resamples it onto a local ENU grid (see `LocalDem`).
 
@@ -193,9 +211,20 @@ def import_dem(path: str | os.PathLike[str], lat_deg: float, lon_deg: float, siz
     """
     if spacing_m is not None and not spacing_m > 0:
         raise ValueError(f"spacing_m: must be > 0 (or None for the source pixel size), got {spacing_m}")
-    result = _core.import_dem(os.fspath(path), lat_deg, lon_deg, size_m,
-                              0.0 if spacing_m is None else spacing_m, curvature, scale, offset,
-                              nodata, png_range, png_pixel_m, png_center)
+    result = _core.import_dem(
+        os.fspath(path),
+        lat_deg,
+        lon_deg,
+        size_m,
+        0.0 if spacing_m is None else spacing_m,
+        curvature,
+        scale,
+        offset,
+        nodata,
+        png_range,
+        png_pixel_m,
+        png_center,
+    )
     source = {
         "path": os.fspath(path),
         "format": result["source_format"],
@@ -212,9 +241,15 @@ def import_dem(path: str | os.PathLike[str], lat_deg: float, lon_deg: float, siz
     }
     if result["nodata"] is not None and not math.isfinite(result["nodata"]):
         source["nodata"] = str(result["nodata"])  # JSON has no NaN
-    return LocalDem(heights=result["heights"], spacing_m=result["spacing_m"], lat_deg=result["lat_deg"],
-                    lon_deg=result["lon_deg"], h0_m=result["h0_m"], curvature=result["curvature"],
-                    source=source)
+    return LocalDem(
+        heights=result["heights"],
+        spacing_m=result["spacing_m"],
+        lat_deg=result["lat_deg"],
+        lon_deg=result["lon_deg"],
+        h0_m=result["h0_m"],
+        curvature=result["curvature"],
+        source=source,
+    )
 
 
 def corner_curvature_drop(dem: LocalDem) -> float:
@@ -232,17 +267,23 @@ def summary(dem: LocalDem, written: Path | None = None) -> str:
     corner = math.hypot((nx - 1) / 2, (ny - 1) / 2) * dem.spacing_m
     drop = corner_curvature_drop(dem)
     origin = f"lat {dem.lat_deg:.6f}°, lon {dem.lon_deg:.6f}°, h0 {dem.h0_m:.2f} m"
-    text = (f"{src.get('path', 'DEM')} ({src.get('format', '?')}, {src.get('width', '?')}×{src.get('height', '?')} px "
-            f"of {src.get('pixel_east_m', math.nan):.2f} × {src.get('pixel_north_m', math.nan):.2f} m) → "
-            f"{nx} × {ny} grid at {dem.spacing_m:g} m spacing ({(nx - 1) * dem.spacing_m:g} m square) about "
-            f"{origin}; heights {dem.heights.min():.3f} … {dem.heights.max():.3f} m up; "
-            f"{src.get('voids_filled', 0)} void pixels filled. ")
+    text = (
+        f"{src.get('path', 'DEM')} ({src.get('format', '?')}, {src.get('width', '?')}×{src.get('height', '?')} px "
+        f"of {src.get('pixel_east_m', math.nan):.2f} × {src.get('pixel_north_m', math.nan):.2f} m) → "
+        f"{nx} × {ny} grid at {dem.spacing_m:g} m spacing ({(nx - 1) * dem.spacing_m:g} m square) about "
+        f"{origin}; heights {dem.heights.min():.3f} … {dem.heights.max():.3f} m up; "
+        f"{src.get('voids_filled', 0)} void pixels filled. "
+    )
     if dem.curvature:
-        text += (f"Curvature on: the sphere falls {_length(drop)} below the tangent plane at the "
-                 f"crop corner ({corner:.1f} m out).")
+        text += (
+            f"Curvature on: the sphere falls {_length(drop)} below the tangent plane at the "
+            f"crop corner ({corner:.1f} m out)."
+        )
     else:
-        text += (f"Curvature off (flat-earth patch); the sphere would fall {_length(drop)} at the "
-                 f"crop corner ({corner:.1f} m out).")
+        text += (
+            f"Curvature off (flat-earth patch); the sphere would fall {_length(drop)} at the "
+            f"crop corner ({corner:.1f} m out)."
+        )
     if written is not None:
         text += f" Written {written}."
     return text

@@ -57,8 +57,7 @@ class Ground(ABC):
         (vertices (N, 3) float64, triangles (M, 3) int32), for exact contact checks."""
         v, t = self.mesh()
         corners = v[t]
-        near = (np.all(corners.max(axis=1)[:, :2] >= lo, axis=1)
-                & np.all(corners.min(axis=1)[:, :2] <= hi, axis=1))
+        near = np.all(corners.max(axis=1)[:, :2] >= lo, axis=1) & np.all(corners.min(axis=1)[:, :2] <= hi, axis=1)
         return v.astype(np.float64), t[near]
 
 
@@ -91,8 +90,9 @@ def _plane_mesh(size_m: float, a: float, b: float) -> tuple[np.ndarray, np.ndarr
     vertices = np.column_stack([xy, a * xy[:, 0] + b * xy[:, 1]]).astype(np.float32)
     corner = (np.arange(n - 1)[None, :] + n * np.arange(n - 1)[:, None]).ravel()
     # Counter-clockwise seen from above: (i, j), (i+1, j), (i+1, j+1) and (i, j), (i+1, j+1), (i, j+1).
-    triangles = np.concatenate([np.column_stack([corner, corner + 1, corner + n + 1]),
-                                np.column_stack([corner, corner + n + 1, corner + n])])
+    triangles = np.concatenate(
+        [np.column_stack([corner, corner + 1, corner + n + 1]), np.column_stack([corner, corner + n + 1, corner + n])]
+    )
     return vertices, triangles.astype(np.int32)
 
 
@@ -182,8 +182,9 @@ class CraterGround(Ground):
         depth, rim = CRATER_DEPTH_RATIO * self.diameter_m, CRATER_RIM_RATIO * self.diameter_m
         dx, dy, r = self._radial(x, y)
         s = r / R
-        dh_dr = np.where(s < 1.0, 2.0 * depth * s / R,
-                         -EJECTA_EXPONENT * rim / R * np.maximum(s, 1.0) ** (-EJECTA_EXPONENT - 1.0))
+        dh_dr = np.where(
+            s < 1.0, 2.0 * depth * s / R, -EJECTA_EXPONENT * rim / R * np.maximum(s, 1.0) ** (-EJECTA_EXPONENT - 1.0)
+        )
         safe = np.where(r > 0.0, r, 1.0)  # the bowl's floor is flat at its centre
         return dh_dr * dx / safe, dh_dr * dy / safe
 
@@ -206,8 +207,9 @@ class GridGround(Ground):
         self.y_axis = np.asarray(y_axis, dtype=np.float64)
         self.z = np.asarray(z, dtype=np.float64)
         if self.z.shape != (len(self.y_axis), len(self.x_axis)):
-            raise ValueError(f"z: shape {self.z.shape} does not match the axes "
-                             f"({len(self.y_axis)}, {len(self.x_axis)})")
+            raise ValueError(
+                f"z: shape {self.z.shape} does not match the axes ({len(self.y_axis)}, {len(self.x_axis)})"
+            )
         if min(self.z.shape) < 2 or np.any(np.diff(self.x_axis) <= 0) or np.any(np.diff(self.y_axis) <= 0):
             raise ValueError("x_axis, y_axis: need at least 2 strictly increasing nodes each")
         if not np.all(np.isfinite(self.z)):
@@ -258,10 +260,10 @@ class GridGround(Ground):
         i1 = min(int(np.searchsorted(self.x_axis, hi[0], side="left")), len(self.x_axis) - 1)
         j1 = min(int(np.searchsorted(self.y_axis, hi[1], side="left")), len(self.y_axis) - 1)
         i1, j1 = max(i1, i0 + 1), max(j1, j0 + 1)
-        xs, ys = self.x_axis[i0:i1 + 1], self.y_axis[j0:j1 + 1]
+        xs, ys = self.x_axis[i0 : i1 + 1], self.y_axis[j0 : j1 + 1]
         X, Y = np.meshgrid(xs, ys, indexing="xy")
         # Through float32, as the renderer holds them, so contact checks see the drawn surface.
-        v = np.column_stack([X.ravel(), Y.ravel(), self.z[j0:j1 + 1, i0:i1 + 1].ravel()])
+        v = np.column_stack([X.ravel(), Y.ravel(), self.z[j0 : j1 + 1, i0 : i1 + 1].ravel()])
         return v.astype(np.float32).astype(np.float64), grid_triangles(len(xs), len(ys))
 
 

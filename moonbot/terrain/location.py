@@ -87,9 +87,13 @@ def enu_axes(lat_deg: float, lon_deg: float) -> np.ndarray:
     of GeographicLib's LocalCartesian and so of `_core.LunarFrame`. At a pole, North points along
     the meridian `lon_deg` (GeographicLib's convention there)."""
     p, q = math.radians(lat_deg), math.radians(lon_deg)
-    return np.array([[-math.sin(q), math.cos(q), 0.0],
-                     [-math.sin(p) * math.cos(q), -math.sin(p) * math.sin(q), math.cos(p)],
-                     [math.cos(p) * math.cos(q), math.cos(p) * math.sin(q), math.sin(p)]])
+    return np.array(
+        [
+            [-math.sin(q), math.cos(q), 0.0],
+            [-math.sin(p) * math.cos(q), -math.sin(p) * math.sin(q), math.cos(p)],
+            [math.cos(p) * math.cos(q), math.cos(p) * math.sin(q), math.sin(p)],
+        ]
+    )
 
 
 @dataclass(frozen=True)
@@ -109,8 +113,12 @@ class DemSite:
 
     def as_json(self) -> dict[str, float]:
         """The record gt.json and the BOP scene files carry (JSON numbers, degrees and metres)."""
-        return {"lat_deg": self.lat_deg, "lon_deg": self.lon_deg, "height_m": self.height_m,
-                "north_in_dem_deg": self.north_in_dem_deg}
+        return {
+            "lat_deg": self.lat_deg,
+            "lon_deg": self.lon_deg,
+            "height_m": self.height_m,
+            "north_in_dem_deg": self.north_in_dem_deg,
+        }
 
 
 class DemRelief:
@@ -146,19 +154,25 @@ class DemRelief:
         if not (1 <= self.i0 <= nx - 3 and 1 <= self.j0 <= ny - 3):
             raise ValueError(
                 f"terrain.dem_site_m: ({site_m[0]:g}, {site_m[1]:g}) m lies outside {name}, which reaches "
-                f"±{(nx - 1) / 2 * self.spacing:g} m east and ±{(ny - 1) / 2 * self.spacing:g} m north of its origin")
+                f"±{(nx - 1) / 2 * self.spacing:g} m east and ±{(ny - 1) / 2 * self.spacing:g} m north of its origin"
+            )
         self.site_m = ((self.i0 - (nx - 1) / 2) * self.spacing, (self.j0 - (ny - 1) / 2) * self.spacing)
         self.site_height = float(self.heights[self.j0, self.i0])
         # A bicubic read needs one node beyond its cell on each side.
-        self.reach_m = {"west": (self.i0 - 1) * self.spacing, "east": (nx - 2 - self.i0) * self.spacing,
-                        "south": (self.j0 - 1) * self.spacing, "north": (ny - 2 - self.j0) * self.spacing}
+        self.reach_m = {
+            "west": (self.i0 - 1) * self.spacing,
+            "east": (nx - 2 - self.i0) * self.spacing,
+            "south": (self.j0 - 1) * self.spacing,
+            "north": (ny - 2 - self.j0) * self.spacing,
+        }
         # The site's surface point in the DEM frame (metres from the DEM origin), and where it is.
         self.origin = self._surface_point(np.zeros(1), np.zeros(1), np.full(1, self.site_height))[:, 0]
         lat, lon, h = _core.LunarFrame(dem.lat_deg, dem.lon_deg, dem.h0_m).to_geodetic(*self.origin)
         self.rotation = enu_axes(lat, lon) @ enu_axes(dem.lat_deg, dem.lon_deg).T
         north = self.rotation[1]  # the site's North in DEM-frame components
-        self.site = DemSite(lat_deg=lat, lon_deg=lon, height_m=h,
-                            north_in_dem_deg=math.degrees(math.atan2(north[0], north[1])))
+        self.site = DemSite(
+            lat_deg=lat, lon_deg=lon, height_m=h, north_in_dem_deg=math.degrees(math.atan2(north[0], north[1]))
+        )
         self.site_radius = LUNAR_RADIUS_M + h
 
     def _surface_point(self, u: np.ndarray, v: np.ndarray, h: np.ndarray) -> np.ndarray:
@@ -199,8 +213,10 @@ class DemRelief:
         j = self.j0 + kv.astype(np.int64)
         ny, nx = self.heights.shape
         if i.size and (i.min() < 1 or i.max() > nx - 3 or j.min() < 1 or j.max() > ny - 3):
-            raise ValueError(f"terrain.extent_m: the terrain needs {self.name} beyond its edge; import a larger "
-                             "--size-m or lower terrain.extent_m")
+            raise ValueError(
+                f"terrain.extent_m: the terrain needs {self.name} beyond its edge; import a larger "
+                "--size-m or lower terrain.extent_m"
+            )
         z = np.zeros(np.broadcast(tu, tv).shape)
         for b in range(4):
             row = np.zeros_like(z)
@@ -228,8 +244,10 @@ class DemRelief:
             moved = np.abs(q - z[active]) > DEM_CONVERGED_M
             z[active] = q
             active = active[moved]
-        raise ValueError(f"{self.name}: the surface under the terrain was not found in {DEM_MAX_STEPS} steps "
-                         "(a near-vertical cliff?)")
+        raise ValueError(
+            f"{self.name}: the surface under the terrain was not found in {DEM_MAX_STEPS} steps "
+            "(a near-vertical cliff?)"
+        )
 
     def height(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Relief (metres, float64, shaped like x) at world (x, y) before curvature, as `Location`
@@ -257,7 +275,8 @@ class DemRelief:
                 f"terrain.extent_m: the terrain reaches {half_width_m:g} m around the site "
                 f"({self.site_m[0]:g} m E, {self.site_m[1]:g} m N of the DEM's origin) but {self.name} "
                 f"reaches only {sides} of it, where the terrain needs {needed}; import a larger --size-m or "
-                "lower terrain.extent_m")
+                "lower terrain.extent_m"
+            )
 
 
 def _catmull_rom(f: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -292,26 +311,42 @@ class Location:
         if longest > r.min_wavelength_m:
             # The octaves follow the whole law (fitted up to max_wavelength_m); a DEM's location
             # draws only those below what the DEM resolves, the DEM being the rest.
-            self.roughness = Roughness(seed=seed, law=slope_law(r), min_wavelength_m=r.min_wavelength_m,
-                                       max_wavelength_m=r.max_wavelength_m, longest_drawn_m=longest)
+            self.roughness = Roughness(
+                seed=seed,
+                law=slope_law(r),
+                min_wavelength_m=r.min_wavelength_m,
+                max_wavelength_m=r.max_wavelength_m,
+                longest_drawn_m=longest,
+            )
         self.hills = None
         if config.location == "hilly":
-            hills = SlopeLaw(rms_slope_deg=config.hills_rms_slope_deg, baseline_m=HILLS_BASELINE_M,
-                             hurst_coarse=HILLS_HURST, hurst_fine=HILLS_HURST, break_m=HILLS_BASELINE_M)
-            self.hills = Roughness(seed=seed + 1, law=hills, min_wavelength_m=4.0,
-                                   max_wavelength_m=config.hills_wavelength_m)
+            hills = SlopeLaw(
+                rms_slope_deg=config.hills_rms_slope_deg,
+                baseline_m=HILLS_BASELINE_M,
+                hurst_coarse=HILLS_HURST,
+                hurst_fine=HILLS_HURST,
+                break_m=HILLS_BASELINE_M,
+            )
+            self.hills = Roughness(
+                seed=seed + 1, law=hills, min_wavelength_m=4.0, max_wavelength_m=config.hills_wavelength_m
+            )
         # Sampled over squares that do not depend on the grid (so changing the grid's knobs
         # changes how the same craters are drawn, not which craters exist), then thinned to the
         # ones the grid can draw where they lie.
         craters = CraterField.sample_graded(
-            seed, density=c.density, d_min=c.min_diameter_m, d_max=max_crater,  # none if d_max <= d_min
-            half_size=lambda d: min(CRATER_REACH * d, config.extent_m))
+            seed,
+            density=c.density,
+            d_min=c.min_diameter_m,
+            d_max=max_crater,  # none if d_max <= d_min
+            half_size=lambda d: min(CRATER_REACH * d, config.extent_m),
+        )
         craters = craters.subset(drawable(axis, craters.centres, craters.diameters))
         # A work site is chosen outside large craters: drop those whose bowl reaches the fine
         # tile (otherwise a low Sun can leave the whole site in a crater wall's shadow).
         reach = craters.diameters / 2.0 + config.detail_extent_m
-        self.craters = craters.subset((craters.diameters <= c.site_max_diameter_m)
-                                      | (np.hypot(*craters.centres.T) > reach))
+        self.craters = craters.subset(
+            (craters.diameters <= c.site_max_diameter_m) | (np.hypot(*craters.centres.T) > reach)
+        )
         self.main_crater = main_crater(config)
 
     def surface(self, x: np.ndarray, y: np.ndarray, cell: np.ndarray) -> np.ndarray:

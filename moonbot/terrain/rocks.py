@@ -69,12 +69,12 @@ def rocks_per_m2(k: float, lo: float, hi: float) -> float:
 
 def power_law_per_m2(density: float, exponent: float, lo: float, hi: float) -> float:
     """Mean number of rocks per m² with lo ≤ D < hi (metres) under N(≥D) = density·D^exponent."""
-    return density * (lo ** exponent - hi ** exponent)
+    return density * (lo**exponent - hi**exponent)
 
 
 def _power_law_sizes(rng: np.random.Generator, exponent: float, lo: float, hi: float, count: int) -> np.ndarray:
     """`count` diameters (metres) from N(≥D) ∝ D^exponent truncated to [lo, hi) (inverse CDF)."""
-    a, b = lo ** exponent, hi ** exponent
+    a, b = lo**exponent, hi**exponent
     return (a - rng.random(count) * (a - b)) ** (1.0 / exponent)
 
 
@@ -101,8 +101,9 @@ class RockField:
         return len(self.diameters)
 
     def subset(self, keep: np.ndarray) -> RockField:
-        return RockField(self.centres[keep], self.diameters[keep], self.prototype[keep], self.yaw[keep],
-                         self.burial[keep])
+        return RockField(
+            self.centres[keep], self.diameters[keep], self.prototype[keep], self.yaw[keep], self.burial[keep]
+        )
 
 
 def band_half_size(config: RocksConfig, diameter: float) -> float:
@@ -143,8 +144,13 @@ def sample_rocks(seed: int, config: RocksConfig, crater: tuple[np.ndarray, float
     diameters = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0)
     rng = np.random.default_rng([seed, 0x0C5, 0xFFFF])
     count = len(diameters)
-    return RockField(centres, diameters, rng.integers(0, PROTOTYPES, count), rng.uniform(0, 2 * math.pi, count),
-                     rng.uniform(0.1, 0.7, count))
+    return RockField(
+        centres,
+        diameters,
+        rng.integers(0, PROTOTYPES, count),
+        rng.uniform(0, 2 * math.pi, count),
+        rng.uniform(0.1, 0.7, count),
+    )
 
 
 def crater_falloff(s: np.ndarray) -> np.ndarray:
@@ -157,11 +163,42 @@ def _icosphere(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
     """A unit icosphere: vertices (N, 3) float64 on the sphere, triangles (M, 3) int32,
     counter-clockwise seen from outside."""
     t = (1.0 + math.sqrt(5.0)) / 2.0
-    v = [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t), (0, -1, -t), (0, 1, -t),
-         (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]
-    f = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4), (11, 10, 2),
-         (10, 7, 6), (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8), (3, 8, 9), (4, 9, 5), (2, 4, 11),
-         (6, 2, 10), (8, 6, 7), (9, 8, 1)]
+    v = [
+        (-1, t, 0),
+        (1, t, 0),
+        (-1, -t, 0),
+        (1, -t, 0),
+        (0, -1, t),
+        (0, 1, t),
+        (0, -1, -t),
+        (0, 1, -t),
+        (t, 0, -1),
+        (t, 0, 1),
+        (-t, 0, -1),
+        (-t, 0, 1),
+    ]
+    f = [
+        (0, 11, 5),
+        (0, 5, 1),
+        (0, 1, 7),
+        (0, 7, 10),
+        (0, 10, 11),
+        (1, 5, 9),
+        (5, 11, 4),
+        (11, 10, 2),
+        (10, 7, 6),
+        (7, 1, 8),
+        (3, 9, 4),
+        (3, 4, 2),
+        (3, 2, 6),
+        (3, 6, 8),
+        (3, 8, 9),
+        (4, 9, 5),
+        (2, 4, 11),
+        (6, 2, 10),
+        (8, 6, 7),
+        (9, 8, 1),
+    ]
     vertices = [np.array(p, dtype=np.float64) / np.linalg.norm(p) for p in v]
     faces = f
     for _ in range(subdivisions):
@@ -175,9 +212,16 @@ def _icosphere(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
                 midpoint[key] = len(vertices) - 1
             return midpoint[key]
 
-        faces = [tri for a, b, c in faces
-                 for tri in ((a, mid(a, b), mid(c, a)), (b, mid(b, c), mid(a, b)), (c, mid(c, a), mid(b, c)),
-                             (mid(a, b), mid(b, c), mid(c, a)))]
+        faces = [
+            tri
+            for a, b, c in faces
+            for tri in (
+                (a, mid(a, b), mid(c, a)),
+                (b, mid(b, c), mid(a, b)),
+                (c, mid(c, a), mid(b, c)),
+                (mid(a, b), mid(b, c), mid(c, a)),
+            )
+        ]
     return np.array(vertices), np.array(faces, dtype=np.int32)
 
 

@@ -51,6 +51,8 @@ _MASK = (1 << 64) - 1
 HAPKE_RMS_PER_TAN = math.sqrt(math.pi / 2.0)  # 1-D RMS slope of Hapke's distribution over tan θ̄
 BASELINES_PER_OCTAVE = 3  # law points the octave amplitudes are fitted to
 SMOOTHING = 0.3  # weight of the fit's penalty on neighbouring octaves' relative amplitudes
+
+
 def _mix(h: np.ndarray) -> np.ndarray:
     """SplitMix64 finaliser on uint64 arrays: a bijective, well-mixed integer hash."""
     h = h ^ (h >> np.uint64(30))
@@ -63,8 +65,7 @@ def _mix(h: np.ndarray) -> np.ndarray:
 def _lattice(seed: int, octave: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
     """Value in [-1, 1) at integer lattice points (i, j) of one octave (float64)."""
     key = np.uint64((seed * _GOLDEN + (octave + 1) * 0xD1B54A32D192ED03) & _MASK)
-    h = _mix(key ^ _mix(i.astype(np.int64).view(np.uint64) * np.uint64(_GOLDEN)
-                        ^ j.astype(np.int64).view(np.uint64)))
+    h = _mix(key ^ _mix(i.astype(np.int64).view(np.uint64) * np.uint64(_GOLDEN) ^ j.astype(np.int64).view(np.uint64)))
     return (h >> np.uint64(11)).astype(np.float64) * (2.0 / 2.0**53) - 1.0
 
 
@@ -123,8 +124,13 @@ class SlopeLaw:
 
 def slope_law(config) -> SlopeLaw:
     """The law of a `RoughnessConfig` (moonbot.config.schema)."""
-    return SlopeLaw(rms_slope_deg=config.rms_slope_deg, baseline_m=config.baseline_m,
-                    hurst_coarse=config.hurst_coarse, hurst_fine=config.hurst_fine, break_m=config.break_m)
+    return SlopeLaw(
+        rms_slope_deg=config.rms_slope_deg,
+        baseline_m=config.baseline_m,
+        hurst_coarse=config.hurst_coarse,
+        hurst_fine=config.hurst_fine,
+        break_m=config.break_m,
+    )
 
 
 def theta_bar_deg(tan_rms_slope: float) -> float:
@@ -137,10 +143,12 @@ def unresolved_theta_bar_deg(law: SlopeLaw, smallest_m: float, resolved_tan: flo
     `smallest_m` less the mesh's resolved facet tan² (`resolved_tan`, tangent of the mesh's 1-D RMS
     facet slope). Raises ValueError if the mesh is rougher than the law's total."""
     total = float(law.tan_slope(smallest_m)) ** 2
-    left = total - resolved_tan ** 2
+    left = total - resolved_tan**2
     if left < 0:
-        raise ValueError(f"roughness: the mesh's RMS slope {math.degrees(math.atan(resolved_tan)):.1f}° exceeds "
-                         f"the law's total {float(law.slope_deg(smallest_m)):.1f}° at {smallest_m} m")
+        raise ValueError(
+            f"roughness: the mesh's RMS slope {math.degrees(math.atan(resolved_tan)):.1f}° exceeds "
+            f"the law's total {float(law.slope_deg(smallest_m)):.1f}° at {smallest_m} m"
+        )
     return theta_bar_deg(math.sqrt(left))
 
 
@@ -222,15 +230,17 @@ class Roughness:
         design = _structure_at(b[:, None] / self.wavelengths[None, :]) * own[None, :] / target[:, None]
         n = len(own)
         smooth = SMOOTHING * (np.eye(n - 1, n) - np.eye(n - 1, n, k=1))
-        relative, _ = nnls(np.vstack([design, smooth]), np.concatenate([np.ones(len(b)), np.zeros(n - 1)]),
-                           maxiter=50 * n)
+        relative, _ = nnls(
+            np.vstack([design, smooth]), np.concatenate([np.ones(len(b)), np.zeros(n - 1)]), maxiter=50 * n
+        )
         return np.sqrt(relative * own)
 
     def structure(self, baseline: np.ndarray | float) -> np.ndarray:
         """ν(Δx) of the unlimited field (metres), from the octaves' amplitudes and g."""
         b = np.atleast_1d(np.asarray(baseline, dtype=np.float64))
-        return np.sqrt(_structure_at(b[:, None] / self.wavelengths[None, :]) @ self.amplitudes ** 2).reshape(
-            np.shape(baseline))
+        return np.sqrt(_structure_at(b[:, None] / self.wavelengths[None, :]) @ self.amplitudes**2).reshape(
+            np.shape(baseline)
+        )
 
     def _sum(self, x: np.ndarray, y: np.ndarray, cell: np.ndarray | None) -> np.ndarray:
         z = np.zeros(np.broadcast(x, y).shape)

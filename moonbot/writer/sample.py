@@ -13,11 +13,11 @@ import numpy as np
 
 from moonbot import _core
 from moonbot.atomic_io import atomic_write
+from moonbot.records.gt import GT, GtRecord, InstanceRecord, write_gt
 from moonbot.render.amodal import AmodalMasks
 from moonbot.render.exposure import LUMINOUS_EFFICACY_LM_W, Exposure, tonemap
 from moonbot.render.view import RenderedView
 from moonbot.scene.compose import BagInstance
-from moonbot.records.gt import GT, GtRecord, InstanceRecord, write_gt
 from moonbot.scene.orbit import CameraPose
 
 # BOP depth_scale: depth_mm = png_value × DEPTH_SCALE_MM. 1 mm steps, 65.535 m at most.
@@ -69,9 +69,19 @@ def pose_m2c(camera: CameraPose, world_from_model: np.ndarray) -> tuple[np.ndarr
     return R, t_m * 1000.0
 
 
-def write_sample(out_dir: Path, view: RenderedView, exposure: Exposure, K: np.ndarray,
-                 camera: CameraPose, bags: tuple[BagInstance, ...], png_compression: int,
-                 meta: dict, timings: dict, exr: bool = False, amodal: AmodalMasks | None = None) -> GtRecord:
+def write_sample(
+    out_dir: Path,
+    view: RenderedView,
+    exposure: Exposure,
+    K: np.ndarray,
+    camera: CameraPose,
+    bags: tuple[BagInstance, ...],
+    png_compression: int,
+    meta: dict,
+    timings: dict,
+    exr: bool = False,
+    amodal: AmodalMasks | None = None,
+) -> GtRecord:
     """Encodes and writes one view into `out_dir` (which must exist): rgb.png tone-mapped at
     `exposure`, and with `exr` also rgb.exr (linear float32 radiance, W/(m²·sr), zip at
     `png_compression`'s level; its header has `whiteLuminance` = cd/m² of RGB 1.0,
@@ -108,8 +118,11 @@ def write_sample(out_dir: Path, view: RenderedView, exposure: Exposure, K: np.nd
     if exr:
         # The tone map has counted the invalid pixels already: a sound render is written as is.
         hdr = view.rgb if invalid_pixels == 0 else finite_radiance(view.rgb)
-        attributes = {"whiteLuminance": LUMINOUS_EFFICACY_LM_W, "moonbot:radianceUnit": RADIANCE_UNIT,
-                      "moonbot:ev100": exposure.ev100}
+        attributes = {
+            "whiteLuminance": LUMINOUS_EFFICACY_LM_W,
+            "moonbot:radianceUnit": RADIANCE_UNIT,
+            "moonbot:ev100": exposure.ev100,
+        }
         jobs.append(lambda: _core.write_image(str(out_dir / "rgb.exr"), hdr, attributes=attributes))
     with ThreadPoolExecutor(max_workers=min(len(jobs), os.cpu_count() or 1)) as pool:
         for future in [pool.submit(job) for job in jobs]:
@@ -120,18 +133,29 @@ def write_sample(out_dir: Path, view: RenderedView, exposure: Exposure, K: np.nd
     for bag in bags:
         R, t = pose_m2c(camera, bag.world_from_model)
         m = amodal_by_id.get(bag.instance_id)
-        instances.append(InstanceRecord(
-            instance_id=bag.instance_id,
-            obj_id=bag.obj_id,
-            cam_R_m2c=tuple(R.reshape(-1).tolist()),
-            cam_t_m2c=tuple(t.tolist()),
-            px_count_visib=int(np.count_nonzero(view.instance == bag.instance_id)),
-            mask_amodal=None if m is None else AMODAL_FILE.format(instance_id=m.instance_id),
-            px_count_all=None if m is None else m.px_count_all,
-            bbox_all=None if m is None else tuple(m.bbox_all),
-        ))
-    exr_record = {"file": "rgb.exr", "unit": RADIANCE_UNIT, "sample_type": "float32",
-                  "compression": f"zip:{png_compression}", "white_luminance_cd_m2": LUMINOUS_EFFICACY_LM_W} if exr else None
+        instances.append(
+            InstanceRecord(
+                instance_id=bag.instance_id,
+                obj_id=bag.obj_id,
+                cam_R_m2c=tuple(R.reshape(-1).tolist()),
+                cam_t_m2c=tuple(t.tolist()),
+                px_count_visib=int(np.count_nonzero(view.instance == bag.instance_id)),
+                mask_amodal=None if m is None else AMODAL_FILE.format(instance_id=m.instance_id),
+                px_count_all=None if m is None else m.px_count_all,
+                bbox_all=None if m is None else tuple(m.bbox_all),
+            )
+        )
+    exr_record = (
+        {
+            "file": "rgb.exr",
+            "unit": RADIANCE_UNIT,
+            "sample_type": "float32",
+            "compression": f"zip:{png_compression}",
+            "white_luminance_cd_m2": LUMINOUS_EFFICACY_LM_W,
+        }
+        if exr
+        else None
+    )
     gt = GtRecord(
         cam_K=tuple(K.reshape(-1).tolist()),
         width=int(view.depth.shape[1]),

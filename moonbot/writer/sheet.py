@@ -13,9 +13,9 @@ from moonbot import _core
 from moonbot.records.base import RecordError
 from moonbot.records.gt import GT, read_gt
 
-_GAP = 2          # pixels between tiles and cells
+_GAP = 2  # pixels between tiles and cells
 _GAP_GREY = 64
-LABEL_PX = 14     # height of the label strip above each view's tiles
+LABEL_PX = 14  # height of the label strip above each view's tiles
 _LABEL_GREY = 32
 
 
@@ -49,12 +49,12 @@ def write_sheet(view_dirs: list[Path], path: Path, png_compression: int = 1) -> 
         labels = [_view_name(d), "depth", "mask"]
         cells.append(np.concatenate([label_strip(labels, tiles[0].shape[1], _GAP), _hstack(tiles)]))
     columns = max(1, round(math.sqrt(len(cells) * cells[0].shape[0] / cells[0].shape[1])))
-    rows = [_hstack(cells[i:i + columns], pad_to=columns) for i in range(0, len(cells), columns)]
+    rows = [_hstack(cells[i : i + columns], pad_to=columns) for i in range(0, len(cells), columns)]
     _core.write_image(str(path), _vstack(rows), png_compression)
 
 
 def _view_name(view_dir: Path) -> str:
-    """"view NNN, az A°" from the view's gt.json (its folder's name alone when that is unreadable)."""
+    """ "view NNN, az A°" from the view's gt.json (its folder's name alone when that is unreadable)."""
     try:
         azimuth = read_gt(view_dir / GT).camera_azimuth_deg
         return f"{view_dir.name.replace('_', ' ')}, az {azimuth:g}°"
@@ -76,8 +76,16 @@ def label_strip(labels: list[str], tile_w: int, gap: int) -> np.ndarray:
     canvas = FigureCanvasAgg(fig)
     for i, text in enumerate(labels):
         left = i * (tile_w + gap)
-        artist = fig.text((left + 2) / width, 0.5, text, ha="left", va="center", color="0.85",
-                          fontsize=0.62 * LABEL_PX * 72 / dpi, family="DejaVu Sans")
+        artist = fig.text(
+            (left + 2) / width,
+            0.5,
+            text,
+            ha="left",
+            va="center",
+            color="0.85",
+            fontsize=0.62 * LABEL_PX * 72 / dpi,
+            family="DejaVu Sans",
+        )
         artist.set_clip_path(Rectangle((left, 0), tile_w, LABEL_PX, transform=None))  # display pixels
     canvas.draw()
     pixels = np.asarray(canvas.buffer_rgba())[..., :3]
@@ -92,7 +100,7 @@ def _hstack(images: list[np.ndarray], pad_to: int = 0) -> np.ndarray:
     n = max(len(images), pad_to)
     out = np.full((h, n * w + (n - 1) * _GAP, 3), _GAP_GREY, np.uint8)
     for i, img in enumerate(images):
-        out[:, i * (w + _GAP):i * (w + _GAP) + w] = img
+        out[:, i * (w + _GAP) : i * (w + _GAP) + w] = img
     return out
 
 
@@ -100,5 +108,5 @@ def _vstack(images: list[np.ndarray]) -> np.ndarray:
     h, w = images[0].shape[:2]
     out = np.full((len(images) * h + (len(images) - 1) * _GAP, w, 3), _GAP_GREY, np.uint8)
     for i, img in enumerate(images):
-        out[i * (h + _GAP):i * (h + _GAP) + h] = img
+        out[i * (h + _GAP) : i * (h + _GAP) + h] = img
     return out

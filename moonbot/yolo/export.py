@@ -45,9 +45,15 @@ def _scene_labels(dataset: Path, scene_dir: str) -> list[tuple[str, str, str, st
                 row = make(instance["obj_id"], visible)
                 if row is not None:
                     rows.append(row)
-        labels.append((meta["split"], f"{meta['mesh']}_{meta['location']}_{meta['scene_id']:06d}_{name}",
-                       f"{scene_dir}/rgb/{name}.png", "".join(row + "\n" for row in detect_rows),
-                       "".join(row + "\n" for row in segment_rows)))
+        labels.append(
+            (
+                meta["split"],
+                f"{meta['mesh']}_{meta['location']}_{meta['scene_id']:06d}_{name}",
+                f"{scene_dir}/rgb/{name}.png",
+                "".join(row + "\n" for row in detect_rows),
+                "".join(row + "\n" for row in segment_rows),
+            )
+        )
     return labels
 
 

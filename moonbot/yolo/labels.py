@@ -82,7 +82,9 @@ def data_yaml(splits: list[str], task: str, objects: dict[int, str] | None = Non
     elif "val" in splits:
         val = "val"
     else:
-        lines.append("# no val split in this dataset (a sweep split with draw_from adds one): val is the training images")
+        lines.append(
+            "# no val split in this dataset (a sweep split with draw_from adds one): val is the training images"
+        )
         val = train
     lines += [f"train: images/{train}", f"val: images/{val}"]
     if "test" in splits:

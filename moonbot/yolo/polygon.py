@@ -40,21 +40,25 @@ def boundary_loops(mask: np.ndarray) -> list[np.ndarray]:
     if xs.size == 0:
         return []
     x0, y0 = int(xs.min()), int(ys.min())
-    crop = mask[y0:int(ys.max()) + 1, x0:int(xs.max()) + 1]
+    crop = mask[y0 : int(ys.max()) + 1, x0 : int(xs.max()) + 1]
     p = np.pad(crop, 1)  # p[y + 1, x + 1] is crop[y, x]; outside is False
     h, w = crop.shape
     # Horizontal grid line y (0..h) between rows y-1 and y; vertical line x between columns x-1, x.
     above, below = p[:-1, 1:-1], p[1:, 1:-1]  # (h + 1, w): rows y - 1 and y at line y, column x
-    left, right = p[1:-1, :-1], p[1:-1, 1:]   # (h, w + 1): columns x - 1 and x at line x, row y
+    left, right = p[1:-1, :-1], p[1:-1, 1:]  # (h, w + 1): columns x - 1 and x at line x, row y
     starts, dirs = [], []
     yy, xx = np.nonzero(below & ~above)  # top edges: east from (x, y)
-    starts.append(np.stack([xx, yy], 1)); dirs.append(np.full(xx.size, _EAST))
+    starts.append(np.stack([xx, yy], 1))
+    dirs.append(np.full(xx.size, _EAST))
     yy, xx = np.nonzero(above & ~below)  # bottom edges: west from (x + 1, y)
-    starts.append(np.stack([xx + 1, yy], 1)); dirs.append(np.full(xx.size, _WEST))
-    yy, xx = np.nonzero(right & ~left)   # left edges: north from (x, y + 1)
-    starts.append(np.stack([xx, yy + 1], 1)); dirs.append(np.full(xx.size, _NORTH))
-    yy, xx = np.nonzero(left & ~right)   # right edges: south from (x, y)
-    starts.append(np.stack([xx, yy], 1)); dirs.append(np.full(xx.size, _SOUTH))
+    starts.append(np.stack([xx + 1, yy], 1))
+    dirs.append(np.full(xx.size, _WEST))
+    yy, xx = np.nonzero(right & ~left)  # left edges: north from (x, y + 1)
+    starts.append(np.stack([xx, yy + 1], 1))
+    dirs.append(np.full(xx.size, _NORTH))
+    yy, xx = np.nonzero(left & ~right)  # right edges: south from (x, y)
+    starts.append(np.stack([xx, yy], 1))
+    dirs.append(np.full(xx.size, _SOUTH))
     start = np.concatenate(starts).astype(np.int64)
     direction = np.concatenate(dirs).astype(np.int64)
     end = start + _STEP[direction]
@@ -100,7 +104,7 @@ def _douglas_peucker(points: np.ndarray, tolerance: float) -> np.ndarray:
             continue
         a, b = points[i].astype(np.float64), points[j].astype(np.float64)
         seg = b - a
-        rel = points[i + 1:j].astype(np.float64) - a
+        rel = points[i + 1 : j].astype(np.float64) - a
         length = float(np.hypot(*seg))
         if length > 0.0:
             dist = np.abs(seg[0] * rel[:, 1] - seg[1] * rel[:, 0]) / length
@@ -119,8 +123,12 @@ def _extremes(loop: np.ndarray) -> list[int]:
     """Indices of a loop's leftmost (then topmost), topmost (then rightmost), rightmost (then
     bottommost) and bottommost (then leftmost) vertices, ascending, without repeats."""
     x, y = loop[:, 0], loop[:, 1]
-    picks = {int(np.lexsort((y, x))[0]), int(np.lexsort((-x, y))[0]),
-             int(np.lexsort((-y, -x))[0]), int(np.lexsort((x, -y))[0])}
+    picks = {
+        int(np.lexsort((y, x))[0]),
+        int(np.lexsort((-x, y))[0]),
+        int(np.lexsort((-y, -x))[0]),
+        int(np.lexsort((x, -y))[0]),
+    }
     return sorted(picks)
 
 
@@ -160,5 +168,5 @@ def mask_polygon(mask: np.ndarray, tolerance: float = DEFAULT_TOLERANCE_PX) -> n
         _, k, i, j = best
         loop = np.roll(loops.pop(k), -j, axis=0)
         # ... ring[i] → loop[j] → around the loop → loop[j] → ring[i] → ring[i + 1] ...
-        ring = np.concatenate([ring[:i + 1], loop, loop[:1], ring[i:]])
+        ring = np.concatenate([ring[: i + 1], loop, loop[:1], ring[i:]])
     return ring.astype(np.float64)

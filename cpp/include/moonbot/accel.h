@@ -110,8 +110,7 @@ public:
     /// Builds a prototype BVH at once over `n_vertices` xyz float triples (the buffer must hold
     /// 4 readable bytes past the last vertex, Embree's padding rule, and outlive this Accel) and
     /// `n_triangles` index triples. Returns the prototype index.
-    uint32_t add_prototype(const float* vertices, size_t n_vertices, const uint32_t* triangles,
-                           size_t n_triangles);
+    uint32_t add_prototype(const float* vertices, size_t n_vertices, const uint32_t* triangles, size_t n_triangles);
 
     /// Adds an instance of `prototype` with a column-major 3x4 world-from-object affine transform.
     /// Instances are numbered 0, 1, 2, ... in the order added; hits report that number in inst_id.

@@ -57,15 +57,13 @@ public:
     static DemRaster open_geotiff(const std::string& path, const DemHeightUnits& units = {});
     /// A single-channel 16-bit PNG: sample s → min_m + (max_m − min_m)·s/65535 (then `units`);
     /// pixels form a local equirectangular grid centred on the stated lat/lon, rows going south.
-    static DemRaster open_png(const std::string& path, const DemPngLayout& layout,
-                              const DemHeightUnits& units = {});
+    static DemRaster open_png(const std::string& path, const DemPngLayout& layout, const DemHeightUnits& units = {});
     /// By extension: .tif/.tiff → open_geotiff; .png → open_png, which needs `png`.
-    static DemRaster open(const std::string& path, const DemHeightUnits& units,
-                          const std::optional<DemPngLayout>& png);
+    static DemRaster open(const std::string& path, const DemHeightUnits& units, const std::optional<DemPngLayout>& png);
     /// An in-memory raster (row-major width×height heights in metres, NaN = void), for callers
     /// with their own readers and for tests. `name` stands in for the file in messages.
-    static DemRaster from_heights(std::string name, int width, int height,
-                                  std::vector<double> heights_m, const DemGeoref& georef);
+    static DemRaster from_heights(std::string name, int width, int height, std::vector<double> heights_m,
+                                  const DemGeoref& georef);
 
     const std::string& name() const { return m_name; }
     int width() const { return m_width; }

@@ -78,8 +78,8 @@ constexpr int kMaxCorrections = 16;
 /// whose flight leaves the scene keep falling (they are returned where they are). `threads` in
 /// 0..1024 (0 = all); the result is the same for any value. Throws std::invalid_argument on bad
 /// arguments.
-std::vector<Fragment> simulate_ejecta(const Scene& scene, const EjectaParams& params, uint64_t seed,
-                                      double time_s, double dt_s, int threads = 0);
+std::vector<Fragment> simulate_ejecta(const Scene& scene, const EjectaParams& params, uint64_t seed, double time_s,
+                                      double dt_s, int threads = 0);
 
 /// Flies `f` from its current state until it is `duration` seconds old (or at rest), in steps of
 /// at most `dt`, bouncing on `scene` (committed; the caller holds its ReadLock): a bounce keeps
@@ -129,7 +129,7 @@ struct CloudParams {
     double sigma_m = 0.15;             ///< a puff's standard deviation at birth
     double growth_m_s = 0.08;          ///< ... growing linearly with age
     double optical_depth = 0.25;       ///< through a puff's centre at its most opaque
-    double rise_fraction = 0.1;        ///< opacity rises linearly over this fraction of life, then falls as ((1−u)/(1−rise))²
+    double rise_fraction = 0.1;  ///< opacity rises linearly over this fraction of life, then falls as ((1−u)/(1−rise))²
 
     /// Throws std::invalid_argument naming the field.
     void validate() const;
@@ -139,6 +139,5 @@ struct CloudParams {
 /// place, size and opacity are closed-form functions of its age and of (seed, k), so any time is
 /// evaluated directly, with no stepping, and is the same whatever was evaluated before.
 std::vector<Puff> cloud_puffs(const CloudParams& params, uint64_t seed, double time_s);
-
 
 }  // namespace moonbot

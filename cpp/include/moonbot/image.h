@@ -44,9 +44,8 @@ enum class PixelType { U8, U16, F32 };
 /// bytes), .exr (F32, zip at the same deflate level), .tif. `attributes` go into the header (names must be non-empty).
 /// Writes `<dir>/.<name>.<pid>.tmp<ext>` and renames it over the target, so a reader never sees a
 /// partial file. Throws IoError naming the path on failure.
-void write_image(const std::string& path, const void* pixels, int width, int height,
-                 int channels, PixelType type, int png_compression = 1,
-                 const std::vector<ImageAttribute>& attributes = {});
+void write_image(const std::string& path, const void* pixels, int width, int height, int channels, PixelType type,
+                 int png_compression = 1, const std::vector<ImageAttribute>& attributes = {});
 
 /// A decoded image: row-major width×height×channels samples of `type`, as stored in the file.
 struct Image {

@@ -22,8 +22,8 @@
 
 #include <glm/glm.hpp>
 
-#include "moonbot/scene.h"
 #include "moonbot/light.h"
+#include "moonbot/scene.h"
 
 namespace moonbot {
 

@@ -6,8 +6,8 @@
 #include <vector>
 
 #include "moonbot/camera.h"
-#include "moonbot/scene.h"
 #include "moonbot/light.h"
+#include "moonbot/scene.h"
 
 namespace moonbot {
 
@@ -60,7 +60,7 @@ struct EmbreeLimit {
 
 /// Generates the rays once (untimed), then times only the Embree calls. `repeats` ≥ 1,
 /// `bounces` in 0..kMaxBounces.
-EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const DirectionalLight& sun,
-                                 int threads, int repeats, int bounces = 0);
+EmbreeLimit measure_embree_limit(const Scene& scene, const Camera& camera, const DirectionalLight& sun, int threads,
+                                 int repeats, int bounces = 0);
 
 }  // namespace moonbot

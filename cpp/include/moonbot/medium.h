@@ -92,8 +92,8 @@ public:
     /// ·length: the sunlight the dust scatters toward the origin, per unit of phase × radiance.
     /// Stretches of empty blocks (kBlock³ cells of zero extinction) are stepped over unsampled:
     /// their samples would be exactly 0.
-    double march(const glm::dvec3& origin, const glm::dvec3& dir, double enter, double exit, double step,
-                 double opaque, double& lit) const;
+    double march(const glm::dvec3& origin, const glm::dvec3& dir, double enter, double exit, double step, double opaque,
+                 double& lit) const;
 
     /// `march`'s sums along the way: after step j (j = 0 .. count − 1, count = ⌈(exit − enter) /
     /// step⌉), tau[j + 1] and lit[j + 1] hold the optical depth and the scattered light from
@@ -111,9 +111,7 @@ public:
 
 private:
     size_t node(int i, int j, int k) const { return (static_cast<size_t>(k) * m_n[1] + j) * m_n[0] + i; }
-    size_t block(int i, int j, int k) const {
-        return (static_cast<size_t>(k) * m_blocks[1] + j) * m_blocks[0] + i;
-    }
+    size_t block(int i, int j, int k) const { return (static_cast<size_t>(k) * m_blocks[1] + j) * m_blocks[0] + i; }
     // The constructor's steps, in order.
     /// Each puff's reach (m_reach) and centre in the grid frame; the box of those the grid holds
     /// (m_lo, m_hi). Returns the reaches with 0 for the puffs the grid leaves out.
@@ -138,8 +136,8 @@ private:
     /// The steps of a march (see `march`): calls visit(j, length, extinction, sunlight) for each
     /// step j with dust, in order, until the optical depth passes `opaque`.
     template <typename Visit>
-    void walk(const glm::dvec3& origin, const glm::dvec3& dir, double enter, double exit, double step,
-              double opaque, Visit&& visit) const;
+    void walk(const glm::dvec3& origin, const glm::dvec3& dir, double enter, double exit, double step, double opaque,
+              Visit&& visit) const;
 
     const Medium& m_medium;
     glm::dvec3 m_sun;

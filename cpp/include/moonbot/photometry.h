@@ -106,8 +106,11 @@ constexpr double kDegPerRad = 57.295779513082320877;
 /// render stage at default quality (profiled), and Lunar-Lambert evaluates it at every path vertex.
 inline double phase_angle(double cos_g) {
     const double x = std::abs(std::clamp(cos_g, -1.0, 1.0));
-    const double p = 1.5707963050 + x * (-0.2145988016 + x * (0.0889789874 + x * (-0.0501743046 + x * (
-                     0.0308918810 + x * (-0.0170881256 + x * (0.0066700901 - x * 0.0012624911))))));
+    const double p = 1.5707963050 +
+                     x * (-0.2145988016 +
+                          x * (0.0889789874 +
+                               x * (-0.0501743046 +
+                                    x * (0.0308918810 + x * (-0.0170881256 + x * (0.0066700901 - x * 0.0012624911))))));
     const double angle = std::sqrt(1.0 - x) * p;
     return cos_g < 0.0 ? 3.14159265358979323846 - angle : angle;
 }

@@ -7,10 +7,10 @@
 #include <vector>
 
 #include "moonbot/camera.h"
+#include "moonbot/light.h"
 #include "moonbot/medium.h"
 #include "moonbot/render_limits.h"
 #include "moonbot/scene.h"
-#include "moonbot/light.h"
 
 namespace moonbot {
 
@@ -72,7 +72,8 @@ struct RenderStats {
     uint64_t bounce_rays = 0;
     uint64_t medium_rays = 0;  ///< shadow rays toward the Sun from the dust's grid nodes
     uint64_t refined_pixels = 0;   ///< pixels given adaptive_spp samples (RenderSettings::adaptive_spp)
-    uint64_t refinement_rays = 0;  ///< of camera_rays, second_look_rays and shadow_rays, those of the refinement samples
+    uint64_t refinement_rays =
+        0;  ///< of camera_rays, second_look_rays and shadow_rays, those of the refinement samples
     double seconds = 0.0;
 };
 
@@ -107,9 +108,8 @@ struct RenderStats {
 /// a surface it covers takes its indirect light from it, albedo/π · shape(mean direction) · E,
 /// and traces no bounce; hits on moving geometry, or on a cached surface's back, bounce as
 /// without it. The lights stay per pixel with their shadow rays.
-RenderStats render(const Scene& scene, const Camera& camera, const Lights& lights,
-                   const RenderSettings& settings, const FrameView& out, const Medium* medium = nullptr,
-                   const LightCache* light_cache = nullptr);
+RenderStats render(const Scene& scene, const Camera& camera, const Lights& lights, const RenderSettings& settings,
+                   const FrameView& out, const Medium* medium = nullptr, const LightCache* light_cache = nullptr);
 /// The same, lit by the Sun alone.
 RenderStats render(const Scene& scene, const Camera& camera, const DirectionalLight& sun,
                    const RenderSettings& settings, const FrameView& out);
@@ -125,9 +125,8 @@ struct Frame {
     std::vector<uint8_t> instance;
     RenderStats stats;
 };
-Frame render_frame(const Scene& scene, const Camera& camera, const Lights& lights,
-                   const RenderSettings& settings, const Medium* medium = nullptr,
-                   const LightCache* light_cache = nullptr);
+Frame render_frame(const Scene& scene, const Camera& camera, const Lights& lights, const RenderSettings& settings,
+                   const Medium* medium = nullptr, const LightCache* light_cache = nullptr);
 Frame render_frame(const Scene& scene, const Camera& camera, const DirectionalLight& sun,
                    const RenderSettings& settings);
 

@@ -111,8 +111,8 @@ inline void turn_cos_sin(double turn, double& c, double& s) {
     const double sin_a =
         a * (1.0 + a2 * (-1.0 / 6 + a2 * (1.0 / 120 + a2 * (-1.0 / 5040 + a2 * (1.0 / 362880 - a2 / 39916800.0)))));
     const double cos_a =
-        1.0 + a2 * (-0.5 + a2 * (1.0 / 24 + a2 * (-1.0 / 720 + a2 * (1.0 / 40320 + a2 * (-1.0 / 3628800 +
-                                                                                          a2 / 479001600.0)))));
+        1.0 + a2 * (-0.5 + a2 * (1.0 / 24 +
+                                 a2 * (-1.0 / 720 + a2 * (1.0 / 40320 + a2 * (-1.0 / 3628800 + a2 / 479001600.0)))));
     const int k = static_cast<int>(q) & 3;
     c = kQuarterCos[k] * cos_a - kQuarterSin[k] * sin_a;
     s = kQuarterSin[k] * cos_a + kQuarterCos[k] * sin_a;

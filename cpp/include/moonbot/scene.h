@@ -62,15 +62,14 @@ struct Mesh {
     std::vector<float> vertices;      // xyz per vertex, metres, plus one padding float (Embree rule)
     std::vector<uint32_t> triangles;  // three vertex indices per triangle
     std::vector<float> corner_uvs;    // (u, v) per triangle corner, 6 per triangle; empty if none
-    std::vector<float> vertex_albedo;  // a factor on the material's albedo per vertex (1 or 3 per vertex); empty if none
+    std::vector<float>
+        vertex_albedo;  // a factor on the material's albedo per vertex (1 or 3 per vertex); empty if none
     int vertex_albedo_channels = 1;    // 1: one factor on all of RGB; 3: one per channel
     std::vector<float> vertex_normals;  // unit shading normal per vertex (object frame, xyz); empty if none
     size_t vertex_count() const { return (vertices.size() - 1) / 3; }
     size_t triangle_count() const { return triangles.size() / 3; }
     /// Vertex i in double precision (object frame, metres).
-    glm::dvec3 vertex(uint32_t i) const {
-        return {vertices[3 * i], vertices[3 * i + 1], vertices[3 * i + 2]};
-    }
+    glm::dvec3 vertex(uint32_t i) const { return {vertices[3 * i], vertices[3 * i + 1], vertices[3 * i + 2]}; }
 };
 
 /// One placed copy of a mesh.
@@ -108,10 +107,9 @@ public:
     /// non-zero; normalised here) are shading normals interpolated across triangles, so a
     /// tessellated smooth surface does not shade as facets; visibility still follows the
     /// triangles themselves.
-    uint32_t add_mesh(const float* vertices, size_t n_vertices, const uint32_t* triangles,
-                      size_t n_triangles, const float* corner_uvs = nullptr,
-                      const float* vertex_albedo = nullptr, const float* vertex_normals = nullptr,
-                      int albedo_channels = 1);
+    uint32_t add_mesh(const float* vertices, size_t n_vertices, const uint32_t* triangles, size_t n_triangles,
+                      const float* corner_uvs = nullptr, const float* vertex_albedo = nullptr,
+                      const float* vertex_normals = nullptr, int albedo_channels = 1);
 
     /// Moves the vertices of mesh `mesh` (one without vertex normals, whose shading would go
     /// stale) to `vertices` (n_vertices×3, the mesh's own count, finite; triangles and UVs stay)
@@ -123,13 +121,12 @@ public:
     /// Adds a labelled object (label 1–255, unique in the scene) with a world-from-object affine
     /// transform (metres). A woven material paints its stain mask here (none for 0 stamps).
     /// Returns the instance index.
-    uint32_t add_instance(uint32_t mesh, const glm::dmat4& world_from_object, int label,
-                          const Material& material);
+    uint32_t add_instance(uint32_t mesh, const glm::dmat4& world_from_object, int label, const Material& material);
 
     /// Adds unlabelled geometry (terrain, rocks): it shows in RGB and depth with label 0.
     /// `moving`: it will move between views (Instance::moving).
-    uint32_t add_background(uint32_t mesh, const glm::dmat4& world_from_object,
-                            const Material& material, bool moving = false);
+    uint32_t add_background(uint32_t mesh, const glm::dmat4& world_from_object, const Material& material,
+                            bool moving = false);
 
     /// Builds the top-level BVH. Rendering needs a committed scene; adding after a commit
     /// requires another commit.
@@ -166,8 +163,8 @@ public:
     };
 
 private:
-    uint32_t add(uint32_t mesh, const glm::dmat4& world_from_object, uint8_t label,
-                 const Material& material, bool moving);
+    uint32_t add(uint32_t mesh, const glm::dmat4& world_from_object, uint8_t label, const Material& material,
+                 bool moving);
     void require_not_rendering() const;
 
     Accel m_accel;

@@ -62,16 +62,16 @@ class HostSummary:
     host: str
     cpu_model: str
     cores: int
-    threads: int          # render threads per worker (the largest its tasks report)
-    workers: int          # peak concurrent tasks on this host
+    threads: int  # render threads per worker (the largest its tasks report)
+    workers: int  # peak concurrent tasks on this host
     tasks: int
     samples: int
-    wall_s: float         # Σ task wall seconds
-    span_s: float         # this host's first task start to its last task end
+    wall_s: float  # Σ task wall seconds
+    span_s: float  # this host's first task start to its last task end
     samples_per_s: float
     samples_per_s_per_core: float
-    busy: float           # Σ wall / (workers × span)
-    stages_s: dict        # stage -> Σ seconds
+    busy: float  # Σ wall / (workers × span)
+    stages_s: dict  # stage -> Σ seconds
 
 
 @dataclass(frozen=True)
@@ -104,8 +104,8 @@ class Summary:
     hosts: tuple
     reference: Reference | None = None
     scaling_efficiency: float | None = None
-    placements: int = 0             # scene layouts placed (bags placed and settled), each once
-    placement_wall_s: float = 0.0   # Σ their wall seconds
+    placements: int = 0  # scene layouts placed (bags placed and settled), each once
+    placement_wall_s: float = 0.0  # Σ their wall seconds
 
 
 def ratio(a: float, b: float) -> float:
@@ -146,8 +146,9 @@ def _utc(seconds: float) -> str:
     return datetime.datetime.fromtimestamp(seconds, datetime.timezone.utc).isoformat(timespec="milliseconds")
 
 
-def summarize(records: list[StatsRecord], reference: Reference | None = None,
-              placements: Iterable[dict] = ()) -> Summary:
+def summarize(
+    records: list[StatsRecord], reference: Reference | None = None, placements: Iterable[dict] = ()
+) -> Summary:
     """Totals, rates and efficiencies of a run's task records (formulas in the module docstring).
     With a `reference`, also the scaling efficiency against it. `placements`: the run's placement
     timings (load_placements), their stages counted once each. Raises ValueError without records."""
@@ -177,12 +178,23 @@ def summarize(records: list[StatsRecord], reference: Reference | None = None,
         h_wall = sum(r.wall_s for r in mine)
         cores = max(r.cores for r in mine)
         rate = ratio(h_samples, h_span)
-        hosts.append(HostSummary(
-            host=host, cpu_model=sorted({r.cpu_model for r in mine})[0], cores=cores,
-            threads=max(r.threads for r in mine), workers=h_workers, tasks=len(mine),
-            samples=h_samples, wall_s=h_wall, span_s=h_span, samples_per_s=rate,
-            samples_per_s_per_core=ratio(rate, cores), busy=ratio(h_wall, h_workers * h_span),
-            stages_s={k: sum(r.stages_s.get(k, 0.0) for r in mine) for k in stages}))
+        hosts.append(
+            HostSummary(
+                host=host,
+                cpu_model=sorted({r.cpu_model for r in mine})[0],
+                cores=cores,
+                threads=max(r.threads for r in mine),
+                workers=h_workers,
+                tasks=len(mine),
+                samples=h_samples,
+                wall_s=h_wall,
+                span_s=h_span,
+                samples_per_s=rate,
+                samples_per_s_per_core=ratio(rate, cores),
+                busy=ratio(h_wall, h_workers * h_span),
+                stages_s={k: sum(r.stages_s.get(k, 0.0) for r in mine) for k in stages},
+            )
+        )
 
     workers = peak_concurrency(intervals)
     rate = ratio(samples, span)
@@ -190,20 +202,33 @@ def summarize(records: list[StatsRecord], reference: Reference | None = None,
     render_threads = sum(h.workers * h.threads for h in hosts)
     per_worker = ratio(rate, workers)
     return Summary(
-        tasks=len(records), samples=samples, bytes_written=sum(r.bytes_written for r in records),
-        wall_s=wall, cpu_s=sum(r.cpu_s for r in records),
-        first_start_utc=_utc(first), last_end_utc=_utc(last), span_s=span,
+        tasks=len(records),
+        samples=samples,
+        bytes_written=sum(r.bytes_written for r in records),
+        wall_s=wall,
+        cpu_s=sum(r.cpu_s for r in records),
+        first_start_utc=_utc(first),
+        last_end_utc=_utc(last),
+        span_s=span,
         idle_s=max(0.0, span - busy_seconds(intervals)),
-        workers=workers, worker_ids=len({_worker_id(r) for r in records}), cores=cores,
-        render_threads=render_threads, samples_per_s=rate, per_worker=per_worker,
-        per_core=ratio(rate, cores), per_thread=ratio(rate, render_threads),
+        workers=workers,
+        worker_ids=len({_worker_id(r) for r in records}),
+        cores=cores,
+        render_threads=render_threads,
+        samples_per_s=rate,
+        per_worker=per_worker,
+        per_core=ratio(rate, cores),
+        per_thread=ratio(rate, render_threads),
         cpu_use=ratio(sum(r.cpu_s for r in records), sum(r.wall_s * r.threads for r in records)),
         parallel_efficiency=ratio(wall, workers * span),
         stage_share={k: ratio(v, timed) for k, v in stage_totals.items()},
         stage_seconds_per_sample={k: ratio(v, samples) for k, v in stage_totals.items()},
-        stage_coverage=ratio(timed, wall + placement_wall), hosts=tuple(hosts), reference=reference,
+        stage_coverage=ratio(timed, wall + placement_wall),
+        hosts=tuple(hosts),
+        reference=reference,
         scaling_efficiency=None if reference is None else ratio(per_worker, reference.samples_per_s_per_worker),
-        placements=len(placements), placement_wall_s=placement_wall,
+        placements=len(placements),
+        placement_wall_s=placement_wall,
     )
 
 
@@ -218,16 +243,21 @@ def reference_from_bench(path: Path, threads: int) -> Reference:
     except OSError as e:
         raise StatsError(f"{path}: cannot read ({e.strerror or e})") from None
     except (ValueError, KeyError, TypeError, AttributeError):
-        raise StatsError(f"{path}: not a bench_generate record (benchmark: generate, runs: "
-                         f"[{{workers, threads_per_worker, samples_per_s}}])") from None
+        raise StatsError(
+            f"{path}: not a bench_generate record (benchmark: generate, runs: "
+            f"[{{workers, threads_per_worker, samples_per_s}}])"
+        ) from None
     if threads not in rates:
-        raise StatsError(f"{path}: runs: no run of 1 worker × {threads} render threads to compare with "
-                         f"(it has {', '.join(f'1 × {t}' for t in sorted(rates)) or 'none'})")
+        raise StatsError(
+            f"{path}: runs: no run of 1 worker × {threads} render threads to compare with "
+            f"(it has {', '.join(f'1 × {t}' for t in sorted(rates)) or 'none'})"
+        )
     return Reference(rates[threads], f"{path}: 1 worker × {threads} threads, {rates[threads]:.4g} samples/s")
 
 
 def reference_from_run(out_dir: Path) -> Reference:
     """A previous run's samples/s per worker (X_ref / n_ref), as the reference for scaling efficiency."""
     s = summarize(load(out_dir), placements=load_placements(out_dir))
-    return Reference(s.per_worker, f"{out_dir}: {s.samples_per_s:.4g} samples/s on {s.workers} "
-                                   f"worker{'s' if s.workers != 1 else ''}")
+    return Reference(
+        s.per_worker, f"{out_dir}: {s.samples_per_s:.4g} samples/s on {s.workers} worker{'s' if s.workers != 1 else ''}"
+    )

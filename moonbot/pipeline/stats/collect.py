@@ -23,10 +23,20 @@ from moonbot.records.stats import STATS, StatsRecord, decode_stats, read_stats
 # tasks.parquet's first columns: stats.json's contract, in this order (stages_s becomes one
 # column per stage); any further field follows as a column of its own, sorted by name.
 CONTRACT_COLUMNS: dict[str, pa.DataType | None] = {
-    "task_id": pa.string(), "host": pa.string(), "pid": pa.int64(), "cpu_model": pa.string(),
-    "cores": pa.int64(), "threads": pa.int64(), "worker": pa.string(),
-    "started_utc": pa.timestamp("us", tz="UTC"), "wall_s": pa.float64(), "cpu_s": pa.float64(),
-    "stages_s": None, "samples": pa.int64(), "bytes_written": pa.int64(), "samples_per_s": pa.float64(),
+    "task_id": pa.string(),
+    "host": pa.string(),
+    "pid": pa.int64(),
+    "cpu_model": pa.string(),
+    "cores": pa.int64(),
+    "threads": pa.int64(),
+    "worker": pa.string(),
+    "started_utc": pa.timestamp("us", tz="UTC"),
+    "wall_s": pa.float64(),
+    "cpu_s": pa.float64(),
+    "stages_s": None,
+    "samples": pa.int64(),
+    "bytes_written": pa.int64(),
+    "samples_per_s": pa.float64(),
 }
 # The stages a task times (moonbot.pipeline.views, moonbot.writer.sample), in pipeline order;
 # other stage names a worker reports follow these, sorted.
@@ -90,8 +100,9 @@ def collect(out_dir: Path) -> Collected:
     record a line, keys sorted, lines in task_id order) and OUT/stats/tasks.parquet (`to_table`),
     each atomically; the same tasks give the same bytes. The placement records (OUT/placements),
     if any, go into OUT/stats/placements.jsonl, without their poses."""
-    collected = dataclasses.replace(read_tasks(out_dir),
-                                    placements=[placement_timing(r) for r in read_placements(out_dir)])
+    collected = dataclasses.replace(
+        read_tasks(out_dir), placements=[placement_timing(r) for r in read_placements(out_dir)]
+    )
     stats_dir = Path(out_dir) / "stats"
     stats_dir.mkdir(parents=True, exist_ok=True)
     lines = _jsonl([r.as_json() for r in collected.records])
@@ -110,8 +121,9 @@ def check_stages(stages: object, where: str) -> None:
         raise StatsError(f"{where}: stages_s: expected an object of stage: seconds, got {type(stages).__name__}")
     for stage, seconds in stages.items():
         if isinstance(seconds, bool) or not isinstance(seconds, (int, float)):
-            raise StatsError(f"{where}: stages_s.{stage}: expected a number of seconds, "
-                             f"got {seconds!r} ({type(seconds).__name__})")
+            raise StatsError(
+                f"{where}: stages_s.{stage}: expected a number of seconds, got {seconds!r} ({type(seconds).__name__})"
+            )
         if not math.isfinite(seconds) or seconds < 0:
             raise StatsError(f"{where}: stages_s.{stage}: must be finite and non-negative, got {seconds!r}")
 
@@ -124,8 +136,9 @@ def placement_timing(record: dict) -> dict:
         if not isinstance(record.get(name), (int, float)) or not math.isfinite(record[name]) or record[name] < 0:
             raise StatsError(f"{where}: {name}: expected non-negative seconds, got {record.get(name)!r}")
     check_stages(record.get("stages_s"), where)
-    return {k: record.get(k) for k in ("layout_id", "stages_s", "wall_s", "cpu_s", "started_utc", "host", "pid",
-                                       "worker")}
+    return {
+        k: record.get(k) for k in ("layout_id", "stages_s", "wall_s", "cpu_s", "started_utc", "host", "pid", "worker")
+    }
 
 
 def _read_jsonl(path: Path) -> list[tuple[str, object]]:

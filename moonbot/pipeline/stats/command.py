@@ -6,14 +6,17 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from moonbot.pipeline.stats.aggregate import (Reference, Summary, reference_from_bench, reference_from_run,
-                                              summarize)
+from moonbot.pipeline.stats.aggregate import Reference, Summary, reference_from_bench, reference_from_run, summarize
 from moonbot.pipeline.stats.collect import StatsError, collect, load, load_placements
 from moonbot.pipeline.stats.report import write_plot
 
 
-def run_stats(out_dir: Path, reference_path: Path | None = None, reference_rate: float | None = None,
-              on_skipped: Callable[[Path], None] | None = None) -> Summary:
+def run_stats(
+    out_dir: Path,
+    reference_path: Path | None = None,
+    reference_rate: float | None = None,
+    on_skipped: Callable[[Path], None] | None = None,
+) -> Summary:
     """Collects OUT's task records (or, its task directories gone, reads what collect wrote
     before), summarises them — with scaling efficiency against `reference_rate` (samples/s of one
     worker), or `reference_path` (a previous run's OUT, or a bench_generate record whose 1-worker
