@@ -185,24 +185,29 @@ def test_a_worker_killed_mid_run_loses_nothing(reference, config_file, tmp_path,
     assert dataset_data(tmp_path) == reference
 
 
-def test_a_killed_driver_resumes_without_redoing_finished_tasks(reference, config_file, tmp_path):
-    """The driver and its local cluster are SIGKILLed at once while a task is held mid-render
-    (MOONBOT_DEBUG_HOLD_TASK, never released) and at least two others are complete; the rerun
-    with --resume leaves the complete ones alone and ends byte for byte the uninterrupted run."""
-    held = tasks(load_config(config_file))[5].task_id
-    command = [
+def generate_argv(config_file: Path, out: Path, *options: str) -> list[str]:
+    """The argv of `moonbot generate CONFIG --out OUT --workers 2 [options]` in a child Python."""
+    return [
         sys.executable,
         "-m",
         "moonbot.cli",
         "generate",
         str(config_file),
         "--out",
-        str(tmp_path),
+        str(out),
         "--workers",
         "2",
+        *options,
     ]
+
+
+def test_a_killed_driver_resumes_without_redoing_finished_tasks(reference, config_file, tmp_path):
+    """The driver and its local cluster are SIGKILLed at once while a task is held mid-render
+    (MOONBOT_DEBUG_HOLD_TASK, never released) and at least two others are complete; the rerun
+    with --resume leaves the complete ones alone and ends byte for byte the uninterrupted run."""
+    held = tasks(load_config(config_file))[5].task_id
     driver = subprocess.Popen(
-        command,
+        generate_argv(config_file, tmp_path),
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
         start_new_session=True,
@@ -400,18 +405,7 @@ def test_ctrl_c_prints_the_merge_command(config_file, tmp_path):
     scratch_root.mkdir()
     out = tmp_path / "out"
     driver = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "moonbot.cli",
-            "generate",
-            str(config_file),
-            "--out",
-            str(out),
-            "--workers",
-            "2",
-            "--no-merge",
-        ],
+        generate_argv(config_file, out, "--no-merge"),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
