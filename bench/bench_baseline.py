@@ -26,11 +26,10 @@ import numpy as np
 
 from moonbot.baseline import ModelCloud, Settings, estimate_pose
 from moonbot.bop.reader import read_models, scenes
-from moonbot.charts import time_error_plot
 from moonbot.eval.matching import ModelPoints
 
 from fingerprint import machine  # bench/ is on sys.path when run as a script
-from result_file import write_result
+from result_file import write_result_and_chart
 
 LEVELS = {
     "draft": Settings(coarse_points=80, coarse_iterations=5, fine_points=300, fine_iterations=10, fine_hypotheses=1),
@@ -102,16 +101,16 @@ def main() -> int:
             f"{row['p90_adds_mm']:>8.1f} {row['recall_10']:>6.3f} {row['recall_20']:>6.3f} {none:>5}"
         )
     result["load_average_before_after"] = [load_before[0], os.getloadavg()[0]]
-    out_path = write_result(result, "baseline")
     curve = [(r["seconds_per_instance"], max(1.0 - r["recall_20"], 1e-4), r["level"]) for r in result["levels"]]
-    time_error_plot(
-        out_path.with_suffix(".svg"),
-        f"Baseline ICP settings against pose error ({result['machine']['git_commit'][:7]}, {len(cases)} instances)",
+    write_result_and_chart(
+        result,
+        "baseline",
+        "Baseline ICP settings against pose error",
+        f"{len(cases)} instances",
         {"ICP": curve},
         "estimator seconds per instance",
         "1 - recall at 20 % ADD-S",
     )
-    print(f"\nwritten {out_path} and {out_path.with_suffix('.svg').name}")
     return 0
 
 

@@ -22,13 +22,12 @@ import sys
 import numpy as np
 
 from moonbot import _core
-from moonbot.charts import time_error_plot
 from moonbot.config import load_config
 from moonbot.render import build_scene
 from moonbot.scene import compose_scene
 
 from fingerprint import machine  # bench/ is on sys.path when run as a script
-from result_file import write_result
+from result_file import write_result_and_chart
 from timing import timed
 
 SCHEMA_VERSION = 1
@@ -88,16 +87,16 @@ def main() -> int:
         _, s = timed(lambda: run(0.01, count=count), args.repeats)
         result["counts"].append({"count": count, "dt_s": 0.01, "seconds_per_capture": s})
         print(f"{count:>6} {1e3 * s:>11.2f}")
-    out = write_result(result, "dust")
     curve = [(r["seconds_per_capture"], r["p95_error_m"], f"{r['dt_s']:g}") for r in result["steps"]]
-    time_error_plot(
-        out.with_suffix(".svg"),
-        f"Ejecta: time step against position error ({result['machine']['git_commit'][:7]}, 200 fragments)",
+    write_result_and_chart(
+        result,
+        "dust",
+        "Ejecta: time step against position error",
+        "200 fragments",
         {"dt, s": curve},
         "simulation seconds per capture",
         "p95 position error vs 0.25 ms, m",
     )
-    print(f"\nwritten {out} and {out.with_suffix('.svg').name}")
     return 0
 
 
