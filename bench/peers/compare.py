@@ -145,6 +145,12 @@ def render_peer(
     run([python, str(HERE / script), str(work / "scene"), str(work / out), "--spp", spp, *options], env)
 
 
+def half_options(threads: int, seed: int, prefix: str) -> tuple[str, ...]:
+    """A peer renderer's options for one of the two independent halves of a reference: its
+    threads, its seed and the prefix of its output files."""
+    return ("--threads", str(threads), "--seed", str(seed), "--prefix", prefix)
+
+
 def time_fit(rows: list[dict]) -> dict:
     """seconds = overhead + per_sample · spp, least squares on relative residuals over the
     ladder: on a shared, loaded machine one render can be slowed by others' work, and the fit's
@@ -313,12 +319,7 @@ def main() -> int:
                 str(args.reference_spp),
                 "--repeats",
                 "0",
-                "--threads",
-                str(args.threads),
-                "--seed",
-                str(seed),
-                "--prefix",
-                prefix,
+                *half_options(args.threads, seed, prefix),
                 "--no-aov",
                 env=env,
             )
@@ -372,12 +373,7 @@ def main() -> int:
                         "1",
                         "--repeat-max-spp",
                         "0",
-                        "--threads",
-                        str(args.threads),
-                        "--seed",
-                        str(seed),
-                        "--prefix",
-                        prefix,
+                        *half_options(args.threads, seed, prefix),
                     )
             own_halves.append(np.load(path)[..., :3].astype(np.float64))
         own[name] = (own_halves, float(np.mean((own_halves[0] - own_halves[1]) ** 2)) / 4, spp)
