@@ -786,41 +786,23 @@ def bench_throughput(
 def bench_realism(
     photos: Path,
     regions: Path | None,
-    width: int,
-    height: int,
-    spp: int,
-    light_samples: int,
-    bounces: int,
-    threads: int,
-    pitch_deg: float,
-    camera_height_m: float,
-    detail_extent_m: float,
     locations: str,
     overrides: tuple[str, ...],
     out: Path | None,
     sheet: Path | None,
+    **settings: int | float,
 ) -> None:
     """Realism: statistics of the ground in Apollo photos against renders at matched geometry and
     Sun (shadow fraction, luma percentiles, spectrum slope, octave contrasts, Laplacian, dark blobs,
     a patch classifier). Definitions: moonbot/benchmark/realism.py."""
+    # `settings`: the render and camera options above (--width … --detail-extent-m), each named
+    # as its field of realism_bench.Options.
     from moonbot.benchmark.realism_bench import Options, run_realism
     from moonbot.config import ConfigError, parse_overrides
 
     names = tuple(dict.fromkeys(["flat"] + [n.strip() for n in locations.split(",") if n.strip()]))
     try:
-        options = Options(
-            width=width,
-            height=height,
-            spp=spp,
-            light_samples=light_samples,
-            bounces=bounces,
-            threads=threads,
-            pitch_deg=pitch_deg,
-            camera_height_m=camera_height_m,
-            detail_extent_m=detail_extent_m,
-            locations=names,
-            overrides=parse_overrides(overrides),
-        )
+        options = Options(locations=names, overrides=parse_overrides(overrides), **settings)
         record, path = run_realism(photos, regions, options, out, sheet, say=lambda text: click.echo(text, err=True))
     except (ConfigError, ValueError, OSError) as e:
         raise click.ClickException(str(e)) from None
