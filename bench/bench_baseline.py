@@ -17,7 +17,6 @@ configs/synbag-test-12.yaml (`moonbot generate configs/synbag-test-12.yaml --out
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -27,12 +26,11 @@ import numpy as np
 
 from moonbot.baseline import ModelCloud, Settings, estimate_pose
 from moonbot.bop.reader import read_models, scenes
-from moonbot.charts import time_error_plot
 from moonbot.eval.matching import ModelPoints
 
-from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
+from fingerprint import machine  # bench/ is on sys.path when run as a script
+from result_file import write_result_and_chart
 
-RESULTS = Path(__file__).resolve().parent / "results"
 LEVELS = {
     "draft": Settings(coarse_points=80, coarse_iterations=5, fine_points=300, fine_iterations=10, fine_hypotheses=1),
     "default": Settings(),
@@ -103,18 +101,16 @@ def main() -> int:
             f"{row['p90_adds_mm']:>8.1f} {row['recall_10']:>6.3f} {row['recall_20']:>6.3f} {none:>5}"
         )
     result["load_average_before_after"] = [load_before[0], os.getloadavg()[0]]
-    RESULTS.mkdir(exist_ok=True)
-    out_path = RESULTS / f"baseline-{machine_slug(result['machine'])}.json"
-    out_path.write_text(json.dumps(result, indent=2) + "\n")
     curve = [(r["seconds_per_instance"], max(1.0 - r["recall_20"], 1e-4), r["level"]) for r in result["levels"]]
-    time_error_plot(
-        out_path.with_suffix(".svg"),
-        f"Baseline ICP settings against pose error ({result['machine']['git_commit'][:7]}, {len(cases)} instances)",
+    write_result_and_chart(
+        result,
+        "baseline",
+        "Baseline ICP settings against pose error",
+        f"{len(cases)} instances",
         {"ICP": curve},
         "estimator seconds per instance",
         "1 - recall at 20 % ADD-S",
     )
-    print(f"\nwritten {out_path} and {out_path.with_suffix('.svg').name}")
     return 0
 
 

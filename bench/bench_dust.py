@@ -16,23 +16,20 @@ Writes bench/results/dust-<machine>.json and .svg (time against error per step).
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import sys
-from pathlib import Path
 
 import numpy as np
 
 from moonbot import _core
-from moonbot.charts import time_error_plot
 from moonbot.config import load_config
 from moonbot.render import build_scene
 from moonbot.scene import compose_scene
 
-from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
+from fingerprint import machine  # bench/ is on sys.path when run as a script
+from result_file import write_result_and_chart
 from timing import timed
 
-RESULTS = Path(__file__).resolve().parent / "results"
 SCHEMA_VERSION = 1
 STEPS = [0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001]
 REFERENCE_STEP = 0.00025
@@ -90,18 +87,16 @@ def main() -> int:
         _, s = timed(lambda: run(0.01, count=count), args.repeats)
         result["counts"].append({"count": count, "dt_s": 0.01, "seconds_per_capture": s})
         print(f"{count:>6} {1e3 * s:>11.2f}")
-    RESULTS.mkdir(exist_ok=True)
-    out = RESULTS / f"dust-{machine_slug(result['machine'])}.json"
-    out.write_text(json.dumps(result, indent=2) + "\n")
     curve = [(r["seconds_per_capture"], r["p95_error_m"], f"{r['dt_s']:g}") for r in result["steps"]]
-    time_error_plot(
-        out.with_suffix(".svg"),
-        f"Ejecta: time step against position error ({result['machine']['git_commit'][:7]}, 200 fragments)",
+    write_result_and_chart(
+        result,
+        "dust",
+        "Ejecta: time step against position error",
+        "200 fragments",
         {"dt, s": curve},
         "simulation seconds per capture",
         "p95 position error vs 0.25 ms, m",
     )
-    print(f"\nwritten {out} and {out.with_suffix('.svg').name}")
     return 0
 
 

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import os
 import statistics
 import sys
@@ -42,10 +41,10 @@ from moonbot.render.view import build_scene, orbit_view, render_view, view_input
 from moonbot.scene import compose_scene
 from moonbot.sweep import task_config, tasks
 
-from fingerprint import library_versions, machine, machine_slug  # bench/ is on sys.path when run as a script
+from fingerprint import library_versions, machine  # bench/ is on sys.path when run as a script
+from result_file import write_result
 
 ROOT = Path(__file__).resolve().parents[1]
-RESULTS = ROOT / "bench" / "results"
 CONFIG = ROOT / "configs" / "bench" / "throughput-v1.yaml"
 SCHEMA_VERSION = 1
 BACK_FACE_STEP_M = 0.02
@@ -199,9 +198,7 @@ def main() -> int:
     record["summary_render_s_four_scenes"] = summary
     for key, s in summary.items():
         print(f"four scenes, {key:<14} {s:.3f} s")
-    RESULTS.mkdir(exist_ok=True)
-    out = RESULTS / f"embree-isa-{machine_slug(record['machine'])}.json"
-    out.write_text(json.dumps(record, indent=2) + "\n")
+    out = write_result(record, "embree-isa")
     print(f"written {out.relative_to(ROOT)}")
     return 0
 

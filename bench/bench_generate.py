@@ -17,7 +17,6 @@ Writes bench/results/generate-<machine>.json. Run:
 
 from __future__ import annotations
 
-import json
 import resource
 import sys
 import tempfile
@@ -31,10 +30,10 @@ from moonbot.pipeline.stats import load_placements
 from moonbot.records.stats import read_stats
 from moonbot.sweep.plan import split_plans
 
-from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
+from fingerprint import machine  # bench/ is on sys.path when run as a script
+from result_file import write_result
 
 ROOT = Path(__file__).resolve().parents[1]
-RESULTS = ROOT / "bench" / "results"
 SCHEMA_VERSION = 1
 VIEWS = 36
 NODES = [1, 10, 50, 100]
@@ -180,9 +179,7 @@ def main() -> int:
     )
     for p in record["projection"]:
         print(f"full SynBag-1.0 sweep on {p['nodes']:>3} node(s): {p['hours']:.1f} h")
-    RESULTS.mkdir(exist_ok=True)
-    out = RESULTS / f"generate-{machine_slug(record['machine'])}.json"
-    out.write_text(json.dumps(record, indent=2) + "\n")
+    out = write_result(record, "generate")
     print(f"written {out}")
     return 0
 

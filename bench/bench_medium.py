@@ -20,23 +20,20 @@ Writes bench/results/medium-<machine>.json and .svg. Run:
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-from pathlib import Path
 
 import numpy as np
 
 from moonbot import _core
-from moonbot.charts import time_error_plot
 from moonbot.config import load_config
 from moonbot.render import build_scene
 from moonbot.render.view import core_camera
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
 
-from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
+from fingerprint import machine  # bench/ is on sys.path when run as a script
+from result_file import write_result_and_chart
 from timing import timed
 
-RESULTS = Path(__file__).resolve().parent / "results"
 SCHEMA_VERSION = 3  # 2: a point Sun and the midpoint march (no noise columns); 3: strides
 VOXELS = [0.4, 0.2, 0.1, 0.05, 0.025]
 REFERENCE_VOXEL = 0.001  # clamped by the core to the box's longest side / (kMaxGridNodes - 1)
@@ -126,20 +123,17 @@ def main() -> int:
         _, s = timed(lambda: render(m), args.repeats)
         result["rates"].append({"rate_per_s": rate, "puffs": m.puff_count, "voxel_m": 0.05, "seconds_per_view": s})
         print(f"{rate:>7} {m.puff_count:>6} {1e3 * s:>8.0f}")
-    RESULTS.mkdir(exist_ok=True)
-    out_path = RESULTS / f"medium-{machine_slug(result['machine'])}.json"
-    out_path.write_text(json.dumps(result, indent=2) + "\n")
     curve = [(r["seconds_per_view"], r["rms_relative_error"], f"{r['voxel_m']:g}") for r in result["voxels"]]
     strides = [(r["seconds_per_view"], r["rms_relative_error"], f"S{r['march_stride_px']}") for r in result["strides"]]
-    time_error_plot(
-        out_path.with_suffix(".svg"),
-        f"Dust medium: grid spacing and march stride against image error "
-        f"({result['machine']['git_commit'][:7]}, 640x480, 1 spp)",
+    write_result_and_chart(
+        result,
+        "medium",
+        "Dust medium: grid spacing and march stride against image error",
+        "640x480, 1 spp",
         {"voxel_m (stride 1)": curve, "march_stride_px (voxel 0.05 m)": strides},
         "render seconds per view",
         "RMS error / mean radiance",
     )
-    print(f"\nwritten {out_path} and {out_path.with_suffix('.svg').name}")
     return 0
 
 

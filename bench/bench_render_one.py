@@ -17,7 +17,6 @@ Run: ./dev.sh bench   (or .venv/bin/python bench/bench_render_one.py [--repeats 
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import sys
 import tempfile
@@ -35,9 +34,9 @@ from moonbot.scene import compose_scene, intrinsics, orbit_pose, pixel_direction
 from moonbot.scene.bag_mesh import variant_mesh
 from moonbot.terrain.ground import flat_patch
 
-from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
+from fingerprint import machine  # bench/ is on sys.path when run as a script
+from result_file import write_result
 
-RESULTS = Path(__file__).resolve().parent / "results"
 SCHEMA_VERSION = 1
 
 
@@ -275,9 +274,7 @@ def main() -> int:
             f"Embree's t {r['max_rel_error_exact_false']:.1e}"
         )
 
-    out = args.out or RESULTS / f"render-one-{machine_slug(m)}.json"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
+    out = write_result(result, "render-one", args.out)
     print(f"\nwritten {out}")
     return 0
 

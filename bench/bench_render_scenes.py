@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import os
 import re
 import shutil
@@ -40,10 +39,10 @@ from moonbot.pipeline.views import view_seed
 from moonbot.render.view import render_view
 from moonbot.sweep import tasks
 
-from fingerprint import library_versions, machine, machine_slug  # bench/ is on sys.path when run as a script
+from fingerprint import library_versions, machine  # bench/ is on sys.path when run as a script
+from result_file import write_result
 
 ROOT = Path(__file__).resolve().parents[1]
-RESULTS = ROOT / "bench" / "results"
 CONFIG = ROOT / "configs" / "bench" / "throughput-v1.yaml"
 SCHEMA_VERSION = 1
 RAY_KINDS = ("camera_rays", "shadow_rays", "bounce_shadow_rays", "bounce_rays", "medium_rays")
@@ -152,9 +151,7 @@ def main() -> int:
                 + (f", Embree {embree:.0f} % of samples" if embree is not None else "")
             )
         print(f"{level:<8} all four: {render:.3f} s against {limit:.3f} s = {render / limit:.2f}×")
-    RESULTS.mkdir(exist_ok=True)
-    out = RESULTS / f"render-scenes-{machine_slug(record['machine'])}.json"
-    out.write_text(json.dumps(record, indent=2) + "\n")
+    out = write_result(record, "render-scenes")
     print(f"written {out.relative_to(ROOT)}")
     return 0
 

@@ -36,8 +36,8 @@ from moonbot.scene.settle import settle
 from moonbot.terrain.ground import CraterGround, FlatGround, SlopedGround
 
 from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
+from result_file import RESULTS, write_result
 
-RESULTS = Path(__file__).resolve().parent / "results"
 SCHEMA_VERSION = 1
 
 GROUNDS = {
@@ -188,9 +188,7 @@ def main() -> int:
     result["ground_step"] = knob_curve(
         "ground_step_m", [0.01, 0.02, 0.05], 0.005, [s for s in KNOB_SCENES if s[0] == "crater rim"], {}
     )
-    RESULTS.mkdir(exist_ok=True)
-    out = RESULTS / f"settle-{machine_slug(result['machine'])}.json"
-    out.write_text(json.dumps(result, indent=2) + "\n")
+    out = write_result(result, "settle")
     plot(result, out.with_suffix(".svg"))
     print(f"\nwrote {out} and {out.with_suffix('.svg').name}")
     return 0

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import gc
-import json
 import sys
 import tempfile
 import time
@@ -30,7 +29,6 @@ from pathlib import Path
 
 import numpy as np
 
-from moonbot.charts import time_error_plot
 from moonbot.config import load_config
 from moonbot.render import build_scene, render_view
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
@@ -38,9 +36,9 @@ from moonbot.terrain import clear_cache, get_terrain
 from moonbot.terrain.dem import LocalDem
 from moonbot.terrain.location import Location, location_axis
 
-from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
+from fingerprint import machine  # bench/ is on sys.path when run as a script
+from result_file import write_result_and_chart
 
-RESULTS = Path(__file__).resolve().parent / "results"
 SCHEMA_VERSION = 2  # 2: dem rows
 GROWTHS = [1.01, 1.02, 1.03, 1.05, 1.1]  # the first is the reference (7.4 M triangles)
 
@@ -216,18 +214,16 @@ def main() -> int:
             else f"{'reference':>11}"
         )
         print(f"{r['growth']:>6} {r['triangles']:>10} {r['build_bvh_render_s']:>16.2f}s {err}")
-    RESULTS.mkdir(exist_ok=True)
-    out = RESULTS / f"terrain-{machine_slug(result['machine'])}.json"
-    out.write_text(json.dumps(result, indent=2) + "\n")
     curve = [(r["build_bvh_render_s"], r["depth_rel_err_p99"], f"{r['growth']}") for r in result["growth"][1:]]
-    time_error_plot(
-        out.with_suffix(".svg"),
-        f"Terrain grid growth: time against depth error ({result['machine']['git_commit'][:7]})",
+    write_result_and_chart(
+        result,
+        "terrain",
+        "Terrain grid growth: time against depth error",
+        "",
         {"flat, growth": curve},
         "build + BVH + one view, s",
         "p99 |Δz|/z vs growth 1.01",
     )
-    print(f"\nwritten {out} and {out.with_suffix('.svg').name}")
     return 0
 
 

@@ -20,7 +20,6 @@ Run: ./dev.sh bench tonemap_exr   (or .venv/bin/python bench/bench_tonemap_exr.p
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
 import sys
@@ -38,9 +37,9 @@ from moonbot.render.exposure import LUMINOUS_EFFICACY_LM_W
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
 from moonbot.writer import RADIANCE_UNIT, write_sample
 
-from fingerprint import machine, machine_slug  # bench/ is on sys.path when run as a script
+from fingerprint import machine  # bench/ is on sys.path when run as a script
+from result_file import write_result
 
-RESULTS = Path(__file__).resolve().parent / "results"
 # gt.json's fields from the view stage (moonbot.records.gt), for the views this writes alone.
 VIEW_META = {
     "view": 0,
@@ -168,9 +167,7 @@ def main() -> int:
         f"({m['cores']} cores)"
     )
 
-    out = args.out or RESULTS / f"tonemap-exr-{machine_slug(m)}.json"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
+    out = write_result(result, "tonemap-exr", args.out)
     print(f"\nwritten {out}")
     return 0
 

@@ -9,6 +9,19 @@ import click
 from moonbot import __version__
 from moonbot.config.schema import LOCATIONS, TEST_GROUNDS
 
+# Arguments and options that several commands take alike, declared once.
+_CONFIG_ARGUMENT = click.argument("config_path", metavar="CONFIG", type=click.Path(dir_okay=False, path_type=Path))
+_OPTIONAL_CONFIG_ARGUMENT = click.argument(
+    "config_path", metavar="[CONFIG]", required=False, type=click.Path(dir_okay=False, path_type=Path)
+)
+_DATASET_ARGUMENT = click.argument("dataset", type=click.Path(file_okay=False, exists=True, path_type=Path))
+_OUT_ARGUMENT = click.argument("out_dir", metavar="OUT", type=click.Path(file_okay=False, path_type=Path))
+
+
+def _overrides_option(help_text: str = "Override a config field."):
+    """--set FIELD=VALUE, repeatable, passed as `overrides` (a tuple of str)."""
+    return click.option("--set", "overrides", multiple=True, metavar="FIELD=VALUE", help=help_text)
+
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="moonbot")
@@ -20,7 +33,7 @@ def main() -> None:
 
 
 @main.command("render-one")
-@click.argument("config_path", metavar="[CONFIG]", required=False, type=click.Path(dir_okay=False, path_type=Path))
+@_OPTIONAL_CONFIG_ARGUMENT
 @click.option(
     "--view",
     "views",
@@ -38,13 +51,7 @@ def main() -> None:
     show_default=True,
     help="Directory to write into; one view_NNN/ folder per view.",
 )
-@click.option(
-    "--set",
-    "overrides",
-    multiple=True,
-    metavar="FIELD=VALUE",
-    help="Override a config field, e.g. --set sun.elevation_deg=5 (YAML value).",
-)
+@_overrides_option("Override a config field, e.g. --set sun.elevation_deg=5 (YAML value).")
 @click.option(
     "--location",
     type=click.Choice(LOCATIONS + TEST_GROUNDS),
@@ -119,7 +126,7 @@ def render_one(
 
 
 @main.command("meshes")
-@click.argument("config_path", metavar="[CONFIG]", required=False, type=click.Path(dir_okay=False, path_type=Path))
+@_OPTIONAL_CONFIG_ARGUMENT
 @click.option(
     "--out",
     "out_dir",
@@ -135,13 +142,7 @@ def render_one(
     help="A mesh file of your own (.obj, .ply, .glb, .gltf): shorthand for --set bags.mesh=FILE; "
     "declare its unit and up axis in meshes.user.",
 )
-@click.option(
-    "--set",
-    "overrides",
-    multiple=True,
-    metavar="FIELD=VALUE",
-    help="Override a config field, e.g. --set meshes.sandbag_02.seam_height_m=0.004.",
-)
+@_overrides_option("Override a config field, e.g. --set meshes.sandbag_02.seam_height_m=0.004.")
 def meshes(config_path: Path | None, out_dir: Path, mesh_file: Path | None, overrides: tuple[str, ...]) -> None:
     """Write the bag meshes of CONFIG (the three sandbags of its `meshes:` section and each
     mesh of your own in meshes.user; default: the embedded config) as BOP object models in
@@ -279,7 +280,7 @@ def terrain_import(
 
 
 @main.command("stats")
-@click.argument("out_dir", metavar="OUT", type=click.Path(file_okay=False, path_type=Path))
+@_OUT_ARGUMENT
 @click.option(
     "--reference",
     "reference_path",
@@ -316,7 +317,7 @@ def stats(out_dir: Path, reference_path: Path | None, reference_rate: float | No
 
 
 @main.command("plan")
-@click.argument("config_path", metavar="CONFIG", type=click.Path(dir_okay=False, path_type=Path))
+@_CONFIG_ARGUMENT
 @click.option(
     "--bench-record",
     type=click.Path(dir_okay=False, path_type=Path),
@@ -371,7 +372,7 @@ def plan(config_path: Path, bench_record: Path | None) -> None:
 
 
 @main.command("generate")
-@click.argument("config_path", metavar="CONFIG", type=click.Path(dir_okay=False, path_type=Path))
+@_CONFIG_ARGUMENT
 @click.option(
     "--out",
     "out_dir",
@@ -479,7 +480,7 @@ def generate(
 
 
 @main.command("merge")
-@click.argument("out_dir", metavar="OUT", type=click.Path(file_okay=False, path_type=Path))
+@_OUT_ARGUMENT
 @click.option(
     "--dataset",
     "dataset_dir",
@@ -545,7 +546,7 @@ def export() -> None:
 
 
 @export.command("coco")
-@click.argument("dataset", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@_DATASET_ARGUMENT
 @click.option(
     "--out",
     "out_dir",
@@ -568,7 +569,7 @@ def export_coco(dataset: Path, out_dir: Path) -> None:
 
 
 @export.command("shards")
-@click.argument("dataset", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@_DATASET_ARGUMENT
 @click.option(
     "--out",
     "out_dir",
@@ -598,7 +599,7 @@ def export_shards(dataset: Path, out_dir: Path, shard_size: int, shuffle_seed: i
 
 
 @main.command("baseline")
-@click.argument("dataset", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@_DATASET_ARGUMENT
 @click.option("--split", default="test", show_default=True, help="The split whose instances to estimate.")
 @click.option(
     "--out",
@@ -669,13 +670,7 @@ def _int_list(ctx, param, value: str) -> list[int]:
     type=click.IntRange(min=1),
     help="Render threads a worker (default: cores // the largest worker count).",
 )
-@click.option(
-    "--set",
-    "overrides",
-    multiple=True,
-    metavar="FIELD=VALUE",
-    help="Override a config field (recorded in the result; such runs are not the benchmark's).",
-)
+@_overrides_option("Override a config field (recorded in the result; such runs are not the benchmark's).")
 @click.option(
     "--repeats",
     type=click.IntRange(min=1),
@@ -777,7 +772,7 @@ def bench_throughput(
     show_default=True,
     help="Locations to render, comma-separated (flat is always rendered).",
 )
-@click.option("--set", "overrides", multiple=True, metavar="FIELD=VALUE", help="Override a config field.")
+@_overrides_option()
 @click.option(
     "--out",
     type=click.Path(dir_okay=False, path_type=Path),
@@ -791,41 +786,23 @@ def bench_throughput(
 def bench_realism(
     photos: Path,
     regions: Path | None,
-    width: int,
-    height: int,
-    spp: int,
-    light_samples: int,
-    bounces: int,
-    threads: int,
-    pitch_deg: float,
-    camera_height_m: float,
-    detail_extent_m: float,
     locations: str,
     overrides: tuple[str, ...],
     out: Path | None,
     sheet: Path | None,
+    **settings: int | float,
 ) -> None:
     """Realism: statistics of the ground in Apollo photos against renders at matched geometry and
     Sun (shadow fraction, luma percentiles, spectrum slope, octave contrasts, Laplacian, dark blobs,
     a patch classifier). Definitions: moonbot/benchmark/realism.py."""
+    # `settings`: the render and camera options above (--width … --detail-extent-m), each named
+    # as its field of realism_bench.Options.
     from moonbot.benchmark.realism_bench import Options, run_realism
     from moonbot.config import ConfigError, parse_overrides
 
     names = tuple(dict.fromkeys(["flat"] + [n.strip() for n in locations.split(",") if n.strip()]))
     try:
-        options = Options(
-            width=width,
-            height=height,
-            spp=spp,
-            light_samples=light_samples,
-            bounces=bounces,
-            threads=threads,
-            pitch_deg=pitch_deg,
-            camera_height_m=camera_height_m,
-            detail_extent_m=detail_extent_m,
-            locations=names,
-            overrides=parse_overrides(overrides),
-        )
+        options = Options(locations=names, overrides=parse_overrides(overrides), **settings)
         record, path = run_realism(photos, regions, options, out, sheet, say=lambda text: click.echo(text, err=True))
     except (ConfigError, ValueError, OSError) as e:
         raise click.ClickException(str(e)) from None
@@ -870,7 +847,7 @@ VALIDATE_ITEMS = {
 
 
 @main.command("validate")
-@click.argument("dataset", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@_DATASET_ARGUMENT
 def validate(dataset: Path) -> None:
     """Check a merged BOP DATASET against itself: manifest checksums, JSON fields, depth PNG against
     the metric .npy, masks against scene_gt_info.json, the models at their poses against depth.
@@ -902,7 +879,7 @@ def validate(dataset: Path) -> None:
 
 
 @main.command("eval")
-@click.argument("dataset", type=click.Path(file_okay=False, exists=True, path_type=Path))
+@_DATASET_ARGUMENT
 @click.option(
     "--results",
     "results_path",

@@ -20,6 +20,17 @@ VIEW_META = {
     "moonbot_version": "test",
 }
 
+# Config overrides of a small close view of one bag on the analytic plane.
+CLOSE_BAG_VIEW = {
+    "terrain.location": "plane",
+    "orbit.radius_m": 0.5,
+    "orbit.height_m": 0.35,
+    "sun.elevation_deg": 35.0,
+    "camera.width": 160,
+    "camera.height": 120,
+    "render.bounces": 1,
+}
+
 
 def box(size: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
     """An exact box centred on the origin: the sharp, unbulged lattice body, coarsely split."""

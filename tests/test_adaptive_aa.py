@@ -43,6 +43,40 @@ def corner_camera(scale: int = 1) -> _core.Camera:
 SUN = _core.DirectionalLight(-35.0, 40.0, E, 0.0)
 
 
+def render_box(scene: _core.Scene, all_passes: bool = False, **settings) -> dict:
+    """`scene` from corner_camera() under SUN with RenderSettings(**settings): the rgb pass only,
+    or every pass."""
+    passes = {} if all_passes else {"passes": ["rgb"]}
+    return _core.render(scene, corner_camera(), SUN, _core.RenderSettings(**settings), **passes)
+
+
+def rel_rmse(out: dict, reference: np.ndarray) -> float:
+    """Relative RMSE of a render's rgb against `reference` ((H, W, 3) float64)."""
+    return np.sqrt(np.mean((out["rgb"].astype(np.float64) - reference) ** 2)) / reference.mean()
+
+
+def reference_rgb(scene: _core.Scene) -> np.ndarray:
+    """(H, W, 3) float: 1024 samples a pixel."""
+    return render_box(scene, spp=1024, seed=11)["rgb"]
+
+
+def centre_grid(scene: _core.Scene) -> np.ndarray:
+    """(H, W, 256): each pixel's 16 × 16 centre rays' green radiance (one value per face, 0 for the sky)."""
+    fine = _core.render(scene, corner_camera(16), SUN, _core.RenderSettings(spp=1), passes=["rgb"])["rgb"][..., 1]
+    return fine.reshape(H, 16, W, 16).transpose(0, 2, 1, 3).reshape(H, W, 256)
+
+
+def interior_pixels(blocks: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the pixel and its eight neighbours all of one value under `blocks`
+    (centre_grid's; a pixel the grid finds uniform may still hold a sliver thinner than its
+    spacing)."""
+    value = np.where(np.all(blocks == blocks[..., :1], axis=-1), blocks[..., 0], np.nan)
+    padded = np.pad(value, 1, constant_values=np.nan)
+    return np.all(
+        [padded[1 + dy : 1 + dy + H, 1 + dx : 1 + dx + W] == value for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0
+    )
+
+
 def test_refines_the_edges_and_leaves_the_faces_alone():
     """The refined pixels whose bytes change (those where the box's silhouette or an edge between
     its faces crosses lit faces; a face turned from the Sun against the sky is refined too, black
@@ -50,14 +84,8 @@ def test_refines_the_edges_and_leaves_the_faces_alone():
     uniform, and all but a few of those it finds well mixed; all refined pixels lie within two
     pixels of a mixed one (a pixel is refined where it or a neighbour disagrees)."""
     scene = floating_box()
-    base = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=4, seed=3), passes=["rgb"])
-    adaptive = _core.render(
-        scene,
-        corner_camera(),
-        SUN,
-        _core.RenderSettings(spp=4, seed=3, adaptive_spp=32, adaptive_threshold=0.1),
-        passes=["rgb"],
-    )
+    base = render_box(scene, spp=4, seed=3)
+    adaptive = render_box(scene, spp=4, seed=3, adaptive_spp=32, adaptive_threshold=0.1)
     refined = np.any(base["rgb"] != adaptive["rgb"], axis=-1)
     assert 0 < refined.sum() <= adaptive["refined_pixels"]
     # 28 extra samples, each a camera ray and (on a face toward the Sun) one shadow ray.
@@ -70,17 +98,8 @@ def test_refines_the_edges_and_leaves_the_faces_alone():
         + adaptive["second_look_rays"]
         - base["second_look_rays"]
     )
-    # What each pixel holds: 16 × 16 centre rays over it, their radiance (one value per face, 0 for the sky).
-    fine = _core.render(scene, corner_camera(16), SUN, _core.RenderSettings(spp=1), passes=["rgb"])["rgb"][..., 1]
-    blocks = fine.reshape(H, 16, W, 16).transpose(0, 2, 1, 3).reshape(H, W, 256)
-    uniform = np.all(blocks == blocks[..., :1], axis=-1)
-    # Interior: the pixel and its eight neighbours all of one value (a pixel the grid finds
-    # uniform may still hold a sliver thinner than its spacing).
-    value = np.where(uniform, blocks[..., 0], np.nan)
-    padded = np.pad(value, 1, constant_values=np.nan)
-    interior = np.all(
-        [padded[1 + dy : 1 + dy + H, 1 + dx : 1 + dx + W] == value for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0
-    )
+    blocks = centre_grid(scene)
+    interior = interior_pixels(blocks)
     # The minority's share of the pixel: at least 30 % is a well mixed pixel.
     values = [np.unique(b, return_counts=True)[1] for b in blocks.reshape(-1, 256)]
     minority = np.array([1.0 - c.max() / 256 for c in values]).reshape(H, W)
@@ -102,25 +121,13 @@ def test_adaptive_image_comes_close_to_a_high_sample_render():
     disagree (a pixel's own or a neighbour's) leaves the error of 64 samples everywhere (0.039)
     for a fifth of their camera rays."""
     scene = floating_box()
-    reference = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=1024, seed=11), passes=["rgb"])[
-        "rgb"
-    ]
-    base = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=4, seed=3), passes=["rgb"])
-    adaptive = _core.render(
-        scene,
-        corner_camera(),
-        SUN,
-        _core.RenderSettings(spp=4, seed=3, adaptive_spp=64, adaptive_threshold=0.1),
-        passes=["rgb"],
-    )
-
-    def rel_rmse(out):
-        return np.sqrt(np.mean((out["rgb"].astype(np.float64) - reference) ** 2)) / reference.mean()
-
-    brute_force = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=64, seed=3), passes=["rgb"])
-    assert rel_rmse(base) > 0.25
-    assert rel_rmse(adaptive) < 0.05
-    assert rel_rmse(adaptive) < 1.05 * rel_rmse(brute_force)
+    reference = reference_rgb(scene)
+    base = render_box(scene, spp=4, seed=3)
+    adaptive = render_box(scene, spp=4, seed=3, adaptive_spp=64, adaptive_threshold=0.1)
+    brute_force = render_box(scene, spp=64, seed=3)
+    assert rel_rmse(base, reference) > 0.25
+    assert rel_rmse(adaptive, reference) < 0.05
+    assert rel_rmse(adaptive, reference) < 1.05 * rel_rmse(brute_force, reference)
     assert adaptive["camera_rays"] - base["camera_rays"] < 0.25 * (brute_force["camera_rays"] - base["camera_rays"])
 
 
@@ -228,25 +235,11 @@ def test_over_the_centre_sample_only_the_edges_are_refined_to_the_error_of_brute
     get 64 jittered samples of their whole radiance, which leaves the error of 64 samples
     everywhere for a small share of their rays."""
     scene = floating_box()
-    reference = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=1024, seed=11), passes=["rgb"])[
-        "rgb"
-    ]
-    plain = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=1, seed=3))
-    adaptive = _core.render(
-        scene, corner_camera(), SUN, _core.RenderSettings(spp=1, seed=3, adaptive_spp=64, adaptive_threshold=0.1)
-    )
-    brute_force = _core.render(scene, corner_camera(), SUN, _core.RenderSettings(spp=64, seed=3), passes=["rgb"])
-
-    def rel_rmse(out):
-        return np.sqrt(np.mean((out["rgb"].astype(np.float64) - reference) ** 2)) / reference.mean()
-
-    fine = _core.render(scene, corner_camera(16), SUN, _core.RenderSettings(spp=1), passes=["rgb"])["rgb"][..., 1]
-    blocks = fine.reshape(H, 16, W, 16).transpose(0, 2, 1, 3).reshape(H, W, 256)
-    value = np.where(np.all(blocks == blocks[..., :1], axis=-1), blocks[..., 0], np.nan)
-    padded = np.pad(value, 1, constant_values=np.nan)
-    interior = np.all(
-        [padded[1 + dy : 1 + dy + H, 1 + dx : 1 + dx + W] == value for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0
-    )
+    reference = reference_rgb(scene)
+    plain = render_box(scene, all_passes=True, spp=1, seed=3)
+    adaptive = render_box(scene, all_passes=True, spp=1, seed=3, adaptive_spp=64, adaptive_threshold=0.1)
+    brute_force = render_box(scene, spp=64, seed=3)
+    interior = interior_pixels(centre_grid(scene))
     changed = np.any(plain["rgb"] != adaptive["rgb"], axis=-1)
     assert interior.sum() > H * W // 2
     assert not np.any(changed & interior)
@@ -256,8 +249,8 @@ def test_over_the_centre_sample_only_the_edges_are_refined_to_the_error_of_brute
         assert plain[key].tobytes() == adaptive[key].tobytes()
     # 64 samples a refined pixel, each a camera ray (and a shadow ray on a face toward the Sun).
     assert adaptive["camera_rays"] - plain["camera_rays"] == 64 * adaptive["refined_pixels"]
-    assert rel_rmse(plain) > 0.25
-    assert rel_rmse(adaptive) < 1.1 * rel_rmse(brute_force) < 0.05
+    assert rel_rmse(plain, reference) > 0.25
+    assert rel_rmse(adaptive, reference) < 1.1 * rel_rmse(brute_force, reference) < 0.05
     assert adaptive["camera_rays"] < 0.2 * brute_force["camera_rays"]
 
 

@@ -17,6 +17,8 @@ from moonbot.render import SceneDust, build_scene, render_view
 from moonbot.render.view import regolith, regolith_grain
 from moonbot.scene import compose_scene, intrinsics, orbit_pose
 
+from scenes import CLOSE_BAG_VIEW
+
 pytestmark = pytest.mark.unit
 
 # Every new look off: the renderer as it was before them.
@@ -24,16 +26,6 @@ OFF = {
     "terrain.photometry.grain.albedo_rms": 0.0,
     "terrain.photometry.grain.slope_rms_deg": 0.0,
     "bags.fabric.sheen": 0.0,
-}
-# A small close view of one bag on the analytic plane (tests/test_material.py's render_bag).
-CLOSE = {
-    "terrain.location": "plane",
-    "orbit.radius_m": 0.5,
-    "orbit.height_m": 0.35,
-    "sun.elevation_deg": 35.0,
-    "camera.width": 160,
-    "camera.height": 120,
-    "render.bounces": 1,
 }
 
 
@@ -48,7 +40,7 @@ def render(overrides: dict, seed: int = 3, azimuth_deg: float = 30.0):
 
 # --- the paper's look is kept ---------------------------------------------------------------------
 
-# sha256 of the rgb bytes of render({**CLOSE, **OFF, **PATH, "bags.stain.seeds": 90}) (Embree's
+# sha256 of the rgb bytes of render({**CLOSE_BAG_VIEW, **OFF, **PATH, "bags.stain.seeds": 90}) (Embree's
 # avx2 kernels). Recorded when the grain, the sheen and the dust mode were added, with them off
 # (the same bytes as before them); re-recorded when the bags settled into their wrinkled shape and
 # the small craters were worn, which moved the geometry under the same stamps. The stamp
@@ -62,12 +54,12 @@ PATH = {"render.indirect": "path", "render.adaptive_spp": 0}
 def test_paper_stamp_stain_with_the_new_looks_off_keeps_its_bytes():
     if _core.resolve_embree_isa("auto") != "avx2":
         pytest.skip("the reference bytes were recorded with Embree's avx2 kernels")
-    rgb, _ = render({**CLOSE, **OFF, **PATH, "bags.stain.seeds": 90})
+    rgb, _ = render({**CLOSE_BAG_VIEW, **OFF, **PATH, "bags.stain.seeds": 90})
     assert hashlib.sha256(rgb.tobytes()).hexdigest() == PAPER_STAMP_90_SHA256
 
 
 def test_stamp_mode_ignores_the_dust_modes_settings():
-    base = {**CLOSE, **OFF, "bags.stain.seeds": 15, "camera.width": 80, "camera.height": 60}
+    base = {**CLOSE_BAG_VIEW, **OFF, "bags.stain.seeds": 15, "camera.width": 80, "camera.height": 60}
     a, _ = render(base)
     b, _ = render(
         {
@@ -135,7 +127,7 @@ def test_grain_is_visible_near_and_two_seeds_agree_on_it():
     on fully lit ground varies by several percent, and two render seeds (16 jittered samples a
     pixel each) agree on it far better than that: the prefilter leaves no noise."""
     scene = {
-        **CLOSE,
+        **CLOSE_BAG_VIEW,
         "render.bounces": 0,
         "render.spp": 16,
         "sun.angular_diameter_deg": 0.0,
@@ -172,7 +164,7 @@ def test_sheen_adds_a_highlight_and_keeps_the_clean_weave_elsewhere():
     """Looking against the Sun over the bag's top (forward scattering) the glossy tapes brighten
     it; with sheen 0 the bag is the matte weave's."""
     against = {
-        **CLOSE,
+        **CLOSE_BAG_VIEW,
         **OFF,
         "camera.width": 80,
         "camera.height": 60,
@@ -191,7 +183,7 @@ def test_sheen_adds_a_highlight_and_keeps_the_clean_weave_elsewhere():
 
 
 def test_dust_mode_with_zero_seeds_is_clean_and_bad_modes_name_the_field():
-    base = {**CLOSE, **OFF, "camera.width": 80, "camera.height": 60}
+    base = {**CLOSE_BAG_VIEW, **OFF, "camera.width": 80, "camera.height": 60}
     clean, _ = render(base)
     none, _ = render({**base, "bags.stain.mode": "dust"})
     assert clean.tobytes() == none.tobytes()
@@ -205,7 +197,7 @@ def test_dust_gathers_low_on_the_bag_and_is_regolith_grey():
     """90 deposits, the bag's side seen level from its own height: its lower rows lose more of
     their brightness than its upper rows (the ground-contact band), and dusted fabric turns toward
     the grey dirt colour (its red/blue ratio falls from the tan cloth's)."""
-    base = {**CLOSE, **OFF, "bags.stain.mode": "dust", "render.spp": 4, "orbit.height_m": 0.0}
+    base = {**CLOSE_BAG_VIEW, **OFF, "bags.stain.mode": "dust", "render.spp": 4, "orbit.height_m": 0.0}
     clean, mask = render(base)
     dusty, _ = render({**base, "bags.stain.seeds": 90})
     rows = np.nonzero((mask == 1).any(axis=1))[0]

@@ -465,29 +465,19 @@ def test_not_a_geotiff_names_the_file_and_tag(tmp_path):
 
 
 def test_unsupported_georeferences_name_the_key(tmp_path):
-    albers = geotiff(
-        tmp_path / "albers.tif",
-        np.zeros((8, 8), np.float32),
-        model=1,
-        pixel_scale=(5.0, 5.0),
-        tiepoint=(0, 0, 0, 0),
-        ct=11,
-    )  # CT_AlbersEqualArea
+    def projected(name: str, ct: int, **keys):
+        """An 8 × 8 projected GeoTIFF (model 1) of 5 m pixels in coordinate transformation `ct`."""
+        zeros = np.zeros((8, 8), np.float32)
+        return geotiff(tmp_path / name, zeros, model=1, pixel_scale=(5.0, 5.0), tiepoint=(0, 0, 0, 0), ct=ct, **keys)
+
+    albers = projected("albers.tif", 11)  # CT_AlbersEqualArea
     with pytest.raises(
         OSError,
         match=r"albers\.tif: ProjCoordTransGeoKey \(3075\) = 11; only 17 \(equirectangular\), "
         r"21 \(orthographic\) or 15",
     ):
         import_dem(albers, 0.0, 0.0, 10.0)
-    both = geotiff(
-        tmp_path / "both.tif",
-        np.zeros((8, 8), np.float32),
-        model=1,
-        pixel_scale=(5.0, 5.0),
-        tiepoint=(0, 0, 0, 0),
-        ct=15,
-        proj=((3081, -80.0), (3092, 0.99)),
-    )
+    both = projected("both.tif", 15, proj=((3081, -80.0), (3092, 0.99)))
     with pytest.raises(OSError, match=r"both\.tif: both a latitude of true scale \(3081 = -80\) and a scale"):
         import_dem(both, -89.0, 0.0, 10.0)
     lzma = geotiff(

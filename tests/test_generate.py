@@ -48,43 +48,55 @@ HOLD_STAGE = "render view 1"
 REACH_S = 120
 
 
-@pytest.fixture(scope="module")
-def config_file(tmp_path_factory) -> Path:
-    """The smoke config cut to 8 tasks of one split, at 96×72 so a task lasts long enough to be
-    interrupted."""
+def smoke_cut(path: Path, width: int, height: int, split: dict, **sections) -> Path:
+    """configs/smoke.yaml at `width` × `height` pixels with `split` as its one sweep split and
+    `sections` in place of those top-level sections, written to `path`."""
     data = yaml.safe_load((CONFIGS / "smoke.yaml").read_text())
-    data["camera"] = {"width": 96, "height": 72}
-    data["sweep"]["splits"] = [
-        {
-            "name": "train",
-            "meshes": ["sandbag-01", "sandbag-03"],
-            "bag_counts": [1, 2],
-            "stain_seeds": [0],
-            "dust": [False],
-            "sun_elevations_deg": [12.0, 22.0],
-            "sun_azimuths_deg": [120.0],
-            "camera_heights_m": [0.5],
-        }
-    ]
-    path = tmp_path_factory.mktemp("config") / "mini.yaml"
+    data["camera"] = {"width": width, "height": height}
+    data.update(sections)
+    data["sweep"]["splits"] = [split]
     path.write_text(yaml.safe_dump(data))
     return path
 
 
+@pytest.fixture(scope="module")
+def config_file(tmp_path_factory) -> Path:
+    """The smoke config cut to 8 tasks of one split, at 96×72 so a task lasts long enough to be
+    interrupted."""
+    split = {
+        "name": "train",
+        "meshes": ["sandbag-01", "sandbag-03"],
+        "bag_counts": [1, 2],
+        "stain_seeds": [0],
+        "dust": [False],
+        "sun_elevations_deg": [12.0, 22.0],
+        "sun_azimuths_deg": [120.0],
+        "camera_heights_m": [0.5],
+    }
+    return smoke_cut(tmp_path_factory.mktemp("config") / "mini.yaml", 96, 72, split)
+
+
+def task_data(task: Path) -> dict[str, bytes]:
+    """A task's deterministic bytes: task.json, the data files, and gt.json without its measured
+    timings, keyed by the path in the task directory."""
+    data = {"task.json": (task / "task.json").read_bytes()}
+    for view in sorted(task.glob("view_*")):
+        for name in DATA_FILES:
+            data[f"{view.name}/{name}"] = (view / name).read_bytes()
+        gt = json.loads((view / "gt.json").read_text())
+        gt.pop("timings_s")
+        data[f"{view.name}/gt.json"] = json.dumps(gt, sort_keys=True).encode()
+    return data
+
+
 def dataset_data(out: Path) -> dict[str, bytes]:
-    """Every deterministic byte of a run: the data files, task.json, and gt.json without its
-    measured timings."""
+    """Every deterministic byte of a run: each task's task_data, keyed "<task>/<path>"; every task
+    complete and verified, none left half-written."""
     data = {}
     for task in sorted((out / "tasks").iterdir()):
         assert not task.name.startswith("."), f"stray temporary {task}"
         assert is_complete(task) and verify_task(task) == [], task
-        data[f"{task.name}/task.json"] = (task / "task.json").read_bytes()
-        for view in sorted(task.glob("view_*")):
-            for name in DATA_FILES:
-                data[f"{task.name}/{view.name}/{name}"] = (view / name).read_bytes()
-            gt = json.loads((view / "gt.json").read_text())
-            gt.pop("timings_s")
-            data[f"{task.name}/{view.name}/gt.json"] = json.dumps(gt, sort_keys=True).encode()
+        data.update({f"{task.name}/{k}": v for k, v in task_data(task).items()})
     return data
 
 
@@ -185,24 +197,29 @@ def test_a_worker_killed_mid_run_loses_nothing(reference, config_file, tmp_path,
     assert dataset_data(tmp_path) == reference
 
 
-def test_a_killed_driver_resumes_without_redoing_finished_tasks(reference, config_file, tmp_path):
-    """The driver and its local cluster are SIGKILLed at once while a task is held mid-render
-    (MOONBOT_DEBUG_HOLD_TASK, never released) and at least two others are complete; the rerun
-    with --resume leaves the complete ones alone and ends byte for byte the uninterrupted run."""
-    held = tasks(load_config(config_file))[5].task_id
-    command = [
+def generate_argv(config_file: Path, out: Path, *options: str) -> list[str]:
+    """The argv of `moonbot generate CONFIG --out OUT --workers 2 [options]` in a child Python."""
+    return [
         sys.executable,
         "-m",
         "moonbot.cli",
         "generate",
         str(config_file),
         "--out",
-        str(tmp_path),
+        str(out),
         "--workers",
         "2",
+        *options,
     ]
+
+
+def test_a_killed_driver_resumes_without_redoing_finished_tasks(reference, config_file, tmp_path):
+    """The driver and its local cluster are SIGKILLed at once while a task is held mid-render
+    (MOONBOT_DEBUG_HOLD_TASK, never released) and at least two others are complete; the rerun
+    with --resume leaves the complete ones alone and ends byte for byte the uninterrupted run."""
+    held = tasks(load_config(config_file))[5].task_id
     driver = subprocess.Popen(
-        command,
+        generate_argv(config_file, tmp_path),
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
         start_new_session=True,
@@ -400,18 +417,7 @@ def test_ctrl_c_prints_the_merge_command(config_file, tmp_path):
     scratch_root.mkdir()
     out = tmp_path / "out"
     driver = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "moonbot.cli",
-            "generate",
-            str(config_file),
-            "--out",
-            str(out),
-            "--workers",
-            "2",
-            "--no-merge",
-        ],
+        generate_argv(config_file, out, "--no-merge"),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

@@ -13,6 +13,8 @@ import pytest
 from moonbot import _core
 from moonbot.config import Config, ConfigError, load_config
 
+from scenes import CLOSE_BAG_VIEW
+
 pytestmark = pytest.mark.unit
 
 PITCH = 0.0015
@@ -167,20 +169,7 @@ def render_bag(stain_seeds: int, opacity: float = 0.5):
     from moonbot.render import build_scene, render_view
     from moonbot.scene import compose_scene, intrinsics, orbit_pose
 
-    config = load_config(
-        None,
-        {
-            "terrain.location": "plane",
-            "bags.stain.seeds": stain_seeds,
-            "bags.stain.opacity": opacity,
-            "orbit.radius_m": 0.5,
-            "orbit.height_m": 0.35,
-            "sun.elevation_deg": 35.0,
-            "camera.width": 160,
-            "camera.height": 120,
-            "render.bounces": 1,
-        },
-    )
+    config = load_config(None, {**CLOSE_BAG_VIEW, "bags.stain.seeds": stain_seeds, "bags.stain.opacity": opacity})
     spec = compose_scene(config)
     allocated = _core.stain_masks_allocated()
     scene = build_scene(spec)

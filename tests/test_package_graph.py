@@ -40,16 +40,23 @@ def imports(path: Path) -> list[tuple[str, int]]:
     return found
 
 
-def package_graph() -> dict[str, dict[str, str]]:
-    """unit → {unit it imports: one place that does, "file:line"}."""
+def dependency_graph(paths, unit_of_path, dependencies) -> dict[str, dict[str, str]]:
+    """unit → {unit it depends on: one place that does, "file:line"} over the source files
+    `paths`: each belongs to unit_of_path(path) and depends on the (unit, line) pairs
+    dependencies(path) names; a unit's dependency on itself is left out."""
     graph: dict[str, dict[str, str]] = {}
-    for path in sorted(ROOT.rglob("*.py")):
-        unit = unit_of(path)
+    for path in sorted(paths):
+        unit = unit_of_path(path)
         graph.setdefault(unit, {})
-        for target, line in imports(path):
+        for target, line in dependencies(path):
             if target != unit:
                 graph[unit].setdefault(target, f"{path.relative_to(ROOT.parent)}:{line}")
     return graph
+
+
+def package_graph() -> dict[str, dict[str, str]]:
+    """unit → {unit it imports: one place that does, "file:line"}."""
+    return dependency_graph(ROOT.rglob("*.py"), unit_of, imports)
 
 
 def find_cycle(graph: dict[str, dict[str, str]]) -> list[str] | None:
@@ -73,6 +80,13 @@ def find_cycle(graph: dict[str, dict[str, str]]) -> list[str] | None:
         if unit not in state and (cycle := visit(unit)):
             return cycle
     return None
+
+
+def assert_no_cycle(graph: dict[str, dict[str, str]], what: str) -> None:
+    """Fails with `what`, one cycle of `graph` and where each of its edges is, if it has one."""
+    cycle = find_cycle(graph)
+    where = [f"{a} -> {b} ({graph[a][b]})" for a, b in zip(cycle, cycle[1:])] if cycle else []
+    assert cycle is None, f"{what}: " + "; ".join(where)
 
 
 def module_name(path: Path) -> str:
@@ -104,9 +118,7 @@ def module_graph() -> dict[str, dict[str, str]]:
 
 def test_the_package_graph_has_no_cycle():
     graph = package_graph()
-    cycle = find_cycle(graph)
-    where = [f"{a} -> {b} ({graph[a][b]})" for a, b in zip(cycle, cycle[1:])] if cycle else []
-    assert cycle is None, "import cycle between packages: " + "; ".join(where)
+    assert_no_cycle(graph, "import cycle between packages")
 
 
 def test_a_cycle_is_found_and_named():
@@ -125,9 +137,7 @@ def test_no_module_imports_itself_back():
     """Inside a package too: a module that imports another that imports it back is one concept
     in two files (or two concepts that want a third home)."""
     graph = module_graph()
-    cycle = find_cycle(graph)
-    where = [f"{a} -> {b} ({graph[a][b]})" for a, b in zip(cycle, cycle[1:])] if cycle else []
-    assert cycle is None, "import cycle between modules: " + "; ".join(where)
+    assert_no_cycle(graph, "import cycle between modules")
     assert "moonbot.eval.matching" in graph["moonbot.eval.report"]  # the graph sees what it should
 
 
@@ -159,21 +169,13 @@ def cpp_includes(path: Path) -> list[tuple[str, int]]:
 
 def cpp_module_graph() -> dict[str, dict[str, str]]:
     """C++ module → {module whose header it includes: one place that does, "file:line"}."""
-    graph: dict[str, dict[str, str]] = {}
-    for path in sorted([*(CPP / "include" / "moonbot").glob("*.h"), *(CPP / "src").glob("*.[ch]*")]):
-        module = path.stem
-        graph.setdefault(module, {})
-        for target, line in cpp_includes(path):
-            if target != module:
-                graph[module].setdefault(target, f"{path.relative_to(CPP.parent)}:{line}")
-    return graph
+    paths = [*(CPP / "include" / "moonbot").glob("*.h"), *(CPP / "src").glob("*.[ch]*")]
+    return dependency_graph(paths, lambda path: path.stem, cpp_includes)
 
 
 def test_the_cpp_core_has_no_include_cycle():
     graph = cpp_module_graph()
-    cycle = find_cycle(graph)
-    where = [f"{a} -> {b} ({graph[a][b]})" for a, b in zip(cycle, cycle[1:])] if cycle else []
-    assert cycle is None, "include cycle between C++ modules: " + "; ".join(where)
+    assert_no_cycle(graph, "include cycle between C++ modules")
 
 
 def test_the_cpp_graph_sees_the_core():

@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 from click.testing import CliRunner
 
 from moonbot.cli import main
@@ -34,45 +33,25 @@ from moonbot.scene.compose import place_bags
 from moonbot.sweep import task_config, tasks
 from moonbot.terrain import get_terrain
 
-pytestmark = pytest.mark.integration
+from test_generate import smoke_cut, task_data
 
-CONFIGS = Path(__file__).resolve().parents[1] / "configs"
-DATA_FILES = ("rgb.png", "depth.png", "depth.npy", "mask.png")
+pytestmark = pytest.mark.integration
 
 
 def sweep_config(tmp_path: Path, **settle) -> Path:
     """The smoke config cut to 8 tasks at 48×36 with 2 views: one mesh, 1 and 2 bags (2 layouts),
     two stains (2 scenes of each layout), two Sun elevations (2 tasks of each scene)."""
-    data = yaml.safe_load((CONFIGS / "smoke.yaml").read_text())
-    data["camera"] = {"width": 48, "height": 36}
-    data["bags"] = {"settle": settle} if settle else {}
-    data["sweep"]["splits"] = [
-        {
-            "name": "train",
-            "meshes": ["sandbag-02"],
-            "bag_counts": [1, 2],
-            "stain_seeds": [0, 30],
-            "dust": [False],
-            "sun_elevations_deg": [12.0, 22.0],
-            "sun_azimuths_deg": [120.0],
-            "camera_heights_m": [0.5],
-        }
-    ]
-    path = tmp_path / "sweep.yaml"
-    path.write_text(yaml.safe_dump(data))
-    return path
-
-
-def task_data(directory: Path) -> dict[str, bytes]:
-    """A task's deterministic bytes: task.json, the data files, and gt.json without its timings."""
-    data = {"task.json": (directory / "task.json").read_bytes()}
-    for view in sorted(directory.glob("view_*")):
-        for name in DATA_FILES:
-            data[f"{view.name}/{name}"] = (view / name).read_bytes()
-        gt = json.loads((view / "gt.json").read_text())
-        gt.pop("timings_s")
-        data[f"{view.name}/gt.json"] = json.dumps(gt, sort_keys=True).encode()
-    return data
+    split = {
+        "name": "train",
+        "meshes": ["sandbag-02"],
+        "bag_counts": [1, 2],
+        "stain_seeds": [0, 30],
+        "dust": [False],
+        "sun_elevations_deg": [12.0, 22.0],
+        "sun_azimuths_deg": [120.0],
+        "camera_heights_m": [0.5],
+    }
+    return smoke_cut(tmp_path / "sweep.yaml", 48, 36, split, bags={"settle": settle} if settle else {})
 
 
 def run_data(out: Path) -> dict[str, bytes]:

@@ -100,6 +100,15 @@ def entry(path: Path, **fields) -> UserMeshConfig:
     return config.meshes.user[0]
 
 
+def render_one_small(out: Path, *overrides: str):
+    """`moonbot render-one` into `out` at 64 × 48 pixels and 2 samples, without its sheet, with
+    the `--set` `overrides` (FIELD=VALUE strings); click's Result."""
+    small = ("camera.width=64", "camera.height=48", "render.spp=2", *overrides)
+    return CliRunner().invoke(
+        main, ["render-one", "--out", str(out), *(arg for field in small for arg in ("--set", field)), "--no-sheet"]
+    )
+
+
 # --- configuration -------------------------------------------------------------------------------
 
 
@@ -466,23 +475,7 @@ def test_render_one_and_a_mixed_sweep_validate(tmp_path):
 
     v, t = u_block()
     path = write_obj(tmp_path / "u.obj", v * 0.5, t)  # 15 cm across
-    result = CliRunner().invoke(
-        main,
-        [
-            "render-one",
-            "--out",
-            str(tmp_path / "one"),
-            "--set",
-            "camera.width=64",
-            "--set",
-            "camera.height=48",
-            "--set",
-            "render.spp=2",
-            "--set",
-            f"bags.mesh={path}",
-            "--no-sheet",
-        ],
-    )
+    result = render_one_small(tmp_path / "one", f"bags.mesh={path}")
     assert result.exit_code == 0, result.output
     mask = np.asarray(Image.open(tmp_path / "one" / "view_000" / "mask.png"))
     assert (mask == 1).sum() > 20
@@ -543,26 +536,8 @@ def test_a_bop_model_from_ycb_video():
 def test_a_bop_model_from_ycb_video_renders(tmp_path):
     """The can, declared in mm, through `moonbot render-one`: upright on the ground, in view."""
     path = PUBLIC / "ycbv-obj_000001.ply"
-    result = CliRunner().invoke(
-        main,
-        [
-            "render-one",
-            "--out",
-            str(tmp_path),
-            "--set",
-            "camera.width=64",
-            "--set",
-            "camera.height=48",
-            "--set",
-            "render.spp=2",
-            "--set",
-            "terrain.location=plane",
-            "--set",
-            f"meshes.user=[{{path: {path}, unit: mm, name: can}}]",
-            "--set",
-            "bags.mesh=can",
-            "--no-sheet",
-        ],
+    result = render_one_small(
+        tmp_path, "terrain.location=plane", f"meshes.user=[{{path: {path}, unit: mm, name: can}}]", "bags.mesh=can"
     )
     assert result.exit_code == 0, result.output
     gt = json.loads((tmp_path / "view_000" / "gt.json").read_text())

@@ -136,6 +136,21 @@ def run(cmd: list[str], env: dict | None = None) -> None:
     subprocess.run(cmd, check=True, env={**os.environ, **(env or {})})
 
 
+def render_peer(
+    python: str, script: str, work: Path, out: str, spp: str, *options: str, env: dict | None = None
+) -> None:
+    """Runs the peer renderer `script` (mitsuba_render.py or cycles_render.py, beside this file)
+    under `python` on the scene exported to work/scene, writing into work/<out> at `spp` (sample
+    counts, comma-separated), with its further command-line `options`."""
+    run([python, str(HERE / script), str(work / "scene"), str(work / out), "--spp", spp, *options], env)
+
+
+def half_options(threads: int, seed: int, prefix: str) -> tuple[str, ...]:
+    """A peer renderer's options for one of the two independent halves of a reference: its
+    threads, its seed and the prefix of its output files."""
+    return ("--threads", str(threads), "--seed", str(seed), "--prefix", prefix)
+
+
 def time_fit(rows: list[dict]) -> dict:
     """seconds = overhead + per_sample · spp, least squares on relative residuals over the
     ladder: on a shared, loaded machine one render can be slowed by others' work, and the fit's
@@ -284,30 +299,9 @@ def main() -> int:
                 r = render_moonbot(config, spec, ladder, args.threads, args.repeats, args.repeat_max_spp, work / name)
                 (work / name / "timings.json").write_text(json.dumps(r, indent=2) + "\n")
             elif name == "mitsuba":
-                run(
-                    [
-                        py,
-                        str(HERE / "mitsuba_render.py"),
-                        str(work / "scene"),
-                        str(work / name),
-                        "--spp",
-                        ",".join(map(str, ladder)),
-                        *common,
-                    ],
-                    env,
-                )
+                render_peer(py, "mitsuba_render.py", work, name, ",".join(map(str, ladder)), *common, env=env)
             else:
-                run(
-                    [
-                        args.bpy_python,
-                        str(HERE / "cycles_render.py"),
-                        str(work / "scene"),
-                        str(work / name),
-                        "--spp",
-                        ",".join(map(str, cycles_ladder)),
-                        *common,
-                    ]
-                )
+                render_peer(args.bpy_python, "cycles_render.py", work, name, ",".join(map(str, cycles_ladder)), *common)
             renderers[name] = json.loads((work / name / "timings.json").read_text())
             renderers[name]["load_average_1min"] = {"before": before, "after": loadavg()}
             (work / name / "timings.json").write_text(json.dumps(renderers[name], indent=2) + "\n")
@@ -317,25 +311,17 @@ def main() -> int:
     for k, seed in enumerate((100, 200)):
         prefix = f"half{k}_"
         if not (work / "reference" / f"{prefix}rgb_spp{args.reference_spp}.npy").exists():
-            run(
-                [
-                    sys.executable,
-                    str(HERE / "mitsuba_render.py"),
-                    str(work / "scene"),
-                    str(work / "reference"),
-                    "--spp",
-                    str(args.reference_spp),
-                    "--repeats",
-                    "0",
-                    "--threads",
-                    str(args.threads),
-                    "--seed",
-                    str(seed),
-                    "--prefix",
-                    prefix,
-                    "--no-aov",
-                ],
-                env,
+            render_peer(
+                sys.executable,
+                "mitsuba_render.py",
+                work,
+                "reference",
+                str(args.reference_spp),
+                "--repeats",
+                "0",
+                *half_options(args.threads, seed, prefix),
+                "--no-aov",
+                env=env,
             )
         halves.append(np.load(work / "reference" / f"{prefix}rgb_spp{args.reference_spp}.npy").astype(np.float64))
     ref = (halves[0] + halves[1]) / 2
@@ -377,25 +363,17 @@ def main() -> int:
                         prefix=prefix,
                     )
                 else:
-                    run(
-                        [
-                            args.bpy_python,
-                            str(HERE / "cycles_render.py"),
-                            str(work / "scene"),
-                            str(work / name),
-                            "--spp",
-                            str(spp),
-                            "--repeats",
-                            "1",
-                            "--repeat-max-spp",
-                            "0",
-                            "--threads",
-                            str(args.threads),
-                            "--seed",
-                            str(seed),
-                            "--prefix",
-                            prefix,
-                        ]
+                    render_peer(
+                        args.bpy_python,
+                        "cycles_render.py",
+                        work,
+                        name,
+                        str(spp),
+                        "--repeats",
+                        "1",
+                        "--repeat-max-spp",
+                        "0",
+                        *half_options(args.threads, seed, prefix),
                     )
             own_halves.append(np.load(path)[..., :3].astype(np.float64))
         own[name] = (own_halves, float(np.mean((own_halves[0] - own_halves[1]) ** 2)) / 4, spp)

@@ -44,20 +44,11 @@ COLUMNS: dict[str, pa.DataType] = {
     "task_in_scene": pa.int64(),
     "task_id": pa.string(),
 }
-_SCENE_COLUMNS = (
-    "bop_split",
-    "split",
-    "scene_id",
-    "scene_dir",
-    "view",
-    "mesh",
-    "obj_id",
-    "location",
-    "bags",
-    "stain_seeds",
-    "dust",
-)
+# Each task's columns come from its entry in scene_meta.json's `tasks`, the image id range from
+# that entry's image_ids, and the rest from the scene's own fields.
 _TASK_COLUMNS = ("sun_elevation_deg", "sun_azimuth_deg", "camera_height_m", "task_in_scene", "task_id")
+_IMAGE_RANGE_COLUMNS = ("im_id_first", "im_id_last")
+_SCENE_COLUMNS = tuple(name for name in COLUMNS if name not in _TASK_COLUMNS + _IMAGE_RANGE_COLUMNS)
 
 
 def index_rows(scene_metas: list[dict]) -> list[dict]:

@@ -53,7 +53,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import cKDTree
 
-from moonbot.bop.reader import DatasetError, Model, Scene
+from moonbot.bop.reader import DatasetError, Instance, Model, Scene
 from moonbot.eval.metrics import match_greedy
 from moonbot.eval.results import Estimate
 
@@ -246,6 +246,20 @@ class InstanceResult:
     adds_correct_20: bool = False
 
 
+def _instance_result(inst: Instance, common: dict, evaluated: bool, matched: bool, **errors) -> InstanceResult:
+    """The row of ground-truth instance `inst`: its image's and object's fields (`common`), its own,
+    and the `errors` of the estimate matched to it (InstanceResult's defaults where none)."""
+    return InstanceResult(
+        index=inst.index,
+        px_visib=inst.px_visib,
+        visib_fract=inst.visib_fract,
+        evaluated=evaluated,
+        matched=matched,
+        **common,
+        **errors,
+    )
+
+
 @dataclass
 class Evaluation:
     """Every ground-truth instance of the split (InstanceResult) and what became of the estimates:
@@ -340,34 +354,18 @@ def evaluate(
                 diameter_mm=mp.diameter,
             )
             for inst in gts:
-                rows[inst.index] = InstanceResult(
-                    index=inst.index,
-                    px_visib=inst.px_visib,
-                    visib_fract=inst.visib_fract,
-                    evaluated=False,
-                    matched=False,
-                    **common,
-                )
+                rows[inst.index] = _instance_result(inst, common, evaluated=False, matched=False)
             for g, inst in enumerate(valid):
                 e = int(estimate_of[g])
                 flags = {f"{kind}_correct_{round(100 * f)}": bool(c[g]) for (kind, f), c in correct.items()}
                 if e < 0:
-                    rows[inst.index] = InstanceResult(
-                        index=inst.index,
-                        px_visib=inst.px_visib,
-                        visib_fract=inst.visib_fract,
-                        evaluated=True,
-                        matched=False,
-                        **common,
-                        **flags,
-                    )
+                    rows[inst.index] = _instance_result(inst, common, evaluated=True, matched=False, **flags)
                     continue
                 est = ests[e]
                 matched_estimates += 1
-                rows[inst.index] = InstanceResult(
-                    index=inst.index,
-                    px_visib=inst.px_visib,
-                    visib_fract=inst.visib_fract,
+                rows[inst.index] = _instance_result(
+                    inst,
+                    common,
                     evaluated=True,
                     matched=True,
                     add_mm=pairs.add(e, g),
@@ -375,7 +373,6 @@ def evaluate(
                     te_mm=float(np.linalg.norm(est.t - inst.t)),
                     score=est.score,
                     line=est.line,
-                    **common,
                     **flags,
                 )
         results.extend(rows[k] for k in sorted(rows))

@@ -84,6 +84,12 @@ def read_bytes(path: Path, sha256: str | None = None) -> bytes:
     return data
 
 
+def read_json(path: Path, sha256: str | None = None) -> Any:
+    """The JSON value in record file `path` (read_bytes, then parse_bytes); RecordError naming
+    the file."""
+    return parse_bytes(read_bytes(path, sha256), str(path))
+
+
 def to_json(record: Any) -> Any:
     """A record as the JSON value it is written as: dataclasses as objects in field order, a field
     whose default is None left out while it is None, the KEEP_UNKNOWN field's keys at the end,

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from moonbot.config.load import KEEP_UNKNOWN
-from moonbot.records.base import SCHEMA_VERSION, RecordError, decode, parse_bytes, read_bytes, to_json, write_json
+from moonbot.records.base import SCHEMA_VERSION, RecordError, decode, read_json, to_json, write_json
 
 
 def _other() -> Any:
@@ -295,7 +295,7 @@ def decode_bench_result(data: Any, source: str) -> BenchResult:
 
 def read_bench_result(path: Path) -> BenchResult:
     """A result file. RecordError naming the file and field."""
-    return decode_bench_result(parse_bytes(read_bytes(path), str(path)), str(path))
+    return decode_bench_result(read_json(path), str(path))
 
 
 def write_bench_result(path: Path, record: BenchResult) -> None:

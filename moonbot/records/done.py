@@ -15,7 +15,7 @@ import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
-from moonbot.records.base import SCHEMA_VERSION, RecordError, decode, parse_bytes, read_bytes, write_json
+from moonbot.records.base import SCHEMA_VERSION, RecordError, decode, read_json, write_json
 
 # The marker's file name in a task directory.
 DONE = "DONE.json"
@@ -56,7 +56,7 @@ UPGRADES = {1: _upgrade_1}
 
 def read_done(path: Path) -> DoneRecord:
     """A DONE.json file (`path`: the file itself). RecordError naming the file and field."""
-    return decode(DoneRecord, parse_bytes(read_bytes(path), str(path)), str(path), UPGRADES)
+    return decode(DoneRecord, read_json(path), str(path), UPGRADES)
 
 
 def write_done(path: Path, record: DoneRecord) -> None:

@@ -14,15 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from moonbot.records.base import (
-    SCHEMA_VERSION,
-    add_schema_version,
-    decode,
-    parse_bytes,
-    read_bytes,
-    to_json,
-    write_json,
-)
+from moonbot.records.base import SCHEMA_VERSION, add_schema_version, decode, read_json, to_json, write_json
 
 GT = "gt.json"
 
@@ -93,7 +85,7 @@ UPGRADES = {1: add_schema_version}
 def read_gt(path: Path, sha256: str | None = None) -> GtRecord:
     """A gt.json file; with `sha256`, its bytes must have that checksum (DONE.json's). RecordError
     naming the file and the field path (e.g. "instances[2].cam_R_m2c: must have 9 items, got 8")."""
-    return decode(GtRecord, parse_bytes(read_bytes(path, sha256), str(path)), str(path), UPGRADES)
+    return decode(GtRecord, read_json(path, sha256), str(path), UPGRADES)
 
 
 def write_gt(path: Path, record: GtRecord) -> None:

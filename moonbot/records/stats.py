@@ -13,15 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from moonbot.config.load import KEEP_UNKNOWN
-from moonbot.records.base import (
-    SCHEMA_VERSION,
-    add_schema_version,
-    decode,
-    parse_bytes,
-    read_bytes,
-    to_json,
-    write_json,
-)
+from moonbot.records.base import SCHEMA_VERSION, add_schema_version, decode, read_json, to_json, write_json
 
 STATS = "stats.json"
 _SECONDS = {"lo": 0.0}
@@ -90,7 +82,7 @@ def decode_stats(data: Any, source: str) -> StatsRecord:
 
 def read_stats(path: Path) -> StatsRecord:
     """A stats.json file. RecordError naming the file and field."""
-    return decode_stats(parse_bytes(read_bytes(path), str(path)), str(path))
+    return decode_stats(read_json(path), str(path))
 
 
 def write_stats(path: Path, record: StatsRecord) -> None:

@@ -12,15 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from moonbot.records.base import (
-    SCHEMA_VERSION,
-    add_schema_version,
-    decode,
-    parse_bytes,
-    read_bytes,
-    to_json,
-    write_json,
-)
+from moonbot.records.base import SCHEMA_VERSION, add_schema_version, decode, read_json, to_json, write_json
 
 TASK = "task.json"
 _NON_NEGATIVE = {"lo": 0}
@@ -85,7 +77,7 @@ UPGRADES = {1: add_schema_version}
 def read_task(path: Path, sha256: str | None = None) -> TaskRecord:
     """A task.json file; with `sha256`, its bytes must have that checksum (DONE.json's).
     RecordError naming the file and field."""
-    return decode(TaskRecord, parse_bytes(read_bytes(path, sha256), str(path)), str(path), UPGRADES)
+    return decode(TaskRecord, read_json(path, sha256), str(path), UPGRADES)
 
 
 def write_task(path: Path, record: TaskRecord) -> None:

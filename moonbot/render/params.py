@@ -6,6 +6,9 @@ defaults and ranges agree with the C++ ones where both state them."""
 
 from __future__ import annotations
 
+import dataclasses
+from typing import Any
+
 import numpy as np
 
 from moonbot import _core
@@ -19,48 +22,36 @@ from moonbot.config.schema import (
     StainConfig,
 )
 
+# CloudConfig's fields that describe the medium the cloud makes (Medium), not its emitter.
+_MEDIUM_FIELDS = ("albedo", "asymmetry", "voxel_m", "march_stride_px")
+
+
+def _same_named(config: Any, skip: tuple[str, ...] = ()) -> dict[str, Any]:
+    """The fields of config section `config` (a dataclass) that its struct holds under the same
+    name: all but nested sections and those in `skip`. The struct's keyword constructor refuses a
+    name it lacks, so a schema field without a struct field fails loudly."""
+    return {
+        f.name: getattr(config, f.name)
+        for f in dataclasses.fields(config)
+        if f.name not in skip and not dataclasses.is_dataclass(getattr(config, f.name))
+    }
+
 
 def photometry(config: PhotometryConfig) -> _core.Photometry:
     """Regolith's photometric function (moonbot/photometry.h)."""
-    return _core.Photometry(
-        model=config.model,
-        phase=config.phase,
-        surge_amplitude=config.surge_amplitude,
-        surge_width=config.surge_width,
-        w=config.w,
-        b=config.b,
-        c=config.c,
-        roughness_deg=config.roughness_deg,
-        filling_factor=config.filling_factor,
-        cboe_amplitude=config.cboe_amplitude,
-        cboe_width=config.cboe_width,
-    )
+    return _core.Photometry(**_same_named(config))
 
 
 def grain(config: GrainConfig) -> _core.GrainParams:
     """Regolith's granular micro-texture (moonbot/regolith_texture.h)."""
-    return _core.GrainParams(
-        albedo_rms=config.albedo_rms,
-        slope_rms_deg=config.slope_rms_deg,
-        finest_cell_m=config.finest_cell_m,
-        coarsest_cell_m=config.coarsest_cell_m,
-        hurst=config.hurst,
-        seed=config.seed,
-    )
+    return _core.GrainParams(**_same_named(config))
 
 
 def woven(fabric: FabricConfig, stain: StainConfig, metres_per_uv: float, stain_seed: int) -> _core.WovenSurface:
     """A bag's cloth (moonbot/scene.h WovenSurface): the weave laid at `metres_per_uv` fabric metres
     per atlas UV unit, its dirt made from `stain_seed` (zero stain seeds: none is made)."""
     return _core.WovenSurface(
-        fabric=_core.FabricParams(
-            pitch_m=fabric.pitch_m,
-            relief_m=fabric.relief_m,
-            contrast=fabric.contrast,
-            sheen=fabric.sheen,
-            sheen_along=fabric.sheen_along,
-            sheen_across=fabric.sheen_across,
-        ),
+        fabric=_core.FabricParams(**_same_named(fabric)),
         stain=_core.StainParams(
             stamps=stain.seeds, brush_size=stain.brush_size, opacity=stain.opacity, resolution=stain.resolution
         ),
@@ -79,52 +70,18 @@ def woven(fabric: FabricConfig, stain: StainConfig, metres_per_uv: float, stain_
 
 def ejecta(config: EjectaConfig, origin: np.ndarray) -> _core.EjectaParams:
     """Emitter 1 (moonbot/dust.h) standing at `origin` ((3,) world metres, on the ground)."""
-    return _core.EjectaParams(
-        origin=origin,
-        count=config.count,
-        spawn_radius_m=config.spawn_radius_m,
-        cone_half_angle_deg=config.cone_half_angle_deg,
-        mean_speed_m_s=config.mean_speed_m_s,
-        min_diameter_m=config.min_diameter_m,
-        max_diameter_m=config.max_diameter_m,
-        gravity_m_s2=config.gravity_m_s2,
-        restitution=config.restitution,
-        friction=config.friction,
-        rest_speed_m_s=config.rest_speed_m_s,
-        burst_period_s=config.burst_period_s,
-    )
+    return _core.EjectaParams(origin=origin, **_same_named(config))
 
 
 def cloud(config: CloudConfig, origin: np.ndarray) -> _core.CloudParams:
     """Emitter 2, the fine-dust cloud (moonbot/dust.h), standing at `origin` ((3,) world metres)."""
-    return _core.CloudParams(
-        origin=origin,
-        box_m=config.box_m,
-        vertical_offset_m=config.vertical_offset_m,
-        axis=config.axis,
-        cone_half_angle_deg=config.cone_half_angle_deg,
-        speed_m_s=config.speed_m_s,
-        gravity_m_s2=config.gravity_m_s2,
-        lifetime_s=config.lifetime_s,
-        rate_per_s=config.rate_per_s,
-        sigma_m=config.sigma_m,
-        growth_m_s=config.growth_m_s,
-        optical_depth=config.optical_depth,
-        rise_fraction=config.rise_fraction,
-    )
+    return _core.CloudParams(origin=origin, **_same_named(config, skip=_MEDIUM_FIELDS))
 
 
 def medium(config: CloudConfig, puffs: np.ndarray, floor_z: float) -> _core.Medium:
     """The cloud's `puffs` ((N, 5) float64, `_core.cloud_puffs`) as the medium a render traces
     (moonbot/medium.h), none of it below `floor_z` (world metres)."""
-    return _core.Medium(
-        puffs=puffs,
-        albedo=config.albedo,
-        asymmetry=config.asymmetry,
-        voxel_m=config.voxel_m,
-        floor_z=floor_z,
-        march_stride_px=config.march_stride_px,
-    )
+    return _core.Medium(puffs=puffs, floor_z=floor_z, **{name: getattr(config, name) for name in _MEDIUM_FIELDS})
 
 
 def render_settings(config: RenderConfig, seed: int) -> _core.RenderSettings:
