@@ -1032,7 +1032,7 @@ class RenderSettings:
     """
     A render's quality and threads (moonbot/render.h).
     """
-    fields: typing.ClassVar[tuple] = ('spp', 'seed', 'threads', 'exact_depth', 'light_samples', 'bounces', 'adaptive_spp', 'adaptive_threshold')
+    fields: typing.ClassVar[tuple] = ('spp', 'seed', 'threads', 'exact_depth', 'light_samples', 'bounces', 'adaptive_spp', 'adaptive_threshold', 'texture_filter_px')
     @typing.overload
     def __init__(self) -> None:
         """
@@ -1104,6 +1104,14 @@ class RenderSettings:
         """
     @spp.setter
     def spp(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def texture_filter_px(self) -> float:
+        """
+        width in pixels of the box each sample's textures are prefiltered over, 0.25..8 (1 = its pixel)
+        """
+    @texture_filter_px.setter
+    def texture_filter_px(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
     @property
     def threads(self) -> int:

@@ -43,9 +43,11 @@ def render(overrides: dict, seed: int = 3, azimuth_deg: float = 30.0):
 # sha256 of the rgb bytes of render({**CLOSE_BAG_VIEW, **OFF, **PATH, "bags.stain.seeds": 90}) (Embree's
 # avx2 kernels). Recorded when the grain, the sheen and the dust mode were added, with them off
 # (the same bytes as before them); re-recorded when the bags settled into their wrinkled shape and
-# the small craters were worn, which moved the geometry under the same stamps. The stamp
-# algorithm itself (cpp/src/stain.cpp) is unchanged since the paper's mode was written.
-PAPER_STAMP_90_SHA256 = "a9e775b0315ec63d9498b3129a6e466b217f2fded53d697a547fdfcaf729b5ed"
+# the small craters were worn, which moved the geometry under the same stamps; and when the
+# textures' prefilter narrowed to the pixel's box (render.texture_filter_px), which sharpened the
+# weave under them. The stamp algorithm itself (cpp/src/stain.cpp) is unchanged since the paper's
+# mode was written.
+PAPER_STAMP_90_SHA256 = "d04c7c0c9a77b1553cc1296dade99fe5bfcb87c2b2d99c6da52db601b9452558"
 # The brute-force renderer, so the pin follows the stain and the geometry, not the light cache's
 # or adaptive sampling's tuning.
 PATH = {"render.indirect": "path", "render.adaptive_spp": 0}
@@ -146,6 +148,37 @@ def test_grain_is_visible_near_and_two_seeds_agree_on_it():
     assert term[0].mean() == pytest.approx(1.0, abs=0.01)
     assert term[0].std() > 0.3 * 0.08
     assert np.sqrt(np.mean((term[0] - term[1]) ** 2)) < 0.25 * term[0].std()
+
+
+def test_a_wider_texture_filter_blurs_the_grain_and_a_bad_width_names_the_field():
+    """render.texture_filter_px is the box each sample's textures are prefiltered over: at 1 pixel
+    the grain's texture term varies more from pixel to pixel than at 4 pixels, whose blur removes
+    octaves the camera resolves; both keep the plain ground's mean (the texture's mean factor is 1)."""
+    scene = {
+        **CLOSE,
+        "render.bounces": 0,
+        "render.spp": 4,
+        "render.adaptive_spp": 0,
+        "sun.angular_diameter_deg": 0.0,
+        "terrain.photometry.model": "lambert",
+        "terrain.photometry.grain.slope_rms_deg": 0.0,
+        "bags.fabric.sheen": 0.0,
+    }
+    plain = render({**scene, **OFF})[0]
+    sharp, instance = render(scene)
+    wide = render({**scene, "render.texture_filter_px": 4.0})[0]
+    ground = instance == 0
+    lit = np.median(plain[..., 1][ground])
+    keep = ground & np.isclose(plain[..., 1], lit, rtol=1e-6)
+    keep[: keep.shape[0] // 2] = False  # the near half: ground the grain's octaves reach
+    assert keep.sum() > 2000
+    sharp_term, wide_term = sharp[..., 1][keep] / lit, wide[..., 1][keep] / lit
+    assert sharp_term.mean() == pytest.approx(1.0, abs=0.01) and wide_term.mean() == pytest.approx(1.0, abs=0.01)
+    assert wide_term.std() < 0.7 * sharp_term.std()
+    with pytest.raises(ConfigError, match=r"render\.texture_filter_px"):
+        load_config(None, {"render.texture_filter_px": 0.1})
+    with pytest.raises(ValueError, match="texture_filter_px"):
+        _core.RenderSettings(texture_filter_px=9.0)
 
 
 # --- sheen ----------------------------------------------------------------------------------------

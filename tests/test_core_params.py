@@ -86,7 +86,18 @@ def built():
         (
             RenderConfig(),
             params.render_settings(RenderConfig(), 9),
-            {k: k for k in ("spp", "threads", "exact_depth", "light_samples", "bounces", "adaptive_threshold")},
+            {
+                k: k
+                for k in (
+                    "spp",
+                    "threads",
+                    "exact_depth",
+                    "light_samples",
+                    "bounces",
+                    "adaptive_threshold",
+                    "texture_filter_px",
+                )
+            },
         ),
         (
             RenderConfig(),

@@ -23,6 +23,8 @@ void bind_render(py::module_& m) {
                "up to, spp < adaptive_spp <= 65536")
         .field("adaptive_threshold", &RenderSettings::adaptive_threshold,
                "relative spread of direct luminance over a pixel's base samples that refines it, >= 0")
+        .field("texture_filter_px", &RenderSettings::texture_filter_px,
+               "width in pixels of the box each sample's textures are prefiltered over, 0.25..8 (1 = its pixel)")
         .done();
     m.def(
         "render",

@@ -34,6 +34,8 @@ constexpr int kMaxSpp = 65536;
 constexpr uint32_t kPairLight = 8, kPairBounce = 4096, kPairsPerBounce = 32;
 // A march stops once the dust's optical depth passes this: nothing behind shows (e^-20 ≈ 2e-9).
 constexpr double kOpaqueDepth = 20.0;
+// A box's σ (its width/√12) in the textures' footprint units (σ = footprint/2): 2/√12 = 1/√3.
+const double kBoxSigmaToFootprint = 1.0 / std::sqrt(3.0);
 
 /// The end of one pixel's path: where it is, which way it left, what it carries.
 struct PathVertex {
@@ -508,14 +510,19 @@ private:
         }
     }
 
-    /// One pixel's width on the surface of a camera hit (metres): its angle 1/fx at the hit's
-    /// distance, stretched by the obliquity to the unit normal `n` (capped so a grazing hit still
-    /// gets a finite blur). The footprint textures are prefiltered over.
+    /// The footprint textures are prefiltered over at a camera hit (metres), in the textures'
+    /// convention of a Gaussian of σ = footprint/2 (fabric.h). A pixel covers an ellipse on the
+    /// surface, its angle 1/fx at the hit's distance across and that over the obliquity to the
+    /// unit normal `n` along the slope (capped so a grazing hit stays finite); the isotropic
+    /// width of the same area (√obliquity) blurs neither axis far beyond the pixel. A box of
+    /// width w has σ = w/√12, so a box of `texture_filter_px` such widths is a footprint of
+    /// texture_filter_px·w/√3.
     double pixel_footprint(const PixelHit& h, const glm::dvec3& dir, const glm::dvec3& n) const {
         const double length = glm::length(dir);
         const double distance = h.t * length;
         const double obliquity = std::max(std::abs(glm::dot(n, dir)) / length, 0.1);
-        return distance / m_camera.intrinsics().fx / obliquity;
+        const double width = distance / m_camera.intrinsics().fx / std::sqrt(obliquity);
+        return width * m_settings.texture_filter_px * kBoxSigmaToFootprint;
     }
 
     /// Regolith's granular micro-texture at a camera hit (regolith_texture.h), prefiltered over
@@ -853,6 +860,9 @@ void RenderSettings::validate() const {
     if (threads < 0 || threads > kMaxThreads)
         throw std::invalid_argument("threads: must be in 0.." + std::to_string(kMaxThreads) + " (0 = all), got " +
                                     std::to_string(threads));
+    if (!(texture_filter_px >= 0.25 && texture_filter_px <= 8.0))
+        throw std::invalid_argument("texture_filter_px: must be in [0.25, 8] pixels, got " +
+                                    std::to_string(texture_filter_px));
 }
 
 RenderStats render_geometry(const Scene& scene, const Camera& camera, const RenderSettings& settings,

@@ -1013,6 +1013,16 @@ class RenderConfig:
             hi=1000.0,
         ),
     )
+    texture_filter_px: float = field(
+        default=1.0,
+        metadata=spec(
+            "width, in pixels, of the box each camera sample's textures (regolith grain, weave, dust cover) are "
+            "prefiltered over: 1 = its pixel, integrated by the pixel's samples as a sensor does; wider is "
+            "blurrier and refines fewer pixels (bench_accuracy and bench realism measure both)",
+            lo=0.25,
+            hi=8.0,
+        ),
+    )
     indirect: Literal["path", "cache"] = field(
         default="cache",
         metadata=spec(

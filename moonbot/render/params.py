@@ -96,6 +96,7 @@ def render_settings(config: RenderConfig, seed: int) -> _core.RenderSettings:
         bounces=config.bounces,
         adaptive_spp=config.refinement_spp,
         adaptive_threshold=config.adaptive_threshold,
+        texture_filter_px=config.texture_filter_px,
     )
 
 

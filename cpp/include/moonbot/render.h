@@ -47,6 +47,11 @@ struct RenderSettings {
     int adaptive_spp = 0;
     /// The relative spread of direct luminance over a pixel's base samples that refines it; ≥ 0.
     double adaptive_threshold = 0.25;
+    /// Width, in pixels, of the box each camera sample's textures (regolith grain, weave, dust
+    /// cover) are prefiltered over, 0.25..8. At 1 a sample stands for its pixel's box, which the
+    /// pixel's samples then integrate as a sensor's pixel does; wider blurs the textures, so fewer
+    /// pixels disagree and refine, at the cost of detail a real camera would record.
+    double texture_filter_px = 1.0;
 
     /// Throws std::invalid_argument naming the first field out of its range (render() calls it).
     void validate() const;
