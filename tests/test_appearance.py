@@ -155,7 +155,7 @@ def test_a_wider_texture_filter_blurs_the_grain_and_a_bad_width_names_the_field(
     the grain's texture term varies more from pixel to pixel than at 4 pixels, whose blur removes
     octaves the camera resolves; both keep the plain ground's mean (the texture's mean factor is 1)."""
     scene = {
-        **CLOSE,
+        **CLOSE_BAG_VIEW,
         "render.bounces": 0,
         "render.spp": 4,
         "render.adaptive_spp": 0,
