@@ -80,7 +80,8 @@ public:
     double flat_footprint_m() const { return m_flat_footprint; }
 
     /// The texture at world point p (metres) prefiltered over `footprint_m` ≥ 0 metres (the width
-    /// of surface one sample stands for; for an anisotropic footprint its longer axis).
+    /// of surface one sample stands for; for an anisotropic footprint, an isotropic one's of the
+    /// same area).
     GrainSample eval(const glm::dvec3& p, double footprint_m) const;
 
 private:
