@@ -474,7 +474,7 @@ class RegolithGrain:
         """
     def eval(self, points: typing.Any, footprint_m: typing.SupportsFloat | typing.SupportsIndex) -> tuple[numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.float64]]:
         """
-        (albedo factor (N,) float64, relief gradient (N, 3) float64) at world points (N, 3) metres, prefiltered over footprint_m metres.
+        (albedo factor (N,) float64, relief gradient (N, 3) float64) at world points (N, 3) metres, as a pixel of footprint footprint_m metres sees them there: the albedo prefiltered over it, the relief's mean gradient over the pixel's box (regolith_texture.h).
         """
     @property
     def flat_footprint_m(self) -> float:

@@ -9,8 +9,10 @@ import pytest
 
 from moonbot import _core
 from moonbot.config import ConfigError, load_config
+from moonbot.render import build_scene, render_view
+from moonbot.scene import compose_scene, intrinsics, orbit_pose
 
-from scenes import box
+from scenes import CLOSE_BAG_VIEW, box
 
 pytestmark = pytest.mark.unit
 
@@ -295,3 +297,40 @@ def test_with_the_light_cache_refinement_reads_no_cache_and_traces_no_bounces():
     assert added == on["refinement_rays"]
     changed = np.any(on["rgb"] != off["rgb"], axis=-1)
     assert 0 < changed.sum() <= on["refined_pixels"]
+
+
+def test_the_threshold_weighs_the_spread_by_the_pixel_and_the_frame():
+    """A pixel is refined where its base samples' direct luminance spreads beyond threshold ×
+    √(its mean × the frame's mean): the decisions do not change when the Sun is ten times
+    brighter (spread and scale grow alike), and a threshold high enough refines nothing."""
+    scene = lunar_test_scene()
+    bright = _core.DirectionalLight(-60.0, 12.0, 10 * E, 0.533)
+    settings = quality(seed=5, adaptive_spp=16, adaptive_threshold=0.5)
+    dim, lit = (_core.render(scene, ground_camera(), sun, settings) for sun in (DISK_SUN, bright))
+    assert dim["refined_pixels"] == lit["refined_pixels"] > 0
+    assert dim["refinement_rays"] == lit["refinement_rays"]
+    # The spread is at most max − 0 and the mean at least max/spp, so spread/√(m·M) is at most
+    # √(spp·max/M): a threshold past it for every pixel refines none.
+    never = quality(seed=5, adaptive_spp=16, adaptive_threshold=1e4)
+    assert _core.render(scene, ground_camera(), DISK_SUN, never)["refined_pixels"] == 0
+
+
+def test_the_regolith_grain_does_not_make_pixels_disagree():
+    """Every sample of a pixel reads the grain (albedo and relief) where the pixel's centre ray
+    meets the facet it hit, so the texture does not spread a pixel's samples: the close bag view
+    under the default 12° Sun with the grain on refines about as many pixels as without it (the
+    edges of the bag and its shadow). Read at each sample's own point, the grain's relief made
+    five times as many disagree."""
+
+    def refined(overrides: dict) -> int:
+        config = load_config(
+            None,
+            {**CLOSE_BAG_VIEW, "sun.elevation_deg": 12.0, "render.indirect": "path", "render.bounces": 0, **overrides},
+        )
+        spec = compose_scene(config)
+        pose = orbit_pose(spec.target, config.orbit.radius_m, config.orbit.height_m, 30.0)
+        view = render_view(build_scene(spec), config, intrinsics(config.camera), pose, seed=3)
+        return view.stats["refined_pixels"]
+
+    without = refined({"terrain.photometry.grain.albedo_rms": 0.0, "terrain.photometry.grain.slope_rms_deg": 0.0})
+    assert 0 < refined({}) < 1.2 * without

@@ -215,8 +215,9 @@ void bind_scene(py::module_& m) {
                 return py::make_tuple(factor, gradient);
             },
             py::arg("points"), py::arg("footprint_m"),
-            "(albedo factor (N,) float64, relief gradient (N, 3) float64) at world points (N, 3) metres, "
-            "prefiltered over footprint_m metres.");
+            "(albedo factor (N,) float64, relief gradient (N, 3) float64) at world points (N, 3) metres, as a "
+            "pixel of footprint footprint_m metres sees them there: the albedo prefiltered over it, the relief's "
+            "mean gradient over the pixel's box (regolith_texture.h).");
 
     m.def(
         "embree_isas",

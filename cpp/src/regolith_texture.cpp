@@ -88,6 +88,7 @@ RegolithGrain::RegolithGrain(const GrainParams& params) : m_params(params) {
         o.to_world = glm::transpose(o.rotation);
         o.albedo_amplitude = albedo_amplitude;
         o.height_amplitude = height_scale * std::pow(o.cell, params.hurst);
+        o.slope_variance = kValueNoiseSlopeVariance * (o.height_amplitude / o.cell) * (o.height_amplitude / o.cell);
         o.key = mix64(base + static_cast<uint64_t>(k));
         m_octaves.push_back(o);
     }
@@ -104,6 +105,7 @@ GrainSample RegolithGrain::eval(const glm::dvec3& p, double footprint_m) const {
         const double gain = std::exp(-0.5 * x * x);
         if (gain <= kGainCut) continue;
         const double w = (gain - kGainCut) * (1.0 / (1.0 - kGainCut));
+        out.residual_slope_variance += w * w * (1.0 - w * w) * o.slope_variance;
         const glm::dvec3 q = o.rotation * p;
         const glm::dvec3 f = glm::floor(q);
         const glm::dvec3 t = q - f;
@@ -135,7 +137,7 @@ GrainSample RegolithGrain::eval(const glm::dvec3& p, double footprint_m) const {
                 ds.x * lerp(lerp(h[1] - h[0], h[3] - h[2], s.y), lerp(h[5] - h[4], h[7] - h[6], s.y), s.z);
             const double dy = ds.y * lerp(h10 - h00, h11 - h01, s.z);
             const double dz = ds.z * (hy1 - hy0);
-            gradient += (w * o.height_amplitude) * (o.to_world * glm::dvec3(dx, dy, dz));
+            gradient += (w * w * o.height_amplitude) * (o.to_world * glm::dvec3(dx, dy, dz));
         }
     }
     out.albedo_factor = 1.0 + albedo;

@@ -50,6 +50,9 @@ struct PathVertex {
     double cos_light[2];    // normal · light dir, per light
     bool alive;
     bool shaded_apart;      // `shading` differs from `normal`
+    // The RMS slope (tan) of relief over the pixel about `shading` (the grain's,
+    // GrainSample::residual_slope_variance): the lights' cosines are averaged over it. 0 elsewhere.
+    double residual_slope;
     // The cloth's glossy tapes (fabric.h "Sheen"), at camera hits on cloth with sheen only:
     double sheen;             // its weight s; 0 elsewhere, and then nothing below is read
     const FabricParams* fabric;
@@ -59,16 +62,11 @@ struct PathVertex {
 
 /// What a pixel's base samples say about whether they agree (adaptive anti-aliasing).
 struct SampleAgreement {
-    static constexpr uint32_t kSky = std::numeric_limits<uint32_t>::max();  // a camera ray that hit nothing
-    uint32_t first_hit = 0;   // the instance the first sample hit, or kSky
-    bool hits_differ = false;  // some sample hit another instance (or the sky instead)
-    int sun_escaped = 0;       // Sun shadow rays from the camera hits that escaped
-    int sun_hidden = 0;        // those blocked, or below the hit facet's horizon
+    int sun_escaped = 0;  // Sun shadow rays from the camera hits that escaped
+    int sun_hidden = 0;   // those blocked, or below the hit facet's horizon
     double luminance_min = INFINITY, luminance_max = 0.0, luminance_sum = 0.0;  // of direct light, W/(m²·sr)
 
-    void add(int sample, uint32_t hit, int escaped, int hidden, double luminance) {
-        if (sample == 0) first_hit = hit;
-        hits_differ = hits_differ || hit != first_hit;
+    void add(int escaped, int hidden, double luminance) {
         sun_escaped += escaped;
         sun_hidden += hidden;
         luminance_min = std::min(luminance_min, luminance);
@@ -76,11 +74,15 @@ struct SampleAgreement {
         luminance_sum += luminance;
     }
 
-    /// Whether the `samples` added disagree enough for more: render.h's three criteria.
-    bool disagree(int samples, double threshold) const {
-        if (hits_differ || (sun_escaped > 0 && sun_hidden > 0)) return true;
-        return luminance_max - luminance_min > threshold * (luminance_sum / samples);
+    /// Whether the `samples` added disagree enough for more (render.h): their direct luminance
+    /// spreads beyond `threshold` × the geometric mean of their own mean and the frame's.
+    bool disagree(int samples, double threshold, double frame_luminance) const {
+        return disagree(luminance_max - luminance_min, luminance_sum / samples, threshold, frame_luminance);
     }
+    static bool disagree(double spread, double mean, double threshold, double frame_luminance) {
+        return spread > threshold * std::sqrt(mean * frame_luminance);
+    }
+    bool penumbra() const { return sun_escaped > 0 && sun_hidden > 0; }
 };
 
 /// Rec. 709 luminance of linear RGB.
@@ -113,6 +115,7 @@ struct TileScratch {
     std::array<RayHit, kTilePixels> rays;
     std::array<RayHit, kTilePixels> shadow;
     std::array<glm::dvec3, kTilePixels> dirs;
+    std::array<glm::dvec3, kTilePixels> centre_dirs;  // of each camera ray's pixel centre: where textures are read
     TileHits hits;
     std::array<int, kTilePixels> shadow_of;     // which pixel of the tile a shadow ray belongs to
     // pixel_stream of each camera ray's pixel, for random samples: the tile's pixels in order,
@@ -145,13 +148,16 @@ struct TileScratch {
 struct AdaptiveFrame {
     /// One pixel's centre sample, as SampleAgreement::add takes it (spp 1 only).
     struct CentreSample {
-        uint32_t hit;           // the instance hit, or SampleAgreement::kSky
         uint16_t sun_escaped;   // its Sun shadow rays that escaped ...
         uint16_t sun_hidden;    // ... and those blocked or below the facet's horizon
         double luminance;       // of its direct light, W/(m²·sr)
     };
     std::vector<glm::dvec3> sum, direct_sum;  // over the base samples (spp >= 2): radiance, and its direct part
-    std::vector<uint8_t> disagree;  // spp >= 2: bit 0 SampleAgreement::disagree, bit 1 its Sun rays partly escape
+    // spp >= 2: bit 0 SampleAgreement::disagree (set by decide(), once the frame's luminance is
+    // known), bit 1 the pixel's Sun rays partly escape (set by the first pass)
+    std::vector<uint8_t> disagree;
+    std::vector<float> spread;  // spp >= 2: max − min of the base samples' direct luminance, W/(m²·sr)
+    double frame_luminance = 0.0;  // mean direct luminance of the base samples over the frame, W/(m²·sr)
     std::vector<CentreSample> centre;  // spp 1 only
     std::vector<double> dust_through;  // with dust only: the pixel's transmittance ...
     std::vector<glm::dvec3> dust_glow;  // ... and glow (TileScratch), applied after refining
@@ -160,9 +166,24 @@ struct AdaptiveFrame {
         : sum(centre_only ? 0 : pixels),
           direct_sum(centre_only ? 0 : pixels),
           disagree(centre_only ? 0 : pixels),
+          spread(centre_only ? 0 : pixels),
           centre(centre_only ? pixels : 0),
           dust_through(dust ? pixels : 0),
           dust_glow(dust ? pixels : 0) {}
+
+    /// After the first pass: the frame's mean direct luminance, then (spp ≥ 2) each pixel's
+    /// SampleAgreement::disagree against it. A sum in pixel order, so the same for any threads.
+    void decide(int spp, double threshold) {
+        const bool centre_only = spp == 1;
+        const size_t pixels = centre_only ? centre.size() : direct_sum.size();
+        double total = 0.0;
+        for (size_t k = 0; k < pixels; ++k) total += centre_only ? centre[k].luminance : luminance(direct_sum[k]) / spp;
+        frame_luminance = pixels > 0 ? total / static_cast<double>(pixels) : 0.0;
+        if (centre_only) return;
+        for (size_t k = 0; k < pixels; ++k)
+            if (SampleAgreement::disagree(spread[k], luminance(direct_sum[k]) / spp, threshold, frame_luminance))
+                disagree[k] |= 1;
+    }
 };
 
 class TileRenderer {
@@ -222,9 +243,7 @@ public:
                 for (int y = y0, i = 0; y < y1; ++y)
                     for (int x = x0; x < x1; ++x, ++i) {
                         const size_t k = index(x, y);
-                        const PixelHit& h = s.hits.pixel(i);
-                        a.centre[k] = {h.hit ? s.hits.record(h).instance : SampleAgreement::kSky,
-                                       static_cast<uint16_t>(s.sun_escaped[i]), static_cast<uint16_t>(s.sun_hidden[i]),
+                        a.centre[k] = {static_cast<uint16_t>(s.sun_escaped[i]), static_cast<uint16_t>(s.sun_hidden[i]),
                                        luminance(s.direct[i])};
                         if (!m_medium) continue;
                         a.dust_through[k] = s.dust_through[i];
@@ -245,10 +264,8 @@ public:
                 for (int i = 0; i < n; ++i) sum[i] += s.radiance[i];
                 if (!adaptive) continue;
                 for (int i = 0; i < n; ++i) {
-                    const PixelHit& h = s.hits.pixel(i);
                     direct_sum[i] += s.direct[i];
-                    s.agreement[i].add(sample, h.hit ? s.hits.record(h).instance : SampleAgreement::kSky,
-                                       s.sun_escaped[i], s.sun_hidden[i], luminance(s.direct[i]));
+                    s.agreement[i].add(s.sun_escaped[i], s.sun_hidden[i], luminance(s.direct[i]));
                 }
             }
             for (int i = 0; i < n; ++i) s.radiance[i] = sum[i] / double(m_settings.spp);
@@ -260,9 +277,8 @@ public:
                         a.sum[k] = sum[i];
                         a.direct_sum[k] = direct_sum[i];
                         const SampleAgreement& agreement = s.agreement[i];
-                        a.disagree[k] = static_cast<uint8_t>(
-                            (agreement.disagree(m_settings.spp, m_settings.adaptive_threshold) ? 1 : 0) |
-                            (agreement.sun_escaped > 0 && agreement.sun_hidden > 0 ? 2 : 0));
+                        a.spread[k] = static_cast<float>(agreement.luminance_max - agreement.luminance_min);
+                        a.disagree[k] = agreement.penumbra() ? 2 : 0;
                         if (!m_medium) continue;
                         a.dust_through[k] = s.dust_through[i];
                         a.dust_glow[k] = s.dust_glow[i];
@@ -302,9 +318,11 @@ public:
                             continue;
                         }
                         const AdaptiveFrame::CentreSample& c = a.centre[index(nx, ny)];
-                        neighbourhood.add(samples++, c.hit, c.sun_escaped, c.sun_hidden, c.luminance);
+                        neighbourhood.add(c.sun_escaped, c.sun_hidden, c.luminance);
+                        ++samples;
                     }
-                if (base == 1) refine = neighbourhood.disagree(samples, m_settings.adaptive_threshold);
+                if (base == 1)
+                    refine = neighbourhood.disagree(samples, m_settings.adaptive_threshold, a.frame_luminance);
                 if (!refine) continue;
                 // In a penumbra (its own or a neighbour's base samples' Sun rays partly escape) a
                 // refinement sample keeps light_samples rays: there the disk's visibility is what
@@ -349,12 +367,15 @@ private:
         const glm::dvec3& origin = m_camera.center();
         if (sample < 0) {
             centre_rays(m_camera, x0, y0, x0 + tw, y0 + n / tw, s.dirs.data(), s.rays.data());
+            std::copy_n(s.dirs.begin(), n, s.centre_dirs.begin());
         } else {
             const auto k = static_cast<uint32_t>(sample);
             for (int i = 0; i < n; ++i) {
                 const int p = pixels ? pixels[i] : i;
                 const SamplePair j = sample_pair(s.streams[i], k, 0);
-                s.dirs[i] = m_camera.direction(x0 + p % tw + double(j.u), y0 + p / tw + double(j.v));
+                const double x = x0 + p % tw, y = y0 + p / tw;
+                s.dirs[i] = m_camera.direction(x + double(j.u), y + double(j.v));
+                s.centre_dirs[i] = m_camera.direction(x + 0.5, y + 0.5);
                 set_ray(s.rays[i], origin, s.dirs[i]);
             }
         }
@@ -397,10 +418,11 @@ private:
             v.albedo = albedo_at(inst, tri.prim, h.u, h.v);
             v.shading = v.normal;
             v.shaded_apart = inst.woven != nullptr || inst.vertex_normals != nullptr;
+            v.residual_slope = 0.0;
             v.sheen = 0.0;
             if (inst.vertex_normals) v.shading = shading_normal_at(inst, tri.prim, h.u, h.v, v.normal);
-            if (inst.woven) cloth(inst, tri, h, dir, v);
-            if (inst.grain) regolith_grain(*inst.grain, h, dir, v);
+            if (inst.woven) cloth(inst, tri, h, dir, s.centre_dirs[i], v);
+            if (inst.grain) regolith_grain(*inst.grain, h, dir, s.centre_dirs[i], v);
             v.cos_light[0] = tri.cos_sun[h.side];
             for (size_t l = 1; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(v.normal, m_lights[l].dir);
             if (m_medium && m_sun) s.sun_dust[i] = m_medium->sun_transmittance(v.point);
@@ -525,14 +547,41 @@ private:
         return width * m_settings.texture_filter_px * kBoxSigmaToFootprint;
     }
 
+    /// Where a camera hit reads its textures: the point at which its pixel's centre ray
+    /// (`centre_dir`) meets the plane of the hit's facet. A texture prefiltered over the pixel's
+    /// box and read there is the same for every sample of the pixel on that facet, so the
+    /// samples integrate only what the geometry and the lights vary, as a sensor's pixel
+    /// integrates the texture once over its box (read at each sample's own point, the box's
+    /// spread would add to the samples' and blur the texture by a second box). The hit's own
+    /// point where that plane is edge-on to the centre ray, or where the crossing lies farther
+    /// than a pixel's extent on the facet (the facet cannot reach the pixel's centre).
+    glm::dvec3 texture_point(const PathVertex& v, double distance, const glm::dvec3& centre_dir) const {
+        const glm::dvec3& origin = m_camera.center();
+        const double facing = glm::dot(centre_dir, v.normal);
+        if (facing == 0.0) return v.point;
+        const double t = glm::dot(v.point - origin, v.normal) / facing;
+        if (!(t > 0.0)) return v.point;
+        const glm::dvec3 crossing = origin + t * centre_dir;
+        // A pixel's width on the facet, stretched along its slope by the obliquity (capped as in
+        // pixel_footprint); a sample lies within √2/2 of it from the centre.
+        const double obliquity = std::max(std::abs(facing) / glm::length(centre_dir), 0.1);
+        const double extent = distance / m_camera.intrinsics().fx / obliquity;
+        const glm::dvec3 offset = crossing - v.point;
+        return glm::dot(offset, offset) <= extent * extent ? crossing : v.point;
+    }
+
     /// Regolith's granular micro-texture at a camera hit (regolith_texture.h), prefiltered over
-    /// the pixel's footprint: it scales the albedo and tilts the shading normal. Beyond the
-    /// texture's flat footprint nothing changes. A tilt that would turn the shading normal away
-    /// from the camera is dropped (a bump map cannot show a facet the geometry hides).
-    void regolith_grain(const RegolithGrain& grain, const PixelHit& h, const glm::dvec3& dir, PathVertex& v) const {
+    /// the pixel's footprint and read at the pixel's centre (texture_point): it scales the albedo,
+    /// tilts the shading normal, and gives the spread of the filtered slopes over the pixel as the
+    /// vertex's residual_slope. Beyond the texture's flat footprint nothing changes. A tilt that
+    /// would turn the shading normal away from the camera is dropped (a bump map cannot show a
+    /// facet the geometry hides).
+    void regolith_grain(const RegolithGrain& grain, const PixelHit& h, const glm::dvec3& dir,
+                        const glm::dvec3& centre_dir, PathVertex& v) const {
         const double footprint = pixel_footprint(h, dir, v.shading);
-        if (!(footprint < grain.flat_footprint_m())) return;
-        const GrainSample g = grain.eval(v.point, footprint);
+        const GrainSample g = grain.eval(texture_point(v, h.t * glm::length(dir), centre_dir), footprint);
+        v.residual_slope = std::sqrt(g.residual_slope_variance);
+        v.shaded_apart = v.shaded_apart || v.residual_slope > 0.0;
         v.albedo *= g.albedo_factor;
         if (g.gradient == glm::dvec3(0.0)) return;
         const glm::dvec3 tilted = perturbed_normal(v.shading, g.gradient);
@@ -545,7 +594,7 @@ private:
     /// prefiltered over the pixel's footprint, the stain mask's value, and the weave's normal in
     /// the world (the tangent frame follows the atlas: +u along the warp, +v along the weft).
     void cloth(const InstanceData& inst, const TriangleRecord& tri, const PixelHit& h, const glm::dvec3& dir,
-               PathVertex& v) const {
+               const glm::dvec3& centre_dir, PathVertex& v) const {
         const WovenSurface& w = *inst.woven;
         const float* uv = inst.corner_uvs + 6 * static_cast<size_t>(tri.prim);
         const glm::dvec2 uv0(uv[0], uv[1]), uv1(uv[2], uv[3]), uv2(uv[4], uv[5]);
@@ -575,15 +624,30 @@ private:
         } else {
             orthonormal_basis(n, t, b);  // a degenerate UV triangle: any frame (the weave is then arbitrary)
         }
+        // The prefiltered textures (weave, dust cover) are read where the pixel's centre ray meets
+        // the facet (texture_point): barycentrics (c1, c2) extended past the triangle's edges.
+        double c1 = b1, c2 = b2;
+        {
+            const glm::dvec3 offset = texture_point(v, h.t * glm::length(dir), centre_dir) - v.point;
+            const double g11 = glm::dot(e1, e1), g12 = glm::dot(e1, e2), g22 = glm::dot(e2, e2);
+            const double gram = g11 * g22 - g12 * g12;
+            if (gram > 0.0) {
+                const double r1 = glm::dot(offset, e1), r2 = glm::dot(offset, e2);
+                c1 += (g22 * r1 - g12 * r2) / gram;
+                c2 += (g11 * r2 - g12 * r1) / gram;
+            }
+        }
+        const glm::dvec2 st_texture = st + (c1 - b1) * d1 + (c2 - b2) * d2;
         const double footprint = pixel_footprint(h, dir, n);
-        const FabricSample f = fabric_eval(w.fabric, st.x * w.metres_per_uv, st.y * w.metres_per_uv, footprint);
+        const FabricSample f =
+            fabric_eval(w.fabric, st_texture.x * w.metres_per_uv, st_texture.y * w.metres_per_uv, footprint);
         // The cloth's clean colour: the weave's, tinted by the mesh's own per-vertex colour (a
         // user mesh's texture; exactly the weave's without one).
         const glm::dvec3 clean = inst.vertex_albedo ? f.albedo * vertex_factor_at(inst, tri.prim, b1, b2) : f.albedo;
         double dirt = 0.0;  // the stain mask's value or the dust's cover
         if (w.dust) {
-            const glm::dvec3 object_point = (1.0 - b1 - b2) * object_vertex(inst, corner[0]) +
-                                            b1 * object_vertex(inst, corner[1]) + b2 * object_vertex(inst, corner[2]);
+            const glm::dvec3 object_point = (1.0 - c1 - c2) * object_vertex(inst, corner[0]) +
+                                            c1 * object_vertex(inst, corner[1]) + c2 * object_vertex(inst, corner[2]);
             dirt = w.dust->coverage(object_point, footprint);
             v.albedo = dusted_colour(clean, dirt, w.dirt_colour);
         } else if (inst.stain) {
@@ -683,8 +747,12 @@ private:
                 const PathVertex& v = s.path[i];
                 const InstanceData& inst = m_instances[v.instance];
                 // Visibility follows the geometry; brightness the shading normal.
-                const double mu_i = v.shaded_apart ? std::max(0.0, glm::dot(v.shading, light.dir)) : v.cos_light[l];
-                const double shape = shape_at(inst, mu_i, glm::dot(v.shading, v.wo), glm::dot(light.dir, v.wo));
+                double mu_i = v.shaded_apart ? std::max(0.0, glm::dot(v.shading, light.dir)) : v.cos_light[l];
+                double shape = shape_at(inst, mu_i, glm::dot(v.shading, v.wo), glm::dot(light.dir, v.wo));
+                if (v.residual_slope > 0.0) {
+                    mu_i = spread_lit_cosine(inst, v, light.dir);
+                    shape = 1.0;
+                }
                 // Grouped so that a Lambertian surface under a point Sun, seen directly, gets
                 // exactly albedo·(E/π·μi): every other factor is then 1.
                 const double dust = sun_dust && &light == m_sun ? sun_dust[i] : 1.0;
@@ -700,6 +768,35 @@ private:
                                  (shape * (double(s.visible[i]) / rays_of(i)) * dust) * light.color * v.throughput;
             }
         }
+    }
+
+    /// μi·shape of the light from `to` (unit) at camera hit `v`, averaged over the slopes within
+    /// its footprint (PathVertex::residual_slope σ): a sensor's pixel sums the light of all the
+    /// facets it covers, and the cosine's clamp at the terminator is far from linear in them. The
+    /// slope along the light's direction in the surface changes μi to first order (the one across
+    /// it by O(σ²), left out); it is integrated by 3-point Gauss–Hermite quadrature over a normal
+    /// law of σ (nodes 0, ±√3·σ; weights 2/3, 1/6, 1/6), each node the shading normal tilted by
+    /// that slope. A node turned from the light adds nothing; nodes turned from the camera are
+    /// not seen, and the weights are shared among the others.
+    double spread_lit_cosine(const InstanceData& inst, const PathVertex& v, const glm::dvec3& to) const {
+        static constexpr double kNodes[3] = {0.0, 1.7320508075688772, -1.7320508075688772};
+        static constexpr double kWeights[3] = {2.0 / 3.0, 1.0 / 6.0, 1.0 / 6.0};
+        const double cos_g = glm::dot(to, v.wo);
+        glm::dvec3 along = to - glm::dot(to, v.shading) * v.shading;
+        const double length = glm::length(along);
+        along = length > 1e-12 ? along / length : glm::dvec3(0.0);
+        double sum = 0.0, seen = 0.0;
+        for (int k = 0; k < 3; ++k) {
+            const glm::dvec3 n = glm::normalize(v.shading + (kNodes[k] * v.residual_slope) * along);
+            const double mu_o = glm::dot(n, v.wo);
+            if (!(mu_o > 0.0)) continue;
+            seen += kWeights[k];
+            const double mu_i = glm::dot(n, to);
+            if (mu_i > 0.0) sum += kWeights[k] * mu_i * shape_at(inst, mu_i, mu_o, cos_g);
+        }
+        if (seen > 0.0) return sum / seen;
+        const double mu_i = std::max(0.0, glm::dot(v.shading, to));
+        return mu_i * shape_at(inst, mu_i, glm::dot(v.shading, v.wo), cos_g);
     }
 
     /// The indirect radiance toward the camera at camera hit `v` (on triangle `prim`, at Embree's
@@ -945,7 +1042,10 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     };
     arena.execute([&] {
         each_tile(false);
-        if (adaptive) each_tile(true);
+        if (adaptive) {
+            adaptive->decide(settings.spp, settings.adaptive_threshold);
+            each_tile(true);
+        }
     });
 
     RenderStats stats;

@@ -997,8 +997,8 @@ class RenderConfig:
         default=32,
         metadata=spec(
             "adaptive anti-aliasing: the samples a pixel gets when its spp base samples (or a neighbour's; with "
-            "spp 1 the pixel-centre samples of its 3x3 neighbourhood) disagree in hit instance, Sun visibility "
-            "or direct luminance; past spp >= 2 they carry direct light only, over spp 1 the whole radiance; "
+            "spp 1 the pixel-centre samples of its 3x3 neighbourhood) disagree in direct luminance "
+            "(adaptive_threshold); past spp >= 2 they carry direct light only, over spp 1 the whole radiance; "
             "off where it is 0 or not above spp",
             lo=0,
             hi=65536,
@@ -1007,8 +1007,8 @@ class RenderConfig:
     adaptive_threshold: float = field(
         default=0.5,
         metadata=spec(
-            "spread (max - min) of direct luminance over the samples compared (adaptive_spp), relative to "
-            "their mean, above which adaptive_spp refines a pixel",
+            "spread (max - min) of direct luminance over the samples compared (adaptive_spp), over "
+            "sqrt(their mean x the frame's mean direct luminance), above which adaptive_spp refines a pixel",
             lo=0.0,
             hi=1000.0,
         ),

@@ -34,10 +34,19 @@
 // Prefilter. A Gaussian of σ = footprint/2 (fabric.h's convention) multiplies a sinusoid of
 // wavelength λ by exp(−½(2πσ/λ)²); an octave's energy lies at wavelengths ≥ 2c_k, so it keeps
 // g_k = exp(−½(π·footprint/(2c_k))²). Its weight is w_k = max(0, (g_k − 0.01)/0.99): continuous,
-// 1 for a footprint far below the cell, exactly 0 once g_k < 1 % (footprint > 1.94 c_k). The
-// relief's normal is that of the weighted height field, so finer octaves fade into the flat mean
-// instead of aliasing, and beyond 1.94 × coarsest_cell_m the texture is exactly the mean (factor 1,
-// no relief) and nothing is evaluated.
+// 1 for a footprint far below the cell, exactly 0 once g_k < 1 % (footprint > 1.94 c_k). Finer
+// octaves fade into the flat mean instead of aliasing, and beyond 1.94 × coarsest_cell_m the
+// texture is exactly the mean (factor 1, no relief) and nothing is evaluated.
+//
+// A pixel reads the texture once, at its centre, with the footprint of its box (render.cpp's
+// texture_point), so that its samples no longer spread over the texture; what they used to do by
+// sampling, the texture does in closed form. The albedo is linear in the texture: its box
+// average is the prefiltered value (weights w_k). The shading is not linear in the relief's
+// slopes, so the relief gives two things: the mean slope over the pixel, the prefiltered field
+// averaged over the box once more (weights w_k², the gain of a filter √2 wider), and how far the
+// prefiltered slopes spread over the box about it, Σ_k w_k²·(1 − w_k²)·Var_k (the octave's
+// filtered variance less the part the box's mean keeps). The renderer averages the lights'
+// cosines over that spread.
 #pragma once
 
 #include <cstdint>
@@ -65,7 +74,11 @@ struct GrainParams {
 /// The texture over one footprint.
 struct GrainSample {
     double albedo_factor = 1.0;         ///< multiplies the material's albedo; > 0
-    glm::dvec3 gradient{0.0};          ///< ∇z of the filtered relief, world frame, metres per metre
+    glm::dvec3 gradient{0.0};  ///< ∇z of the relief over the box (weights w_k²), world frame, metres per metre
+    /// How far the prefiltered relief's 1-D slopes (tan) spread over a box of the footprint's
+    /// width about `gradient`, as a variance (tan²): Σ_k w_k²·(1 − w_k²)·Var_k, Var_k an
+    /// octave's unfiltered slope variance (see the file's comment). 0 beyond flat_footprint_m.
+    double residual_slope_variance = 0.0;
 };
 
 /// A validated GrainParams with its octaves laid out (cells, rotations, amplitudes).
@@ -86,11 +99,12 @@ public:
 
 private:
     struct Octave {
-        glm::dmat3 rotation;   // lattice from world, scaled by 1/cell
-        glm::dmat3 to_world;   // transpose of rotation (gradients back to the world), times 1/cell
-        double cell;           // metres
+        glm::dmat3 rotation;  // lattice from world, scaled by 1/cell
+        glm::dmat3 to_world;  // transpose of rotation (gradients back to the world), times 1/cell
+        double cell;  // metres
         double albedo_amplitude;
         double height_amplitude;  // metres
+        double slope_variance;  // unfiltered 1-D slope variance, tan²
         uint64_t key;
     };
     GrainParams m_params;

@@ -31,10 +31,13 @@ struct RenderSettings {
     /// through a shadow ray (next-event estimation); 0 = direct light only, at most kMaxBounces.
     int bounces = 0;
     /// Adaptive anti-aliasing; 0 = off (every pixel gets `spp` samples). Else the samples a pixel
-    /// is brought up to, spp < adaptive_spp ≤ 65536, where samples disagree: they hit different
-    /// instances (or some the sky), some of their Sun shadow rays escape and some do not, or the
-    /// luminance of their direct light spreads (max − min) beyond `adaptive_threshold` times its
-    /// mean. With spp ≥ 2 the samples compared are a pixel's own `spp` base samples, and a pixel
+    /// is brought up to, spp < adaptive_spp ≤ 65536, where samples disagree: the luminance of
+    /// their direct light spreads (max − min) beyond `adaptive_threshold` times √(m·M), m their
+    /// mean and M the frame's mean direct luminance over its base samples. The spread stands for
+    /// the pixel's error, and √(m·M) weighs it as a display does, between relative to the pixel
+    /// (a dim pixel's error shows more) and relative to the frame (where the image's error sits):
+    /// an edge between two surfaces of one brightness is not refined, a lit sliver on a dark
+    /// face is. With spp ≥ 2 the samples compared are a pixel's own `spp` base samples, and a pixel
     /// is refined where they or those of one of its eight neighbours disagree (the neighbours
     /// catch the slivers of an edge that all of a pixel's own base samples miss); the extra
     /// samples carry direct light only (a camera ray and its shadow rays), and the pixel's
@@ -45,7 +48,8 @@ struct RenderSettings {
     /// included. The decisions follow from the base samples of every pixel, all taken before
     /// any refinement: images stay identical whatever the thread count.
     int adaptive_spp = 0;
-    /// The relative spread of direct luminance over a pixel's base samples that refines it; ≥ 0.
+    /// The spread of direct luminance over the samples compared, over √(their mean × the frame's
+    /// mean), that refines a pixel (adaptive_spp); ≥ 0.
     double adaptive_threshold = 0.25;
     /// Width, in pixels, of the box each camera sample's textures (regolith grain, weave, dust
     /// cover) are prefiltered over, 0.25..8. At 1 a sample stands for its pixel's box, which the
