@@ -3,6 +3,8 @@ tone curve's hard cases."""
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import OpenEXR
 import pytest
@@ -25,6 +27,17 @@ def test_exr_float_round_trip_is_exact(tmp_path):
         back = channels["RGB"].pixels if "RGB" in channels else np.stack([channels[c].pixels for c in "RGB"], axis=-1)
     assert back.dtype == np.float32
     np.testing.assert_array_equal(back, hdr)
+
+
+def test_exr_bytes_do_not_depend_on_when_it_was_written(tmp_path):
+    """The same pixels give the same EXR bytes a second later: OpenImageIO's time stamp (capDate)
+    is left empty, so the dataset's bytes stay a function of config and seed."""
+    hdr = np.linspace(0.0, 5.0, 4 * 5 * 3, dtype=np.float32).reshape(4, 5, 3)
+    first, second = tmp_path / "first.exr", tmp_path / "second.exr"
+    _core.write_image(str(first), hdr)
+    time.sleep(1.1)  # past the stamp's one-second resolution
+    _core.write_image(str(second), hdr)
+    assert first.read_bytes() == second.read_bytes()
 
 
 # 16-bit PNGs are single-channel here (depth); Pillow cannot decode 16-bit RGB as 16 bits.

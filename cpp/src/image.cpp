@@ -162,6 +162,9 @@ void write_image(const std::string& path, const void* pixels, int width, int hei
     // in half the time of OIIO's default (4) for 7 % more bytes (bench/bench_tonemap_exr.py).
     if (target.extension() == ".exr") spec.attribute("compression", "zip:" + std::to_string(png_compression));
     spec.attribute("oiio:ColorSpace", type == PixelType::F32 ? "Linear" : "sRGB");
+    // OIIO stamps an EXR with the time of writing (capDate) unless DateTime is set: an empty one
+    // keeps the same pixels the same bytes (a caller's own DateTime still wins).
+    spec.attribute("DateTime", "");
     for (const auto& a : attributes) {
         if (const auto* text = std::get_if<std::string>(&a.value)) spec.attribute(a.name, *text);
         else spec.attribute(a.name, std::get<float>(a.value));
