@@ -45,10 +45,10 @@ def render(overrides: dict, seed: int = 3, azimuth_deg: float = 30.0):
 # (the same bytes as before them); re-recorded when the bags settled into their wrinkled shape and
 # the small craters were worn, which moved the geometry under the same stamps; and when the
 # textures' prefilter narrowed to the pixel's box (render.texture_filter_px), which sharpened the
-# weave under them; and when the pixel's samples began to read the weave at the pixel's centre
-# (render.cpp's texture_point). The stamp algorithm itself (cpp/src/stain.cpp) is unchanged since
-# the paper's mode was written.
-PAPER_STAMP_90_SHA256 = "6d6284c2699da1fb472161807bddf1c905ee1a322e418b08f922b62e05396318"
+# weave under them; and when the pixel's samples began to read the weave once, at the pixel's
+# centre, through two boxes (render.cpp's texture_point and cloth). The stamp algorithm itself
+# (cpp/src/stain.cpp) is unchanged since the paper's mode was written.
+PAPER_STAMP_90_SHA256 = "c6d0ca9d6d2a6c0e7f1e6e9ebf5829e10120a821427dc8f20b4e8efada4a9cbc"
 # The brute-force renderer, so the pin follows the stain and the geometry, not the light cache's
 # or adaptive sampling's tuning.
 PATH = {"render.indirect": "path", "render.adaptive_spp": 0}

@@ -638,7 +638,10 @@ private:
             }
         }
         const glm::dvec2 st_texture = st + (c1 - b1) * d1 + (c2 - b2) * d2;
-        const double footprint = pixel_footprint(h, dir, n);
+        // The weave is periodic: read once a pixel through one box, threads a little over a pixel
+        // apart beat with the pixels into moiré. It is read through two (√2 wider), as the
+        // samples' own reads used to average it and as a camera's optical low-pass filter does.
+        const double footprint = pixel_footprint(h, dir, n) * std::sqrt(2.0);
         const FabricSample f =
             fabric_eval(w.fabric, st_texture.x * w.metres_per_uv, st_texture.y * w.metres_per_uv, footprint);
         // The cloth's clean colour: the weave's, tinted by the mesh's own per-vertex colour (a
