@@ -92,9 +92,9 @@ public:
     /// Footprints (metres) at or above this give exactly the mean: factor 1, zero gradient.
     double flat_footprint_m() const { return m_flat_footprint; }
 
-    /// The texture at world point p (metres) prefiltered over `footprint_m` ≥ 0 metres (the width
-    /// of surface one sample stands for; for an anisotropic footprint, an isotropic one's of the
-    /// same area).
+    /// The texture at world point p (metres) as a pixel of footprint `footprint_m` ≥ 0 metres sees
+    /// it (the width of surface the pixel covers; for an anisotropic footprint, an isotropic one's
+    /// of the same area): see the file's comment.
     GrainSample eval(const glm::dvec3& p, double footprint_m) const;
 
 private:
