@@ -579,6 +579,7 @@ private:
     void regolith_grain(const RegolithGrain& grain, const PixelHit& h, const glm::dvec3& dir,
                         const glm::dvec3& centre_dir, PathVertex& v) const {
         const double footprint = pixel_footprint(h, dir, v.shading);
+        if (!(footprint < grain.flat_footprint_m())) return;  // the mean: nothing to read
         const GrainSample g = grain.eval(texture_point(v, h.t * glm::length(dir), centre_dir), footprint);
         v.residual_slope = std::sqrt(g.residual_slope_variance);
         v.shaded_apart = v.shaded_apart || v.residual_slope > 0.0;
@@ -750,11 +751,13 @@ private:
                 const PathVertex& v = s.path[i];
                 const InstanceData& inst = m_instances[v.instance];
                 // Visibility follows the geometry; brightness the shading normal.
-                double mu_i = v.shaded_apart ? std::max(0.0, glm::dot(v.shading, light.dir)) : v.cos_light[l];
-                double shape = shape_at(inst, mu_i, glm::dot(v.shading, v.wo), glm::dot(light.dir, v.wo));
+                double mu_i, shape;
                 if (v.residual_slope > 0.0) {
-                    mu_i = spread_lit_cosine(inst, v, light.dir);
+                    mu_i = spread_lit_cosine(inst, v, light.dir);  // μi·shape averaged as one
                     shape = 1.0;
+                } else {
+                    mu_i = v.shaded_apart ? std::max(0.0, glm::dot(v.shading, light.dir)) : v.cos_light[l];
+                    shape = shape_at(inst, mu_i, glm::dot(v.shading, v.wo), glm::dot(light.dir, v.wo));
                 }
                 // Grouped so that a Lambertian surface under a point Sun, seen directly, gets
                 // exactly albedo·(E/π·μi): every other factor is then 1.
