@@ -131,6 +131,16 @@ struct TileScratch {
     std::array<SampleAgreement, kTilePixels> agreement;
     std::array<int, kTilePixels> refined;        // the tile's pixels that get more samples
     std::array<int, kTilePixels> sun_rays;       // of a refinement sample: its Sun-disk rays, per refined pixel
+    // The regolith grain as each tile pixel's samples read it (TileRenderer::regolith_grain):
+    // once a pixel and instance, at the first of its samples to hit it. Reset at the start of
+    // each pass over the tile.
+    struct GrainRead {
+        bool known = false;
+        uint32_t instance = 0;
+        glm::dvec3 point{0.0};  // where it was read: the pixel's centre ray on that sample's facet
+        GrainSample sample;
+    };
+    std::array<GrainRead, kTilePixels> grain_reads;
     // Dust, used only when the render has a medium:
     std::array<double, kTilePixels> sun_dust;       // transmittance toward the Sun at each first hit
     std::array<double, kTilePixels> dust_through;   // transmittance from the camera to the hit
@@ -208,6 +218,7 @@ public:
     void render_tile(int x0, int y0, int x1, int y1, TileScratch& s, RenderStats& stats) const {
         const int tw = x1 - x0;
         const int n = tw * (y1 - y0);
+        std::fill_n(s.grain_reads.begin(), n, TileScratch::GrainRead{});
         const bool want_rgb = m_out.rgb != nullptr;
         // The dust is marched once per pixel along its centre ray (it varies over many pixels).
         const bool centre_pass = m_out.depth || m_out.instance || (want_rgb && (m_settings.spp == 1 || m_medium));
@@ -332,6 +343,7 @@ public:
                 s.streams[count++] = pixel_stream(m_settings.seed, index(x, y));
             }
         if (count == 0) return;
+        std::fill_n(s.grain_reads.begin(), tw * (y1 - y0), TileScratch::GrainRead{});
         const uint64_t rays_before = stats.camera_rays + stats.second_look_rays + stats.shadow_rays;
         std::array<glm::dvec3, kTilePixels> extra;
         std::fill_n(extra.begin(), count, glm::dvec3(0.0));
@@ -340,7 +352,8 @@ public:
         const bool whole = base == 1;
         for (int sample = whole ? 0 : base; sample < total; ++sample) {
             trace(x0, y0, tw, count, s, stats, sample, s.refined.data());
-            shade(count, s, stats, static_cast<uint32_t>(sample), /*indirect=*/whole, /*refining=*/!whole);
+            shade(count, s, stats, static_cast<uint32_t>(sample), /*indirect=*/whole, /*refining=*/!whole,
+                  s.refined.data());
             for (int j = 0; j < count; ++j) extra[j] += whole ? s.radiance[j] : s.direct[j];
         }
         for (int j = 0; j < count; ++j) {
@@ -388,8 +401,9 @@ private:
     /// The radiance of the n resolved camera hits for one sample: the lights at the hit (also
     /// kept apart in `direct` when adaptive_spp > 0), then, with `indirect`, the indirect light
     /// (add_indirect). `refining`: a refinement sample past spp ≥ 2 base samples, which casts
-    /// TileScratch::sun_rays Sun-disk rays per pixel (light_vertices).
-    void shade(int n, TileScratch& s, RenderStats& stats, uint32_t sample, bool indirect, bool refining = false) const {
+    /// TileScratch::sun_rays Sun-disk rays per pixel (light_vertices). `pixels` as trace's.
+    void shade(int n, TileScratch& s, RenderStats& stats, uint32_t sample, bool indirect, bool refining = false,
+               const int* pixels = nullptr) const {
         std::fill_n(s.radiance.begin(), n, glm::dvec3(0.0));
         if (m_settings.adaptive_spp > 0) {
             // Where no light shines (or not the Sun), nothing below writes them.
@@ -422,7 +436,7 @@ private:
             v.sheen = 0.0;
             if (inst.vertex_normals) v.shading = shading_normal_at(inst, tri.prim, h.u, h.v, v.normal);
             if (inst.woven) cloth(inst, tri, h, dir, s.centre_dirs[i], v);
-            if (inst.grain) regolith_grain(*inst.grain, h, dir, s.centre_dirs[i], v);
+            if (inst.grain) regolith_grain(*inst.grain, tri, h, dir, s.centre_dirs[i], v, s.grain_reads[pixels ? pixels[i] : i]);
             v.cos_light[0] = tri.cos_sun[h.side];
             for (size_t l = 1; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(v.normal, m_lights[l].dir);
             if (m_medium && m_sun) s.sun_dust[i] = m_medium->sun_transmittance(v.point);
@@ -532,42 +546,49 @@ private:
         }
     }
 
-    /// The footprint textures are prefiltered over at a camera hit (metres), in the textures'
-    /// convention of a Gaussian of σ = footprint/2 (fabric.h). A pixel covers an ellipse on the
-    /// surface, its angle 1/fx at the hit's distance across and that over the obliquity to the
-    /// unit normal `n` along the slope (capped so a grazing hit stays finite); the isotropic
+    /// The footprint textures are prefiltered over at a camera hit `distance` metres along `dir`
+    /// (metres), in the textures' convention of a Gaussian of σ = footprint/2 (fabric.h). A pixel
+    /// covers an ellipse on the surface, its angle 1/fx at that distance across and that over the
+    /// obliquity to the unit normal `n` along the slope (capped so a grazing hit stays finite); the isotropic
     /// width of the same area (√obliquity) blurs neither axis far beyond the pixel. A box of
     /// width w has σ = w/√12, so a box of `texture_filter_px` such widths is a footprint of
     /// texture_filter_px·w/√3.
-    double pixel_footprint(const PixelHit& h, const glm::dvec3& dir, const glm::dvec3& n) const {
-        const double length = glm::length(dir);
-        const double distance = h.t * length;
-        const double obliquity = std::max(std::abs(glm::dot(n, dir)) / length, 0.1);
+    double pixel_footprint(double distance, const glm::dvec3& dir, const glm::dvec3& n) const {
+        const double obliquity = std::max(std::abs(glm::dot(n, dir)) / glm::length(dir), 0.1);
         const double width = distance / m_camera.intrinsics().fx / std::sqrt(obliquity);
         return width * m_settings.texture_filter_px * kBoxSigmaToFootprint;
     }
 
     /// Where a camera hit reads its textures: the point at which its pixel's centre ray
-    /// (`centre_dir`) meets the plane of the hit's facet. A texture prefiltered over the pixel's
-    /// box and read there is the same for every sample of the pixel on that facet, so the
+    /// (`centre_dir`) meets the plane of the hit's facet (`tri`'s plane, in double from its world
+    /// vertices, so the same point for every sample of the pixel on that facet). A texture
+    /// prefiltered over the pixel's box and read there is the same for all of them, so the
     /// samples integrate only what the geometry and the lights vary, as a sensor's pixel
     /// integrates the texture once over its box (read at each sample's own point, the box's
-    /// spread would add to the samples' and blur the texture by a second box). The hit's own
-    /// point where that plane is edge-on to the centre ray, or where the crossing lies farther
-    /// than a pixel's extent on the facet (the facet cannot reach the pixel's centre).
-    glm::dvec3 texture_point(const PathVertex& v, double distance, const glm::dvec3& centre_dir) const {
-        const glm::dvec3& origin = m_camera.center();
-        const double facing = glm::dot(centre_dir, v.normal);
-        if (facing == 0.0) return v.point;
-        const double t = glm::dot(v.point - origin, v.normal) / facing;
-        if (!(t > 0.0)) return v.point;
-        const glm::dvec3 crossing = origin + t * centre_dir;
-        // A pixel's width on the facet, stretched along its slope by the obliquity (capped as in
-        // pixel_footprint); a sample lies within √2/2 of it from the centre.
-        const double obliquity = std::max(std::abs(facing) / glm::length(centre_dir), 0.1);
+    /// spread would add to the samples' and blur the texture by a second box). Empty where that
+    /// plane is edge-on to the centre ray or behind the camera, or where the crossing lies farther
+    /// from the sample's hit `v` (at `distance` metres) than a pixel's extent on the facet (the
+    /// facet cannot reach the pixel's centre): the sample then reads at its own point.
+    std::optional<glm::dvec3> texture_point(const TriangleRecord& tri, const PathVertex& v, double distance,
+                                            const glm::dvec3& centre_dir) const {
+        const double facing_plane = glm::dot(tri.n_plane, centre_dir);
+        if (facing_plane == 0.0) return std::nullopt;
+        const double t = tri.offset / facing_plane;
+        if (!(t > 0.0)) return std::nullopt;
+        const glm::dvec3 crossing = m_camera.center() + t * centre_dir;
+        if (!within_pixel(v, distance, centre_dir, crossing)) return std::nullopt;
+        return crossing;
+    }
+
+    /// Whether `point` lies within a pixel's extent of the sample's hit `v` (at `distance`
+    /// metres): a pixel's width on the hit's facet, stretched along its slope by the obliquity
+    /// to the centre ray (capped as in pixel_footprint); a sample lies within √2/2 of it from
+    /// its pixel's centre.
+    bool within_pixel(const PathVertex& v, double distance, const glm::dvec3& centre_dir, const glm::dvec3& point) const {
+        const double obliquity = std::max(std::abs(glm::dot(centre_dir, v.normal)) / glm::length(centre_dir), 0.1);
         const double extent = distance / m_camera.intrinsics().fx / obliquity;
-        const glm::dvec3 offset = crossing - v.point;
-        return glm::dot(offset, offset) <= extent * extent ? crossing : v.point;
+        const glm::dvec3 offset = point - v.point;
+        return glm::dot(offset, offset) <= extent * extent;
     }
 
     /// Regolith's granular micro-texture at a camera hit (regolith_texture.h), prefiltered over
@@ -576,11 +597,32 @@ private:
     /// vertex's residual_slope. Beyond the texture's flat footprint nothing changes. A tilt that
     /// would turn the shading normal away from the camera is dropped (a bump map cannot show a
     /// facet the geometry hides).
-    void regolith_grain(const RegolithGrain& grain, const PixelHit& h, const glm::dvec3& dir,
-                        const glm::dvec3& centre_dir, PathVertex& v) const {
-        const double footprint = pixel_footprint(h, dir, v.shading);
-        if (!(footprint < grain.flat_footprint_m())) return;  // the mean: nothing to read
-        const GrainSample g = grain.eval(texture_point(v, h.t * glm::length(dir), centre_dir), footprint);
+    ///
+    /// A pixel reads it once on each surface, as a sensor's pixel integrates it once: the first
+    /// of its samples to hit the instance reads it where the centre ray meets that sample's facet,
+    /// through the centre ray's footprint there, into `memo`; a later sample on the same instance
+    /// within a pixel's extent of that point (texture_point's test) takes it from there, whatever
+    /// facet it hit. The pixel's facets are a few millimetres to centimetres across, so read on
+    /// each one's plane the texture would differ only where a pixel's box no longer resolves it.
+    /// A sample elsewhere on the instance (past a ridge) reads at its own crossing.
+    void regolith_grain(const RegolithGrain& grain, const TriangleRecord& tri, const PixelHit& h,
+                        const glm::dvec3& dir, const glm::dvec3& centre_dir, PathVertex& v,
+                        TileScratch::GrainRead& memo) const {
+        const double distance = h.t * glm::length(dir);
+        GrainSample g;
+        if (memo.known && memo.instance == tri.instance && within_pixel(v, distance, centre_dir, memo.point)) {
+            g = memo.sample;
+        } else if (const std::optional<glm::dvec3> centre = texture_point(tri, v, distance, centre_dir)) {
+            const glm::dvec3 to_centre = *centre - m_camera.center();
+            const double footprint = pixel_footprint(glm::length(to_centre), to_centre, v.normal);
+            if (footprint < grain.flat_footprint_m()) g = grain.eval(*centre, footprint);
+            if (!memo.known) memo = {true, tri.instance, *centre, g};
+        } else {
+            const double footprint = pixel_footprint(distance, dir, v.shading);
+            if (!(footprint < grain.flat_footprint_m())) return;  // the mean: nothing to read
+            g = grain.eval(v.point, footprint);
+        }
+        if (g.albedo_factor == 1.0 && g.residual_slope_variance == 0.0 && g.gradient == glm::dvec3(0.0)) return;
         v.residual_slope = std::sqrt(g.residual_slope_variance);
         v.shaded_apart = v.shaded_apart || v.residual_slope > 0.0;
         v.albedo *= g.albedo_factor;
@@ -629,7 +671,8 @@ private:
         // the facet (texture_point): barycentrics (c1, c2) extended past the triangle's edges.
         double c1 = b1, c2 = b2;
         {
-            const glm::dvec3 offset = texture_point(v, h.t * glm::length(dir), centre_dir) - v.point;
+            const std::optional<glm::dvec3> centre = texture_point(tri, v, h.t * glm::length(dir), centre_dir);
+            const glm::dvec3 offset = centre ? *centre - v.point : glm::dvec3(0.0);
             const double g11 = glm::dot(e1, e1), g12 = glm::dot(e1, e2), g22 = glm::dot(e2, e2);
             const double gram = g11 * g22 - g12 * g12;
             if (gram > 0.0) {
@@ -642,7 +685,7 @@ private:
         // The weave is periodic: read once a pixel through one box, threads a little over a pixel
         // apart beat with the pixels into moiré. It is read through two (√2 wider), as the
         // samples' own reads used to average it and as a camera's optical low-pass filter does.
-        const double footprint = pixel_footprint(h, dir, n) * std::sqrt(2.0);
+        const double footprint = pixel_footprint(h.t * glm::length(dir), dir, n) * std::sqrt(2.0);
         const FabricSample f =
             fabric_eval(w.fabric, st_texture.x * w.metres_per_uv, st_texture.y * w.metres_per_uv, footprint);
         // The cloth's clean colour: the weave's, tinted by the mesh's own per-vertex colour (a
