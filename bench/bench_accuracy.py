@@ -109,8 +109,10 @@ ADAPTIVE_LEVELS = [
     (4, 16, 0.25, 2),
     (4, 32, 0.25, 2),
     (4, 64, 0.25, 2),
+    (4, 64, 0.25, 1),
     (4, 32, 0.1, 2),
     (4, 32, 0.5, 2),
+    (4, 32, 0.5, 1),
     (4, 32, 1.0, 2),
     (2, 16, 0.25, 2),
     (2, 32, 0.25, 2),
@@ -457,7 +459,7 @@ def adaptive_curves(rows: list[dict]) -> dict[str, list]:
         name = "brute force spp" if cap == 0 else f"adaptive base {spp}, threshold {threshold:g}"
         groups.setdefault(name, []).append(adaptive_label(spp, cap, threshold, light_samples))
     groups["adaptive 4/32, threshold"] = [
-        adaptive_label(4, 32, t) for s, c, t, _ in ADAPTIVE_LEVELS if (s, c) == (4, 32)
+        adaptive_label(4, 32, t) for s, c, t, ls in ADAPTIVE_LEVELS if (s, c, ls) == (4, 32, 2)
     ]
     curves = {}
     for name, labels in groups.items():

@@ -1032,7 +1032,7 @@ class RenderSettings:
     """
     A render's quality and threads (moonbot/render.h).
     """
-    fields: typing.ClassVar[tuple] = ('spp', 'seed', 'threads', 'exact_depth', 'light_samples', 'bounces', 'adaptive_spp', 'adaptive_threshold', 'texture_filter_px')
+    fields: typing.ClassVar[tuple] = ('spp', 'seed', 'threads', 'exact_depth', 'light_samples', 'penumbra_light_samples', 'bounces', 'adaptive_spp', 'adaptive_threshold', 'texture_filter_px')
     @typing.overload
     def __init__(self) -> None:
         """
@@ -1088,6 +1088,14 @@ class RenderSettings:
         """
     @light_samples.setter
     def light_samples(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def penumbra_light_samples(self) -> int:
+        """
+        shadow rays toward the Sun's disk per refinement sample in a penumbra, 1..1024
+        """
+    @penumbra_light_samples.setter
+    def penumbra_light_samples(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
         ...
     @property
     def seed(self) -> int:

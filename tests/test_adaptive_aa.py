@@ -198,6 +198,7 @@ def test_off_is_the_brute_force_path_bit_for_bit():
         ({"spp": 1, "adaptive_spp": 1}, "adaptive_spp: must be 0 (off) or in spp + 1..65536"),
         ({"spp": 4, "adaptive_spp": 8, "adaptive_threshold": -0.5}, "adaptive_threshold: must be a finite number >= 0"),
         ({"spp": 4, "adaptive_spp": 8, "adaptive_threshold": float("nan")}, "adaptive_threshold: must be a finite"),
+        ({"spp": 4, "adaptive_spp": 8, "penumbra_light_samples": 0}, "penumbra_light_samples: must be in 1..1024"),
     ],
 )
 def test_bad_settings_name_the_field(kwargs, message):
@@ -210,6 +211,7 @@ def test_bad_settings_name_the_field(kwargs, message):
     [
         ({"render.adaptive_spp": -2}, "render.adaptive_spp: must be >= 0"),
         ({"render.adaptive_threshold": -0.1}, "render.adaptive_threshold: must be >= 0"),
+        ({"render.penumbra_light_samples": 0}, "render.penumbra_light_samples: must be >= 1"),
     ],
 )
 def test_bad_config_names_the_field(overrides, message):
@@ -297,6 +299,26 @@ def test_with_the_light_cache_refinement_reads_no_cache_and_traces_no_bounces():
     assert added == on["refinement_rays"]
     changed = np.any(on["rgb"] != off["rgb"], axis=-1)
     assert 0 < changed.sum() <= on["refined_pixels"]
+
+
+def test_only_refinement_samples_in_a_penumbra_cast_penumbra_light_samples():
+    """penumbra_light_samples is the Sun-disk rays of a refinement sample in a penumbra: raising
+    it from 1 to 3 under a disk Sun adds up to two shadow rays per such sample (none where the
+    sample misses or the disk point lies below its facet's horizon), refines the same pixels (the
+    decisions come from the base samples, which cast light_samples), and changes no pixel that is
+    not refined."""
+    scene = lunar_test_scene()
+    base = {**QUALITY, "light_samples": 1, "adaptive_spp": 16, "bounces": 0, "seed": 5}
+    one, three = (
+        _core.render(scene, ground_camera(), DISK_SUN, _core.RenderSettings(**base, penumbra_light_samples=n))
+        for n in (1, 3)
+    )
+    assert one["refined_pixels"] == three["refined_pixels"] > 0
+    added = three["shadow_rays"] - one["shadow_rays"]
+    assert 0 < added < 2 * (16 - 4) * one["refined_pixels"]  # not every refined pixel is in a penumbra
+    assert three["camera_rays"] == one["camera_rays"]
+    changed = np.any(three["rgb"] != one["rgb"], axis=-1)
+    assert 0 < changed.sum() < one["refined_pixels"]
 
 
 def test_the_threshold_weighs_the_spread_by_the_pixel_and_the_frame():

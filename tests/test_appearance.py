@@ -49,9 +49,9 @@ def render(overrides: dict, seed: int = 3, azimuth_deg: float = 30.0):
 # centre, through two boxes (render.cpp's texture_point and cloth). The stamp algorithm itself
 # (cpp/src/stain.cpp) is unchanged since the paper's mode was written.
 PAPER_STAMP_90_SHA256 = "c6d0ca9d6d2a6c0e7f1e6e9ebf5829e10120a821427dc8f20b4e8efada4a9cbc"
-# The brute-force renderer, so the pin follows the stain and the geometry, not the light cache's
-# or adaptive sampling's tuning.
-PATH = {"render.indirect": "path", "render.adaptive_spp": 0}
+# The brute-force renderer at the Sun rays it was recorded with, so the pin follows the stain and
+# the geometry, not the light cache's, adaptive sampling's or the shadow rays' tuning.
+PATH = {"render.indirect": "path", "render.adaptive_spp": 0, "render.light_samples": 2}
 
 
 def test_paper_stamp_stain_with_the_new_looks_off_keeps_its_bytes():

@@ -17,6 +17,8 @@ void bind_render(py::module_& m) {
         .field("exact_depth", &RenderSettings::exact_depth,
                "re-solve hit distances in double (exact at kilometre coordinates); False keeps Embree's float32 t")
         .field("light_samples", &RenderSettings::light_samples, "shadow rays per sample toward the Sun's disk, 1..1024")
+        .field("penumbra_light_samples", &RenderSettings::penumbra_light_samples,
+               "shadow rays toward the Sun's disk per refinement sample in a penumbra, 1..1024")
         .field("bounces", &RenderSettings::bounces, "diffuse inter-reflections, 0 (direct light only)..16")
         .field("adaptive_spp", &RenderSettings::adaptive_spp,
                "0 = off, else the samples (direct light only past spp) a pixel whose samples disagree is brought "

@@ -131,13 +131,12 @@ struct TileScratch {
     std::array<SampleAgreement, kTilePixels> agreement;
     std::array<int, kTilePixels> refined;        // the tile's pixels that get more samples
     std::array<int, kTilePixels> sun_rays;       // of a refinement sample: its Sun-disk rays, per refined pixel
-    // The regolith grain as each tile pixel's samples read it (TileRenderer::regolith_grain):
-    // once a pixel and instance, at the first of its samples to hit it. Reset at the start of
-    // each pass over the tile.
+    // The regolith grain as each tile pixel's samples read it (TileRenderer::read_grain),
+    // where its centre ray hits, once a pass over the tile.
     struct GrainRead {
-        bool known = false;
-        uint32_t instance = 0;
-        glm::dvec3 point{0.0};  // where it was read: the pixel's centre ray on that sample's facet
+        bool known = false;     // the centre ray hit an instance with grain
+        uint32_t instance = 0;  // that instance
+        glm::dvec3 point{0.0};  // where it hit, world metres
         GrainSample sample;
     };
     std::array<GrainRead, kTilePixels> grain_reads;
@@ -211,6 +210,8 @@ public:
           m_adaptive(adaptive) {
         for (const LightData& l : m_lights) m_random = m_random || !l.point;
         m_random = m_random || settings.bounces > 0;
+        for (const InstanceData& inst : m_instances) m_grain = m_grain || inst.grain != nullptr;
+        m_grain = m_grain && !m_lights.empty();
         // Light 0 is the Sun unless the Sun is dark (light_table leaves dark lights out).
         if (lights.sun.irradiance() > 0.0) m_sun = &m_lights[0];
     }
@@ -218,10 +219,11 @@ public:
     void render_tile(int x0, int y0, int x1, int y1, TileScratch& s, RenderStats& stats) const {
         const int tw = x1 - x0;
         const int n = tw * (y1 - y0);
-        std::fill_n(s.grain_reads.begin(), n, TileScratch::GrainRead{});
         const bool want_rgb = m_out.rgb != nullptr;
-        // The dust is marched once per pixel along its centre ray (it varies over many pixels).
-        const bool centre_pass = m_out.depth || m_out.instance || (want_rgb && (m_settings.spp == 1 || m_medium));
+        // The dust is marched once per pixel along its centre ray (it varies over many pixels), and
+        // the grain read once where it hits.
+        const bool centre_pass =
+            m_out.depth || m_out.instance || (want_rgb && (m_settings.spp == 1 || m_medium || m_grain));
 
         if (m_settings.spp > 1 || m_random) {
             // The (seed, pixel) part of the random numbers' key, once per pixel, not per number.
@@ -246,6 +248,7 @@ public:
         }
         if (!want_rgb) return;
 
+        if (m_grain) read_grain(n, s);
         if (m_medium) march_dust(x0, y0, tw, n, s);
         if (m_settings.spp == 1) {
             shade(n, s, stats, 0, /*indirect=*/true);
@@ -336,15 +339,19 @@ public:
                     refine = neighbourhood.disagree(samples, m_settings.adaptive_threshold, a.frame_luminance);
                 if (!refine) continue;
                 // In a penumbra (its own or a neighbour's base samples' Sun rays partly escape) a
-                // refinement sample keeps light_samples rays: there the disk's visibility is what
-                // varies. Elsewhere the many samples spread one ray each over the disk.
-                s.sun_rays[count] = penumbra ? m_settings.light_samples : 1;
+                // refinement sample casts penumbra_light_samples rays: there the disk's visibility
+                // is what varies. Elsewhere the many samples spread one ray each over the disk.
+                s.sun_rays[count] = penumbra ? m_settings.penumbra_light_samples : 1;
                 s.refined[count] = i;
                 s.streams[count++] = pixel_stream(m_settings.seed, index(x, y));
             }
         if (count == 0) return;
-        std::fill_n(s.grain_reads.begin(), tw * (y1 - y0), TileScratch::GrainRead{});
         const uint64_t rays_before = stats.camera_rays + stats.second_look_rays + stats.shadow_rays;
+        if (m_grain) {
+            // The refined pixels' centre rays again, for the grain's reads (the first pass's are gone).
+            trace(x0, y0, tw, count, s, stats, /*sample=*/-1, s.refined.data());
+            read_grain(count, s, s.refined.data());
+        }
         std::array<glm::dvec3, kTilePixels> extra;
         std::fill_n(extra.begin(), count, glm::dvec3(0.0));
         // Over one centre sample: all of the pixel's samples anew, indirect light included (the
@@ -372,20 +379,20 @@ public:
 private:
     size_t index(int x, int y) const { return static_cast<size_t>(y) * m_camera.width() + x; }
 
-    /// Traces n camera rays and resolves their hits: one per tile pixel through its centre
-    /// (sample < 0), or jittered by the sample sequence; with `pixels`, ray j goes through the
-    /// tile's pixel pixels[j] (row-major in the tile, tw wide), else through pixel j.
+    /// Traces n camera rays and resolves their hits: through the pixel's centre (sample < 0), or
+    /// jittered by the sample sequence; with `pixels`, ray j goes through the tile's pixel
+    /// pixels[j] (row-major in the tile, tw wide), else through pixel j.
     void trace(int x0, int y0, int tw, int n, TileScratch& s, RenderStats& stats, int sample,
                const int* pixels = nullptr) const {
         const glm::dvec3& origin = m_camera.center();
-        if (sample < 0) {
+        if (sample < 0 && !pixels) {
             centre_rays(m_camera, x0, y0, x0 + tw, y0 + n / tw, s.dirs.data(), s.rays.data());
             std::copy_n(s.dirs.begin(), n, s.centre_dirs.begin());
         } else {
             const auto k = static_cast<uint32_t>(sample);
             for (int i = 0; i < n; ++i) {
                 const int p = pixels ? pixels[i] : i;
-                const SamplePair j = sample_pair(s.streams[i], k, 0);
+                const SamplePair j = sample < 0 ? SamplePair{0.5f, 0.5f} : sample_pair(s.streams[i], k, 0);
                 const double x = x0 + p % tw, y = y0 + p / tw;
                 s.dirs[i] = m_camera.direction(x + double(j.u), y + double(j.v));
                 s.centre_dirs[i] = m_camera.direction(x + 0.5, y + 0.5);
@@ -441,7 +448,8 @@ private:
             for (size_t l = 1; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(v.normal, m_lights[l].dir);
             if (m_medium && m_sun) s.sun_dust[i] = m_medium->sun_transmittance(v.point);
         }
-        light_vertices(n, s, stats, sample, m_settings.light_samples, kPairLight,
+        light_vertices(n, s, stats, sample, refining ? m_settings.penumbra_light_samples : m_settings.light_samples,
+                       kPairLight,
                        m_medium && m_sun ? s.sun_dust.data() : nullptr, /*camera_hits=*/true,
                        refining ? s.sun_rays.data() : nullptr);
         if (m_settings.adaptive_spp > 0) std::copy_n(s.radiance.begin(), n, s.direct.begin());
@@ -591,32 +599,53 @@ private:
         return glm::dot(offset, offset) <= extent * extent;
     }
 
+    /// The regolith grain where the centre rays just traced (n of them, ray j through tile pixel
+    /// pixels[j], or j) hit an instance that has it, into those pixels' TileScratch::grain_reads:
+    /// prefiltered over the centre ray's footprint on the facet it hits (pixel_footprint).
+    void read_grain(int n, TileScratch& s, const int* pixels = nullptr) const {
+        const glm::dvec3& origin = m_camera.center();
+        for (int j = 0; j < n; ++j) {
+            TileScratch::GrainRead& read = s.grain_reads[pixels ? pixels[j] : j];
+            read = {};
+            const PixelHit& h = s.hits.pixel(j);
+            if (!h.hit) continue;
+            const uint32_t instance = s.hits.record(h).instance;
+            const RegolithGrain* grain = m_instances[instance].grain;
+            if (!grain) continue;
+            const glm::dvec3& dir = s.dirs[j];
+            const TriangleRecord& tri = s.hits.shaded(j, dir, m_lights[0].dir);
+            const double distance = h.t * glm::length(dir);
+            const double footprint = pixel_footprint(distance, dir, tri.normal[h.side]);
+            read.known = true;
+            read.instance = instance;
+            read.point = origin + h.t * dir;
+            if (footprint < grain->flat_footprint_m()) read.sample = grain->eval(read.point, footprint);
+        }
+    }
+
     /// Regolith's granular micro-texture at a camera hit (regolith_texture.h), prefiltered over
-    /// the pixel's footprint and read at the pixel's centre (texture_point): it scales the albedo,
-    /// tilts the shading normal, and gives the spread of the filtered slopes over the pixel as the
+    /// the pixel's footprint and read at the pixel's centre: it scales the albedo, tilts the
+    /// shading normal, and gives the spread of the filtered slopes over the pixel as the
     /// vertex's residual_slope. Beyond the texture's flat footprint nothing changes. A tilt that
     /// would turn the shading normal away from the camera is dropped (a bump map cannot show a
     /// facet the geometry hides).
     ///
-    /// A pixel reads it once on each surface, as a sensor's pixel integrates it once: the first
-    /// of its samples to hit the instance reads it where the centre ray meets that sample's facet,
-    /// through the centre ray's footprint there, into `memo`; a later sample on the same instance
-    /// within a pixel's extent of that point (texture_point's test) takes it from there, whatever
-    /// facet it hit. The pixel's facets are a few millimetres to centimetres across, so read on
-    /// each one's plane the texture would differ only where a pixel's box no longer resolves it.
-    /// A sample elsewhere on the instance (past a ridge) reads at its own crossing.
+    /// A pixel reads it once, as a sensor's pixel integrates it once: where its centre ray hits
+    /// (`read`, TileScratch::grain_reads), so every sample on that instance within a pixel's extent
+    /// of that point takes it, whatever facet it hit. A sample elsewhere (on another instance, or
+    /// past a ridge of the same one) reads where the centre ray meets its own facet's plane
+    /// (texture_point), or failing that at its own point.
     void regolith_grain(const RegolithGrain& grain, const TriangleRecord& tri, const PixelHit& h,
                         const glm::dvec3& dir, const glm::dvec3& centre_dir, PathVertex& v,
-                        TileScratch::GrainRead& memo) const {
+                        const TileScratch::GrainRead& read) const {
         const double distance = h.t * glm::length(dir);
         GrainSample g;
-        if (memo.known && memo.instance == tri.instance && within_pixel(v, distance, centre_dir, memo.point)) {
-            g = memo.sample;
+        if (read.known && read.instance == tri.instance && within_pixel(v, distance, centre_dir, read.point)) {
+            g = read.sample;
         } else if (const std::optional<glm::dvec3> centre = texture_point(tri, v, distance, centre_dir)) {
             const glm::dvec3 to_centre = *centre - m_camera.center();
             const double footprint = pixel_footprint(glm::length(to_centre), to_centre, v.normal);
             if (footprint < grain.flat_footprint_m()) g = grain.eval(*centre, footprint);
-            if (!memo.known) memo = {true, tri.instance, *centre, g};
         } else {
             const double footprint = pixel_footprint(distance, dir, v.shading);
             if (!(footprint < grain.flat_footprint_m())) return;  // the mean: nothing to read
@@ -742,8 +771,8 @@ private:
     /// camera rays' hits; else a bounce's, scattered over the scene, whose shadow rays are
     /// counted apart (bounce_shadow_rays). `sun_rays` (refinement samples past the spp base
     /// samples only): the Sun's rays per vertex, R_i ≤ `samples`, at points
-    /// spp·samples + (sample − spp)·R_i + k of its sequence, past the base samples' (with R_i =
-    /// `samples` the points sample·R_i + k as above).
+    /// spp·light_samples + (sample − spp)·R_i + k of its sequence, past the base samples' (with
+    /// R_i = light_samples the points sample·R_i + k as above).
     void light_vertices(int n, TileScratch& s, RenderStats& stats, uint32_t sample, int samples, uint32_t pair,
                         const double* sun_dust, bool camera_hits, const int* sun_rays = nullptr) const {
         const auto base = static_cast<uint32_t>(m_settings.spp);
@@ -751,8 +780,9 @@ private:
             const LightData& light = m_lights[l];
             // The Earth's light is ~1e-4 of the Sun's: one shadow ray toward its disk leaves noise
             // far below the Sun's, so only the Sun gets `samples`.
-            const int most = light.point || l > 0 ? 1 : samples;
-            const bool per_pixel = sun_rays != nullptr && most > 1;
+            const bool disk_sun = !light.point && l == 0;
+            const int most = disk_sun ? samples : 1;
+            const bool per_pixel = disk_sun && sun_rays != nullptr;
             auto rays_of = [&](int i) { return per_pixel ? sun_rays[i] : most; };
             std::fill_n(s.visible.begin(), n, 0);
             for (int k = 0; k < most; ++k) {
@@ -764,7 +794,7 @@ private:
                     if (!light.point) {
                         // Consecutive points of the light's sequence: stratified over all the pixel's rays to it.
                         const auto rays = static_cast<uint32_t>(rays_of(i));
-                        const uint32_t point = per_pixel ? base * static_cast<uint32_t>(samples) +
+                        const uint32_t point = per_pixel ? base * static_cast<uint32_t>(m_settings.light_samples) +
                                                                (sample - base) * rays + static_cast<uint32_t>(k)
                                                          : sample * rays + static_cast<uint32_t>(k);
                         to_light = light.toward(sample_pair(s.streams[i], point, pair + static_cast<uint32_t>(l)));
@@ -976,6 +1006,7 @@ private:
     AdaptiveFrame* m_adaptive;  // null: adaptive anti-aliasing is off (or no rgb)
     const LightData* m_sun = nullptr;  // the Sun's entry in m_lights, if it shines
     bool m_random = false;  // some shading draws random numbers (disk samples, bounces)
+    bool m_grain = false;   // some instance has the regolith grain (and a light shines on it)
 };
 
 }  // namespace
@@ -989,6 +1020,9 @@ void RenderSettings::validate() const {
     if (light_samples < 1 || light_samples > kMaxLightSamples)
         throw std::invalid_argument("light_samples: must be in 1.." + std::to_string(kMaxLightSamples) + ", got " +
                                     std::to_string(light_samples));
+    if (penumbra_light_samples < 1 || penumbra_light_samples > kMaxLightSamples)
+        throw std::invalid_argument("penumbra_light_samples: must be in 1.." + std::to_string(kMaxLightSamples) +
+                                    ", got " + std::to_string(penumbra_light_samples));
     if (bounces < 0 || bounces > kMaxBounces)
         throw std::invalid_argument("bounces: must be in 0.." + std::to_string(kMaxBounces) + ", got " +
                                     std::to_string(bounces));

@@ -55,11 +55,13 @@ LEVELS: dict[str, Level] = {
                 "render.spp": 4,
                 "render.adaptive_spp": 32,
                 "render.adaptive_threshold": 0.5,
-                "render.light_samples": 2,
+                "render.light_samples": 1,
+                "render.penumbra_light_samples": 2,
                 "render.bounces": 2,
                 "render.indirect": "cache",
             },
-            "4 spp refined to 32, 2 Sun-disk shadow rays, 2 bounces through the light cache (the config defaults)",
+            "4 spp refined to 32, 1 Sun-disk shadow ray a base sample and 2 a refinement sample in a penumbra, "
+            "2 bounces through the light cache (the config defaults)",
         ),
         Level(
             "high",
@@ -68,6 +70,7 @@ LEVELS: dict[str, Level] = {
                 "render.adaptive_spp": 64,
                 "render.adaptive_threshold": 0.25,
                 "render.light_samples": 2,
+                "render.penumbra_light_samples": 2,
                 "render.bounces": 2,
                 "render.indirect": "cache",
             },

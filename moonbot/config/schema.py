@@ -987,7 +987,16 @@ class RenderConfig:
         ),
     )
     light_samples: int = field(
-        default=2, metadata=spec("shadow rays per sample toward the Sun's disk (soft shadow edges)", lo=1, hi=1024)
+        default=1, metadata=spec("shadow rays per sample toward the Sun's disk (soft shadow edges)", lo=1, hi=1024)
+    )
+    penumbra_light_samples: int = field(
+        default=2,
+        metadata=spec(
+            "adaptive anti-aliasing: shadow rays toward the Sun's disk per refinement sample in a penumbra (where the "
+            "pixel's or a neighbour's base samples' Sun rays partly escape); elsewhere a refinement sample casts one",
+            lo=1,
+            hi=1024,
+        ),
     )
     bounces: int = field(
         default=2,

@@ -93,6 +93,7 @@ def render_settings(config: RenderConfig, seed: int) -> _core.RenderSettings:
         threads=config.threads,
         exact_depth=config.exact_depth,
         light_samples=config.light_samples,
+        penumbra_light_samples=config.penumbra_light_samples,
         bounces=config.bounces,
         adaptive_spp=config.refinement_spp,
         adaptive_threshold=config.adaptive_threshold,

@@ -56,6 +56,10 @@ struct RenderSettings {
     /// pixel's samples then integrate as a sensor's pixel does; wider blurs the textures, so fewer
     /// pixels disagree and refine, at the cost of detail a real camera would record.
     double texture_filter_px = 1.0;
+    /// Shadow rays toward the Sun's disk per refinement sample (adaptive_spp) in a penumbra, where
+    /// the base samples' Sun rays of the pixel or of a neighbour partly escape: there the disk's
+    /// visibility is what varies. 1..1024. A refinement sample elsewhere casts one.
+    int penumbra_light_samples = 1;
 
     /// Throws std::invalid_argument naming the first field out of its range (render() calls it).
     void validate() const;
