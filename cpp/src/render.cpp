@@ -443,14 +443,14 @@ private:
             v.sheen = 0.0;
             if (inst.vertex_normals) v.shading = shading_normal_at(inst, tri.prim, h.u, h.v, v.normal);
             if (inst.woven) cloth(inst, tri, h, dir, s.centre_dirs[i], v);
-            if (inst.grain) regolith_grain(*inst.grain, tri, h, dir, s.centre_dirs[i], v, s.grain_reads[pixels ? pixels[i] : i]);
+            if (inst.grain)
+                regolith_grain(*inst.grain, tri, h, dir, s.centre_dirs[i], v, s.grain_reads[pixels ? pixels[i] : i]);
             v.cos_light[0] = tri.cos_sun[h.side];
             for (size_t l = 1; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(v.normal, m_lights[l].dir);
             if (m_medium && m_sun) s.sun_dust[i] = m_medium->sun_transmittance(v.point);
         }
         light_vertices(n, s, stats, sample, refining ? m_settings.penumbra_light_samples : m_settings.light_samples,
-                       kPairLight,
-                       m_medium && m_sun ? s.sun_dust.data() : nullptr, /*camera_hits=*/true,
+                       kPairLight, m_medium && m_sun ? s.sun_dust.data() : nullptr, /*camera_hits=*/true,
                        refining ? s.sun_rays.data() : nullptr);
         if (m_settings.adaptive_spp > 0) std::copy_n(s.radiance.begin(), n, s.direct.begin());
         if (indirect) add_indirect(n, s, stats, sample);
@@ -554,11 +554,12 @@ private:
         }
     }
 
-    /// The footprint textures are prefiltered over at a camera hit `distance` metres along `dir`
-    /// (metres), in the textures' convention of a Gaussian of σ = footprint/2 (fabric.h). A pixel
-    /// covers an ellipse on the surface, its angle 1/fx at that distance across and that over the
-    /// obliquity to the unit normal `n` along the slope (capped so a grazing hit stays finite); the isotropic
-    /// width of the same area (√obliquity) blurs neither axis far beyond the pixel. A box of
+    /// The footprint (metres) textures are prefiltered over at a camera hit `distance` metres
+    /// along `dir`, in the textures' convention of a Gaussian of σ = footprint/2 (fabric.h). A
+    /// pixel covers an ellipse on the surface, its angle 1/fx at that distance across and that
+    /// over the obliquity to the unit normal `n` along the slope (capped so a grazing hit stays
+    /// finite); the isotropic width of the same area (√obliquity) blurs neither axis far beyond
+    /// the pixel. A box of
     /// width w has σ = w/√12, so a box of `texture_filter_px` such widths is a footprint of
     /// texture_filter_px·w/√3.
     double pixel_footprint(double distance, const glm::dvec3& dir, const glm::dvec3& n) const {
@@ -592,7 +593,8 @@ private:
     /// metres): a pixel's width on the hit's facet, stretched along its slope by the obliquity
     /// to the centre ray (capped as in pixel_footprint); a sample lies within √2/2 of it from
     /// its pixel's centre.
-    bool within_pixel(const PathVertex& v, double distance, const glm::dvec3& centre_dir, const glm::dvec3& point) const {
+    bool within_pixel(const PathVertex& v, double distance, const glm::dvec3& centre_dir,
+                      const glm::dvec3& point) const {
         const double obliquity = std::max(std::abs(glm::dot(centre_dir, v.normal)) / glm::length(centre_dir), 0.1);
         const double extent = distance / m_camera.intrinsics().fx / obliquity;
         const glm::dvec3 offset = point - v.point;
@@ -635,9 +637,8 @@ private:
     /// of that point takes it, whatever facet it hit. A sample elsewhere (on another instance, or
     /// past a ridge of the same one) reads where the centre ray meets its own facet's plane
     /// (texture_point), or failing that at its own point.
-    void regolith_grain(const RegolithGrain& grain, const TriangleRecord& tri, const PixelHit& h,
-                        const glm::dvec3& dir, const glm::dvec3& centre_dir, PathVertex& v,
-                        const TileScratch::GrainRead& read) const {
+    void regolith_grain(const RegolithGrain& grain, const TriangleRecord& tri, const PixelHit& h, const glm::dvec3& dir,
+                        const glm::dvec3& centre_dir, PathVertex& v, const TileScratch::GrainRead& read) const {
         const double distance = h.t * glm::length(dir);
         GrainSample g;
         if (read.known && read.instance == tri.instance && within_pixel(v, distance, centre_dir, read.point)) {
