@@ -8,10 +8,12 @@ neighbour's) base samples disagree (bench/results/accuracy-adaptive-cache-*.json
 median of three locations; relative RMSE at 22° / 5° Sun, rays a view):
 
 - draft: the pixel-centre sample, refined to 16 where its 3×3 neighbourhood disagrees (threshold
-  0.5), 1 Sun-disk ray, light cache: ~2.8 % / 16 %, 0.5 M rays.
-- default: the config defaults — 4 base samples refined to 32 at threshold 0.5, 2 Sun-disk rays,
-  2 bounces through the light cache: ~1.5 % / 8.5 %, 1.7 M rays. What SynBag-1.0 renders.
-- high: 4 base samples refined to 64 at threshold 0.25: ~1.2 % / 6.4 %, 3.7 M rays.
+  0.5), 1 Sun-disk ray, light cache: ~2.7 % / 16 %, 0.6 M rays.
+- default: the config defaults — 4 base samples refined to 32 at threshold 0.5, one Sun-disk ray
+  a base sample and 2 a refinement sample in a penumbra, 2 bounces through the light cache:
+  ~1.5 % / 8.8 %, 1.3 M rays. What SynBag-1.0 renders.
+- high: 4 base samples refined to 64 at threshold 0.25, Sun rays as the default's: ~1.2 % / 6.2 %,
+  2.5 M rays.
 - path: the brute force for comparison, 4 spp with per-pixel bounce paths.
 
 At 5° the error is the pixel footprint's own spread (long penumbrae, grazing light on the grain
@@ -69,12 +71,13 @@ LEVELS: dict[str, Level] = {
                 "render.spp": 4,
                 "render.adaptive_spp": 64,
                 "render.adaptive_threshold": 0.25,
-                "render.light_samples": 2,
+                "render.light_samples": 1,
                 "render.penumbra_light_samples": 2,
                 "render.bounces": 2,
                 "render.indirect": "cache",
             },
-            "4 spp refined to 64, 2 Sun-disk shadow rays, 2 bounces through the light cache",
+            "4 spp refined to 64, 1 Sun-disk shadow ray a base sample and 2 a refinement sample in a penumbra, "
+            "2 bounces through the light cache",
         ),
         Level(
             "path",
