@@ -98,32 +98,38 @@ KNOBS = {
 }
 # The adaptive curve's reference: the default path tracer converged (two halves, seeds 1 and 2).
 CONVERGED = {"spp": 1024, "halves_seeds": (1, 2)}
-# (spp, adaptive_spp, adaptive_threshold, light_samples); adaptive_spp 0: brute force, today's
-# path tracer. Base spp 1 is the pixel-centre sample, refined where its 3×3 neighbourhood disagrees.
+# (spp, adaptive_spp, adaptive_threshold, light_samples, adaptive_full_spread); adaptive_spp 0: brute
+# force, today's path tracer. Base spp 1 is the pixel-centre sample, refined where its 3×3
+# neighbourhood disagrees. adaptive_full_spread 0: every refined pixel gets adaptive_spp.
 ADAPTIVE_LEVELS = [
-    (4, 0, 0.25, 2),
-    (8, 0, 0.25, 2),
-    (16, 0, 0.25, 2),
-    (32, 0, 0.25, 2),
-    (64, 0, 0.25, 2),
-    (4, 16, 0.25, 2),
-    (4, 32, 0.25, 2),
-    (4, 64, 0.25, 2),
-    (4, 64, 0.25, 1),
-    (4, 32, 0.1, 2),
-    (4, 32, 0.5, 2),
-    (4, 32, 0.5, 1),
-    (4, 32, 1.0, 2),
-    (2, 16, 0.25, 2),
-    (2, 32, 0.25, 2),
-    (8, 64, 0.25, 2),
-    (2, 16, 0.5, 1),
-    (1, 16, 1.0, 1),
-    (1, 32, 1.0, 1),
-    (1, 16, 0.5, 1),
-    (1, 32, 0.5, 1),
-    (1, 64, 0.5, 1),
-    (1, 32, 0.25, 1),
+    (4, 0, 0.25, 2, 0.0),
+    (8, 0, 0.25, 2, 0.0),
+    (16, 0, 0.25, 2, 0.0),
+    (32, 0, 0.25, 2, 0.0),
+    (64, 0, 0.25, 2, 0.0),
+    (4, 16, 0.25, 2, 0.0),
+    (4, 32, 0.25, 2, 0.0),
+    (4, 64, 0.25, 2, 0.0),
+    (4, 64, 0.25, 1, 0.0),
+    (4, 64, 0.5, 1, 4.0),
+    (4, 128, 0.5, 1, 8.0),
+    (4, 128, 0.5, 1, 10.0),
+    (4, 128, 0.5, 1, 12.0),
+    (4, 256, 0.25, 1, 4.0),
+    (4, 32, 0.1, 2, 0.0),
+    (4, 32, 0.5, 2, 0.0),
+    (4, 32, 0.5, 1, 0.0),
+    (4, 32, 1.0, 2, 0.0),
+    (2, 16, 0.25, 2, 0.0),
+    (2, 32, 0.25, 2, 0.0),
+    (8, 64, 0.25, 2, 0.0),
+    (2, 16, 0.5, 1, 0.0),
+    (1, 16, 1.0, 1, 0.0),
+    (1, 32, 1.0, 1, 0.0),
+    (1, 16, 0.5, 1, 0.0),
+    (1, 32, 0.5, 1, 0.0),
+    (1, 64, 0.5, 1, 0.0),
+    (1, 32, 0.25, 1, 0.0),
 ]
 # Sample points on the Sun's disk for the visibility V that defines the region masks.
 SUN_DISK_POINTS = 64
@@ -212,6 +218,7 @@ def converged_reference(config, scene, spec, fresh: bool, medium=None) -> dict:
         adaptive_spp=0,
         threads=0,
         adaptive_threshold=0.5,
+        adaptive_full_spread=0.0,
         light_samples=2,
         indirect="cache",
     )
@@ -304,9 +311,14 @@ def adaptive_rows(
     cache = build_light_cache(scene, one_thread)
     if cache is not None:
         render(one_thread, scene, spec, 1, light_cache=cache, medium=medium)  # fills what view 0 touches
-    for spp, cap, threshold, light_samples in levels:
+    for spp, cap, threshold, light_samples, full_spread in levels:
         level = with_render(
-            one_thread, spp=spp, adaptive_spp=cap, adaptive_threshold=threshold, light_samples=light_samples
+            one_thread,
+            spp=spp,
+            adaptive_spp=cap,
+            adaptive_threshold=threshold,
+            light_samples=light_samples,
+            adaptive_full_spread=full_spread,
         )
         out, seconds = render(level, scene, spec, repeats, full=True, light_cache=cache, medium=medium)
         rgb = out.rgb.astype(np.float64)
@@ -317,11 +329,12 @@ def adaptive_rows(
                 "location": location,
                 "sun_elevation_deg": elevation,
                 "knob": "adaptive",
-                "level": adaptive_label(spp, cap, threshold, light_samples),
+                "level": adaptive_label(spp, cap, threshold, light_samples, full_spread),
                 "spp": spp,
                 "adaptive_spp": cap,
                 "adaptive_threshold": threshold,
                 "light_samples": light_samples,
+                "adaptive_full_spread": full_spread,
                 "seconds": seconds,
                 **e,
                 # the error left once the reference's own noise is taken out (they add in squares)
@@ -335,9 +348,10 @@ def adaptive_rows(
     return rows
 
 
-def adaptive_label(spp: int, cap: int, threshold: float, light_samples: int = 2) -> str:
+def adaptive_label(spp: int, cap: int, threshold: float, light_samples: int = 2, full_spread: float = 0.0) -> str:
     label = f"spp {spp}" if cap == 0 else f"{spp}/{cap}/{threshold:g}"
-    return label if light_samples == 2 else f"{label} ls{light_samples}"
+    label = label if light_samples == 2 else f"{label} ls{light_samples}"
+    return label if full_spread == 0.0 else f"{label} f{full_spread:g}"
 
 
 def scene_rows(
@@ -455,11 +469,13 @@ def adaptive_curves(rows: list[dict]) -> dict[str, list]:
     """The adaptive levels grouped into the plot's curves: brute force, then the adaptive levels
     by base spp and threshold (growing cap along each), then by threshold at base 4 cap 32."""
     groups: dict[str, list] = {}
-    for spp, cap, threshold, light_samples in ADAPTIVE_LEVELS:
+    for spp, cap, threshold, light_samples, full_spread in ADAPTIVE_LEVELS:
         name = "brute force spp" if cap == 0 else f"adaptive base {spp}, threshold {threshold:g}"
-        groups.setdefault(name, []).append(adaptive_label(spp, cap, threshold, light_samples))
+        if full_spread > 0.0:
+            name = f"adaptive base {spp}, refined by the spread"
+        groups.setdefault(name, []).append(adaptive_label(spp, cap, threshold, light_samples, full_spread))
     groups["adaptive 4/32, threshold"] = [
-        adaptive_label(4, 32, t) for s, c, t, ls in ADAPTIVE_LEVELS if (s, c, ls) == (4, 32, 2)
+        adaptive_label(4, 32, t) for s, c, t, ls, f in ADAPTIVE_LEVELS if (s, c, ls, f) == (4, 32, 2, 0.0)
     ]
     curves = {}
     for name, labels in groups.items():

@@ -1032,7 +1032,7 @@ class RenderSettings:
     """
     A render's quality and threads (moonbot/render.h).
     """
-    fields: typing.ClassVar[tuple] = ('spp', 'seed', 'threads', 'exact_depth', 'light_samples', 'penumbra_light_samples', 'bounces', 'adaptive_spp', 'adaptive_threshold', 'texture_filter_px')
+    fields: typing.ClassVar[tuple] = ('spp', 'seed', 'threads', 'exact_depth', 'light_samples', 'penumbra_light_samples', 'adaptive_full_spread', 'bounces', 'adaptive_spp', 'adaptive_threshold', 'texture_filter_px')
     @typing.overload
     def __init__(self) -> None:
         """
@@ -1049,6 +1049,14 @@ class RenderSettings:
         """
         Raises ValueError naming the first field out of its range.
         """
+    @property
+    def adaptive_full_spread(self) -> float:
+        """
+        0: every refined pixel gets adaptive_spp; f > 0: its samples past spp in proportion to its spread over f times the frame's mean
+        """
+    @adaptive_full_spread.setter
+    def adaptive_full_spread(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
     @property
     def adaptive_spp(self) -> int:
         """

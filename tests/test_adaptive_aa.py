@@ -199,6 +199,8 @@ def test_off_is_the_brute_force_path_bit_for_bit():
         ({"spp": 4, "adaptive_spp": 8, "adaptive_threshold": -0.5}, "adaptive_threshold: must be a finite number >= 0"),
         ({"spp": 4, "adaptive_spp": 8, "adaptive_threshold": float("nan")}, "adaptive_threshold: must be a finite"),
         ({"spp": 4, "adaptive_spp": 8, "penumbra_light_samples": 0}, "penumbra_light_samples: must be in 1..1024"),
+        ({"spp": 4, "adaptive_spp": 8, "adaptive_full_spread": -1.0}, "adaptive_full_spread: must be a finite number"),
+        ({"spp": 4, "adaptive_spp": 8, "adaptive_full_spread": float("inf")}, "adaptive_full_spread: must be a finite"),
     ],
 )
 def test_bad_settings_name_the_field(kwargs, message):
@@ -212,6 +214,7 @@ def test_bad_settings_name_the_field(kwargs, message):
         ({"render.adaptive_spp": -2}, "render.adaptive_spp: must be >= 0"),
         ({"render.adaptive_threshold": -0.1}, "render.adaptive_threshold: must be >= 0"),
         ({"render.penumbra_light_samples": 0}, "render.penumbra_light_samples: must be >= 1"),
+        ({"render.adaptive_full_spread": -1.0}, "render.adaptive_full_spread: must be >= 0"),
     ],
 )
 def test_bad_config_names_the_field(overrides, message):
@@ -319,6 +322,29 @@ def test_only_refinement_samples_in_a_penumbra_cast_penumbra_light_samples():
     assert three["camera_rays"] == one["camera_rays"]
     changed = np.any(three["rgb"] != one["rgb"], axis=-1)
     assert 0 < changed.sum() < one["refined_pixels"]
+
+
+def test_refined_pixels_get_samples_in_proportion_to_their_spread():
+    """adaptive_full_spread f: a refined pixel gets a share of the adaptive_spp − spp samples past
+    its base in proportion to its neighbourhood's spread over f frame means, at least one. The
+    same pixels are refined whatever f. With f = 0 each gets all 60 extra camera rays; with a
+    huge f each gets exactly one; in between, fewer than all. The images stay the same bytes on 1
+    and 2 threads (the refined pixels are sampled in an order sorted per tile)."""
+    scene = lunar_test_scene()
+    base = {**QUALITY, "light_samples": 1, "adaptive_spp": 64, "bounces": 0, "seed": 5}
+
+    def run(full_spread: float, threads: int = 1) -> dict:
+        settings = _core.RenderSettings(**base, adaptive_full_spread=full_spread, threads=threads)
+        return _core.render(scene, ground_camera(), DISK_SUN, settings)
+
+    off = _core.render(scene, ground_camera(), DISK_SUN, _core.RenderSettings(**{**base, "adaptive_spp": 0}))
+    all_, one, some = run(0.0), run(1e9), run(2.0)
+    refined = all_["refined_pixels"]
+    assert refined > 0 and one["refined_pixels"] == some["refined_pixels"] == refined
+    assert all_["camera_rays"] - off["camera_rays"] == refined * (64 - 4)
+    assert one["camera_rays"] - off["camera_rays"] == refined
+    assert refined < some["camera_rays"] - off["camera_rays"] < refined * (64 - 4)
+    np.testing.assert_array_equal(run(2.0, threads=2)["rgb"], some["rgb"])
 
 
 def test_the_threshold_weighs_the_spread_by_the_pixel_and_the_frame():

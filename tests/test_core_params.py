@@ -44,6 +44,10 @@ DEFAULTS_DIFFER = {  # (struct, struct field): why the schema's default is anoth
     ): "the dataset's soft shadow edges; the core's default is one shadow ray",
     ("RenderSettings", "bounces"): "the dataset's inter-reflection; the core's default is direct light",
     ("RenderSettings", "adaptive_threshold"): "the dataset's; the core's default matters only when adaptive_spp is on",
+    (
+        "RenderSettings",
+        "adaptive_full_spread",
+    ): "the dataset's; the core's default brings every refined pixel to adaptive_spp",
     ("LightCacheSettings", "background_cell_m"): "the dataset's lattice; the core's default gathers per vertex",
     ("LightCacheSettings", "object_cell_m"): "the dataset's lattice; the core's default gathers per vertex",
 }
@@ -97,6 +101,7 @@ def built():
                     "exact_depth",
                     "light_samples",
                     "penumbra_light_samples",
+                    "adaptive_full_spread",
                     "bounces",
                     "adaptive_threshold",
                     "texture_filter_px",

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -131,6 +132,7 @@ struct TileScratch {
     std::array<SampleAgreement, kTilePixels> agreement;
     std::array<int, kTilePixels> refined;        // the tile's pixels that get more samples
     std::array<int, kTilePixels> sun_rays;       // of a refinement sample: its Sun-disk rays, per refined pixel
+    std::array<int, kTilePixels> totals;         // the samples each refined pixel is brought up to
     // The regolith grain as each tile pixel's samples read it (TileRenderer::read_grain),
     // where its centre ray hits, once a pass over the tile.
     struct GrainRead {
@@ -324,11 +326,13 @@ public:
                 bool refine = false, penumbra = false;
                 SampleAgreement neighbourhood;
                 int samples = 0;
+                float spread = 0.0f;  // the neighbourhood's largest (base >= 2)
                 for (int ny = std::max(y - 1, 0); ny <= std::min(y + 1, h - 1); ++ny)
                     for (int nx = std::max(x - 1, 0); nx <= std::min(x + 1, w - 1); ++nx) {
                         if (base >= 2) {
                             refine = refine || (a.disagree[index(nx, ny)] & 1) != 0;
                             penumbra = penumbra || (a.disagree[index(nx, ny)] & 2) != 0;
+                            spread = std::max(spread, a.spread[index(nx, ny)]);
                             continue;
                         }
                         const AdaptiveFrame::CentreSample& c = a.centre[index(nx, ny)];
@@ -342,10 +346,23 @@ public:
                 // refinement sample casts penumbra_light_samples rays: there the disk's visibility
                 // is what varies. Elsewhere the many samples spread one ray each over the disk.
                 s.sun_rays[count] = penumbra ? m_settings.penumbra_light_samples : 1;
+                s.totals[count] = refined_total(spread, a.frame_luminance);
                 s.refined[count] = i;
                 s.streams[count++] = pixel_stream(m_settings.seed, index(x, y));
             }
         if (count == 0) return;
+        if (m_settings.adaptive_full_spread > 0.0) {
+            // Most samples first: the pixels still sampling at any sample index are then a prefix.
+            std::array<int, kTilePixels> order;
+            std::iota(order.begin(), order.begin() + count, 0);
+            std::stable_sort(order.begin(), order.begin() + count,
+                             [&](int p, int q) { return s.totals[p] > s.totals[q]; });
+            const auto permute = [&](auto& values) {
+                auto copy = values;
+                for (int j = 0; j < count; ++j) values[j] = copy[order[j]];
+            };
+            permute(s.sun_rays), permute(s.totals), permute(s.refined), permute(s.streams);
+        }
         const uint64_t rays_before = stats.camera_rays + stats.second_look_rays + stats.shadow_rays;
         if (m_grain) {
             // The refined pixels' centre rays again, for the grain's reads (the first pass's are gone).
@@ -357,18 +374,21 @@ public:
         // Over one centre sample: all of the pixel's samples anew, indirect light included (the
         // cache's costs no ray); over more: the samples past them, direct light alone.
         const bool whole = base == 1;
+        int active = count;
         for (int sample = whole ? 0 : base; sample < total; ++sample) {
-            trace(x0, y0, tw, count, s, stats, sample, s.refined.data());
-            shade(count, s, stats, static_cast<uint32_t>(sample), /*indirect=*/whole, /*refining=*/!whole,
+            while (active > 0 && s.totals[active - 1] <= sample) --active;
+            if (active == 0) break;
+            trace(x0, y0, tw, active, s, stats, sample, s.refined.data());
+            shade(active, s, stats, static_cast<uint32_t>(sample), /*indirect=*/whole, /*refining=*/!whole,
                   s.refined.data());
-            for (int j = 0; j < count; ++j) extra[j] += whole ? s.radiance[j] : s.direct[j];
+            for (int j = 0; j < active; ++j) extra[j] += whole ? s.radiance[j] : s.direct[j];
         }
         for (int j = 0; j < count; ++j) {
             const int i = s.refined[j];
             const size_t k = index(x0 + i % tw, y0 + i / tw);
+            const double n = s.totals[j];
             glm::dvec3 radiance =
-                whole ? extra[j] / double(total)
-                      : (a.sum[k] - a.direct_sum[k]) / double(base) + (a.direct_sum[k] + extra[j]) / double(total);
+                whole ? extra[j] / n : (a.sum[k] - a.direct_sum[k]) / double(base) + (a.direct_sum[k] + extra[j]) / n;
             if (m_medium) radiance = radiance * a.dust_through[k] + a.dust_glow[k];
             for (int c = 0; c < 3; ++c) m_out.rgb[3 * k + c] = static_cast<float>(radiance[c]);
         }
@@ -378,6 +398,20 @@ public:
 
 private:
     size_t index(int x, int y) const { return static_cast<size_t>(y) * m_camera.width() + x; }
+
+    /// The samples a refined pixel is brought up to: adaptive_spp, or with adaptive_full_spread
+    /// f > 0 (and spp >= 2 base samples) a share of the samples past the base in proportion to
+    /// its neighbourhood's largest direct-luminance spread over f times the frame's mean
+    /// (`frame_luminance`), at least one more: a pixel's error after N samples is about its
+    /// spread over √N, so for a given number of samples the image's RMS error is least where
+    /// they follow the spread.
+    int refined_total(float spread, double frame_luminance) const {
+        const int base = m_settings.spp, total = m_settings.adaptive_spp;
+        const double full = m_settings.adaptive_full_spread * frame_luminance;
+        if (base < 2 || !(full > 0.0)) return total;
+        const double share = std::min(1.0, double(spread) / full);
+        return base + std::max(1, static_cast<int>(std::ceil((total - base) * share)));
+    }
 
     /// Traces n camera rays and resolves their hits: through the pixel's centre (sample < 0), or
     /// jittered by the sample sequence; with `pixels`, ray j goes through the tile's pixel
@@ -1021,6 +1055,9 @@ void RenderSettings::validate() const {
     if (light_samples < 1 || light_samples > kMaxLightSamples)
         throw std::invalid_argument("light_samples: must be in 1.." + std::to_string(kMaxLightSamples) + ", got " +
                                     std::to_string(light_samples));
+    if (!std::isfinite(adaptive_full_spread) || adaptive_full_spread < 0.0)
+        throw std::invalid_argument("adaptive_full_spread: must be a finite number >= 0, got " +
+                                    std::to_string(adaptive_full_spread));
     if (penumbra_light_samples < 1 || penumbra_light_samples > kMaxLightSamples)
         throw std::invalid_argument("penumbra_light_samples: must be in 1.." + std::to_string(kMaxLightSamples) +
                                     ", got " + std::to_string(penumbra_light_samples));

@@ -9,11 +9,11 @@ median of three locations; relative RMSE at 22° / 5° Sun, rays a view):
 
 - draft: the pixel-centre sample, refined to 16 where its 3×3 neighbourhood disagrees (threshold
   0.5), 1 Sun-disk ray, light cache: ~2.7 % / 16 %, 0.6 M rays.
-- default: the config defaults — 4 base samples refined to 32 at threshold 0.5, one Sun-disk ray
-  a base sample and 2 a refinement sample in a penumbra, 2 bounces through the light cache:
-  ~1.5 % / 8.8 %, 1.3 M rays. What SynBag-1.0 renders.
-- high: 4 base samples refined to 64 at threshold 0.25, Sun rays as the default's: ~1.2 % / 6.2 %,
-  2.5 M rays.
+- default: the config defaults — 4 base samples, a pixel whose samples disagree (threshold 0.5)
+  refined to up to 128 in proportion to its spread (all 128 from 10× the frame's mean), one
+  Sun-disk ray a base sample and 2 a refinement sample in a penumbra, 2 bounces through the light
+  cache. What SynBag-1.0 renders.
+- high: 4 base samples refined to up to 256 at threshold 0.25 (all from 4× the frame's mean).
 - path: the brute force for comparison, 4 spp with per-pixel bounce paths.
 
 At 5° the error is the pixel footprint's own spread (long penumbrae, grazing light on the grain
@@ -55,29 +55,31 @@ LEVELS: dict[str, Level] = {
             "default",
             {
                 "render.spp": 4,
-                "render.adaptive_spp": 32,
+                "render.adaptive_spp": 128,
+                "render.adaptive_full_spread": 10.0,
                 "render.adaptive_threshold": 0.5,
                 "render.light_samples": 1,
                 "render.penumbra_light_samples": 2,
                 "render.bounces": 2,
                 "render.indirect": "cache",
             },
-            "4 spp refined to 32, 1 Sun-disk shadow ray a base sample and 2 a refinement sample in a penumbra, "
-            "2 bounces through the light cache (the config defaults)",
+            "4 spp refined to up to 128 by the spread, 1 Sun-disk shadow ray a base sample and 2 a refinement sample "
+            "in a penumbra, 2 bounces through the light cache (the config defaults)",
         ),
         Level(
             "high",
             {
                 "render.spp": 4,
-                "render.adaptive_spp": 64,
+                "render.adaptive_spp": 256,
+                "render.adaptive_full_spread": 4.0,
                 "render.adaptive_threshold": 0.25,
                 "render.light_samples": 1,
                 "render.penumbra_light_samples": 2,
                 "render.bounces": 2,
                 "render.indirect": "cache",
             },
-            "4 spp refined to 64, 1 Sun-disk shadow ray a base sample and 2 a refinement sample in a penumbra, "
-            "2 bounces through the light cache",
+            "4 spp refined to up to 256 by the spread (all from 4x the frame's mean), threshold 0.25, 1 Sun-disk "
+            "shadow ray a base sample and 2 a refinement sample in a penumbra, 2 bounces through the light cache",
         ),
         Level(
             "path",

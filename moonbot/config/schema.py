@@ -989,6 +989,15 @@ class RenderConfig:
     light_samples: int = field(
         default=1, metadata=spec("shadow rays per sample toward the Sun's disk (soft shadow edges)", lo=1, hi=1024)
     )
+    adaptive_full_spread: float = field(
+        default=10.0,
+        metadata=spec(
+            "adaptive anti-aliasing: 0 brings every refined pixel up to adaptive_spp samples; f > 0 gives it a share "
+            "of the samples past spp in proportion to its base samples' direct-luminance spread over f times the "
+            "frame's mean",
+            lo=0.0,
+        ),
+    )
     penumbra_light_samples: int = field(
         default=2,
         metadata=spec(
@@ -1003,7 +1012,7 @@ class RenderConfig:
         metadata=spec("diffuse inter-reflections lighting the shadows (0 = direct sunlight only)", lo=0, hi=16),
     )
     adaptive_spp: int = field(
-        default=32,
+        default=128,
         metadata=spec(
             "adaptive anti-aliasing: the samples a pixel gets when its spp base samples (or a neighbour's; with "
             "spp 1 the pixel-centre samples of its 3x3 neighbourhood) disagree in direct luminance "

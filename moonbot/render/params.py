@@ -94,6 +94,7 @@ def render_settings(config: RenderConfig, seed: int) -> _core.RenderSettings:
         exact_depth=config.exact_depth,
         light_samples=config.light_samples,
         penumbra_light_samples=config.penumbra_light_samples,
+        adaptive_full_spread=config.adaptive_full_spread,
         bounces=config.bounces,
         adaptive_spp=config.refinement_spp,
         adaptive_threshold=config.adaptive_threshold,

@@ -60,6 +60,11 @@ struct RenderSettings {
     /// the base samples' Sun rays of the pixel or of a neighbour partly escape: there the disk's
     /// visibility is what varies. 1..1024. A refinement sample elsewhere casts one.
     int penumbra_light_samples = 1;
+    /// With adaptive_spp and spp >= 2: 0 brings every refined pixel up to adaptive_spp samples;
+    /// f > 0 gives it a share of the adaptive_spp − spp samples past its base in proportion to its
+    /// (or a neighbour's) base samples' direct-luminance spread over f times the frame's mean
+    /// direct luminance, all of them from f up, at least one. Finite, >= 0.
+    double adaptive_full_spread = 0.0;
 
     /// Throws std::invalid_argument naming the first field out of its range (render() calls it).
     void validate() const;
