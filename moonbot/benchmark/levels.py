@@ -12,8 +12,9 @@ median of three locations; relative RMSE at 22° / 5° Sun, rays a view):
 - default: the config defaults — 4 base samples, a pixel whose samples disagree (threshold 0.5)
   refined to up to 128 in proportion to its spread (all 128 from 10× the frame's mean), one
   Sun-disk ray a base sample and 2 a refinement sample in a penumbra, 2 bounces through the light
-  cache. What SynBag-1.0 renders.
-- high: 4 base samples refined to up to 256 at threshold 0.25 (all from 4× the frame's mean).
+  cache: ~1.4 % / 4.9 %, 1.1 M rays. What SynBag-1.0 renders.
+- high: 4 base samples refined to up to 256 at threshold 0.25 (all from 4× the frame's mean):
+  ~1.0 % / 4.0 %, 2.5 M rays.
 - path: the brute force for comparison, 4 spp with per-pixel bounce paths.
 
 At 5° the error is the pixel footprint's own spread (long penumbrae, grazing light on the grain
