@@ -1014,10 +1014,10 @@ class RenderConfig:
     adaptive_spp: int = field(
         default=128,
         metadata=spec(
-            "adaptive anti-aliasing: the samples a pixel gets when its spp base samples (or a neighbour's; with "
-            "spp 1 the pixel-centre samples of its 3x3 neighbourhood) disagree in direct luminance "
-            "(adaptive_threshold); past spp >= 2 they carry direct light only, over spp 1 the whole radiance; "
-            "off where it is 0 or not above spp",
+            "adaptive anti-aliasing: the samples a pixel gets (at most, with adaptive_full_spread) when its spp base "
+            "samples (or a neighbour's; with spp 1 the pixel-centre samples of its 3x3 neighbourhood) disagree in "
+            "direct luminance (adaptive_threshold); past spp >= 2 they carry direct light only, over spp 1 the whole "
+            "radiance; off where it is 0 or not above spp",
             lo=0,
             hi=65536,
         ),
