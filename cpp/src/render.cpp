@@ -593,9 +593,8 @@ private:
     /// pixel covers an ellipse on the surface, its angle 1/fx at that distance across and that
     /// over the obliquity to the unit normal `n` along the slope (capped so a grazing hit stays
     /// finite); the isotropic width of the same area (√obliquity) blurs neither axis far beyond
-    /// the pixel. A box of
-    /// width w has σ = w/√12, so a box of `texture_filter_px` such widths is a footprint of
-    /// texture_filter_px·w/√3.
+    /// the pixel. A box of width w has σ = w/√12, so a box of `texture_filter_px` such widths is
+    /// a footprint of texture_filter_px·w/√3.
     double pixel_footprint(double distance, const glm::dvec3& dir, const glm::dvec3& n) const {
         const double obliquity = std::max(std::abs(glm::dot(n, dir)) / glm::length(dir), 0.1);
         const double width = distance / m_camera.intrinsics().fx / std::sqrt(obliquity);
