@@ -397,17 +397,21 @@ size_t Accel::intersect_watertight(RayHit* rays, size_t n, bool ground) const {
 }
 
 void Accel::occluded(RayHit* rays, size_t n) const {
-    // Ray streams, not 8-wide packets: rtcOccluded8 was faster, but Debian's Embree asserts in the
-    // SSE2 packet kernel (bvh_intersector_hybrid.cpp, `all(valid, ray.valid())`) on this renderer's
-    // shadow rays, and a render must not depend on the ISA.
+    // Eight-wide packets (rtcOccluded8), not ray streams: an any-hit answer is the same yes or no
+    // whichever kernel gives it, and the packet kernel traces this renderer's shadow rays faster.
+    // Every lane carries a real ray, the last packet's idle lanes a copy of its last one:
+    // Debian's Embree checks its SSE2 kernel's lanes (bvh_intersector_hybrid.cpp, assertion
+    // `all(valid, ray.valid())`), and garbage in an idle lane aborted the process.
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
-    for (size_t begin = 0; begin < n; begin += kStream) {
-        const size_t count = std::min(kStream, n - begin);
-        // RTCRay is the leading member of RTCRayHit, so the same buffer with the RayHit stride
-        // is a valid ray stream.
-        rtcOccluded1M(m_impl->top, &context, reinterpret_cast<RTCRay*>(rays + begin), static_cast<unsigned>(count),
-                      sizeof(RayHit));
+    constexpr int W = 8;
+    RayHitPacket<W> packet;
+    for (size_t begin = 0; begin < n; begin += W) {
+        const int active = static_cast<int>(std::min<size_t>(W, n - begin));
+        for (int lane = 0; lane < W; ++lane) pack_lane(rays[begin + std::min(lane, active - 1)], packet, lane);
+        const ValidMask<W> valid(static_cast<size_t>(active));
+        rtcOccluded8(valid.lanes, m_impl->top, &context, reinterpret_cast<RTCRay8*>(&packet));
+        for (int lane = 0; lane < active; ++lane) rays[begin + lane].tfar = packet.tfar[lane];
     }
 }
 

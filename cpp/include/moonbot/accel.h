@@ -148,7 +148,8 @@ public:
     /// above float32's resolution of a position (6e-8 of it), far below a pixel's footprint.
     static constexpr double kVertexNudge = 1.0 / 65536.0;
 
-    /// Any-hit test for `n` rays; an occluded ray gets tfar = -inf, a free one keeps its tfar.
+    /// Any-hit test for `n` rays, in 8-wide packets; an occluded ray gets tfar = -inf, a free one
+    /// keeps its tfar.
     void occluded(RayHit* rays, size_t n) const;
 
     /// The same two queries one ray at a time (rtcIntersect1 / rtcOccluded1): the baseline the
