@@ -325,9 +325,12 @@ class CratersConfig:
     per m² (docs/physics.md), degraded simple-crater profiles."""
 
     density: float = field(
-        default=0.05,
+        default=0.079,
         metadata=spec(
-            "C in N(>=D) = C·D^-2 per m^2, D in metres (Apollo 15 mare fit 0.0336, up to ~0.08)", lo=0.0, hi=10.0
+            "C in N(>=D) = C·D^-2 per m^2, D in metres (Trask 1966's standard equilibrium 0.079; Apollo 15 mare fit "
+            "0.0336)",
+            lo=0.0,
+            hi=10.0,
         ),
     )
     min_diameter_m: float = field(

@@ -2,11 +2,12 @@
 they add to the ground (metres, world East-North-Up), deterministic from a seed.
 
 Sizes follow the empirical equilibrium of small lunar craters, a cumulative density
-N(≥D) = C·D^-2 per m² with D in metres and C ≈ 0.05 (docs/physics.md: 0.0336 for an
-Apollo 15 mare fit up to ~0.08; Trask 1966's standard equilibrium is 0.079; Minton et al. 2019,
+N(≥D) = C·D^-2 per m² with D in metres and C = 0.079, Trask 1966's standard equilibrium
+(docs/physics.md; fits range from 0.0336 on an Apollo 15 mare to ~0.08: Minton et al. 2019,
 Xiao & Werner 2015). The D^-2 steady state holds from metres down to the 13 cm craters counted
-at Surveyor 7 (Shoemaker et al. 1969, JGR 74:6081; Moore, Boyce & Hahn 1980 find it for 1–100 m,
-the production population being steeper, D^-2.8), so the locations continue it down to 5 cm,
+at Surveyor 7, which follow the same standard curve (Shoemaker et al. 1969, JGR 74:6081; Moore,
+Boyce & Hahn 1980 find it for 1–100 m, the production population being steeper, D^-2.8), so the
+locations continue it down to 5 cm,
 the smallest crater five cells of the 1 cm tile can draw. Centres are uniform
 (a Poisson process; craters may overlap, as on the saturated real surface). Each crater has
 the simple-crater profile of `terrain.CraterGround` (depth 0.13·D, rim 0.036·D, ejecta as
@@ -158,7 +159,7 @@ class CraterField:
 
     @staticmethod
     def sample(
-        seed: int | list[int], half_size_m: float, density: float = 0.05, d_min: float = 0.5, d_max: float = 50.0
+        seed: int | list[int], half_size_m: float, density: float = 0.079, d_min: float = 0.5, d_max: float = 50.0
     ) -> CraterField:
         """A Poisson sample over the square ±half_size_m with N(≥D) = density·D^-2 per m²,
         D in [d_min, d_max] (inverse-CDF sampling of the truncated power law)."""
@@ -182,7 +183,7 @@ class CraterField:
 
     @staticmethod
     def sample_graded(
-        seed: int, half_size: Callable[[float], float], density: float = 0.05, d_min: float = 0.5, d_max: float = 200.0
+        seed: int, half_size: Callable[[float], float], density: float = 0.079, d_min: float = 0.5, d_max: float = 200.0
     ) -> CraterField:
         """Craters for a mesh that coarsens away from the origin: diameters in octave bands
         [d, 2d) from d_min up to d_max, each band a Poisson sample (`sample`) over the square
