@@ -7,12 +7,11 @@ N(≥D) = C·D^-2 per m² with D in metres and C = 0.079, Trask 1966's standard 
 Xiao & Werner 2015). The D^-2 steady state holds from metres down to the 13 cm craters counted
 at Surveyor 7, which follow the same standard curve (Shoemaker et al. 1969, JGR 74:6081; Moore,
 Boyce & Hahn 1980 find it for 1–100 m, the production population being steeper, D^-2.8), so the
-locations continue it down to 5 cm,
-the smallest crater five cells of the 1 cm tile can draw. Centres are uniform
-(a Poisson process; craters may overlap, as on the saturated real surface). Each crater has
-the simple-crater profile of `terrain.CraterGround` (depth 0.13·D, rim 0.036·D, ejecta as
-(r/R)^-3, cut off at 2.5 R) when fresh, worn down by diffusion as below; a crater changes nothing
-beyond its reach.
+locations continue it down to 5 cm, the smallest crater five cells of the 1 cm tile can draw.
+Centres are uniform (a Poisson process; craters may overlap, as on the saturated real surface).
+Each crater has the simple-crater profile of `terrain.CraterGround` (depth 0.13·D, rim 0.036·D,
+ejecta as (r/R)^-3, cut off at 2.5 R) when fresh, worn down by diffusion as below; a crater
+changes nothing beyond its reach.
 
 **Degradation.** Small lunar craters are worn down by topographic diffusion, ∂h/∂t = κ∇²h
 (Soderblom 1970, JGR 75:2655; Fassett & Thomson 2014, JGR Planets 119:2255; Minton et al. 2019,
