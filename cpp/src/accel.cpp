@@ -406,13 +406,12 @@ void Accel::occluded(RayHit* rays, size_t n) const {
     rtcInitIntersectContext(&context);
     constexpr int W = 8;
     RayHitPacket<W> packet;
-    for (size_t begin = 0; begin < n; begin += W) {
-        const int active = static_cast<int>(std::min<size_t>(W, n - begin));
-        for (int lane = 0; lane < W; ++lane) pack_lane(rays[begin + std::min(lane, active - 1)], packet, lane);
-        const ValidMask<W> valid(static_cast<size_t>(active));
-        rtcOccluded8(valid.lanes, m_impl->top, &context, reinterpret_cast<RTCRay8*>(&packet));
-        for (int lane = 0; lane < active; ++lane) rays[begin + lane].tfar = packet.tfar[lane];
-    }
+    each_packet<W>(n, [&](const int* valid, size_t p) {
+        const size_t begin = p * W, last = std::min(n, begin + W) - 1;
+        for (int lane = 0; lane < W; ++lane) pack_lane(rays[std::min(begin + lane, last)], packet, lane);
+        PacketCalls<W>::occluded(valid, m_impl->top, &context, reinterpret_cast<PacketCalls<W>::RayW*>(&packet));
+        for (size_t i = begin; i <= last; ++i) rays[i].tfar = packet.tfar[i - begin];
+    });
 }
 
 void Accel::intersect_single(RayHit* rays, size_t n) const {
