@@ -1,7 +1,8 @@
 """The realism statistics (moonbot/benchmark/realism.py) against analytic answers on synthetic
 images: spectrum slope of 1/f^β noise, shadow fraction, dark blob counts and sizes, sky and
 reseau masks, percentile normalisation, octave contrast of a sinusoid, the Laplacian, resampling,
-the classifier two-sample test and SOURCES.csv parsing."""
+the tone-free statistics' indifference to the tone curve, the classifier two-sample test and
+SOURCES.csv parsing."""
 
 from __future__ import annotations
 
@@ -284,6 +285,48 @@ def test_render_plans_and_separation():
     s = separation([1.0, 2.0, 3.0, 4.0, 5.0], [9.0, 11.0, 4.5])
     assert s["score"] == pytest.approx((9.0 - 3.0) / 2.0)
     assert s["outside_fraction"] == pytest.approx(2 / 3)
+
+
+def test_tone_free_statistics_do_not_depend_on_the_tone_curve():
+    # A granular field with dark blobs, and the same under a strictly increasing curve (a film's
+    # S-shaped curve): the luma statistics move, the tone-free ones are the same to rounding.
+    y = np.exp(0.3 * power_law_noise(256, 2.0, seed=11))
+    y[40:44, 60:63] *= 0.2
+    mask = np.ones_like(y, dtype=bool)
+    mask[:20] = False
+    curved = 1.0 / (1.0 + np.exp(-4.0 * (np.log(y) - 0.1)))
+    plain = realism.image_statistics(y, mask, px_per_deg=16.0)
+    bent = realism.image_statistics(curved, mask, px_per_deg=16.0)
+    assert bent["laplacian_contrast"] != pytest.approx(plain["laplacian_contrast"], rel=0.05)
+    a, b = realism.flatten(plain["tone_free"]), realism.flatten(bent["tone_free"])
+    assert a.keys() == b.keys() and "octave_rms_contrast.1-2_cyc_per_deg" in a
+    for key in a:
+        assert b[key] == pytest.approx(a[key], rel=1e-9, abs=1e-12, nan_ok=True), key
+
+
+def test_tone_free_luma_is_lognormal_of_fixed_spread_on_the_ground():
+    rng = np.random.default_rng(5)
+    y = rng.random((64, 64)) ** 3
+    y[10, :8] = 0.5  # ties share one value
+    mask = np.ones_like(y, dtype=bool)
+    mask[:4] = False
+    t = realism.tone_free(y, mask)
+    assert np.all(t[~mask] == 1.0)
+    logs = np.log(t[mask])
+    assert np.median(logs) == pytest.approx(0.0, abs=1e-3)
+    assert logs.std() == pytest.approx(realism.TONE_FREE_SIGMA, rel=0.02)
+    assert np.unique(t[10, :8]).size == 1
+    assert np.all(np.diff(t[mask][np.argsort(y[mask], kind="stable")]) >= 0)  # order kept
+
+
+def test_compared_statistics_include_the_tone_free_ones():
+    from moonbot.benchmark.realism_bench import compared_statistics
+
+    stats = realism.image_statistics(np.exp(0.3 * power_law_noise(128, 2.0, seed=3)), np.ones((128, 128), bool), 8.0)
+    compared = compared_statistics(stats)
+    assert "spectrum_slope" in compared and "tone_free.spectrum_slope" in compared
+    assert "tone_free.octave_rms_contrast.0.5-1_cyc_per_deg" in compared
+    assert "tone_free.luma_median" not in compared and "tone_free.blobs_per_deg2" in compared
 
 
 def test_cli_names_the_bad_sources_file(tmp_path):

@@ -37,14 +37,23 @@ Statistics (all dimensionless unless stated):
   photographer's shadow, not a pebble's) are dropped. Reported: blobs per square degree of
   ground, their area-equivalent diameters (degrees; quantiles and counts per octave of size) and
   the fraction of ground they cover.
+* tone_free (the same spatial statistics, tone curve taken out): spectrum slope, octave
+  contrasts, fine/coarse, Laplacian and dark blobs of `tone_free(y)`, the luma with every ground
+  pixel replaced by exp(σ·z), z its normal score (rank → Φ⁻¹), σ = `TONE_FREE_SIGMA` for every
+  image. Any strictly increasing curve applied to the luma gives the same image, so a photo's
+  unknown film and scan curve and the renders' tone map drop out, and what is compared is how
+  brightness is arranged: granular, pebble-strewn ground against smooth ground. Two ways a curve
+  still acts: the film's curve came before the resampling to the analysis scale, which averages
+  ~2.6 × 2.6 scan pixels (a second-order effect), and codes that a curve merges become ties
+  (ties share their mean rank).
 
 Caveats. The photos are film scans re-exported through an unknown tone curve (Lightroom): every
 statistic that depends on the curve (shadow fraction, percentiles, blob darkness) carries its
-uncertainty; the spectrum slope and octave contrasts depend on it only through the local slope
-of the curve. JPEG's 8×8 blocks and film grain sit at the scan's finest scales; resampling a
-2000-pixel scan down to the analysis scale (≈2.6×) averages most of them away. Reseau crosses
-(thin crosses on a 10 mm grid exposed on every frame; bold on the Apollo 12 black-and-white
-scans, faint on the colour ones) are masked by `reseau_cross_mask`; the faintest Apollo 11 ones
+uncertainty; the spectrum slope and octave contrasts depend on it through the local slope of the
+curve, the tone_free statistics hardly at all. JPEG's 8×8 blocks and film grain sit at the scan's
+finest scales; resampling a 2000-pixel scan down to the analysis scale (≈2.6×) averages most of
+them away. Reseau crosses (thin crosses on a 10 mm grid exposed on every frame; bold on the
+Apollo 12 black-and-white scans, faint on the colour ones) are masked by `reseau_cross_mask`; the faintest Apollo 11 ones
 fall below its contrast and stay (lines about a pixel wide). The film rebate and hardware in
 frame are kept out by each photo's region of interest. The scans' width is taken as the
 Hasselblad's 49.25° field; the visible rebate strips (2-3 % a side) mean the image area is
@@ -67,6 +76,8 @@ from pathlib import Path
 
 import numpy as np
 from scipy import ndimage
+from scipy.special import ndtri
+from scipy.stats import rankdata
 
 LUMA_WEIGHTS = (0.2126, 0.7152, 0.0722)  # ITU-R BT.709, applied to gamma-encoded codes (luma)
 SHADOW_LEVEL = 0.05  # a shadow pixel is below this fraction of the ground's 99th percentile
@@ -517,20 +528,28 @@ def image_statistics(
     y: np.ndarray, mask: np.ndarray, px_per_deg: float, tile_px: int = TILE_PX, black: float = 0.0
 ) -> dict:
     """Every statistic of the module's list for luma `y` (H, W) at `px_per_deg` over `mask`;
-    `black` is the frame's black level (shadow_fraction_black_corrected)."""
-    tiles = ground_tiles(y, mask, tile_px)
-    periodogram = contrast_periodogram(tiles, float(y[mask].mean()))
-    octaves = octave_rms_contrast(periodogram)
-    blobs = dark_blobs(y, mask, px_per_deg)
+    `black` is the frame's black level (shadow_fraction_black_corrected). `tone_free` holds the
+    spatial statistics again, of `tone_free(y, mask)`."""
     return {
         "ground_px": int(mask.sum()),
         "ground_deg2": float(mask.sum() / px_per_deg**2),
-        "tiles": int(len(tiles)),
+        "tiles": int(len(ground_tiles(y, mask, tile_px))),
         "shadow_fraction": shadow_fraction(y, mask),
         "black_level": black,
         "shadow_fraction_black_corrected": shadow_fraction(y, mask, black=black),
         "luma_median": float(np.median(y[mask])),
         "luma_percentiles_over_median": luma_percentiles(y, mask),
+        **spatial_statistics(y, mask, px_per_deg, tile_px),
+        "tone_free": spatial_statistics(tone_free(y, mask), mask, px_per_deg, tile_px),
+    }
+
+
+def spatial_statistics(y: np.ndarray, mask: np.ndarray, px_per_deg: float, tile_px: int = TILE_PX) -> dict:
+    """The statistics of how luma `y` (H, W) at `px_per_deg` is arranged over `mask`: spectrum
+    slope, octave contrasts, fine/coarse, Laplacian and dark blobs."""
+    periodogram = contrast_periodogram(ground_tiles(y, mask, tile_px), float(y[mask].mean()))
+    octaves = octave_rms_contrast(periodogram)
+    return {
         "spectrum_slope": spectrum_slope(periodogram),
         "octave_rms_contrast": {
             f"{lo * px_per_deg:.3g}-{hi * px_per_deg:.3g}_cyc_per_deg": v
@@ -538,8 +557,23 @@ def image_statistics(
         },
         "fine_to_coarse_contrast": fine_to_coarse(octaves),
         "laplacian_contrast": laplacian_contrast(y, mask),
-        **blob_statistics(blobs, px_per_deg),
+        **blob_statistics(dark_blobs(y, mask, px_per_deg), px_per_deg),
     }
+
+
+TONE_FREE_SIGMA = 0.35  # log-luma spread of a tone-free image: between the renders' (≈0.25) and the photos' (≈0.45)
+
+
+def tone_free(y: np.ndarray, mask: np.ndarray, sigma: float = TONE_FREE_SIGMA) -> np.ndarray:
+    """Luma `y` (H, W) with its tone curve taken out: each pixel of `mask` becomes exp(σ·z),
+    z = Φ⁻¹((r − ½)/n) its normal score (r its rank among the n ground pixels, tied pixels sharing
+    their mean rank); off the mask 1, the ground's median. Every strictly increasing curve applied
+    to `y` gives the same result, so statistics of it compare only how brightness is arranged, not
+    the film's or the tone map's curve. σ fixes the spread alike for every image."""
+    out = np.ones_like(y, dtype=np.float64)
+    ranks = rankdata(y[mask])
+    out[mask] = np.exp(sigma * ndtri((ranks - 0.5) / ranks.size))
+    return out
 
 
 def flatten(stats: dict, prefix: str = "") -> dict[str, float]:

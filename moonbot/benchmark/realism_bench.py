@@ -264,9 +264,18 @@ COMPARED = (
 
 
 def compared_statistics(stats: dict) -> dict[str, float]:
-    """The statistics the comparison ranks: COMPARED plus every octave contrast."""
+    """The statistics the comparison ranks: COMPARED plus every octave contrast, and the same
+    spatial ones of the tone-free image (`tone_free.`...)."""
     flat = realism.flatten(stats)
-    return {k: v for k, v in flat.items() if k in COMPARED or k.startswith("octave_rms_contrast.")}
+
+    def compared(key: str) -> bool:
+        return key in COMPARED or key.startswith("octave_rms_contrast.")
+
+    return {
+        k: v
+        for k, v in flat.items()
+        if compared(k) or (k.startswith("tone_free.") and compared(k.removeprefix("tone_free.")))
+    }
 
 
 def run_realism(
@@ -355,16 +364,21 @@ def run_realism(
     noise_pair = [m for r, m in render_measured if r.plan.name in (plans[0].name, plans[-1].name)]
     noise = noise_record(noise_pair[0], noise_pair[1], options.tile_px)
 
-    def patches(measured: list) -> np.ndarray:
-        return np.vstack([realism.patch_features(m.luma, m.ground.mask, options.patch_px) for _, m in measured])
+    def patches(measured: list, tone_free: bool) -> np.ndarray:
+        def luma(m: realism.Measured) -> np.ndarray:
+            return realism.tone_free(m.luma, m.ground.mask) if tone_free else m.luma
 
-    photo_patches, render_patches = patches(photo_measured), patches(main_renders)
-    try:
-        classifier = realism.two_sample_accuracy(render_patches, photo_patches)
+        return np.vstack([realism.patch_features(luma(m), m.ground.mask, options.patch_px) for _, m in measured])
+
+    def classify(tone_free: bool) -> dict:
+        photo_patches, render_patches = patches(photo_measured, tone_free), patches(main_renders, tone_free)
+        try:
+            classifier = realism.two_sample_accuracy(render_patches, photo_patches)
+        except ValueError as e:
+            return {"error": str(e)}
         classifier["features"] = list(realism.PATCH_FEATURES)
         classifier["render_patches"], classifier["photo_patches"] = len(render_patches), len(photo_patches)
-    except ValueError as e:
-        classifier = {"error": str(e)}
+        return classifier
 
     record = {
         "schema_version": SCHEMA_VERSION,
@@ -378,7 +392,8 @@ def run_realism(
         "renders": render_records,
         "separation": dict(sorted(ranking.items(), key=lambda kv: -_finite_or(kv[1]["score"], -1.0))),
         "monte_carlo_noise": {"renders": [plans[0].name, plans[-1].name], **noise},
-        "patch_classifier": classifier,
+        "patch_classifier": classify(tone_free=False),
+        "patch_classifier_tone_free": classify(tone_free=True),
     }
     record["seconds_total"] = time.perf_counter() - start
     # Other processes inflate every time here (provisional on a shared machine); ray counts do not.
@@ -489,16 +504,16 @@ def write_sheet(path: Path, renders: list, photos: list, px_per_deg: float) -> N
 def format_summary(record: dict) -> str:
     """A text table: per statistic the photos' min / median / max (all photos), the renders'
     median, how many renders fall inside their Sun band's photo range, and the separation score
-    (largest first); then the Monte-Carlo noise and the patch classifier."""
+    (largest first); then the Monte-Carlo noise and the patch classifiers (luma and tone-free)."""
     renders = [r for r in record["renders"] if r["seed"] != record["options"]["noise_seed"]]
-    lines = [f"{'statistic':<44} {'photos min':>10} {'median':>8} {'max':>8} {'renders':>8} {'in band':>8} {'sep':>6}"]
+    lines = [f"{'statistic':<54} {'photos min':>10} {'median':>8} {'max':>8} {'renders':>8} {'in band':>8} {'sep':>6}"]
     for key, sep in record["separation"].items():
         photos = [p for p in (realism.flatten(ph["stats"]).get(key) for ph in record["photos"]) if p is not None]
         photos = [p for p in photos if math.isfinite(p)]
         inside = sum(1 for r in renders if r["against_band"].get(key, {}).get("inside"))
         lo, hi = (min(photos), max(photos)) if photos else (float("nan"),) * 2
         lines.append(
-            f"{key:<44} {lo:>10.3g} {sep.get('photos_median', float('nan')):>8.3g} {hi:>8.3g} "
+            f"{key:<54} {lo:>10.3g} {sep.get('photos_median', float('nan')):>8.3g} {hi:>8.3g} "
             f"{sep.get('renders_median', float('nan')):>8.3g} {inside:>4}/{len(renders):<3} "
             f"{sep['score']:>6.2f}"
         )
@@ -509,14 +524,17 @@ def format_summary(record: dict) -> str:
     )
     for band, n in noise["noise_octave_rms_contrast"].items():
         lines.append(f"  {band:<28} noise {n:.4f}  render {noise['render_octave_rms_contrast'][band]:.4f}")
-    c = record["patch_classifier"]
-    if "accuracy" in c:
-        lines.append(
-            f"\npatch classifier (renders vs photos, {c['patches_per_class']} patches each, "
-            f"{c['folds']}-fold): accuracy {c['accuracy']:.3f}"
-        )
-        for name, w, a in zip(c["features"], c["weights"], c["single_feature_accuracy"]):
-            lines.append(f"  {name:<20} weight {w:>7.2f}  alone {a:.3f}")
-    else:
-        lines.append(f"\npatch classifier: {c['error']}")
+    for key, title in (("patch_classifier", "patch classifier"), ("patch_classifier_tone_free", "tone-free")):
+        c = record.get(key)
+        if c is None:  # records written before the tone-free statistics
+            continue
+        if "accuracy" in c:
+            lines.append(
+                f"\n{title} (renders vs photos, {c['patches_per_class']} patches each, "
+                f"{c['folds']}-fold): accuracy {c['accuracy']:.3f}"
+            )
+            for name, w, a in zip(c["features"], c["weights"], c["single_feature_accuracy"]):
+                lines.append(f"  {name:<20} weight {w:>7.2f}  alone {a:.3f}")
+        else:
+            lines.append(f"\n{title}: {c['error']}")
     return "\n".join(lines)
