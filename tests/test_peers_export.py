@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from scipy import ndimage
 
 pytestmark = pytest.mark.unit
 
@@ -45,8 +46,34 @@ def test_parity_settings_reach_moonbot(exported):
     assert config.render.bounces == 1 and config.render.light_samples == 1
     assert config.sun.angular_diameter_deg == 0.0
     assert config.bags.fabric.relief_m == 0.0 and config.bags.fabric.contrast == 0.0
+    assert config.bags.fabric.sheen == 0.0
+    assert not config.terrain.photometry.grain.enabled  # no micro-texture: the peers have none
     assert spec.terrain_normals is None  # flat shading, as the peers are given it
     assert scene["config_overrides"].items() >= PARITY_OVERRIDES.items()
+
+
+def test_flat_bags_change_only_bag_pixels(exported):
+    # build_scene(smooth_bags=False): the bags shaded by their facets, as the peers shade them;
+    # the ground and rocks, and every pixel's depth and label, stay as they were. Direct light
+    # only, uniform samples: light bounced off a bag, or a refinement a bag's edge starts, would
+    # carry the bag's shading farther than the pixels its samples reach (its own and the ring of
+    # edge pixels whose centre misses it).
+    from moonbot.render import build_scene
+    from moonbot.render.view import render_view, view_inputs
+
+    config, spec, _, _ = exported
+    overrides = {"terrain.extent_m": 60.0, "render.threads": 1, "render.bounces": 0, "render.adaptive_spp": 0}
+    config = parity_config(64, 48, overrides)
+    view = view_inputs(config, spec, 0)
+    smooth, flat = (
+        render_view(build_scene(spec, smooth_bags=s), config, view.K, view.pose, config.seed) for s in (True, False)
+    )
+    assert np.array_equal(smooth.depth, flat.depth) and np.array_equal(smooth.instance, flat.instance)
+    bag = smooth.instance > 0
+    assert bag.any()
+    changed = np.any(smooth.rgb != flat.rgb, axis=-1)
+    reach = ndimage.binary_dilation(bag, structure=np.ones((3, 3), bool))
+    assert changed[bag].any() and not changed[~reach].any()
 
 
 def test_meshes_read_back_as_moonbots_scene(exported):

@@ -52,7 +52,7 @@ sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
 from moonbot.charts import time_error_plot  # noqa: E402
 
-from export_scene import export_scene, parity_config, parity_spec  # noqa: E402
+from export_scene import PARITY_OVERRIDES, export_scene, parity_config, parity_spec  # noqa: E402
 from fingerprint import machine, machine_slug  # noqa: E402
 from ladder_errors import at_error, rel_errors  # noqa: E402
 
@@ -84,7 +84,7 @@ def render_moonbot(
     from moonbot.render.view import view_inputs
 
     start = time.perf_counter()
-    scene = build_scene(spec)
+    scene = build_scene(spec, smooth_bags=False)
     build_s = time.perf_counter() - start
     view = view_inputs(config, spec, 0)
     camera, sun = view.camera, view.sun
@@ -129,6 +129,58 @@ def render_moonbot(
         "passes": "rgb + depth + instance in every render (depth and instance from the pixel-centre ray)",
         "rows": rows,
     }
+
+
+LEVELS = ("draft", "default", "high")
+
+
+def render_moonbot_levels(width: int, height: int, spec, threads: int, repeats: int, out: Path) -> list[dict]:
+    """moonbot's quality levels (moonbot/benchmark/levels.py: adaptive refinement and the
+    per-task light cache) on the parity scene, the parity's light transport kept (one bounce, a
+    point Sun: the level's render.bounces and light_samples give way to PARITY_OVERRIDES). Per
+    level: one render with an empty light cache, which fills the nodes this view touches (what
+    the view costs alone; `first_render_s`, of which `cache_fill_s`), then `repeats` renders
+    reading the filled cache (the view's cost inside a task whose cache is filled; `render_s`,
+    the median). The cache's values do not depend on when they are filled, so every render of a
+    level is the same image, saved as level_<name>_rgb.npy."""
+    from moonbot.benchmark.levels import LEVELS as LEVEL_SETTINGS
+    from moonbot.render import build_scene
+    from moonbot.render.view import build_light_cache, render_view, view_inputs
+
+    scene = build_scene(spec, smooth_bags=False)
+    rows = []
+    for name in LEVELS:
+        level = {k: v for k, v in LEVEL_SETTINGS[name].overrides.items() if k not in PARITY_OVERRIDES}
+        config = parity_config(width, height, {**level, "render.threads": threads})
+        view = view_inputs(config, spec, 0)
+        cache = build_light_cache(scene, config)
+        first = render_view(scene, config, view.K, view.pose, config.seed, light_cache=cache)
+        fill_s = cache.stats()["fill_seconds"] if cache is not None else 0.0
+        times = []
+        for _ in range(repeats):
+            again = render_view(scene, config, view.K, view.pose, config.seed, light_cache=cache)
+            times.append(again.stats["seconds"])
+        if not np.array_equal(again.rgb, first.rgb):
+            raise RuntimeError(f"level {name}: a render reading the filled cache differs from the first")
+        np.save(out / f"level_{name}_rgb.npy", first.rgb)
+        s = first.stats
+        rows.append(
+            {
+                "level": name,
+                "settings": level,
+                "render_s": statistics.median(times),
+                "render_s_all": times,
+                "first_render_s": s["seconds"],
+                "cache_fill_s": fill_s,
+                "rays": s["camera_rays"] + s["shadow_rays"] + s["bounce_rays"],
+                "refined_pixels": s["refined_pixels"],
+            }
+        )
+        print(
+            f"moonbot {name:>7}: {rows[-1]['render_s']:.3f} s (first {s['seconds']:.3f} s, fill {fill_s:.3f} s)",
+            flush=True,
+        )
+    return rows
 
 
 def run(cmd: list[str], env: dict | None = None) -> None:
@@ -297,6 +349,9 @@ def main() -> int:
             before = loadavg()
             if name == "moonbot":
                 r = render_moonbot(config, spec, ladder, args.threads, args.repeats, args.repeat_max_spp, work / name)
+                r["levels"] = render_moonbot_levels(
+                    args.width, args.height, spec, args.threads, args.repeats, work / name
+                )
                 (work / name / "timings.json").write_text(json.dumps(r, indent=2) + "\n")
             elif name == "mitsuba":
                 render_peer(py, "mitsuba_render.py", work, name, ",".join(map(str, ladder)), *common, env=env)
@@ -426,6 +481,22 @@ def main() -> int:
             for a in r.get(key, {}).values():
                 if a:
                     a["fit_seconds_per_frame"] = fit["overhead_s"] + fit["seconds_per_sample"] * a["spp"]
+    levels = renderers["moonbot"].get("levels", [])
+    for row in levels:
+        img = np.load(work / "moonbot" / f"level_{row['level']}_rgb.npy")[..., :3]
+        row.update(rel_errors(img, ref, var_ref))
+        if "moonbot" in own_refs:
+            o = rel_errors(img, own_refs["moonbot"][0], own_refs["moonbot"][1])
+            row.update({"own_ref_rel_rmse": o["rel_rmse"], "own_ref_rel_rmse_raw": o["rel_rmse_raw"]})
+        print(
+            f"moonbot level {row['level']:>7}: {row['render_s']:.3f} s a frame (alone {row['first_render_s']:.3f} s), "
+            f"rel. RMSE {row['rel_rmse']:.4f} (own reference {row.get('own_ref_rel_rmse', float('nan')):.4f})"
+        )
+    if levels:
+        label = "moonbot levels (adaptive + light cache)"
+        curves[label] = [(row["render_s"], row["rel_rmse"], row["level"]) for row in levels]
+        if "moonbot" in own_refs:
+            own_curves[label] = [(row["render_s"], row["own_ref_rel_rmse"], row["level"]) for row in levels]
     table = equal_error_table(renderers, targets, "at_error")
     own_table = equal_error_table(renderers, targets, "at_error_own_reference")
     result["renderers"] = renderers

@@ -16,13 +16,15 @@ the settled bag, the rocks left after clearing the site) and places the camera o
 Parity: what all three renderers (moonbot, Mitsuba 3, Blender Cycles) are set to render, and
 what that changes from moonbot's default scene (`PARITY_OVERRIDES`, `PARITY`):
   * BRDF: plain Lambertian everywhere, albedo/π (terrain.photometry.model = lambert instead of
-    lunar-lambert; the bags' woven fabric with relief_m = 0 and contrast = 0, which moonbot's
-    fabric evaluates to the plain bag albedo and the geometric normal; no stain: seeds = 0).
-  * Normals: flat (geometric) shading everywhere. moonbot's terrain normally shades with smooth
-    per-vertex normals; each renderer treats a shading normal differently (moonbot samples the
-    bounce about the geometric normal, Mitsuba's diffuse BSDF is black where the camera sees a
-    facet past its shading normal's horizon, Cycles bends such normals), so they are left out
-    of the export and of moonbot's scene, and the images can agree.
+    lunar-lambert; no regolith grain: terrain.photometry.grain's albedo_rms and slope_rms_deg 0;
+    the bags' woven fabric with relief_m = 0, contrast = 0 and sheen = 0, which moonbot's fabric
+    evaluates to the plain bag albedo and the geometric normal; no stain: seeds = 0).
+  * Normals: flat (geometric) shading everywhere. moonbot's terrain and bags normally shade with
+    smooth per-vertex normals; each renderer treats a shading normal differently (moonbot
+    samples the bounce about the geometric normal, Mitsuba's diffuse BSDF is black where the
+    camera sees a facet past its shading normal's horizon, Cycles bends such normals), so they
+    are left out of the export and of moonbot's scene (parity_spec drops the terrain's;
+    build_scene(..., smooth_bags=False) the bags'), and the images can agree.
   * Albedos: terrain 0.12 × per-vertex factor (0.85–1.16, interpolated across each triangle),
     rocks 0.12, bag (0.55, 0.45, 0.32), linear RGB. Two-sided (a back face reflects like a front).
   * Light: the Sun only, a distant directional light (angular diameter 0: hard shadows, so one
@@ -66,10 +68,13 @@ PARITY_OVERRIDES = {
     "sun.earthshine": False,
     "render.light_samples": 1,
     "render.bounces": 1,
+    "terrain.photometry.grain.albedo_rms": 0.0,  # no granular micro-texture (0 and 0: off)
+    "terrain.photometry.grain.slope_rms_deg": 0.0,
+    "bags.fabric.sheen": 0.0,  # matte tapes
 }
 PARITY = {
     "brdf": "Lambertian albedo/pi, two-sided, on every surface",
-    "normals": "geometric (flat) shading everywhere; moonbot's smooth terrain normals are left out",
+    "normals": "geometric (flat) shading everywhere; moonbot's smooth terrain and bag normals are left out",
     "light": "the Sun only: distant directional light, angular diameter 0 (hard shadows), "
     "irradiance sun.irradiance_w_m2 on a plane facing it, RGB (1, 1, 1); no Earthshine",
     "sky": "black: nothing is lit from the background",

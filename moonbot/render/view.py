@@ -33,7 +33,9 @@ class RenderedView:
     stats: dict
 
 
-def build_scene(spec: SceneSpec, embree_isa: str = "auto", watertight: bool = True) -> _core.Scene:
+def build_scene(
+    spec: SceneSpec, embree_isa: str = "auto", watertight: bool = True, smooth_bags: bool = True
+) -> _core.Scene:
     """Builds the Embree scene once: one prototype BVH per mesh (bags of one obj_id share it,
     rocks of one prototype too); the terrain (with its per-vertex albedo factors and smooth
     normals) and the rocks as regolith background, with its granular micro-texture; each bag as
@@ -41,7 +43,8 @@ def build_scene(spec: SceneSpec, embree_isa: str = "auto", watertight: bool = Tr
     vertex normals (its BOP model's), its stain painted (or its dust gathered) by the core (none
     for zero seeds); then commits.
     `embree_isa` is render.embree_isa: the SIMD kernels Embree traces it with; watertight=False
-    only measures what watertight traversal costs (bench/bench_embree_isa.py)."""
+    only measures what watertight traversal costs (bench/bench_embree_isa.py); smooth_bags=False
+    shades the bags flat, by their facets, as the peers comparison's parity asks (bench/peers)."""
 
     scene = _core.Scene(embree_isa, watertight)
     bag_ids = {bag.obj_id for bag in spec.bags}
@@ -51,7 +54,8 @@ def build_scene(spec: SceneSpec, embree_isa: str = "auto", watertight: bool = Tr
         if key == TERRAIN_MESH:
             return terrain
         if key in bag_ids:  # wrinkles shaded smooth, not as a mosaic of 5 mm facets
-            return {"vertex_normals": vertex_normals(v, t), "vertex_albedo": spec.bag_vertex_albedo}
+            normals = vertex_normals(v, t) if smooth_bags else None
+            return {"vertex_normals": normals, "vertex_albedo": spec.bag_vertex_albedo}
         return {}
 
     mesh_index = {
