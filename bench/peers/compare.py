@@ -27,10 +27,15 @@ One command:
    seconds per sample at that error and the ratio to moonbot's seconds (> 1: moonbot faster).
    Mitsuba's frame with depth and object index adds its 1-spp `aov` pass; Cycles' passes are
    enabled in every render (its frame time includes them).
+6. moonbot's quality levels (draft, default, high: adaptive refinement and the per-task light
+   cache) on the same scene with the same light transport (render_moonbot_levels), their errors
+   against both references, and the spp and seconds every ladder needs to reach each level's
+   error: the new method against uniform sampling at equal error.
 
 Writes bench/results/peers-<machine>.json, .svg (time against error, shared reference) and
 -own-reference.svg (against each renderer's own reference), and tone-mapped PNG
-previews of every renderer's highest-spp image and the reference to --work (check them by eye).
+previews of the reference, every renderer's highest-spp image and moonbot's default level to --work
+(check them by eye).
 """
 
 from __future__ import annotations
@@ -139,7 +144,8 @@ def render_moonbot_levels(width: int, height: int, spec, threads: int, repeats: 
     per-task light cache) on the parity scene, the parity's light transport kept (one bounce, a
     point Sun: the level's render.bounces and light_samples give way to PARITY_OVERRIDES). Per
     level: one render with an empty light cache, which fills the nodes this view touches (what
-    the view costs alone; `first_render_s`, of which `cache_fill_s`), then `repeats` renders
+    the view costs alone; `first_render_s`, wall seconds; `cache_fill_s`, the fill's
+    thread-seconds summed over the render's threads), then `repeats` renders
     reading the filled cache (the view's cost inside a task whose cache is filled; `render_s`,
     the median). The cache's values do not depend on when they are filled, so every render of a
     level is the same image, saved as level_<name>_rgb.npy."""
@@ -484,6 +490,8 @@ def main() -> int:
     levels = renderers["moonbot"].get("levels", [])
     for row in levels:
         img = np.load(work / "moonbot" / f"level_{row['level']}_rgb.npy")[..., :3]
+        if row["level"] == "default":
+            previews.append(img)
         row.update(rel_errors(img, ref, var_ref))
         if "moonbot" in own_refs:
             o = rel_errors(img, own_refs["moonbot"][0], own_refs["moonbot"][1])
@@ -492,6 +500,22 @@ def main() -> int:
             f"moonbot level {row['level']:>7}: {row['render_s']:.3f} s a frame (alone {row['first_render_s']:.3f} s), "
             f"rel. RMSE {row['rel_rmse']:.4f} (own reference {row.get('own_ref_rel_rmse', float('nan')):.4f})"
         )
+    # Every ladder (moonbot's path tracer, Mitsuba, Cycles) at each level's error: what the same
+    # error costs by uniform sampling, against the shared reference and against each one's own.
+    for row in levels:
+        row["ladders_at_level_error"] = {}
+        row["ladders_at_level_error_own_reference"] = {}
+        for name, r in renderers.items():
+            row["ladders_at_level_error"][name] = at_error(r["rows"], row["rel_rmse"])
+            if "own_ref_rel_rmse" in row and all("own_ref_rel_rmse" in x for x in r["rows"]):
+                own_rows = [{**x, "rel_rmse": x["own_ref_rel_rmse"]} for x in r["rows"]]
+                row["ladders_at_level_error_own_reference"][name] = at_error(own_rows, row["own_ref_rel_rmse"])
+        for name, a in row["ladders_at_level_error_own_reference"].items():
+            if a:
+                print(
+                    f"  {name} at {row['level']}'s error (own references): {a['spp']:.1f} spp, "
+                    f"{a['seconds_per_frame']:.2f} s ({a['seconds_per_frame'] / row['render_s']:.1f}x)"
+                )
     if levels:
         label = "moonbot levels (adaptive + light cache)"
         curves[label] = [(row["render_s"], row["rel_rmse"], row["level"]) for row in levels]
@@ -528,6 +552,7 @@ def main() -> int:
     out = args.out or RESULTS / f"peers-{slug}.json"
     result["previews"] = (
         f"{work / 'previews.png'}: reference, then each renderer's highest spp ({', '.join(renderers)})"
+        + (", then moonbot's default level" if any(row["level"] == "default" for row in levels) else "")
     )
     out.write_text(json.dumps(result, indent=2) + "\n")
     time_error_plot(
