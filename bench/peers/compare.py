@@ -136,7 +136,7 @@ def render_moonbot(
     }
 
 
-LEVELS = ("draft", "default", "high")
+COMPARED_LEVELS = ("draft", "default", "high")  # moonbot's levels rendered beside the ladders
 
 
 def render_moonbot_levels(width: int, height: int, spec, threads: int, repeats: int, out: Path) -> list[dict]:
@@ -149,14 +149,14 @@ def render_moonbot_levels(width: int, height: int, spec, threads: int, repeats: 
     reading the filled cache (the view's cost inside a task whose cache is filled; `render_s`,
     the median). The cache's values do not depend on when they are filled, so every render of a
     level is the same image, saved as level_<name>_rgb.npy."""
-    from moonbot.benchmark.levels import LEVELS as LEVEL_SETTINGS
+    from moonbot.benchmark.levels import LEVELS
     from moonbot.render import build_scene
     from moonbot.render.view import build_light_cache, render_view, view_inputs
 
     scene = build_scene(spec, smooth_bags=False)
     rows = []
-    for name in LEVELS:
-        level = {k: v for k, v in LEVEL_SETTINGS[name].overrides.items() if k not in PARITY_OVERRIDES}
+    for name in COMPARED_LEVELS:
+        level = {k: v for k, v in LEVELS[name].overrides.items() if k not in PARITY_OVERRIDES}
         config = parity_config(width, height, {**level, "render.threads": threads})
         view = view_inputs(config, spec, 0)
         cache = build_light_cache(scene, config)
