@@ -329,6 +329,33 @@ def test_compared_statistics_include_the_tone_free_ones():
     assert "tone_free.luma_median" not in compared and "tone_free.blobs_per_deg2" in compared
 
 
+def test_sheet_shows_each_render_and_photo_as_measured_and_tone_free(tmp_path):
+    from PIL import Image
+
+    from moonbot.benchmark.realism_bench import Rendered, RenderPlan, matched_crops, write_sheet
+
+    def granular(seed: int, gamma: float) -> np.ndarray:
+        y = np.clip(0.45 * np.exp(0.3 * power_law_noise(256, 2.0, seed=seed)), 0, 1) ** gamma
+        return np.repeat((y * 255).round().astype(np.uint8)[..., None], 3, axis=2)
+
+    render, photo = granular(1, 1.0), granular(2, 1.8)  # the photo under a steeper curve
+    Image.fromarray(photo).save(tmp_path / "photo.png")
+    measured = [realism.measure(x, 40.0, 6.4) for x in (render, photo)]
+    source = realism.PhotoSource(tmp_path / "photo.png", 10.0, 15.0, "synthetic")
+    plan = RenderPlan("flat", 12.5, "cross", False)
+    sheet = tmp_path / "sheet.png"
+    write_sheet(sheet, [(Rendered(plan, render, 12.0, {}), measured[0])], [(source, measured[1])], 6.4)
+    with Image.open(sheet) as image:
+        assert image.width > 5 * image.height  # one row: render, photo and four crops (two: 4.1)
+    # The tone-free crops are the same tiles as the luma crops, each an increasing map of its own.
+    luma = matched_crops(*measured)
+    free = [realism.Measured(m.stats, realism.tone_free(m.luma, m.ground.mask), m.ground) for m in measured]
+    for a, b in zip(luma, matched_crops(*free)):
+        assert a.shape == b.shape and a.size
+        order = np.argsort(a, axis=None, kind="stable")
+        assert np.all(np.diff(b.ravel()[order]) >= 0)
+
+
 def test_cli_names_the_bad_sources_file(tmp_path):
     from click.testing import CliRunner
 

@@ -437,9 +437,11 @@ def matched_crops(a: realism.Measured, b: realism.Measured, largest: int = SHEET
 
 def write_sheet(path: Path, renders: list, photos: list, px_per_deg: float) -> None:
     """A PNG of rows render | photo | their ground crops at the analysis scale (the same angular
-    size, grey luma as measured: matched_crops), by Sun elevation, each render beside a photo of its band
-    (taken in turn), the ground masks' boundaries drawn in cyan; saved as 256-colour PNG to stay
-    small. Written to a temporary file, then renamed."""
+    size, grey luma as measured: matched_crops) | the same crops tone-free (realism.tone_free, its
+    log shown over ±3σ: only the arrangement of light and dark, whatever each image's tone
+    curve), by Sun elevation, each render beside a photo of its band (taken in turn), the ground
+    masks' boundaries drawn in cyan; saved as 256-colour PNG to stay small. Written to a
+    temporary file, then renamed."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -448,10 +450,15 @@ def write_sheet(path: Path, renders: list, photos: list, px_per_deg: float) -> N
 
     rows = sorted(renders, key=lambda rm: (rm[0].plan.elevation_deg, rm[0].plan.location != "flat", rm[0].plan.name))
     used: dict[float, int] = {}
-    size = ((2 * 4 / 3 + 2) * SHEET_ROW_PX / 100, len(rows) * SHEET_ROW_PX / 100 + 0.3)
+    size = ((2 * 4 / 3 + 4) * SHEET_ROW_PX / 100, len(rows) * SHEET_ROW_PX / 100 + 0.3)
     fig, axes = plt.subplots(
-        len(rows), 4, figsize=size, dpi=100, squeeze=False, gridspec_kw={"width_ratios": [4 / 3, 4 / 3, 1, 1]}
+        len(rows), 6, figsize=size, dpi=100, squeeze=False, gridspec_kw={"width_ratios": [4 / 3, 4 / 3, 1, 1, 1, 1]}
     )
+    spread = 3.0 * realism.TONE_FREE_SIGMA
+
+    def tone_free(m: realism.Measured) -> realism.Measured:
+        return dataclasses.replace(m, luma=realism.tone_free(m.luma, m.ground.mask))
+
     for row, (r, m) in enumerate(rows):
         band = [(s, pm) for s, pm in photos if s.sun_low_deg <= r.plan.elevation_deg <= s.sun_high_deg]
         axes[row, 0].imshow(r.rgb8)
@@ -487,6 +494,12 @@ def write_sheet(path: Path, renders: list, photos: list, px_per_deg: float) -> N
                     axes[row, column].set_title(
                         f"{what} ground, {crop.shape[1] / px_per_deg:.1f}° at the analysis scale", fontsize=5
                     )
+            for column, crop, what in zip((4, 5), matched_crops(tone_free(m), tone_free(pm)), ("render", "photo")):
+                if crop.size:
+                    axes[row, column].imshow(
+                        np.log(crop), cmap="gray", vmin=-spread, vmax=spread, interpolation="nearest"
+                    )
+                    axes[row, column].set_title(f"{what} ground, tone-free", fontsize=5)
         for ax in axes[row]:
             ax.set_axis_off()
     fig.tight_layout(pad=0.2)
