@@ -349,7 +349,9 @@ def test_sheet_shows_each_render_and_photo_as_measured_and_tone_free(tmp_path):
         assert image.width > 5 * image.height  # one row: render, photo and four crops (two: 4.1)
     # The tone-free crops are the same tiles as the luma crops, each an increasing map of its own.
     luma = matched_crops(*measured)
-    free = [realism.Measured(m.stats, realism.tone_free(m.luma, m.ground.mask), m.ground) for m in measured]
+    for m in measured:
+        np.testing.assert_array_equal(m.tone_free_luma, realism.tone_free(m.luma, m.ground.mask))
+    free = [realism.Measured(m.stats, m.tone_free_luma, m.ground, m.tone_free_luma) for m in measured]
     for a, b in zip(luma, matched_crops(*free)):
         assert a.shape == b.shape and a.size
         order = np.argsort(a, axis=None, kind="stable")

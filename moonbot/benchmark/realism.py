@@ -53,8 +53,8 @@ uncertainty; the spectrum slope and octave contrasts depend on it through the lo
 curve, the tone_free statistics hardly at all. JPEG's 8×8 blocks and film grain sit at the scan's
 finest scales; resampling a 2000-pixel scan down to the analysis scale (≈2.6×) averages most of
 them away. Reseau crosses (thin crosses on a 10 mm grid exposed on every frame; bold on the
-Apollo 12 black-and-white scans, faint on the colour ones) are masked by `reseau_cross_mask`; the faintest Apollo 11 ones
-fall below its contrast and stay (lines about a pixel wide). The film rebate and hardware in
+Apollo 12 black-and-white scans, faint on the colour ones) are masked by `reseau_cross_mask`;
+the faintest Apollo 11 ones fall below its contrast and stay (lines about a pixel wide). The film rebate and hardware in
 frame are kept out by each photo's region of interest. The scans' width is taken as the
 Hasselblad's 49.25° field; the visible rebate strips (2-3 % a side) mean the image area is
 somewhat narrower, so photos are analysed at a scale a few per cent finer than renders.
@@ -500,11 +500,13 @@ def blob_statistics(blobs: Blobs, px_per_deg: float) -> dict:
 @dataclass(frozen=True)
 class Measured:
     """One image's statistics (`stats`, see image_statistics) and the arrays behind them: `luma`
-    (H, W) at the analysis scale, `ground` its mask."""
+    (H, W) at the analysis scale, `ground` its mask, `tone_free_luma` (H, W) tone_free(luma,
+    ground.mask), which the tone-free statistics, patches and sheet crops all read."""
 
     stats: dict
     luma: np.ndarray
     ground: GroundMask
+    tone_free_luma: np.ndarray
 
 
 def measure(
@@ -521,35 +523,45 @@ def measure(
     ground = ground_mask(y, px_per_deg, roi)
     if not ground.mask.any():
         raise ValueError("no ground pixels: the region of interest is all sky, horizon or reseau")
-    return Measured(image_statistics(y, ground.mask, px_per_deg, tile_px, black_level(y)), y, ground)
+    free = tone_free(y, ground.mask)
+    stats = image_statistics(y, ground.mask, px_per_deg, tile_px, black_level(y), free)
+    return Measured(stats, y, ground, free)
 
 
 def image_statistics(
-    y: np.ndarray, mask: np.ndarray, px_per_deg: float, tile_px: int = TILE_PX, black: float = 0.0
+    y: np.ndarray,
+    mask: np.ndarray,
+    px_per_deg: float,
+    tile_px: int = TILE_PX,
+    black: float = 0.0,
+    free: np.ndarray | None = None,
 ) -> dict:
     """Every statistic of the module's list for luma `y` (H, W) at `px_per_deg` over `mask`;
     `black` is the frame's black level (shadow_fraction_black_corrected). `tone_free` holds the
-    spatial statistics again, of `tone_free(y, mask)`."""
+    spatial statistics again, of `free`: tone_free(y, mask), computed here when None."""
+    if free is None:
+        free = tone_free(y, mask)
     return {
         "ground_px": int(mask.sum()),
         "ground_deg2": float(mask.sum() / px_per_deg**2),
-        "tiles": int(len(ground_tiles(y, mask, tile_px))),
         "shadow_fraction": shadow_fraction(y, mask),
         "black_level": black,
         "shadow_fraction_black_corrected": shadow_fraction(y, mask, black=black),
         "luma_median": float(np.median(y[mask])),
         "luma_percentiles_over_median": luma_percentiles(y, mask),
         **spatial_statistics(y, mask, px_per_deg, tile_px),
-        "tone_free": spatial_statistics(tone_free(y, mask), mask, px_per_deg, tile_px),
+        "tone_free": spatial_statistics(free, mask, px_per_deg, tile_px),
     }
 
 
 def spatial_statistics(y: np.ndarray, mask: np.ndarray, px_per_deg: float, tile_px: int = TILE_PX) -> dict:
-    """The statistics of how luma `y` (H, W) at `px_per_deg` is arranged over `mask`: spectrum
-    slope, octave contrasts, fine/coarse, Laplacian and dark blobs."""
-    periodogram = contrast_periodogram(ground_tiles(y, mask, tile_px), float(y[mask].mean()))
+    """The statistics of how luma `y` (H, W) at `px_per_deg` is arranged over `mask`: the count
+    of spectrum tiles, spectrum slope, octave contrasts, fine/coarse, Laplacian and dark blobs."""
+    tiles = ground_tiles(y, mask, tile_px)
+    periodogram = contrast_periodogram(tiles, float(y[mask].mean()))
     octaves = octave_rms_contrast(periodogram)
     return {
+        "tiles": int(len(tiles)),
         "spectrum_slope": spectrum_slope(periodogram),
         "octave_rms_contrast": {
             f"{lo * px_per_deg:.3g}-{hi * px_per_deg:.3g}_cyc_per_deg": v

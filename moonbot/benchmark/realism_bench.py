@@ -366,7 +366,7 @@ def run_realism(
 
     def patches(measured: list, tone_free: bool) -> np.ndarray:
         def luma(m: realism.Measured) -> np.ndarray:
-            return realism.tone_free(m.luma, m.ground.mask) if tone_free else m.luma
+            return m.tone_free_luma if tone_free else m.luma
 
         return np.vstack([realism.patch_features(luma(m), m.ground.mask, options.patch_px) for _, m in measured])
 
@@ -457,7 +457,7 @@ def write_sheet(path: Path, renders: list, photos: list, px_per_deg: float) -> N
     spread = 3.0 * realism.TONE_FREE_SIGMA
 
     def tone_free(m: realism.Measured) -> realism.Measured:
-        return dataclasses.replace(m, luma=realism.tone_free(m.luma, m.ground.mask))
+        return dataclasses.replace(m, luma=m.tone_free_luma)
 
     for row, (r, m) in enumerate(rows):
         band = [(s, pm) for s, pm in photos if s.sun_low_deg <= r.plan.elevation_deg <= s.sun_high_deg]
