@@ -1,4 +1,4 @@
-"""Renders a bench/peers export with Mitsuba 3 (pip `mitsuba`, a CPU variant) at a list of spp.
+"""Renders a bench/peers export with Mitsuba 3 (pip `mitsuba`; a CPU or CUDA variant) at a list of spp.
 
 Run as a script in a venv with `mitsuba` (the main .venv with the `peers` extra):
 
