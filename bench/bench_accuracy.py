@@ -41,6 +41,8 @@ config, cached under build/bench_accuracy/), at the default spp and light_sample
   cache_rays     the light cache's gather rays per terrain node (bags: 4×) at 8 .. 128; each
                  level timed cold (view 0 fills the cache) and warm (a second view of the filled
                  cache, the steady state of a task's 36 views)
+  cache_cell_cm  the cache's lattice spacings, terrain / bags in cm (0: every vertex gathers),
+                 timed the same way; with --orbit-views, each layout's whole task too
 
 and for path at the default spp and the cache at its default rays, the bias and the noise of the
 indirect component (render minus a bounce-free render of the same seed) per region: sunlit and
@@ -485,7 +487,12 @@ def adaptive_curves(rows: list[dict]) -> dict[str, list]:
     return curves
 
 
-CACHE_KNOBS = {"path_spp": [1, 2, 4, 8, 16], "cache_rays": [8, 16, 32, 64, 128]}
+CACHE_KNOBS = {
+    "path_spp": [1, 2, 4, 8, 16],
+    "cache_rays": [8, 16, 32, 64, 128],
+    # (terrain, bag) lattice spacing, cm; 0 = every vertex gathers (render.cache_terrain_cell_m, cache_bag_cell_m)
+    "cache_cell_cm": ["5/2", "2.5/1", "5/0", "0/2", "0/0"],
+}
 
 
 def scene_setup(location: str, elevation: float, width: int):
@@ -559,6 +566,12 @@ def bias_and_noise(first: np.ndarray, second: np.ndarray, reference: np.ndarray,
     return out
 
 
+def cache_cells(cells: str) -> dict:
+    """render's lattice spacings for a "terrain/bag" level of CACHE_KNOBS["cache_cell_cm"] (centimetres)."""
+    terrain_cm, bag_cm = (float(c) for c in cells.split("/"))
+    return {"cache_terrain_cell_m": terrain_cm / 100, "cache_bag_cell_m": bag_cm / 100}
+
+
 def light_cache_rows(location: str, elevation: float, width: int, repeats: int, reference_spp: int) -> list[dict]:
     config, spec, scene = scene_setup(location, elevation, width)
     exposure = exposure_scale(config)
@@ -581,8 +594,14 @@ def light_cache_rows(location: str, elevation: float, width: int, repeats: int, 
                 **errors(rgb, reference, exposure),
             }
         )
-    for rays in CACHE_KNOBS["cache_rays"]:
-        cached = with_render(config, indirect="cache", cache_rays_terrain=rays, cache_rays_bags=4 * rays)
+    cache_levels = [
+        ("cache_rays", rays, with_render(config, indirect="cache", cache_rays_terrain=rays, cache_rays_bags=4 * rays))
+        for rays in CACHE_KNOBS["cache_rays"]
+    ] + [
+        ("cache_cell_cm", cells, with_render(config, indirect="cache", **cache_cells(cells)))
+        for cells in CACHE_KNOBS["cache_cell_cm"]
+    ]
+    for knob, level, cached in cache_levels:
         cache = build_light_cache(scene, cached)
         rgb, cold = render_with(cached, scene, spec, cache=cache)
         filled = cache.stats()
@@ -590,8 +609,8 @@ def light_cache_rows(location: str, elevation: float, width: int, repeats: int, 
         rows.append(
             {
                 **base,
-                "knob": "cache_rays",
-                "level": rays,
+                "knob": knob,
+                "level": level,
                 "seconds": statistics.median(warm),
                 "seconds_cold": cold.stats["core_seconds"],
                 "fill_thread_seconds": filled["fill_seconds"],
@@ -634,11 +653,12 @@ def light_cache_rows(location: str, elevation: float, width: int, repeats: int, 
     return rows
 
 
-def orbit_rows(location: str, elevation: float, width: int, views: int) -> dict:
+def orbit_rows(location: str, elevation: float, width: int, views: int, cells: str | None = None) -> dict:
     """One task's `views` orbit views with one light cache: per view the core's render seconds,
-    the vertices it filled and the fill's thread-seconds; the cache at the end."""
+    the vertices it filled and the fill's thread-seconds; the cache at the end. `cells`: the
+    cache's lattice spacings as a CACHE_KNOBS["cache_cell_cm"] level (None: the config's)."""
     config, spec, scene = scene_setup(location, elevation, width)
-    config = with_render(config, indirect="cache")
+    config = with_render(config, indirect="cache", **(cache_cells(cells) if cells else {}))
     cache = build_light_cache(scene, config)
     K = intrinsics(config.camera)
     per_view, path_seconds = [], []
@@ -711,7 +731,7 @@ def light_cache_main(args) -> int:
                     "median_rel_rmse": e,
                     **(
                         {"median_seconds_cold": statistics.median(r["seconds_cold"] for r in rows)}
-                        if knob == "cache_rays"
+                        if knob != "path_spp"
                         else {}
                     ),
                 }
@@ -720,6 +740,23 @@ def light_cache_main(args) -> int:
     result["summary"] = summary
     if args.orbit_views:
         result["orbit"] = orbit_rows(LOCATIONS[1], ELEVATIONS[1], args.width, args.orbit_views)
+        # What each lattice layout costs a whole task (the fill grows with what the views see).
+        result["orbit_by_cache_cell_cm"] = []
+        for cells in CACHE_KNOBS["cache_cell_cm"]:
+            o = orbit_rows(LOCATIONS[1], ELEVATIONS[1], args.width, args.orbit_views, cells)
+            c = o["cache"]
+            result["orbit_by_cache_cell_cm"].append(
+                {
+                    "cells": cells,
+                    "render_seconds_total": o["render_seconds_total"],
+                    "fill_thread_seconds": c["fill_seconds"],
+                    **{k: c[k] for k in ("vertices", "nodes", "gather_rays", "bytes")},
+                }
+            )
+            print(
+                f"task of {args.orbit_views} views, cells {cells} cm: {o['render_seconds_total']:.1f} core-s, "
+                f"fill {c['fill_seconds']:.1f} thread-s, {c['bytes'] / 1e6:.1f} MB"
+            )
     result["seconds_total"] = time.perf_counter() - start
     RESULTS.mkdir(exist_ok=True)
     out = RESULTS / f"accuracy-light-cache-{machine_slug(result['machine'])}.json"
