@@ -43,6 +43,8 @@ config, cached under build/bench_accuracy/), at the default spp and light_sample
                  cache, the steady state of a task's 36 views)
   cache_cell_cm  the cache's lattice spacings, terrain / bags in cm (0: every vertex gathers),
                  timed the same way; with --orbit-views, each layout's whole task too
+  cache_gather_error  adaptive gathering: each node gathers its rays again while their relative
+                 standard error is above 0.2 .. 0.05, up to render.cache_rays_max_factor times
 
 and for path at the default spp and the cache at its default rays, the bias and the noise of the
 indirect component (render minus a bounce-free render of the same seed) per region: sunlit and
@@ -492,6 +494,8 @@ CACHE_KNOBS = {
     "cache_rays": [8, 16, 32, 64, 128],
     # (terrain, bag) lattice spacing, cm; 0 = every vertex gathers (render.cache_terrain_cell_m, cache_bag_cell_m)
     "cache_cell_cm": ["5/2", "2.5/1", "5/0", "0/2", "0/0"],
+    # adaptive gathering: a node gathers again while its relative standard error is above this (0 = off)
+    "cache_gather_error": [0.2, 0.1, 0.05],
 }
 
 
@@ -572,6 +576,14 @@ def cache_cells(cells: str) -> dict:
     return {"cache_terrain_cell_m": terrain_cm / 100, "cache_bag_cell_m": bag_cm / 100}
 
 
+def cache_knob_levels() -> list[tuple[str, object, dict]]:
+    """(knob, level, the render settings it changes) for every level of the cache's knobs."""
+    levels = [("cache_rays", r, {"cache_rays_terrain": r, "cache_rays_bags": 4 * r}) for r in CACHE_KNOBS["cache_rays"]]
+    levels += [("cache_cell_cm", c, cache_cells(c)) for c in CACHE_KNOBS["cache_cell_cm"]]
+    levels += [("cache_gather_error", e, {"cache_gather_error": e}) for e in CACHE_KNOBS["cache_gather_error"]]
+    return levels
+
+
 def light_cache_rows(location: str, elevation: float, width: int, repeats: int, reference_spp: int) -> list[dict]:
     config, spec, scene = scene_setup(location, elevation, width)
     exposure = exposure_scale(config)
@@ -594,14 +606,8 @@ def light_cache_rows(location: str, elevation: float, width: int, repeats: int, 
                 **errors(rgb, reference, exposure),
             }
         )
-    cache_levels = [
-        ("cache_rays", rays, with_render(config, indirect="cache", cache_rays_terrain=rays, cache_rays_bags=4 * rays))
-        for rays in CACHE_KNOBS["cache_rays"]
-    ] + [
-        ("cache_cell_cm", cells, with_render(config, indirect="cache", **cache_cells(cells)))
-        for cells in CACHE_KNOBS["cache_cell_cm"]
-    ]
-    for knob, level, cached in cache_levels:
+    for knob, level, changes in cache_knob_levels():
+        cached = with_render(config, indirect="cache", **changes)
         cache = build_light_cache(scene, cached)
         rgb, cold = render_with(cached, scene, spec, cache=cache)
         filled = cache.stats()
@@ -653,12 +659,12 @@ def light_cache_rows(location: str, elevation: float, width: int, repeats: int, 
     return rows
 
 
-def orbit_rows(location: str, elevation: float, width: int, views: int, cells: str | None = None) -> dict:
+def orbit_rows(location: str, elevation: float, width: int, views: int, changes: dict | None = None) -> dict:
     """One task's `views` orbit views with one light cache: per view the core's render seconds,
-    the vertices it filled and the fill's thread-seconds; the cache at the end. `cells`: the
-    cache's lattice spacings as a CACHE_KNOBS["cache_cell_cm"] level (None: the config's)."""
+    the vertices it filled and the fill's thread-seconds; the cache at the end. `changes`: render
+    settings in place of the config's (a cache knob's level)."""
     config, spec, scene = scene_setup(location, elevation, width)
-    config = with_render(config, indirect="cache", **(cache_cells(cells) if cells else {}))
+    config = with_render(config, indirect="cache", **(changes or {}))
     cache = build_light_cache(scene, config)
     K = intrinsics(config.camera)
     per_view, path_seconds = [], []
@@ -740,21 +746,25 @@ def light_cache_main(args) -> int:
     result["summary"] = summary
     if args.orbit_views:
         result["orbit"] = orbit_rows(LOCATIONS[1], ELEVATIONS[1], args.width, args.orbit_views)
-        # What each lattice layout costs a whole task (the fill grows with what the views see).
-        result["orbit_by_cache_cell_cm"] = []
-        for cells in CACHE_KNOBS["cache_cell_cm"]:
-            o = orbit_rows(LOCATIONS[1], ELEVATIONS[1], args.width, args.orbit_views, cells)
+        # What each lattice layout and gathering error costs a whole task (the fill grows with
+        # what the views see).
+        result["orbit_by_cache_level"] = []
+        for knob, level, changes in cache_knob_levels():
+            if knob == "cache_rays":
+                continue
+            o = orbit_rows(LOCATIONS[1], ELEVATIONS[1], args.width, args.orbit_views, changes)
             c = o["cache"]
-            result["orbit_by_cache_cell_cm"].append(
+            result["orbit_by_cache_level"].append(
                 {
-                    "cells": cells,
+                    "knob": knob,
+                    "level": level,
                     "render_seconds_total": o["render_seconds_total"],
                     "fill_thread_seconds": c["fill_seconds"],
                     **{k: c[k] for k in ("vertices", "nodes", "gather_rays", "bytes")},
                 }
             )
             print(
-                f"task of {args.orbit_views} views, cells {cells} cm: {o['render_seconds_total']:.1f} core-s, "
+                f"task of {args.orbit_views} views, {knob} {level}: {o['render_seconds_total']:.1f} core-s, "
                 f"fill {c['fill_seconds']:.1f} thread-s, {c['bytes'] / 1e6:.1f} MB"
             )
     result["seconds_total"] = time.perf_counter() - start

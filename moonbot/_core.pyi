@@ -931,7 +931,7 @@ class LightCacheSettings:
     """
     How a LightCache gathers (moonbot/light_cache.h).
     """
-    fields: typing.ClassVar[tuple] = ('bounces', 'rays_objects', 'rays_background', 'background_cell_m', 'object_cell_m', 'seed', 'threads')
+    fields: typing.ClassVar[tuple] = ('bounces', 'rays_objects', 'rays_background', 'background_cell_m', 'object_cell_m', 'gather_error', 'max_rays_factor', 'seed', 'threads')
     @typing.overload
     def __init__(self) -> None:
         """
@@ -963,6 +963,22 @@ class LightCacheSettings:
         """
     @bounces.setter
     def bounces(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def gather_error(self) -> float:
+        """
+        adaptive gathering: more rays while a vertex's relative standard error is above this, 0..1 (0 = a fixed count)
+        """
+    @gather_error.setter
+    def gather_error(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def max_rays_factor(self) -> int:
+        """
+        the most rays adaptive gathering reaches, as a multiple of rays_objects / rays_background, 1..1024
+        """
+    @max_rays_factor.setter
+    def max_rays_factor(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
         ...
     @property
     def object_cell_m(self) -> float:

@@ -117,6 +117,8 @@ def built():
                 "cache_rays_terrain": "rays_background",
                 "cache_terrain_cell_m": "background_cell_m",
                 "cache_bag_cell_m": "object_cell_m",
+                "cache_gather_error": "gather_error",
+                "cache_rays_max_factor": "max_rays_factor",
                 "threads": "threads",
             },
         ),

@@ -20,6 +20,11 @@ void bind_light_cache(py::module_& m) {
                "the background's world-space lattice spacing, metres (0 = per vertex)")
         .field("object_cell_m", &LightCacheSettings::object_cell_m,
                "the same for labelled instances, metres (0 = per vertex)")
+        .field("gather_error", &LightCacheSettings::gather_error,
+               "adaptive gathering: more rays while a vertex's relative standard error is above this, 0..1 (0 = a "
+               "fixed count)")
+        .field("max_rays_factor", &LightCacheSettings::max_rays_factor,
+               "the most rays adaptive gathering reaches, as a multiple of rays_objects / rays_background, 1..1024")
         .field("seed", &LightCacheSettings::seed, "keys the gather rays")
         .field("threads", &LightCacheSettings::threads, "worker threads of fill_all, 0 = all")
         .done();

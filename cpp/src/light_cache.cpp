@@ -174,6 +174,14 @@ void LightCacheSettings::validate() const {
                                     std::to_string(background_cell_m));
     if (!(object_cell_m >= 0.0) || !std::isfinite(object_cell_m))
         throw std::invalid_argument("object_cell_m: must be finite and >= 0, got " + std::to_string(object_cell_m));
+    if (!(gather_error >= 0.0 && gather_error <= 1.0))
+        throw std::invalid_argument("gather_error: must be in 0..1 (0 = a fixed count of rays), got " +
+                                    std::to_string(gather_error));
+    if (max_rays_factor < 1 || max_rays_factor > kMaxRaysFactor ||
+        static_cast<int64_t>(std::max(rays_objects, rays_background)) * max_rays_factor > kMaxGatherRays)
+        throw std::invalid_argument("max_rays_factor: must be in 1.." + std::to_string(kMaxRaysFactor) +
+                                    " with rays_objects and rays_background times it at most " +
+                                    std::to_string(kMaxGatherRays) + ", got " + std::to_string(max_rays_factor));
     if (threads < 0 || threads > kMaxThreads)
         throw std::invalid_argument("threads: must be in 0.." + std::to_string(kMaxThreads) + " (0 = all), got " +
                                     std::to_string(threads));
@@ -252,16 +260,16 @@ void vertex_frame(const InstanceData& inst, const float* normals, uint32_t verte
     normal = len > 0.0 ? normal / len : glm::dvec3(0.0, 0.0, 1.0);
 }
 
-/// The indirect irradiance at `point` (world, metres) on a surface of unit `normal`: `rays`
-/// cosine-distributed gather rays about the normal (sample_pair's stream `stream`), each
-/// continued for `bounces` path vertices as render.cpp's path tracer continues a bounce, all
-/// against the static geometry only.
-IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instances,
-                     const std::vector<LightData>& lights, const glm::dvec3& point, const glm::dvec3& normal,
-                     uint64_t stream, int rays, int bounces, FillCounts& counts) {
-    const glm::dvec3 lifted = lift_off(point, normal, largest_coordinate(point));
-
-    const size_t n = static_cast<size_t>(rays);
+/// Rays `first` .. `first` + `n` − 1 of the vertex's gather sequence from `lifted` (the gather point
+/// lifted off its surface, world metres) on a surface of unit `normal` (sample_pair's stream
+/// `stream`, index = the ray's number): each a
+/// cosine-distributed direction about the normal continued for `bounces` path vertices as
+/// render.cpp's path tracer continues a bounce, against the static geometry only. Appends each
+/// ray's radiance (W/(m²·sr), linear RGB) and first direction to `radiance_out` and `first_dir_out`.
+void gather_batch(const Accel& accel, const std::vector<InstanceData>& instances, const std::vector<LightData>& lights,
+                  const glm::dvec3& lifted, const glm::dvec3& normal, uint64_t stream, uint32_t first, size_t n,
+                  int bounces, FillCounts& counts, std::vector<glm::dvec3>& radiance_out,
+                  std::vector<glm::dvec3>& first_dir_out) {
     std::vector<GatherPath> paths(n);
     std::vector<glm::dvec3> radiance(n, glm::dvec3(0.0)), first_dir(n);
     std::vector<RayHit> traced(n), shadow(n);
@@ -269,7 +277,7 @@ IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instan
     size_t count = 0;
     for (size_t k = 0; k < n; ++k) {
         double mu;
-        const SamplePair q = sample_pair(stream, static_cast<uint32_t>(k), 0);
+        const SamplePair q = sample_pair(stream, first + static_cast<uint32_t>(k), 0);
         const glm::dvec3 wi = cosine_direction(normal, q.u, q.v, mu);
         first_dir[k] = wi;
         GatherPath& p = paths[k];
@@ -320,7 +328,7 @@ IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instan
                 glm::dvec3 to_light = light.dir;
                 if (!light.point) {
                     to_light = light.toward(
-                        sample_pair(stream, static_cast<uint32_t>(k), pair + 1 + static_cast<uint32_t>(l)));
+                        sample_pair(stream, first + static_cast<uint32_t>(k), pair + 1 + static_cast<uint32_t>(l)));
                     if (glm::dot(p.normal, to_light) <= 0.0) continue;  // below the facet's horizon
                 }
                 set_ray(shadow[shadows], p.lifted, to_light);
@@ -348,7 +356,7 @@ IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instan
             GatherPath& p = paths[k];
             if (!p.alive) continue;
             double mu_i;
-            const SamplePair q = sample_pair(stream, static_cast<uint32_t>(k), pair + kPairsPerBounce);
+            const SamplePair q = sample_pair(stream, first + static_cast<uint32_t>(k), pair + kPairsPerBounce);
             const glm::dvec3 wi = cosine_direction(p.normal, q.u, q.v, mu_i);
             const double shape = shape_at(instances[p.instance], mu_i, glm::dot(p.normal, p.wo), glm::dot(wi, p.wo));
             p.throughput *= p.albedo * shape;
@@ -364,6 +372,43 @@ IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instan
         }
         count = next;
     }
+    radiance_out.insert(radiance_out.end(), radiance.begin(), radiance.end());
+    first_dir_out.insert(first_dir_out.end(), first_dir.begin(), first_dir.end());
+}
+
+/// The relative standard error of the mean luminance of `radiance` (the ray estimates), as if they
+/// were independent (low-discrepancy rays do better, so this errs on the side of more rays); 0
+/// where every ray is dark.
+double relative_standard_error(const std::vector<glm::dvec3>& radiance) {
+    const size_t n = radiance.size();
+    double sum = 0.0, sum2 = 0.0;
+    for (const glm::dvec3& r : radiance) {
+        const double l = luminance(r);
+        sum += l;
+        sum2 += l * l;
+    }
+    if (n < 2 || !(sum > 0.0)) return 0.0;
+    const double mean = sum / static_cast<double>(n);
+    const double variance = std::max(0.0, (sum2 - sum * mean) / static_cast<double>(n - 1));
+    return std::sqrt(variance / static_cast<double>(n)) / mean;
+}
+
+/// The indirect irradiance at `point` (world, metres) on a surface of unit `normal` from `rays`
+/// gather rays (gather_batch), and while `error` > 0 and the rays' relative standard error is
+/// above it, `rays` more at a time up to `max_rays`: the rays go where the light is uneven (a
+/// shadowed point lit by a few sunlit patches), not everywhere.
+IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instances,
+                     const std::vector<LightData>& lights, const glm::dvec3& point, const glm::dvec3& normal,
+                     uint64_t stream, int rays, int max_rays, double error, int bounces, FillCounts& counts) {
+    const glm::dvec3 lifted = lift_off(point, normal, largest_coordinate(point));
+    std::vector<glm::dvec3> radiance, first_dir;
+    const size_t batch = static_cast<size_t>(rays);
+    gather_batch(accel, instances, lights, lifted, normal, stream, 0, batch, bounces, counts, radiance, first_dir);
+    while (error > 0.0 && radiance.size() + batch <= static_cast<size_t>(max_rays) &&
+           relative_standard_error(radiance) > error)
+        gather_batch(accel, instances, lights, lifted, normal, stream, static_cast<uint32_t>(radiance.size()), batch,
+                     bounces, counts, radiance, first_dir);
+    const size_t n = radiance.size();
     // Cosine-weighted sampling (pdf μ/π): E = ∫ L μ dω ≈ π/N · Σ L_k.
     IndirectLight out;
     glm::dvec3 direction(0.0);
@@ -411,7 +456,8 @@ IndirectLight LightCache::vertex(uint32_t instance, uint32_t vertex) const {
         const int rays = labelled ? m_settings.rays_objects : m_settings.rays_background;
         const uint64_t stream =
             pixel_stream(m_settings.seed ^ kCacheStreamSalt, (static_cast<uint64_t>(instance) << 32) | vertex);
-        value = gather(m_scene.accel(), m.instances, m.lights, point, normal, stream, rays, m_settings.bounces, counts);
+        value = gather(m_scene.accel(), m.instances, m.lights, point, normal, stream, rays,
+                       rays * m_settings.max_rays_factor, m_settings.gather_error, m_settings.bounces, counts);
     }
     state = kEmpty;
     if (block->state[j].compare_exchange_strong(state, kFilling, std::memory_order_acq_rel)) {
@@ -498,7 +544,8 @@ std::optional<IndirectLight> LightCache::lattice_node(uint32_t instance, int64_t
     const uint64_t stream =
         pixel_stream(m_settings.seed ^ kNodeStreamSalt, mix64(key) ^ (static_cast<uint64_t>(instance) << 32));
     slot->second =
-        gather(m_scene.accel(), m.instances, m.lights, point, normal, stream, lattice.rays, m_settings.bounces, counts);
+        gather(m_scene.accel(), m.instances, m.lights, point, normal, stream, lattice.rays,
+               lattice.rays * m_settings.max_rays_factor, m_settings.gather_error, m_settings.bounces, counts);
     m.gather_rays.fetch_add(counts.gather_rays, std::memory_order_relaxed);
     m.shadow_rays.fetch_add(counts.shadow_rays, std::memory_order_relaxed);
     return slot->second;

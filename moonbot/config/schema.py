@@ -1068,6 +1068,25 @@ class RenderConfig:
             "indirect: cache: gather rays per lattice node (or vertex) of the terrain and rocks", lo=1, hi=65536
         ),
     )
+    cache_gather_error: float = field(
+        default=0.0,
+        metadata=spec(
+            "indirect: cache: adaptive gathering: a node (or vertex) gathers its rays again while the relative "
+            "standard error of its luminance is above this, up to cache_rays_max_factor times its rays; the rays go to "
+            "shadowed ground lit by a few sunlit patches, where a fixed count leaves blotches; 0 = a fixed count",
+            lo=0.0,
+            hi=1.0,
+        ),
+    )
+    cache_rays_max_factor: int = field(
+        default=8,
+        metadata=spec(
+            "indirect: cache: the most rays adaptive gathering reaches, as a multiple of cache_rays_terrain / "
+            "cache_rays_bags (the products at most 65536)",
+            lo=1,
+            hi=1024,
+        ),
+    )
     cache_terrain_cell_m: float = field(
         default=0.05,
         metadata=spec(
@@ -1093,6 +1112,14 @@ class RenderConfig:
             "kernels), else the widest it runs; images do not depend on it"
         ),
     )
+
+    def __post_init__(self) -> None:
+        most = max(self.cache_rays_terrain, self.cache_rays_bags) * self.cache_rays_max_factor
+        if most > 65536:
+            raise ValueError(
+                f"cache_rays_max_factor: {self.cache_rays_max_factor} x the gather rays "
+                f"({max(self.cache_rays_terrain, self.cache_rays_bags)}) is {most}, past 65536 a node"
+            )
 
     @property
     def refinement_spp(self) -> int:

@@ -48,6 +48,14 @@ struct LightCacheSettings {
     double background_cell_m = 0.0;
     /// The same for labelled instances (the bags), with rays_objects a node; 0 = per vertex.
     double object_cell_m = 0.0;
+    /// Adaptive gathering: while the relative standard error of a vertex's (or node's) gathered
+    /// luminance is above this, it gathers as many rays again, up to max_rays_factor × its rays.
+    /// The extra rays go where the indirect light is uneven (shadowed ground lit by a few sunlit
+    /// patches), where a fixed count leaves blotches. 0 = the fixed count (rays_*) everywhere.
+    double gather_error = 0.0;
+    /// The most rays adaptive gathering may reach, as a multiple of rays_objects / rays_background,
+    /// 1..kMaxRaysFactor (the products at most kMaxGatherRays).
+    int max_rays_factor = 8;
     uint64_t seed = 0;  ///< keys the gather rays' random numbers (with instance, vertex, ray)
     int threads = 0;    ///< worker threads of fill_all; 0 = all
 
@@ -57,6 +65,7 @@ struct LightCacheSettings {
 };
 
 constexpr int kMaxGatherRays = 65536;
+constexpr int kMaxRaysFactor = 1024;
 
 /// Indirect light arriving at a surface point.
 struct IndirectLight {
