@@ -262,10 +262,10 @@ void vertex_frame(const InstanceData& inst, const float* normals, uint32_t verte
 
 /// Rays `first` .. `first` + `n` − 1 of the vertex's gather sequence from `lifted` (the gather point
 /// lifted off its surface, world metres) on a surface of unit `normal` (sample_pair's stream
-/// `stream`, index = the ray's number): each a
-/// cosine-distributed direction about the normal continued for `bounces` path vertices as
-/// render.cpp's path tracer continues a bounce, against the static geometry only. Appends each
-/// ray's radiance (W/(m²·sr), linear RGB) and first direction to `radiance_out` and `first_dir_out`.
+/// `stream`, index = the ray's number): each a cosine-distributed direction about the normal,
+/// continued for `bounces` path vertices as render.cpp's path tracer continues a bounce, against
+/// the static geometry only. Appends each ray's radiance (W/(m²·sr), linear RGB) and first
+/// direction to `radiance_out` and `first_dir_out`.
 void gather_batch(const Accel& accel, const std::vector<InstanceData>& instances, const std::vector<LightData>& lights,
                   const glm::dvec3& lifted, const glm::dvec3& normal, uint64_t stream, uint32_t first, size_t n,
                   int bounces, FillCounts& counts, std::vector<glm::dvec3>& radiance_out,
