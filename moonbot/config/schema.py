@@ -1088,7 +1088,7 @@ class RenderConfig:
         ),
     )
     cache_terrain_cell_m: float = field(
-        default=0.05,
+        default=0.025,
         metadata=spec(
             "indirect: cache: spacing of the world-space lattice the terrain's and rocks' indirect light is "
             "gathered on, metres (it varies far more slowly than the 1 cm terrain grid); 0 = every vertex",
@@ -1097,7 +1097,7 @@ class RenderConfig:
         ),
     )
     cache_bag_cell_m: float = field(
-        default=0.02,
+        default=0.01,
         metadata=spec(
             "indirect: cache: the same lattice spacing on the bags (cache_rays_bags a node), metres; 0 = every vertex",
             lo=0.0,
