@@ -142,6 +142,15 @@ struct TileScratch {
         GrainSample sample;
     };
     std::array<GrainRead, kTilePixels> grain_reads;
+    // The light cache's indirect radiance toward the camera at a sample's hit, kept for the tile
+    // pixel's later samples that hit the same triangle (TileRenderer::add_indirect), one pass over
+    // the tile at a time.
+    struct IndirectRead {
+        bool known = false;
+        uint32_t instance = 0, prim = 0;  // the triangle it was read on
+        glm::dvec3 radiance{0.0};         // W/(m²·sr), linear RGB, for a path throughput of 1
+    };
+    std::array<IndirectRead, kTilePixels> indirect_reads;
     // Dust, used only when the render has a medium:
     std::array<double, kTilePixels> sun_dust;       // transmittance toward the Sun at each first hit
     std::array<double, kTilePixels> dust_through;   // transmittance from the camera to the hit
@@ -252,6 +261,7 @@ public:
 
         if (m_grain) read_grain(n, s);
         if (m_medium) march_dust(x0, y0, tw, n, s);
+        std::fill_n(s.indirect_reads.begin(), n, TileScratch::IndirectRead{});
         if (m_settings.spp == 1) {
             shade(n, s, stats, 0, /*indirect=*/true);
             if (m_adaptive) {
@@ -374,6 +384,7 @@ public:
         // Over one centre sample: all of the pixel's samples anew, indirect light included (the
         // cache's costs no ray); over more: the samples past them, direct light alone.
         const bool whole = base == 1;
+        for (int j = 0; j < count; ++j) s.indirect_reads[s.refined[j]] = {};
         int active = count;
         for (int sample = whole ? 0 : base; sample < total; ++sample) {
             while (active > 0 && s.totals[active - 1] <= sample) --active;
@@ -487,21 +498,29 @@ private:
                        kPairLight, m_medium && m_sun ? s.sun_dust.data() : nullptr, /*camera_hits=*/true,
                        refining ? s.sun_rays.data() : nullptr);
         if (m_settings.adaptive_spp > 0) std::copy_n(s.radiance.begin(), n, s.direct.begin());
-        if (indirect) add_indirect(n, s, stats, sample);
+        if (indirect) add_indirect(n, s, stats, sample, pixels);
     }
 
     /// Adds the indirect light at the camera hits (the paths set up by shade) to the radiance of
     /// one sample: the light cache's, where it serves the hit, else that of the diffuse bounces.
-    void add_indirect(int n, TileScratch& s, RenderStats& stats, uint32_t sample) const {
+    /// A pixel reads the cache once per triangle its samples hit (TileScratch::indirect_reads):
+    /// the cached light varies over the lattice's centimetres, not within a pixel's footprint on
+    /// one facet, whose textures its samples already read at one point. `pixels` as trace's.
+    void add_indirect(int n, TileScratch& s, RenderStats& stats, uint32_t sample, const int* pixels = nullptr) const {
         if (m_light_cache)
             for (int i = 0; i < n; ++i) {
                 PathVertex& v = s.path[i];
                 if (!v.alive) continue;
                 const PixelHit& h = s.hits.pixel(i);
-                if (const auto indirect = cached_indirect(v, s.hits.record(h).prim, h.u, h.v)) {
-                    s.radiance[i] += *indirect;
-                    v.alive = false;  // the cache stands for its bounces
+                const TriangleRecord& tri = s.hits.record(h);
+                TileScratch::IndirectRead& read = s.indirect_reads[pixels ? pixels[i] : i];
+                if (!(read.known && read.instance == tri.instance && read.prim == tri.prim)) {
+                    const auto indirect = cached_indirect(v, tri.prim, h.u, h.v);
+                    if (!indirect) continue;  // not served: the path bounces
+                    read = {true, tri.instance, tri.prim, *indirect};
                 }
+                s.radiance[i] += read.radiance * v.throughput;
+                v.alive = false;  // the cache stands for its bounces
             }
         for (int bounce = 1; bounce <= m_settings.bounces; ++bounce) {
             const uint32_t pair = kPairBounce + kPairsPerBounce * static_cast<uint32_t>(bounce - 1);
@@ -917,8 +936,9 @@ private:
     /// the hit's BRDF, albedo/π · shape · E (on glossy cloth (1 − s)·albedo/π·shape + s·f_sheen,
     /// as light_vertices weighs it), the shape taken along the irradiance's mean incident
     /// direction (about the geometric normal, as a bounce's weight is) and the sheen averaged over
-    /// a lobe about it as wide as the light spreads (sheen_over_lobe). None where the cache does
-    /// not serve the hit (moving geometry, or its surface seen from the back): that path bounces.
+    /// a lobe about it as wide as the light spreads (sheen_over_lobe), for a path throughput of
+    /// 1. None where the cache does not serve the hit (moving geometry, or its surface seen from
+    /// the back): that path bounces.
     std::optional<glm::dvec3> cached_indirect(const PathVertex& v, uint32_t prim, double u, double w) const {
         if (!m_light_cache->covers(v.instance)) return std::nullopt;
         if (glm::dot(m_light_cache->normal_at(v.instance, prim, u, w), v.normal) <= 0.0) return std::nullopt;
@@ -934,7 +954,7 @@ private:
         }
         glm::dvec3 brdf = v.albedo * shape;  // π·f
         if (v.sheen > 0.0) brdf = brdf * (1.0 - v.sheen) + glm::dvec3(v.sheen * sheen_over_lobe(v, axis, resultant));
-        return brdf * kInvPi * in.irradiance * v.throughput;
+        return brdf * kInvPi * in.irradiance;
     }
 
     /// The cloth's π·f_sheen at vertex `v` averaged over incident light spread about the unit
