@@ -12,10 +12,11 @@ defaults, against a high-sample reference of that knob with the others at their 
   bounces        diffuse inter-reflections (0 = direct sunlight only: shadows black); reference 6
   earthshine     the faint sunlit Earth as a second light; reference: on
 
-and one curve against a converged reference of the default path tracer (spp 1024 at the default
-light_samples and bounces, two independent 512-sample halves of seeds 1 and 2 averaged; cached
-under build/bench_accuracy/, `--fresh-reference` renders it again), each level rendered on one
-thread (core seconds):
+and one curve against a converged reference of the brute-force path tracer (per-pixel bounce
+paths, as render.indirect: path renders them, so that the light cache's bias counts as error;
+spp 1024 at the default bounces and 2 Sun-disk rays a sample, two independent 512-sample halves of
+seeds 1 and 2 averaged; cached under build/bench_accuracy/, `--fresh-reference` renders it again),
+each level rendered on one thread (core seconds):
 
   adaptive       (base spp, adaptive_spp, adaptive_threshold): brute force (adaptive_spp 0) at
                  growing spp, and adaptive anti-aliasing of direct light at several caps and
@@ -100,8 +101,19 @@ KNOBS = {
     "bounces": [0, 1, 2, 3],
     "earthshine": [False, True],
 }
-# The adaptive curve's reference: the default path tracer converged (two halves, seeds 1 and 2).
+# The adaptive curve's reference: the brute-force path tracer converged (two halves, seeds 1 and 2).
 CONVERGED = {"spp": 1024, "halves_seeds": (1, 2)}
+# The light cache's settings as the converged reference's key holds them, pinned as its quality
+# knobs are: the reference renders without a cache, so they change nothing in it.
+REFERENCE_KEY_CACHE = {
+    "indirect": "cache",
+    "cache_rays_terrain": 64,
+    "cache_rays_bags": 256,
+    "cache_gather_error": 0.0,
+    "cache_rays_max_factor": 8,
+    "cache_terrain_cell_m": 0.025,
+    "cache_bag_cell_m": 0.01,
+}
 # (spp, adaptive_spp, adaptive_threshold, light_samples, adaptive_full_spread); adaptive_spp 0: brute
 # force, today's path tracer. Base spp 1 is the pixel-centre sample, refined where its 3×3
 # neighbourhood disagrees. adaptive_full_spread 0: every refined pixel gets adaptive_spp.
@@ -211,11 +223,15 @@ def sun_visibility(config, scene, spec, depth: np.ndarray) -> np.ndarray:
 
 
 def converged_reference(config, scene, spec, fresh: bool, medium=None) -> dict:
-    """The default path tracer at CONVERGED spp (two halves of different seeds, averaged) with the
-    pixel-centre depth, instance labels and Sun visibility: float32/uint8 arrays under the keys
-    rgb (H, W, 3), half_difference (H, W, 3: the halves' difference), depth, instance, visibility.
-    Cached in build/ under the config's hash."""
+    """The brute-force path tracer at CONVERGED spp (two halves of different seeds, averaged)
+    with the pixel-centre depth, instance labels and Sun visibility: float32/uint8 arrays under
+    the keys rgb (H, W, 3), half_difference (H, W, 3: the halves' difference), depth, instance,
+    visibility. Cached in build/ under the config's hash. Its renders get no light cache, so
+    their indirect light is per-pixel bounce paths, as render.indirect: path renders it: the
+    cache's own bias counts as error."""
     # Pinned, not the config's: the quality knobs' defaults may move without the reference's key.
+    # These renders get no light cache, so their bounces are per-pixel paths whatever
+    # render.indirect and the cache's settings say; those are pinned for the key alone.
     half = with_render(
         config,
         spp=CONVERGED["spp"] // 2,
@@ -224,7 +240,7 @@ def converged_reference(config, scene, spec, fresh: bool, medium=None) -> dict:
         adaptive_threshold=0.5,
         adaptive_full_spread=0.0,
         light_samples=2,
-        indirect="cache",
+        **REFERENCE_KEY_CACHE,
     )
     key = config_hash(with_render(half, threads=0))[:16]
     path = REFERENCE_CACHE / f"{config.terrain.location}-{config.sun.elevation_deg:g}-{config.camera.width}-{key}.npz"
