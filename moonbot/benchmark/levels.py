@@ -8,17 +8,17 @@ neighbour's) base samples disagree (bench/results/accuracy-adaptive-cache-*.json
 median of three locations; relative RMSE at 22° / 5° Sun, rays a view):
 
 - draft: the pixel-centre sample, refined to 16 where its 3×3 neighbourhood disagrees (threshold
-  0.5), 1 Sun-disk ray, light cache: ~2.6 % / 4.3 %, 0.5 M rays.
+  0.5), 1 Sun-disk ray, light cache: ~2.5 % / 4.2 %, 0.5 M rays.
 - default: the config defaults — 4 base samples, a pixel whose samples disagree (threshold 0.5)
   refined to up to 128 in proportion to its spread (all 128 from 10× the frame's mean), one
   Sun-disk ray a base sample and 2 a refinement sample in a penumbra, 2 bounces through the light
-  cache: ~1.4 % / 2.1 %, 1.1 M rays. What SynBag-1.0 renders.
+  cache: ~1.2 % / 1.9 %, 1.1 M rays. What SynBag-1.0 renders.
 - high: 4 base samples refined to up to 256 at threshold 0.25 (all from 4× the frame's mean):
-  ~1.0 % / 1.6 %, 2.5 M rays.
+  ~0.8 % / 1.3 %, 2.5 M rays.
 - path: the brute force for comparison, 4 spp with per-pixel bounce paths.
 
 At 5° the error is the pixel footprint's own spread (long penumbrae, grazing light on the grain
-and the mesh) that even 64 uniform samples leave at 1.9 %, and more where a view lies mostly in
+and the mesh) that even 64 uniform samples leave at 1.7 %, and more where a view lies mostly in
 shadow (docs/performance.md).
 """
 
