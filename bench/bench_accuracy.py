@@ -229,9 +229,8 @@ def converged_reference(config, scene, spec, fresh: bool, medium=None) -> dict:
     visibility. Cached in build/ under the config's hash. Its renders get no light cache, so
     their indirect light is per-pixel bounce paths, as render.indirect: path renders it: the
     cache's own bias counts as error."""
-    # Pinned, not the config's: the quality knobs' defaults may move without the reference's key.
-    # These renders get no light cache, so their bounces are per-pixel paths whatever
-    # render.indirect and the cache's settings say; those are pinned for the key alone.
+    # Pinned, not the config's: the quality knobs' and the cache's defaults may move without the
+    # reference's key.
     half = with_render(
         config,
         spp=CONVERGED["spp"] // 2,
