@@ -261,7 +261,7 @@ public:
 
         if (m_grain) read_grain(n, s);
         if (m_medium) march_dust(x0, y0, tw, n, s);
-        std::fill_n(s.indirect_reads.begin(), n, TileScratch::IndirectRead{});
+        if (m_light_cache) std::fill_n(s.indirect_reads.begin(), n, TileScratch::IndirectRead{});
         if (m_settings.spp == 1) {
             shade(n, s, stats, 0, /*indirect=*/true);
             if (m_adaptive) {
@@ -384,7 +384,8 @@ public:
         // Over one centre sample: all of the pixel's samples anew, indirect light included (the
         // cache's costs no ray); over more: the samples past them, direct light alone.
         const bool whole = base == 1;
-        for (int j = 0; j < count; ++j) s.indirect_reads[s.refined[j]] = {};
+        if (m_light_cache && whole)  // past spp >= 2 base samples the refinement reads no indirect light
+            for (int j = 0; j < count; ++j) s.indirect_reads[s.refined[j]] = {};
         int active = count;
         for (int sample = whole ? 0 : base; sample < total; ++sample) {
             while (active > 0 && s.totals[active - 1] <= sample) --active;
