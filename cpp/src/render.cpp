@@ -1039,6 +1039,7 @@ private:
             v.lifted = lift_off(v.point, normal, triangle_reach(inst, ray.prim_id));
             v.shading = normal;
             v.shaded_apart = false;
+            v.residual_slope = 0.0;  // the grain's slope spread belongs to the camera hit that read it
             v.sheen = 0.0;
             // Cloth met by a bounce shows its mean colour: neither weave nor stain is resolved
             // by the light it passes on.
