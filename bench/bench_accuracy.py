@@ -33,6 +33,9 @@ each level rendered on one thread (core seconds):
                  (one per scene, filled by an untimed render first: a task's steady state).
                  `--dust`: the same scenes with dust stirred up beside the target (view 0's
                  ejecta fragments and fine-dust cloud), reference included.
+                 `--quality-levels`: only the product's draft, default and high levels, as
+                 moonbot/benchmark/levels.py defines them over the config's defaults: few
+                 enough renders to measure at the sweep's 640×480 (`--width 640`).
 
 With --light-cache, the indirect light instead (render.indirect; light_cache.h), against a
 `--reference-spp` (1024) path-traced reference of today's per-pixel bounces (render.bounces of the
@@ -61,9 +64,10 @@ error: RMSE of linear RGB relative to the reference's mean, PSNR of linear RGB (
 reference's 99.9th percentile), and PSNR of the tone-mapped 8-bit images.
 
 Writes bench/results/accuracy-<machine>.json and .svg (time against relative RMSE, one curve per
-knob, all scenes pooled by median; `--knobs` naming some knobs only: accuracy-<knobs>-<machine>)
-and prints tables. Run:
+knob, all scenes pooled by median; `--knobs` naming some knobs only: accuracy-<knobs>-<machine>;
+`-levels` with --quality-levels, `-<width>px` at a width other than 320) and prints tables. Run:
   .venv/bin/python bench/bench_accuracy.py [--width 320] [--repeats 3] [--knobs adaptive] [--direct-only]
+  .venv/bin/python bench/bench_accuracy.py --knobs adaptive --indirect cache --quality-levels --width 640
   .venv/bin/python bench/bench_accuracy.py --light-cache [--reference-spp 1024] [--orbit-views 36]
 """
 
@@ -81,6 +85,7 @@ import numpy as np
 
 from moonbot import _core
 from moonbot.charts import time_error_plot
+from moonbot.benchmark.levels import LEVELS
 from moonbot.config import config_hash, load_config
 from moonbot.render import SceneDust, build_light_cache, build_scene, exposure_scale, render_view
 from moonbot.render.view import scene_lights
@@ -147,6 +152,27 @@ ADAPTIVE_LEVELS = [
     (1, 64, 0.5, 1, 0.0),
     (1, 32, 0.25, 1, 0.0),
 ]
+QUALITY_LEVELS = ("draft", "default", "high")
+
+
+def quality_level_tuples() -> dict[str, tuple]:
+    """The quality levels (moonbot/benchmark/levels.py) as ADAPTIVE_LEVELS tuples, by name: what
+    `--quality-levels` measures (their penumbra_light_samples is the config's, as with every tuple)."""
+    defaults = load_config(None).render
+    out = {}
+    for name in QUALITY_LEVELS:
+        o = {k.removeprefix("render."): v for k, v in LEVELS[name].overrides.items()}
+        get = lambda key: o.get(key, getattr(defaults, key))  # noqa: E731
+        out[name] = (
+            get("spp"),
+            get("adaptive_spp"),
+            get("adaptive_threshold"),
+            get("light_samples"),
+            get("adaptive_full_spread"),
+        )
+    return out
+
+
 # Sample points on the Sun's disk for the visibility V that defines the region masks.
 SUN_DISK_POINTS = 64
 REGIONS = ("sunlit_ground", "shadowed_ground", "sunlit_bag", "shadowed_bag", "penumbra")
@@ -383,6 +409,7 @@ def scene_rows(
     direct_only: bool = False,
     indirect: str = "path",
     dust: bool = False,
+    levels: list[tuple] = ADAPTIVE_LEVELS,
 ) -> list[dict]:
     overrides = {
         "terrain.location": location,
@@ -407,7 +434,9 @@ def scene_rows(
     rows = []
     if "adaptive" in knobs:
         direct = with_render(config, bounces=0) if direct_only else config
-        rows += adaptive_rows(direct, scene, spec, exposure, repeats, fresh_reference, indirect, medium=medium)
+        rows += adaptive_rows(
+            direct, scene, spec, exposure, repeats, fresh_reference, indirect, levels=levels, medium=medium
+        )
     for knob, levels in KNOBS.items():
         if knob not in knobs:
             continue
@@ -484,9 +513,12 @@ def knob_summary(rows: list[dict], knob: str, levels: list) -> tuple[list, list]
     return summary, curve
 
 
-def adaptive_curves(rows: list[dict]) -> dict[str, list]:
+def adaptive_curves(rows: list[dict], levels: list[tuple] = ADAPTIVE_LEVELS) -> dict[str, list]:
     """The adaptive levels grouped into the plot's curves: brute force, then the adaptive levels
-    by base spp and threshold (growing cap along each), then by threshold at base 4 cap 32."""
+    by base spp and threshold (growing cap along each), then by threshold at base 4 cap 32; the
+    quality levels alone (`--quality-levels`) as one curve."""
+    if levels != ADAPTIVE_LEVELS:
+        return {"quality levels": knob_summary(rows, "adaptive", [adaptive_label(*level) for level in levels])[1]}
     groups: dict[str, list] = {}
     for spp, cap, threshold, light_samples, full_spread in ADAPTIVE_LEVELS:
         name = "brute force spp" if cap == 0 else f"adaptive base {spp}, threshold {threshold:g}"
@@ -841,6 +873,11 @@ def main() -> int:
         "--elevations", type=float, nargs="+", default=list(ELEVATIONS), help="Sun elevations, degrees (default: 5 22)"
     )
     parser.add_argument(
+        "--quality-levels",
+        action="store_true",
+        help="the adaptive curve at the quality levels only (draft, default, high): affordable at 640 px",
+    )
+    parser.add_argument(
         "--light-cache",
         action="store_true",
         help="the indirect-light study (per-pixel paths vs the light cache) instead of the knobs",
@@ -856,11 +893,14 @@ def main() -> int:
     if args.light_cache:
         return light_cache_main(args)
     defaults = load_config(None).render
+    named = quality_level_tuples() if args.quality_levels else {}
+    levels = list(named.values()) if args.quality_levels else ADAPTIVE_LEVELS
     result = {
         "schema_version": SCHEMA_VERSION,
         "machine": machine(),
         "width": args.width,
         "knobs": args.knobs,
+        "quality_levels": named,
         "direct_only": args.direct_only,
         "indirect": args.indirect,
         "dust": args.dust,
@@ -888,7 +928,12 @@ def main() -> int:
                 args.direct_only,
                 args.indirect,
                 args.dust,
+                levels,
             )
+            for row in rows:
+                row["quality_level"] = next(
+                    (n for n, t in named.items() if row.get("level") == adaptive_label(*t)), None
+                )
             result["rows"] += rows
             print(f"\n{location}, Sun {elevation:g}°")
             print_rows(rows)
@@ -900,7 +945,7 @@ def main() -> int:
             summary_rows, curves[knob] = knob_summary(result["rows"], knob, levels)
             summary += summary_rows
     if "adaptive" in args.knobs:
-        summary += knob_summary(result["rows"], "adaptive", [adaptive_label(*level) for level in ADAPTIVE_LEVELS])[0]
+        summary += knob_summary(result["rows"], "adaptive", [adaptive_label(*level) for level in levels])[0]
     result["summary"] = summary
     result["seconds_total"] = time.perf_counter() - start
     RESULTS.mkdir(exist_ok=True)
@@ -908,6 +953,8 @@ def main() -> int:
     subset += "direct-" if args.direct_only else ""
     subset += "cache-" if args.indirect == "cache" else ""
     subset += "dust-" if args.dust else ""
+    subset += "levels-" if args.quality_levels else ""
+    subset += f"{args.width}px-" if args.width != 320 else ""
     out = RESULTS / f"accuracy-{subset}{machine_slug(result['machine'])}.json"
     out.write_text(json.dumps(result, indent=2, default=str) + "\n")
     commit = result["machine"]["git_commit"][:7]
@@ -928,7 +975,7 @@ def main() -> int:
             written[-1],
             f"Adaptive anti-aliasing against brute force ({commit}, {args.width} px, "
             f"one thread, median of {scenes} scenes)",
-            adaptive_curves(result["rows"]),
+            adaptive_curves(result["rows"], levels),
             "core seconds per view",
             f"RMSE / mean vs {CONVERGED['spp']} spp",
         )
