@@ -130,7 +130,7 @@ def test_tiny_run_writes_a_complete_result(tiny_result):
     (run,) = record["runs"]
     assert (run["level"], run["workers"], run["samples"], run["tasks"]) == ("draft", 1, 4, 4)
     assert run["samples_per_s"] > 0 and run["bytes_per_sample"] > 0 and run["peak_rss_mib"]["max_worker"] > 0
-    # draft: the pixel-centre ray a pixel, 16 more where its neighbourhood disagrees
+    # draft: the pixel-centre ray and 2 base samples a pixel, up to 64 where they disagree
     assert run["rays"]["camera_rays"] > 3 * 4 * 64 * 48
     # its bounce light comes from the task's light cache; only hits on the moving ejecta bounce
     assert run["rays"]["shadow_rays"] > 0 and run["rays"]["medium_rays"] > 0

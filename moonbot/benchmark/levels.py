@@ -4,11 +4,14 @@ benchmark config has it. bench/bench_accuracy.py measures each against a 1024-sp
 the brute-force path tracer (`render.indirect: path`, the reference mode): with the per-task
 light cache the indirect light is nearly noiseless, and the error left is the direct light's
 pixel footprint at bright edges, which adaptive anti-aliasing refines where a pixel's (or a
-neighbour's) base samples disagree (bench/results/accuracy-adaptive-cache-*.json, 320×240,
-median of three locations; relative RMSE at 22° / 5° Sun, rays a view):
+neighbour's) base samples disagree (bench/results/accuracy-adaptive-cache-*.json at 320×240 and
+accuracy-adaptive-cache-levels-640px-*.json at the sweep's 640×480; median of three locations;
+relative RMSE at 22° / 5° Sun, rays a 320×240 view at 22°):
 
-- draft: the pixel-centre sample, refined to 16 where its 3×3 neighbourhood disagrees (threshold
-  0.5), 1 Sun-disk ray, light cache: ~2.5 % / 4.2 %, 0.5 M rays.
+- draft: 2 base samples, a pixel whose samples disagree (threshold 0.5) refined to up to 64 in
+  proportion to its spread (all 64 from 10× the frame's mean), one Sun-disk ray a base sample and
+  2 a refinement sample in a penumbra, light cache: ~2.4 % / 3.8 %, 0.53 M rays, about half the
+  default's rays and time at either Sun.
 - default: the config defaults — 4 base samples, a pixel whose samples disagree (threshold 0.5)
   refined to up to 128 in proportion to its spread (all 128 from 10× the frame's mean), one
   Sun-disk ray a base sample and 2 a refinement sample in a penumbra, 2 bounces through the light
@@ -17,9 +20,11 @@ median of three locations; relative RMSE at 22° / 5° Sun, rays a view):
   ~0.8 % / 1.3 %, 2.5 M rays.
 - path: the brute force for comparison, 4 spp with per-pixel bounce paths.
 
-At 5° the error is the pixel footprint's own spread (long penumbrae, grazing light on the grain
-and the mesh) that even 64 uniform samples leave at 1.7 %, and more where a view lies mostly in
-shadow (docs/performance.md).
+The draft was the pixel-centre sample refined to 16 where its 3×3 neighbourhood disagrees
+(~2.5 % / 4.2 %): under a low Sun it refined most pixels and traced more rays than the default
+(docs/performance.md). At 5° the error is the pixel footprint's own spread (long penumbrae,
+grazing light on the grain and the mesh) that even 64 uniform samples leave at 1.7 %, and more
+where a view lies mostly in shadow (docs/performance.md).
 """
 
 from __future__ import annotations
@@ -43,15 +48,17 @@ LEVELS: dict[str, Level] = {
         Level(
             "draft",
             {
-                "render.spp": 1,
-                "render.adaptive_spp": 16,
+                "render.spp": 2,
+                "render.adaptive_spp": 64,
+                "render.adaptive_full_spread": 10.0,
                 "render.adaptive_threshold": 0.5,
                 "render.light_samples": 1,
+                "render.penumbra_light_samples": 2,
                 "render.bounces": 2,
                 "render.indirect": "cache",
             },
-            "the pixel-centre sample, refined to 16 where its 3x3 neighbourhood disagrees, 1 Sun-disk shadow ray, "
-            "2 bounces through the light cache",
+            "2 spp refined to up to 64 by the spread, 1 Sun-disk shadow ray a base sample and 2 a refinement sample "
+            "in a penumbra, 2 bounces through the light cache",
         ),
         Level(
             "default",
