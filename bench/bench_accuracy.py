@@ -410,7 +410,7 @@ def scene_rows(
     direct_only: bool = False,
     indirect: str = "path",
     dust: bool = False,
-    levels: list[tuple] = ADAPTIVE_LEVELS,
+    adaptive_levels: list[tuple] = ADAPTIVE_LEVELS,
 ) -> list[dict]:
     overrides = {
         "terrain.location": location,
@@ -436,7 +436,7 @@ def scene_rows(
     if "adaptive" in knobs:
         direct = with_render(config, bounces=0) if direct_only else config
         rows += adaptive_rows(
-            direct, scene, spec, exposure, repeats, fresh_reference, indirect, levels=levels, medium=medium
+            direct, scene, spec, exposure, repeats, fresh_reference, indirect, levels=adaptive_levels, medium=medium
         )
     for knob, levels in KNOBS.items():
         if knob not in knobs:
@@ -895,7 +895,7 @@ def main() -> int:
         return light_cache_main(args)
     defaults = load_config(None).render
     named = quality_level_tuples() if args.quality_levels else {}
-    levels = list(named.values()) if args.quality_levels else ADAPTIVE_LEVELS
+    adaptive_levels = list(named.values()) if args.quality_levels else ADAPTIVE_LEVELS
     result = {
         "schema_version": SCHEMA_VERSION,
         "machine": machine(),
@@ -929,7 +929,7 @@ def main() -> int:
                 args.direct_only,
                 args.indirect,
                 args.dust,
-                levels,
+                adaptive_levels,
             )
             for row in rows:
                 row["quality_level"] = next(
@@ -946,7 +946,7 @@ def main() -> int:
             summary_rows, curves[knob] = knob_summary(result["rows"], knob, levels)
             summary += summary_rows
     if "adaptive" in args.knobs:
-        summary += knob_summary(result["rows"], "adaptive", [adaptive_label(*level) for level in levels])[0]
+        summary += knob_summary(result["rows"], "adaptive", [adaptive_label(*level) for level in adaptive_levels])[0]
     result["summary"] = summary
     result["seconds_total"] = time.perf_counter() - start
     RESULTS.mkdir(exist_ok=True)
@@ -976,7 +976,7 @@ def main() -> int:
             written[-1],
             f"Adaptive anti-aliasing against brute force ({commit}, {args.width} px, "
             f"one thread, median of {scenes} scenes)",
-            adaptive_curves(result["rows"], levels),
+            adaptive_curves(result["rows"], adaptive_levels),
             "core seconds per view",
             f"RMSE / mean vs {CONVERGED['spp']} spp",
         )
