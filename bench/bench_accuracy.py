@@ -84,8 +84,8 @@ from pathlib import Path
 import numpy as np
 
 from moonbot import _core
-from moonbot.charts import time_error_plot
 from moonbot.benchmark.levels import LEVELS
+from moonbot.charts import time_error_plot
 from moonbot.config import config_hash, load_config
 from moonbot.render import SceneDust, build_light_cache, build_scene, exposure_scale, render_view
 from moonbot.render.view import scene_lights
