@@ -84,7 +84,7 @@ from pathlib import Path
 import numpy as np
 
 from moonbot import _core
-from moonbot.benchmark.levels import LEVELS
+from moonbot.benchmark.levels import level_config
 from moonbot.charts import time_error_plot
 from moonbot.config import config_hash, load_config
 from moonbot.render import SceneDust, build_light_cache, build_scene, exposure_scale, render_view
@@ -159,18 +159,10 @@ QUALITY_LEVELS = ("draft", "default", "high")
 def quality_level_tuples() -> dict[str, tuple]:
     """The quality levels (moonbot/benchmark/levels.py) as ADAPTIVE_LEVELS tuples, by name: what
     `--quality-levels` measures (their penumbra_light_samples is the config's, as with every tuple)."""
-    defaults = load_config(None).render
     out = {}
     for name in QUALITY_LEVELS:
-        o = {k.removeprefix("render."): v for k, v in LEVELS[name].overrides.items()}
-        get = lambda key: o.get(key, getattr(defaults, key))  # noqa: E731
-        out[name] = (
-            get("spp"),
-            get("adaptive_spp"),
-            get("adaptive_threshold"),
-            get("light_samples"),
-            get("adaptive_full_spread"),
-        )
+        r = level_config(None, name).render
+        out[name] = (r.spp, r.adaptive_spp, r.adaptive_threshold, r.light_samples, r.adaptive_full_spread)
     return out
 
 
@@ -896,6 +888,7 @@ def main() -> int:
     defaults = load_config(None).render
     named = quality_level_tuples() if args.quality_levels else {}
     adaptive_levels = list(named.values()) if args.quality_levels else ADAPTIVE_LEVELS
+    level_names = {adaptive_label(*t): n for n, t in named.items()}  # a row's level label → its name
     result = {
         "schema_version": SCHEMA_VERSION,
         "machine": machine(),
@@ -932,9 +925,7 @@ def main() -> int:
                 adaptive_levels,
             )
             for row in rows:
-                row["quality_level"] = next(
-                    (n for n, t in named.items() if row.get("level") == adaptive_label(*t)), None
-                )
+                row["quality_level"] = level_names.get(row.get("level"))
             result["rows"] += rows
             print(f"\n{location}, Sun {elevation:g}°")
             print_rows(rows)
