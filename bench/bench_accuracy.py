@@ -49,6 +49,8 @@ config, cached under build/bench_accuracy/), at the default spp and light_sample
                  timed the same way; with --orbit-views, each layout's whole task too
   cache_gather_error  adaptive gathering: each node gathers its rays again while their relative
                  standard error is above 0.2 .. 0.05, up to render.cache_rays_max_factor times
+  cache_terrain_filter_cells  the tent a terrain vertex reads the lattice's nodes through, radius
+                 1 (bilinear), 1.5, 2 and 3 cells
 
 and for path at the default spp and the cache at its default rays, the bias and the noise of the
 indirect component (render minus a bounce-free render of the same seed) per region: sunlit and
@@ -118,6 +120,7 @@ REFERENCE_KEY_CACHE = {
     "cache_rays_max_factor": 8,
     "cache_terrain_cell_m": 0.025,
     "cache_bag_cell_m": 0.01,
+    "cache_terrain_filter_cells": 1.0,
 }
 # (spp, adaptive_spp, adaptive_threshold, light_samples, adaptive_full_spread); adaptive_spp 0: brute
 # force, today's path tracer. Base spp 1 is the pixel-centre sample, refined where its 3×3
@@ -536,6 +539,8 @@ CACHE_KNOBS = {
     "cache_cell_cm": ["5/2", "2.5/1", "5/0", "0/2", "0/0"],
     # adaptive gathering: a node gathers again while its relative standard error is above this (0 = off)
     "cache_gather_error": [0.2, 0.1, 0.05],
+    # the tent a terrain vertex reads the lattice through, radius in cells (1 = bilinear)
+    "cache_terrain_filter_cells": [1.0, 1.5, 2.0, 3.0],
 }
 
 
@@ -621,6 +626,10 @@ def cache_knob_levels() -> list[tuple[str, object, dict]]:
     levels = [("cache_rays", r, {"cache_rays_terrain": r, "cache_rays_bags": 4 * r}) for r in CACHE_KNOBS["cache_rays"]]
     levels += [("cache_cell_cm", c, cache_cells(c)) for c in CACHE_KNOBS["cache_cell_cm"]]
     levels += [("cache_gather_error", e, {"cache_gather_error": e}) for e in CACHE_KNOBS["cache_gather_error"]]
+    levels += [
+        ("cache_terrain_filter_cells", r, {"cache_terrain_filter_cells": r})
+        for r in CACHE_KNOBS["cache_terrain_filter_cells"]
+    ]
     return levels
 
 

@@ -931,7 +931,7 @@ class LightCacheSettings:
     """
     How a LightCache gathers (moonbot/light_cache.h).
     """
-    fields: typing.ClassVar[tuple] = ('bounces', 'rays_objects', 'rays_background', 'background_cell_m', 'object_cell_m', 'gather_error', 'max_rays_factor', 'seed', 'threads')
+    fields: typing.ClassVar[tuple] = ('bounces', 'rays_objects', 'rays_background', 'background_cell_m', 'object_cell_m', 'background_filter_cells', 'gather_error', 'max_rays_factor', 'seed', 'threads')
     @typing.overload
     def __init__(self) -> None:
         """
@@ -955,6 +955,14 @@ class LightCacheSettings:
         """
     @background_cell_m.setter
     def background_cell_m(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def background_filter_cells(self) -> float:
+        """
+        radius, in lattice cells, of the tent filter a background vertex reads the lattice through, 1..4 (1 = bilinear; the bags' lattice is always read bilinearly)
+        """
+    @background_filter_cells.setter
+    def background_filter_cells(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
     @property
     def bounces(self) -> int:

@@ -50,6 +50,7 @@ DEFAULTS_DIFFER = {  # (struct, struct field): why the schema's default is anoth
     ): "the dataset's; the core's default brings every refined pixel to adaptive_spp",
     ("LightCacheSettings", "background_cell_m"): "the dataset's lattice; the core's default gathers per vertex",
     ("LightCacheSettings", "object_cell_m"): "the dataset's lattice; the core's default gathers per vertex",
+    ("LightCacheSettings", "background_filter_cells"): "the dataset's filter; the core's default is bilinear",
 }
 
 
@@ -117,6 +118,7 @@ def built():
                 "cache_rays_terrain": "rays_background",
                 "cache_terrain_cell_m": "background_cell_m",
                 "cache_bag_cell_m": "object_cell_m",
+                "cache_terrain_filter_cells": "background_filter_cells",
                 "cache_gather_error": "gather_error",
                 "cache_rays_max_factor": "max_rays_factor",
                 "threads": "threads",

@@ -117,6 +117,40 @@ def test_lattice_node_on_the_floor_matches_the_closed_form_too():
     assert near[0] > mid[0] > irradiance[0]
 
 
+def lattice_cache(scene, filter_cells: float, rays: int = 16):
+    settings = _core.LightCacheSettings(
+        bounces=1, rays_background=rays, background_cell_m=0.25, background_filter_cells=filter_cells
+    )
+    return _core.LightCache(scene, _core.DirectionalLight(0.0, SUN_ELEVATION, E_SUN), settings=settings)
+
+
+def test_a_wider_lattice_filter_is_the_tent_weighted_mean_of_the_nodes_and_less_noisy():
+    scene, fv = floor_and_wall(floor_step=0.05)
+    bilinear, tent = lattice_cache(scene, 1.0), lattice_cache(scene, 2.0)
+    # A vertex on node (0, 4) of the 25 cm lattice reads, through a tent of radius 2 cells, the
+    # nine nodes around it weighted ½, 1, ½ along each axis; bilinearly, each node alone.
+    node = {
+        (i, j): np.array(bilinear.vertex(0, floor_vertex(fv, 0.25 * i, 1.0 + 0.25 * j))[0])
+        for i in (-1, 0, 1)
+        for j in (-1, 0, 1)
+    }
+    weight = {-1: 0.5, 0: 1.0, 1: 0.5}
+    expected = sum(weight[i] * weight[j] * value for (i, j), value in node.items()) / 4.0
+    np.testing.assert_allclose(tent.vertex(0, floor_vertex(fv, 0.0, 1.0))[0], expected, rtol=1e-12)
+    # Along a row 1 m from the 2 km wall the light is uniform: the row's spread is the nodes'
+    # gather noise (16 rays each), which averaging nine nodes shrinks. The mean is the closed
+    # form blurred by the same tent across the row (the light falls off convexly with distance).
+    row = [floor_vertex(fv, x, 1.0) for x in np.arange(-5.0, 5.0, 0.05)]
+    values = {r: np.array([c.vertex(0, v)[0][0] for v in row]) for r, c in (("bilinear", bilinear), ("tent", tent))}
+    spread = {r: v.std() / v.mean() for r, v in values.items()}
+    assert spread["tent"] < 0.6 * spread["bilinear"]
+    blurred = sum(weight[j] * wall_irradiance(1.0 + 0.25 * j) for j in weight) / 2.0
+    assert values["bilinear"].mean() == pytest.approx(wall_irradiance(1.0), rel=0.02)
+    assert values["tent"].mean() == pytest.approx(blurred, rel=0.02)
+    # The bags' lattice is read bilinearly whatever the radius (render.cache_terrain_filter_cells).
+    assert _core.LightCacheSettings(background_filter_cells=2.0).background_filter_cells == 2.0
+
+
 def test_a_moving_wall_is_invisible_to_the_cache_and_a_static_change_is_refused():
     sun = _core.DirectionalLight(0.0, SUN_ELEVATION, E_SUN)
     scene, fv = floor_and_wall(moving_wall=True)
@@ -154,6 +188,10 @@ def test_bad_settings_name_the_field():
         load_config(None, {"render.indirect": "photons"})
     with pytest.raises(ConfigError, match="render.cache_rays_terrain: must be >= 1"):
         load_config(None, {"render.cache_rays_terrain": 0})
+    with pytest.raises(ValueError, match="background_filter_cells: must be in 1..4"):
+        _core.LightCache(scene, sun, settings=_core.LightCacheSettings(background_filter_cells=0.5))
+    with pytest.raises(ConfigError, match="render.cache_terrain_filter_cells: must be <= 4"):
+        load_config(None, {"render.cache_terrain_filter_cells": 5})
     with pytest.raises(ValueError, match="gather_error: must be in 0..1"):
         _core.LightCache(scene, sun, settings=_core.LightCacheSettings(gather_error=1.5))
     with pytest.raises(ValueError, match="max_rays_factor: must be in 1..1024"):

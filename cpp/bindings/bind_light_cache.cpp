@@ -20,6 +20,9 @@ void bind_light_cache(py::module_& m) {
                "the background's world-space lattice spacing, metres (0 = per vertex)")
         .field("object_cell_m", &LightCacheSettings::object_cell_m,
                "the same for labelled instances, metres (0 = per vertex)")
+        .field("background_filter_cells", &LightCacheSettings::background_filter_cells,
+               "radius, in lattice cells, of the tent filter a background vertex reads the lattice through, 1..4 "
+               "(1 = bilinear; the bags' lattice is always read bilinearly)")
         .field("gather_error", &LightCacheSettings::gather_error,
                "adaptive gathering: more rays while a vertex's relative standard error is above this, 0..1 (0 = a "
                "fixed count)")

@@ -174,6 +174,10 @@ void LightCacheSettings::validate() const {
                                     std::to_string(background_cell_m));
     if (!(object_cell_m >= 0.0) || !std::isfinite(object_cell_m))
         throw std::invalid_argument("object_cell_m: must be finite and >= 0, got " + std::to_string(object_cell_m));
+    if (!(background_filter_cells >= 1.0 && background_filter_cells <= kMaxLatticeFilterCells))
+        throw std::invalid_argument("background_filter_cells: must be in 1.." +
+                                    std::to_string(static_cast<int>(kMaxLatticeFilterCells)) + " (1 = bilinear), got " +
+                                    std::to_string(background_filter_cells));
     if (!(gather_error >= 0.0 && gather_error <= 1.0))
         throw std::invalid_argument("gather_error: must be in 0..1 (0 = a fixed count of rays), got " +
                                     std::to_string(gather_error));
@@ -486,21 +490,29 @@ std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_
     const double u = point[b] / h, v = point[c] / h;
     const double u0 = std::floor(u), v0 = std::floor(v);
     const double fu = u - u0, fv = v - v0;
+    // A tent of radius r cells about the vertex: the nodes u0 + du with |du − fu| < r, and the
+    // same along v. r = 1 leaves the four corners of its cell, weighted bilinearly (written so,
+    // the same bits as before the tent).
+    const double r = m_impl->instances[instance].label != 0 ? 1.0 : m_settings.background_filter_cells;
+    const int reach = static_cast<int>(std::ceil(r)) - 1;
+    const auto tent = [r](int d, double f) {
+        return r == 1.0 ? (d ? f : 1.0 - f) : std::max(0.0, 1.0 - std::abs(d - f) / r);
+    };
     IndirectLight out;
     glm::dvec3 direction(0.0);
     double total = 0.0, weight = 0.0;
-    for (int corner = 0; corner < 4; ++corner) {
-        const int du = corner & 1, dv = corner >> 1;
-        const double w = (du ? fu : 1.0 - fu) * (dv ? fv : 1.0 - fv);
-        if (!(w > 0.0)) continue;
-        const std::optional<IndirectLight> node =
-            lattice_node(instance, static_cast<int64_t>(u0) + du, static_cast<int64_t>(v0) + dv, bin);
-        if (!node) continue;
-        total += w;
-        out.irradiance += w * node->irradiance;
-        direction += (w * luminance(node->irradiance)) * node->mean_direction;
-        weight += w * luminance(node->irradiance);
-    }
+    for (int du = -reach; du <= 1 + reach; ++du)
+        for (int dv = -reach; dv <= 1 + reach; ++dv) {
+            const double w = tent(du, fu) * tent(dv, fv);
+            if (!(w > 0.0)) continue;
+            const std::optional<IndirectLight> node =
+                lattice_node(instance, static_cast<int64_t>(u0) + du, static_cast<int64_t>(v0) + dv, bin);
+            if (!node) continue;
+            total += w;
+            out.irradiance += w * node->irradiance;
+            direction += (w * luminance(node->irradiance)) * node->mean_direction;
+            weight += w * luminance(node->irradiance);
+        }
     if (!(total > 0.0)) return std::nullopt;
     out.irradiance /= total;
     out.mean_direction = weight > 0.0 ? direction / weight : glm::dvec3(0.0);

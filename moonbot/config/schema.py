@@ -1104,6 +1104,17 @@ class RenderConfig:
             hi=100.0,
         ),
     )
+    cache_terrain_filter_cells: float = field(
+        default=2.0,
+        metadata=spec(
+            "indirect: cache: radius, in lattice cells, of the tent filter a terrain or rock vertex reads the "
+            "lattice through: 1 = bilinear between the four nodes around it; wider averages more nodes' "
+            "independent gathers (fewer blotches on shadowed ground) and blurs the light over 2 x radius cells "
+            "(the bags' lattice is read bilinearly)",
+            lo=1.0,
+            hi=4.0,
+        ),
+    )
     embree_isa: Literal["auto", "sse2", "sse4.2", "avx", "avx2", "avx512"] = field(
         default="auto",
         metadata=spec(

@@ -110,6 +110,7 @@ def light_cache_settings(config: RenderConfig, seed: int) -> _core.LightCacheSet
         rays_background=config.cache_rays_terrain,
         background_cell_m=config.cache_terrain_cell_m,
         object_cell_m=config.cache_bag_cell_m,
+        background_filter_cells=config.cache_terrain_filter_cells,
         gather_error=config.cache_gather_error,
         max_rays_factor=config.cache_rays_max_factor,
         seed=seed,

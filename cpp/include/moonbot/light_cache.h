@@ -48,6 +48,13 @@ struct LightCacheSettings {
     double background_cell_m = 0.0;
     /// The same for labelled instances (the bags), with rays_objects a node; 0 = per vertex.
     double object_cell_m = 0.0;
+    /// Radius, in lattice cells, of the tent filter through which a background vertex reads the
+    /// lattice: its value is the nodes within that radius along each lattice axis, weighted by
+    /// (1 − |du|/r)·(1 − |dv|/r). 1 is bilinear between the four nodes around it; wider averages
+    /// more nodes' independent gathers, so their noise (blotches on shadowed ground) shrinks, at
+    /// the price of blurring the light over 2r cells. 1..kMaxLatticeFilterCells. The bags' lattice
+    /// is read bilinearly: their light varies over a few centimetres near the ground.
+    double background_filter_cells = 1.0;
     /// Adaptive gathering: while the relative standard error of a vertex's (or node's) gathered
     /// luminance is above this, it gathers as many rays again, up to max_rays_factor × its rays.
     /// The extra rays go where the indirect light is uneven (shadowed ground lit by a few sunlit
@@ -66,6 +73,7 @@ struct LightCacheSettings {
 
 constexpr int kMaxGatherRays = 65536;
 constexpr int kMaxRaysFactor = 1024;
+constexpr double kMaxLatticeFilterCells = 4.0;
 
 /// Indirect light arriving at a surface point.
 struct IndirectLight {
@@ -133,7 +141,8 @@ public:
 
 private:
     /// Background vertex `vertex`'s value (at `point`, unit `normal`) from the lattice nodes
-    /// around it; none where the vertex is coarse or no node around it is valid.
+    /// around it (LightCacheSettings::background_filter_cells; the bags' bilinearly); none where
+    /// the vertex is coarse or no node around it is valid.
     std::optional<IndirectLight> from_lattice(uint32_t instance, uint32_t vertex, const glm::dvec3& point,
                                               const glm::dvec3& normal) const;
     /// Lattice node (i, j)·h across the axis of normal bin `bin` on instance `instance`, probed
