@@ -147,8 +147,22 @@ def test_a_wider_lattice_filter_is_the_tent_weighted_mean_of_the_nodes_and_less_
     blurred = sum(weight[j] * wall_irradiance(1.0 + 0.25 * j) for j in weight) / 2.0
     assert values["bilinear"].mean() == pytest.approx(wall_irradiance(1.0), rel=0.02)
     assert values["tent"].mean() == pytest.approx(blurred, rel=0.02)
-    # The bags' lattice is read bilinearly whatever the radius (render.cache_terrain_filter_cells).
-    assert _core.LightCacheSettings(background_filter_cells=2.0).background_filter_cells == 2.0
+
+
+def test_a_labelled_instance_reads_its_lattice_bilinearly_whatever_the_terrains_tent():
+    # The same floor as a bag (a labelled instance, on object_cell_m's lattice): a vertex on a
+    # node keeps that node's own value under a tent of 2 cells as under 1.
+    scene = _core.Scene()
+    fv, ft = grid(-10.0, 10.0, 0.0, 20.0, 0.05)
+    scene.add_instance(scene.add_mesh(fv, ft), np.eye(4), 1, (1.0, 1.0, 1.0))
+    scene.add_background(scene.add_mesh(*wall(2000.0, WALL_HEIGHT)), np.eye(4), (WALL_ALBEDO,) * 3)
+    scene.commit()
+    sun = _core.DirectionalLight(0.0, SUN_ELEVATION, E_SUN)
+    values = []
+    for r in (1.0, 2.0):
+        settings = _core.LightCacheSettings(bounces=1, rays_objects=16, object_cell_m=0.25, background_filter_cells=r)
+        values.append(_core.LightCache(scene, sun, settings=settings).vertex(0, floor_vertex(fv, 0.0, 1.0))[0])
+    assert values[0] == values[1]
 
 
 def test_a_moving_wall_is_invisible_to_the_cache_and_a_static_change_is_refused():

@@ -53,7 +53,7 @@ struct LightCacheSettings {
     /// (1 − |du|/r)·(1 − |dv|/r). 1 is bilinear between the four nodes around it; wider averages
     /// more nodes' independent gathers, so their noise (blotches on shadowed ground) shrinks, at
     /// the price of blurring the light over 2r cells. 1..kMaxLatticeFilterCells. The bags' lattice
-    /// is read bilinearly: their light varies over a few centimetres near the ground.
+    /// is read bilinearly (through the tent their shadowed faces' error grew; docs/performance.md).
     double background_filter_cells = 1.0;
     /// Adaptive gathering: while the relative standard error of a vertex's (or node's) gathered
     /// luminance is above this, it gathers as many rays again, up to max_rays_factor × its rays.
