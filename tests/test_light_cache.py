@@ -55,15 +55,19 @@ WALL_ALBEDO = 0.5
 WALL_HEIGHT = 1.0
 
 
-def floor_and_wall(floor_step: float = 0.25, moving_wall: bool = False):
+def floor_and_wall(floor_step: float = 0.25, moving_wall: bool = False, labelled_floor: bool = False):
     """A white floor (y in [0, 20]) beside a 2 km long, 1 m tall wall along y = 0 facing it, and
-    the Sun at azimuth 0 (north, +y), 30° up, lighting the wall's face. Returns (scene, floor
+    the Sun at azimuth 0 (north, +y), 30° up, lighting the wall's face; `labelled_floor`: the
+    floor is a labelled instance (label 1, as a bag), not background. Returns (scene, floor
     vertices)."""
     scene = _core.Scene()
     fv, ft = grid(-10.0, 10.0, 0.0, 20.0, floor_step)
     f = scene.add_mesh(fv, ft)
     w = scene.add_mesh(*wall(2000.0, WALL_HEIGHT))
-    scene.add_background(f, np.eye(4), (1.0, 1.0, 1.0))
+    if labelled_floor:
+        scene.add_instance(f, np.eye(4), 1, (1.0, 1.0, 1.0))
+    else:
+        scene.add_background(f, np.eye(4), (1.0, 1.0, 1.0))
     scene.add_background(w, np.eye(4), (WALL_ALBEDO,) * 3, moving=moving_wall)
     scene.commit()
     return scene, fv
@@ -152,11 +156,7 @@ def test_a_wider_lattice_filter_is_the_tent_weighted_mean_of_the_nodes_and_less_
 def test_a_labelled_instance_reads_its_lattice_bilinearly_whatever_the_terrains_tent():
     # The same floor as a bag (a labelled instance, on object_cell_m's lattice): a vertex on a
     # node keeps that node's own value under a tent of 2 cells as under 1.
-    scene = _core.Scene()
-    fv, ft = grid(-10.0, 10.0, 0.0, 20.0, 0.05)
-    scene.add_instance(scene.add_mesh(fv, ft), np.eye(4), 1, (1.0, 1.0, 1.0))
-    scene.add_background(scene.add_mesh(*wall(2000.0, WALL_HEIGHT)), np.eye(4), (WALL_ALBEDO,) * 3)
-    scene.commit()
+    scene, fv = floor_and_wall(floor_step=0.05, labelled_floor=True)
     sun = _core.DirectionalLight(0.0, SUN_ELEVATION, E_SUN)
     values = []
     for r in (1.0, 2.0):

@@ -100,8 +100,9 @@ int normal_bin(const glm::dvec3& n) {
 /// A background instance's lattice: its world bounds (where probes start), which vertices read
 /// it, and the nodes probed so far.
 struct Lattice {
-    double spacing = 0.0;  // metres
-    int rays = 0;          // gather rays per node
+    double spacing = 0.0;       // metres
+    int rays = 0;               // gather rays per node
+    double filter_cells = 1.0;  // radius of the tent a vertex reads the nodes through, cells (1: bilinear)
     glm::dvec3 lo{std::numeric_limits<double>::infinity()}, hi{-std::numeric_limits<double>::infinity()};
     std::vector<bool> fine;  // per vertex: every triangle edge at it is shorter than the spacing
     // A node's value: the irradiance at the surface its probe met, or none (see lattice_node).
@@ -109,12 +110,14 @@ struct Lattice {
     Nodes nodes;
 };
 
-/// Instance `inst`'s lattice of spacing `h` over `mesh`: its world bounds and which vertices
-/// are fine enough to read it.
-std::unique_ptr<Lattice> make_lattice(const InstanceData& inst, const Mesh& mesh, double h, int rays) {
+/// Instance `inst`'s lattice of spacing `h` over `mesh`, read through a tent of `filter_cells`
+/// cells: its world bounds and which vertices are fine enough to read it.
+std::unique_ptr<Lattice> make_lattice(const InstanceData& inst, const Mesh& mesh, double h, int rays,
+                                      double filter_cells) {
     auto lattice = std::make_unique<Lattice>();
     lattice->spacing = h;
     lattice->rays = rays;
+    lattice->filter_cells = filter_cells;
     const size_t nv = mesh.vertex_count();
     std::vector<glm::dvec3> world(nv);
     for (size_t v = 0; v < nv; ++v) {
@@ -232,8 +235,10 @@ LightCache::LightCache(const Scene& scene, const Lights& lights, const LightCach
         const bool labelled = inst.label != 0;
         const double spacing = labelled ? settings.object_cell_m : settings.background_cell_m;
         if (spacing > 0.0) {
-            m.lattices[i] = make_lattice(m.instances[i], mesh, spacing,
-                                         labelled ? settings.rays_objects : settings.rays_background);
+            // The bags' lattice is read bilinearly (LightCacheSettings::background_filter_cells).
+            m.lattices[i] =
+                make_lattice(m.instances[i], mesh, spacing, labelled ? settings.rays_objects : settings.rays_background,
+                             labelled ? 1.0 : settings.background_filter_cells);
             m.table_bytes += sizeof(Lattice) + mesh.vertex_count() / 8;
         }
         m.vertex_count[i] = static_cast<uint32_t>(mesh.vertex_count());
@@ -493,7 +498,7 @@ std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_
     // A tent of radius r cells about the vertex: the nodes u0 + du with |du − fu| < r, and the
     // same along v. r = 1 leaves the four corners of its cell, weighted bilinearly (written so,
     // the same bits as before the tent).
-    const double r = m_impl->instances[instance].label != 0 ? 1.0 : m_settings.background_filter_cells;
+    const double r = lattice.filter_cells;
     const int reach = static_cast<int>(std::ceil(r)) - 1;
     const auto tent = [r](int d, double f) {
         return r == 1.0 ? (d ? f : 1.0 - f) : std::max(0.0, 1.0 - std::abs(d - f) / r);
