@@ -1036,6 +1036,10 @@ class LightCache:
         """
         A cache over `scene` for these lights, gathering as `settings` (a LightCacheSettings) says.
         """
+    def at(self, instance: typing.SupportsInt | typing.SupportsIndex, prim: typing.SupportsInt | typing.SupportsIndex, u: typing.SupportsFloat | typing.SupportsIndex, v: typing.SupportsFloat | typing.SupportsIndex, normal: typing.Annotated[collections.abc.Sequence[typing.SupportsFloat | typing.SupportsIndex], "FixedSize(3)"] | None = None) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """
+        As vertex(), at barycentrics (u, v) of triangle `prim` (the vertices' values interpolated); with `normal` (unit, world), each vertex's value tilted from its vertex normal to it first.
+        """
     def covers(self, instance: typing.SupportsInt | typing.SupportsIndex) -> bool:
         """
         Whether instance `instance` is cached (it was not moving when the cache was built).
@@ -1047,6 +1051,10 @@ class LightCache:
     def stats(self) -> dict:
         """
         Cumulative: vertices filled, blocks allocated, background lattice nodes and their probe_rays, gather_rays and shadow_rays they traced (each vertex counted once: deterministic), bytes held, redundant_fills (vertices a racing thread computed again) and fill_seconds (thread-seconds; these two depend on the threads).
+        """
+    def tilt_gradient(self, instance: typing.SupportsInt | typing.SupportsIndex, vertex: typing.SupportsInt | typing.SupportsIndex) -> tuple[float, float, float]:
+        """
+        (x, y, z) W/m², world: the rotation gradient of a vertex's irradiance luminance; a normal n near the vertex's n0 gets about Y0 + (n - n0)·gradient (light_cache.h IndirectLight::tilt_gradient).
         """
     def vertex(self, instance: typing.SupportsInt | typing.SupportsIndex, vertex: typing.SupportsInt | typing.SupportsIndex) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
         """

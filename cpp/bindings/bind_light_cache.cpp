@@ -1,3 +1,5 @@
+#include <array>
+#include <cmath>
 #include <optional>
 
 #include <pybind11/stl.h>
@@ -60,6 +62,38 @@ void bind_light_cache(py::module_& m) {
             "((E_r, E_g, E_b) W/m², (x, y, z) luminance-weighted mean of the unit incident directions, world: length 1 "
             "for light from one direction, less the more it spreads) at a vertex of a covered "
             "instance, filled first if it is not yet.")
+        .def(
+            "tilt_gradient",
+            [](const LightCache& c, uint32_t instance, uint32_t vertex) {
+                IndirectLight l;
+                {
+                    py::gil_scoped_release release;
+                    l = c.vertex(instance, vertex);
+                }
+                return py::make_tuple(l.tilt_gradient.x, l.tilt_gradient.y, l.tilt_gradient.z);
+            },
+            py::arg("instance"), py::arg("vertex"),
+            "(x, y, z) W/m², world: the rotation gradient of a vertex's irradiance luminance; a normal n near the "
+            "vertex's n0 gets about Y0 + (n - n0)·gradient (light_cache.h IndirectLight::tilt_gradient).")
+        .def(
+            "at",
+            [](const LightCache& c, uint32_t instance, uint32_t prim, double u, double v,
+               const std::optional<std::array<double, 3>>& normal) {
+                const glm::dvec3 n = normal ? glm::dvec3((*normal)[0], (*normal)[1], (*normal)[2]) : glm::dvec3(0.0);
+                if (normal && !(std::abs(glm::length(n) - 1.0) < 1e-6))
+                    throw py::value_error("normal: must be a unit vector, got length " +
+                                          std::to_string(glm::length(n)));
+                IndirectLight l;
+                {
+                    py::gil_scoped_release release;
+                    l = c.at(instance, prim, u, v, normal ? &n : nullptr);
+                }
+                return py::make_tuple(py::make_tuple(l.irradiance.x, l.irradiance.y, l.irradiance.z),
+                                      py::make_tuple(l.mean_direction.x, l.mean_direction.y, l.mean_direction.z));
+            },
+            py::arg("instance"), py::arg("prim"), py::arg("u"), py::arg("v"), py::arg("normal") = py::none(),
+            "As vertex(), at barycentrics (u, v) of triangle `prim` (the vertices' values interpolated); with "
+            "`normal` (unit, world), each vertex's value tilted from its vertex normal to it first.")
         .def("fill_all", &LightCache::fill_all, py::call_guard<py::gil_scoped_release>(),
              "Fill every vertex of the covered instances (rendering fills only what it touches).")
         .def(

@@ -38,6 +38,11 @@ constexpr int64_t kLatticeHalfRange = int64_t(1) << 19;
 /// Rec. 709 luminance of linear RGB: the weight of a ray in the mean incident direction.
 double luminance(const glm::dvec3& c) { return 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b; }
 
+// A gather ray's share of the rotation gradient is its radiance times the tangent of its angle
+// from the normal (IndirectLight::tilt_gradient); the tangent is capped at this angle's, 87°,
+// so that the rare ray skimming the horizon does not dominate a node's gradient.
+constexpr double kGradientMinCosine = 0.05;
+
 /// One gather path's current vertex.
 struct GatherPath {
     glm::dvec3 point, lifted, normal, albedo, wo, throughput;
@@ -106,7 +111,7 @@ struct Lattice {
     glm::dvec3 lo{std::numeric_limits<double>::infinity()}, hi{-std::numeric_limits<double>::infinity()};
     std::vector<bool> fine;  // per vertex: every triangle edge at it is shorter than the spacing
     // A node's value: the irradiance at the surface its probe met, or none (see lattice_node).
-    using Nodes = tbb::concurrent_hash_map<uint64_t, std::optional<IndirectLight>>;
+    using Nodes = tbb::concurrent_hash_map<uint64_t, std::optional<LightCache::Node>>;
     Nodes nodes;
 };
 
@@ -257,16 +262,21 @@ bool LightCache::covers(uint32_t instance) const {
 
 namespace {
 
+/// The unit world normal of vertex `vertex` of instance `inst` whose object normals are `normals`.
+glm::dvec3 world_normal(const InstanceData& inst, const float* normals, uint32_t vertex) {
+    const float* q = normals + 3 * static_cast<size_t>(vertex);
+    const glm::dvec3 normal = inst.normal_to_world * glm::dvec3(q[0], q[1], q[2]);
+    const double len = glm::length(normal);
+    return len > 0.0 ? normal / len : glm::dvec3(0.0, 0.0, 1.0);
+}
+
 /// The world position and unit world normal of vertex `vertex` of instance `inst` whose object
 /// normals are `normals`.
 void vertex_frame(const InstanceData& inst, const float* normals, uint32_t vertex, glm::dvec3& point,
                   glm::dvec3& normal) {
     const float* p = inst.vertices + 3 * static_cast<size_t>(vertex);
     point = inst.linear * glm::dvec3(p[0], p[1], p[2]) + inst.translation;
-    const float* q = normals + 3 * static_cast<size_t>(vertex);
-    normal = inst.normal_to_world * glm::dvec3(q[0], q[1], q[2]);
-    const double len = glm::length(normal);
-    normal = len > 0.0 ? normal / len : glm::dvec3(0.0, 0.0, 1.0);
+    normal = world_normal(inst, normals, vertex);
 }
 
 /// Rays `first` .. `first` + `n` − 1 of the vertex's gather sequence from `lifted` (the gather point
@@ -430,10 +440,25 @@ IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instan
     }
     out.irradiance *= kPi / static_cast<double>(n);
     out.mean_direction = weight > 0.0 ? direction / weight : glm::dvec3(0.0);
+    // The rotation gradient: ∂E/∂n = ∫ L·(ω − (ω·n)n) dω, each cosine-distributed ray weighted by
+    // π/(N·cos θ) (Ward & Heckbert 1992, "Irradiance gradients").
+    for (size_t k = 0; k < n; ++k) {
+        const double mu = glm::dot(first_dir[k], normal);
+        out.tilt_gradient += (luminance(radiance[k]) / std::max(mu, kGradientMinCosine)) * (first_dir[k] - mu * normal);
+    }
+    out.tilt_gradient *= kPi / static_cast<double>(n);
     return out;
 }
 
 }  // namespace
+
+IndirectLight IndirectLight::tilted(const glm::dvec3& from, const glm::dvec3& to) const {
+    const double y = luminance(irradiance);
+    if (!(y > 0.0)) return *this;
+    IndirectLight out = *this;
+    out.irradiance *= std::clamp(1.0 + glm::dot(to - from, tilt_gradient) / y, 0.0, kMaxTiltFactor);
+    return out;
+}
 
 IndirectLight LightCache::vertex(uint32_t instance, uint32_t vertex) const {
     Impl& m = *m_impl;
@@ -510,21 +535,24 @@ std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_
         for (int dv = -reach; dv <= 1 + reach; ++dv) {
             const double w = tent(du, fu) * tent(dv, fv);
             if (!(w > 0.0)) continue;
-            const std::optional<IndirectLight> node =
+            const std::optional<Node> node =
                 lattice_node(instance, static_cast<int64_t>(u0) + du, static_cast<int64_t>(v0) + dv, bin);
             if (!node) continue;
+            const IndirectLight light = node->light.tilted(node->normal, normal);
             total += w;
-            out.irradiance += w * node->irradiance;
-            direction += (w * luminance(node->irradiance)) * node->mean_direction;
-            weight += w * luminance(node->irradiance);
+            out.irradiance += w * light.irradiance;
+            out.tilt_gradient += w * light.tilt_gradient;
+            direction += (w * luminance(light.irradiance)) * light.mean_direction;
+            weight += w * luminance(light.irradiance);
         }
     if (!(total > 0.0)) return std::nullopt;
     out.irradiance /= total;
+    out.tilt_gradient /= total;
     out.mean_direction = weight > 0.0 ? direction / weight : glm::dvec3(0.0);
     return out;
 }
 
-std::optional<IndirectLight> LightCache::lattice_node(uint32_t instance, int64_t i, int64_t j, int bin) const {
+std::optional<LightCache::Node> LightCache::lattice_node(uint32_t instance, int64_t i, int64_t j, int bin) const {
     Impl& m = *m_impl;
     Lattice& lattice = *m.lattices[instance];
     const uint64_t key = node_key(i, j, bin);
@@ -561,14 +589,15 @@ std::optional<IndirectLight> LightCache::lattice_node(uint32_t instance, int64_t
     const uint64_t stream =
         pixel_stream(m_settings.seed ^ kNodeStreamSalt, mix64(key) ^ (static_cast<uint64_t>(instance) << 32));
     slot->second =
-        gather(m_scene.accel(), m.instances, m.lights, point, normal, stream, lattice.rays,
-               lattice.rays * m_settings.max_rays_factor, m_settings.gather_error, m_settings.bounces, counts);
+        Node{gather(m_scene.accel(), m.instances, m.lights, point, normal, stream, lattice.rays,
+                    lattice.rays * m_settings.max_rays_factor, m_settings.gather_error, m_settings.bounces, counts),
+             normal};
     m.gather_rays.fetch_add(counts.gather_rays, std::memory_order_relaxed);
     m.shadow_rays.fetch_add(counts.shadow_rays, std::memory_order_relaxed);
     return slot->second;
 }
 
-IndirectLight LightCache::at(uint32_t instance, uint32_t prim, double u, double v) const {
+IndirectLight LightCache::at(uint32_t instance, uint32_t prim, double u, double v, const glm::dvec3* normal) const {
     const InstanceData& inst = m_impl->instances[instance];
     const uint32_t* c = inst.triangles + 3 * static_cast<size_t>(prim);
     const double w[3] = {1.0 - u - v, u, v};
@@ -576,8 +605,10 @@ IndirectLight LightCache::at(uint32_t instance, uint32_t prim, double u, double 
     glm::dvec3 direction(0.0);
     double weight = 0.0;
     for (int k = 0; k < 3; ++k) {
-        const IndirectLight corner = vertex(instance, c[k]);
+        IndirectLight corner = vertex(instance, c[k]);
+        if (normal) corner = corner.tilted(world_normal(inst, m_impl->normals[instance], c[k]), *normal);
         out.irradiance += w[k] * corner.irradiance;
+        out.tilt_gradient += w[k] * corner.tilt_gradient;
         direction += (w[k] * luminance(corner.irradiance)) * corner.mean_direction;
         weight += w[k] * luminance(corner.irradiance);
     }

@@ -933,7 +933,8 @@ private:
     }
 
     /// The indirect radiance toward the camera at camera hit `v` (on triangle `prim`, at Embree's
-    /// barycentrics u, w) from the light cache, W/(m²·sr): the cached irradiance E shaded with
+    /// barycentrics u, w) from the light cache, W/(m²·sr): the cached irradiance E (tilted to the
+    /// facet's normal, LightCache::at) shaded with
     /// the hit's BRDF, albedo/π · shape · E (on glossy cloth (1 − s)·albedo/π·shape + s·f_sheen,
     /// as light_vertices weighs it), the shape taken along the irradiance's mean incident
     /// direction (about the geometric normal, as a bounce's weight is) and the sheen averaged over
@@ -943,7 +944,8 @@ private:
     std::optional<glm::dvec3> cached_indirect(const PathVertex& v, uint32_t prim, double u, double w) const {
         if (!m_light_cache->covers(v.instance)) return std::nullopt;
         if (glm::dot(m_light_cache->normal_at(v.instance, prim, u, w), v.normal) <= 0.0) return std::nullopt;
-        const IndirectLight in = m_light_cache->at(v.instance, prim, u, w);
+        // The facet's own normal, as the path tracer bounces about it (extend_paths).
+        const IndirectLight in = m_light_cache->at(v.instance, prim, u, w, &v.normal);
         const double resultant = glm::length(in.mean_direction);
         const glm::dvec3 axis = resultant > 0.0 ? in.mean_direction / resultant : v.normal;
         const InstanceData& inst = m_instances[v.instance];

@@ -5,7 +5,8 @@
 // of the scene's non-moving instances, from `rays_*` cosine-distributed gather rays at the vertex
 // each continued as the renderer's path tracer continues a bounce (a shadow ray to every light at
 // every path vertex, then the next bounce, `bounces` in all), and a pixel's first hit reads it
-// interpolated across its triangle, shaded with the hit's own BRDF.
+// interpolated across its triangle, each vertex's value tilted to the facet's own normal through
+// its rotation gradient (IndirectLight::tilt_gradient), shaded with the hit's own BRDF.
 //
 // A vertex's value is a pure function of (the static scene, the lights, the seed, the vertex):
 // its random numbers are keyed by (seed, instance, vertex, ray), and its rays pass through moving
@@ -82,7 +83,21 @@ struct IndirectLight {
     /// comes from), 0 if dark. Its length R̄ ≤ 1 says how spread the light is: 1 from a single
     /// direction, 2/3 for light of one radiance over the whole hemisphere.
     glm::dvec3 mean_direction{0.0};
+    /// The irradiance's rotation gradient (Ward & Heckbert 1992): for a unit normal n near the
+    /// normal n₀ the value was gathered at, the luminance of `irradiance` is about
+    /// Y₀ + (n − n₀)·tilt_gradient (W/m², world, tangent to n₀). The cache gathers at smooth vertex
+    /// normals; a facet that leans from them toward bright low ground or a sunlit wall gets more.
+    glm::dvec3 tilt_gradient{0.0};
+
+    /// This value as seen by a surface of unit normal `to`, when it was gathered at unit normal
+    /// `from`: every channel of the irradiance scaled by the first-order change of its luminance,
+    /// the factor kept within [0, kMaxTiltFactor] (a tilt past the light's horizon takes it all).
+    IndirectLight tilted(const glm::dvec3& from, const glm::dvec3& to) const;
 };
+
+/// The most a tilt may raise a cached irradiance (IndirectLight::tilted): a first-order gradient
+/// from a few grazing gather rays must not turn into a bright speck.
+constexpr double kMaxTiltFactor = 2.0;
 
 /// What the cache has done so far, cumulatively. Counts cover each vertex once (its first fill),
 /// so they are deterministic; `fill_seconds` is thread time and is not.
@@ -103,6 +118,13 @@ public:
     /// Up to kBlockVertices consecutive vertices of one instance share a block.
     static constexpr uint32_t kBlockVertices = 64;
 
+    /// What a lattice node holds: the gather at the surface its probe met, and that surface's
+    /// unit world normal (what IndirectLight::tilted tilts from).
+    struct Node {
+        IndirectLight light;
+        glm::dvec3 normal{0.0};
+    };
+
     /// A cache over the instances of `scene` that are not moving now (Instance::moving); the
     /// scene must be committed and must outlive the cache. Throws std::invalid_argument naming
     /// the setting on bad settings. Computes vertex normals for the meshes without their own
@@ -117,8 +139,10 @@ public:
 
     /// The indirect light at barycentrics (u, v) of triangle `prim` of covered instance
     /// `instance` (the hit is (1 − u − v)·p0 + u·p1 + v·p2), on the side its vertex normals face:
-    /// the vertices' values interpolated, each filled first if it is not yet. Thread-safe.
-    IndirectLight at(uint32_t instance, uint32_t prim, double u, double v) const;
+    /// the vertices' values interpolated, each filled first if it is not yet. With `normal` (unit,
+    /// world; the facet's own), each vertex's value is first tilted from its vertex normal to it
+    /// (IndirectLight::tilted). Thread-safe.
+    IndirectLight at(uint32_t instance, uint32_t prim, double u, double v, const glm::dvec3* normal = nullptr) const;
 
     /// The unit world normal of the cached side at barycentrics (u, v) of triangle `prim` (the
     /// vertex normals interpolated): a hit seen from the other side is not served by the cache.
@@ -141,13 +165,14 @@ public:
 
 private:
     /// Background vertex `vertex`'s value (at `point`, unit `normal`) from the lattice nodes
-    /// around it (LightCacheSettings::background_filter_cells; the bags' bilinearly); none where
-    /// the vertex is coarse or no node around it is valid.
+    /// around it (LightCacheSettings::background_filter_cells; the bags' bilinearly), each tilted
+    /// from its own surface's normal to `normal`; none where the vertex is coarse or no node around
+    /// it is valid.
     std::optional<IndirectLight> from_lattice(uint32_t instance, uint32_t vertex, const glm::dvec3& point,
                                               const glm::dvec3& normal) const;
     /// Lattice node (i, j)·h across the axis of normal bin `bin` on instance `instance`, probed
     /// and gathered on first touch; none where its probe meets another instance or another bin.
-    std::optional<IndirectLight> lattice_node(uint32_t instance, int64_t i, int64_t j, int bin) const;
+    std::optional<Node> lattice_node(uint32_t instance, int64_t i, int64_t j, int bin) const;
 
     struct Impl;
     const Scene& m_scene;
