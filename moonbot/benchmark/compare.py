@@ -151,6 +151,8 @@ def format_record(record: dict, name: str = "this run") -> str:
             f"  {lv['level']:<8} {lv['seconds_per_sample']:.2f} s a sample "
             f"({_g(lv.get('ratio_pipeline', 0.0))}× the limit): {hours}; {lv['bytes'] / 1e9:.0f} GB"
         )
+    if p.get("note"):
+        lines.append(f"  ({p['note']})")
     return "\n".join(lines)
 
 

@@ -28,7 +28,10 @@ seconds; "worker-seconds" are sums over tasks, which on W workers run W at a tim
 - projection: a task's worker-seconds = fixed + views × per view, fixed = its scene-build stages,
   per view the rest of its wall time; the best run's seconds per sample rescaled from the
   benchmark's views per task to the sweep's, times the sweep's samples; on N nodes / N. Disk:
-  bytes per sample × samples.
+  bytes per sample × samples. The light cache's fill happens within the views' render stage, and
+  how much of it a task's later views add depends on how much new ground they see, so it counts
+  as per view: with few views a task, an upper bound for the sweep (bench/bench_generate.py runs
+  tasks of the sweep's 36 views).
 """
 
 from __future__ import annotations
@@ -240,7 +243,9 @@ def projection(runs: list[dict], sweep_path: Path, image: dict) -> dict:
         "note": (
             "linear in nodes of this machine's kind; each node runs the level's fastest layout measured "
             "here; the benchmark's four scenes stand for the sweep's mix (mean 6 bags against 5.7, half "
-            "dusty as in the sweep); per-worker terrain warm-up and the merge are left out"
+            "dusty as in the sweep); per-worker terrain warm-up and the merge are left out; the light "
+            "cache's fill is counted per view, as these tasks' few views pay it, where a sweep task's views share "
+            "it (bench/bench_generate.py measures tasks of the sweep's views)"
             + ("" if same_image else "; NOT the sweep's image size: the figures are not the sweep's")
         ),
     }
