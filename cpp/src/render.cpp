@@ -933,10 +933,10 @@ private:
     }
 
     /// The indirect radiance toward the camera at camera hit `v` (on triangle `prim`, at Embree's
-    /// barycentrics u, w) from the light cache, W/(m²·sr): the cached irradiance E (tilted to the
-    /// facet's normal, LightCache::at) shaded with
-    /// the hit's BRDF, albedo/π · shape · E (on glossy cloth (1 − s)·albedo/π·shape + s·f_sheen,
-    /// as light_vertices weighs it), the shape taken along the irradiance's mean incident
+    /// barycentrics u, w) from the light cache, W/(m²·sr): the cached irradiance E, tilted to the
+    /// facet's normal (LightCache::at), shaded with the hit's BRDF, albedo/π · shape · E (on glossy
+    /// cloth (1 − s)·albedo/π·shape + s·f_sheen, as light_vertices weighs it), the shape taken
+    /// along the irradiance's mean incident
     /// direction (about the geometric normal, as a bounce's weight is) and the sheen averaged over
     /// a lobe about it as wide as the light spreads (sheen_over_lobe), for a path throughput of
     /// 1. None where the cache does not serve the hit (moving geometry, or its surface seen from
