@@ -73,14 +73,18 @@ def floor_and_wall(floor_step: float = 0.25, moving_wall: bool = False, labelled
     return scene, fv
 
 
-def wall_irradiance(d: float) -> float:
-    """Closed form, one bounce: the sunlit wall's radiance ρ·E·(n·s)/π, seen from a horizontal
-    floor element d metres from its base, through the view factor of an infinitely long strip of
-    height H, F = (1 − d/√(d² + H²))/2: E_ind = ρ·E·(n·s)·F."""
-    sun = _core.DirectionalLight(0.0, SUN_ELEVATION, E_SUN)
-    cos_wall = float(sun.direction[1])  # the wall's normal is +y
-    view_factor = 0.5 * (1.0 - d / np.hypot(d, WALL_HEIGHT))
-    return WALL_ALBEDO * E_SUN * cos_wall * view_factor
+def wall_exitance() -> float:
+    """The sunlit wall's exitance ρ·E·(n·s), W/m² (π times its radiance; its normal is +y)."""
+    return WALL_ALBEDO * E_SUN * float(_core.DirectionalLight(0.0, SUN_ELEVATION, E_SUN).direction[1])
+
+
+def wall_irradiance(d: float, tilt: float = 0.0) -> float:
+    """Closed form, one bounce: the sunlit wall's irradiance on a floor element d metres from its
+    base whose normal is tilted `tilt` radians toward the wall, through the view factor of an
+    infinitely long strip of height H, F = (cos β − cos(α + β))/2 with α = atan(H/d) the wall
+    top's elevation (level, F = (1 − d/√(d² + H²))/2): E_ind = ρ·E·(n·s)·F."""
+    top = np.arctan(WALL_HEIGHT / d)
+    return wall_exitance() * 0.5 * (np.cos(tilt) - np.cos(top + tilt))
 
 
 @pytest.mark.parametrize("d", [0.25, 0.5, 1.0])
@@ -121,16 +125,6 @@ def test_lattice_node_on_the_floor_matches_the_closed_form_too():
     assert near[0] > mid[0] > irradiance[0]
 
 
-def tilted_wall_irradiance(d: float, tilt: float) -> float:
-    """Closed form, one bounce: the sunlit wall's irradiance on a floor element d metres from its
-    base whose normal is tilted `tilt` radians toward the wall, through the strip's view factor
-    F = (cos β − cos(α + β))/2 with α = atan(H/d) the wall top's elevation (β = 0 is
-    wall_irradiance's)."""
-    sun = _core.DirectionalLight(0.0, SUN_ELEVATION, E_SUN)
-    top = np.arctan(WALL_HEIGHT / d)
-    return WALL_ALBEDO * E_SUN * float(sun.direction[1]) * 0.5 * (np.cos(tilt) - np.cos(top + tilt))
-
-
 @pytest.mark.parametrize("d", [0.25, 0.5, 1.0])
 def test_a_vertex_tilted_toward_the_wall_reads_the_irradiance_of_its_tilt(d):
     scene, fv = floor_and_wall()
@@ -141,7 +135,7 @@ def test_a_vertex_tilted_toward_the_wall_reads_the_irradiance_of_its_tilt(d):
     # element, H/(2√(d² + H²)), times πL. The rays within 3° of the horizon (those skimming the
     # wall's foot) are weighted as if at 87°, which leaves it 3.5–5 % short here.
     gradient = np.array(cache.tilt_gradient(0, vertex))
-    expected = WALL_ALBEDO * E_SUN * float(sun.direction[1]) * WALL_HEIGHT / (2 * np.hypot(d, WALL_HEIGHT))
+    expected = wall_exitance() * WALL_HEIGHT / (2 * np.hypot(d, WALL_HEIGHT))
     assert -gradient[1] == pytest.approx(expected, rel=0.06)
     assert abs(gradient[0]) < 0.01 * expected and gradient[2] == 0.0  # tangent to the floor, along the wall's normal
     # Read at a normal tilted 10° toward the wall: the tilt's first-order irradiance, within
@@ -151,7 +145,7 @@ def test_a_vertex_tilted_toward_the_wall_reads_the_irradiance_of_its_tilt(d):
     tilt = np.radians(10.0)
     (tilted, _) = cache.at(0, prim, 0.0, 0.0, normal=(0.0, -np.sin(tilt), np.cos(tilt)))
     (upright, _) = cache.at(0, prim, 0.0, 0.0)
-    truth = tilted_wall_irradiance(d, tilt)
+    truth = wall_irradiance(d, tilt)
     assert tilted[0] == pytest.approx(truth, rel=0.015)
     assert upright[0] < 0.85 * truth
     np.testing.assert_allclose(cache.at(0, prim, 0.0, 0.0, normal=(0.0, 0.0, 1.0))[0], upright, rtol=1e-12)

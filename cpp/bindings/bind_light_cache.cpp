@@ -10,6 +10,17 @@
 
 namespace moonbot::bindings {
 
+namespace {
+
+/// ((E_r, E_g, E_b), (x, y, z)): a cached value's irradiance and mean incident direction, as
+/// LightCache.vertex and LightCache.at return them.
+auto irradiance_and_direction(const IndirectLight& l) {
+    return py::make_tuple(py::make_tuple(l.irradiance.x, l.irradiance.y, l.irradiance.z),
+                          py::make_tuple(l.mean_direction.x, l.mean_direction.y, l.mean_direction.z));
+}
+
+}  // namespace
+
 void bind_light_cache(py::module_& m) {
     ParamsClass<LightCacheSettings>(m, "LightCacheSettings", "How a LightCache gathers (moonbot/light_cache.h).")
         .field("bounces", &LightCacheSettings::bounces,
@@ -55,8 +66,7 @@ void bind_light_cache(py::module_& m) {
                     py::gil_scoped_release release;
                     l = c.vertex(instance, vertex);
                 }
-                return py::make_tuple(py::make_tuple(l.irradiance.x, l.irradiance.y, l.irradiance.z),
-                                      py::make_tuple(l.mean_direction.x, l.mean_direction.y, l.mean_direction.z));
+                return irradiance_and_direction(l);
             },
             py::arg("instance"), py::arg("vertex"),
             "((E_r, E_g, E_b) W/m², (x, y, z) luminance-weighted mean of the unit incident directions, world: length 1 "
@@ -88,8 +98,7 @@ void bind_light_cache(py::module_& m) {
                     py::gil_scoped_release release;
                     l = c.at(instance, prim, u, v, normal ? &n : nullptr);
                 }
-                return py::make_tuple(py::make_tuple(l.irradiance.x, l.irradiance.y, l.irradiance.z),
-                                      py::make_tuple(l.mean_direction.x, l.mean_direction.y, l.mean_direction.z));
+                return irradiance_and_direction(l);
             },
             py::arg("instance"), py::arg("prim"), py::arg("u"), py::arg("v"), py::arg("normal") = py::none(),
             "As vertex(), at barycentrics (u, v) of triangle `prim` (the vertices' values interpolated); with "

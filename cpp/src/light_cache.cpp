@@ -432,21 +432,19 @@ IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instan
     IndirectLight out;
     glm::dvec3 direction(0.0);
     double weight = 0.0;
+    // The rotation gradient: ∂E/∂n = ∫ L·(ω − (ω·n)n) dω, each cosine-distributed ray weighted by
+    // π/(N·cos θ) (Ward & Heckbert 1992, "Irradiance gradients").
     for (size_t k = 0; k < n; ++k) {
         out.irradiance += radiance[k];
         const double w = luminance(radiance[k]);
         direction += w * first_dir[k];
         weight += w;
+        const double mu = glm::dot(first_dir[k], normal);
+        out.tilt_gradient += (w / std::max(mu, kGradientMinCosine)) * (first_dir[k] - mu * normal);
     }
     out.irradiance *= kPi / static_cast<double>(n);
-    out.mean_direction = weight > 0.0 ? direction / weight : glm::dvec3(0.0);
-    // The rotation gradient: ∂E/∂n = ∫ L·(ω − (ω·n)n) dω, each cosine-distributed ray weighted by
-    // π/(N·cos θ) (Ward & Heckbert 1992, "Irradiance gradients").
-    for (size_t k = 0; k < n; ++k) {
-        const double mu = glm::dot(first_dir[k], normal);
-        out.tilt_gradient += (luminance(radiance[k]) / std::max(mu, kGradientMinCosine)) * (first_dir[k] - mu * normal);
-    }
     out.tilt_gradient *= kPi / static_cast<double>(n);
+    out.mean_direction = weight > 0.0 ? direction / weight : glm::dvec3(0.0);
     return out;
 }
 
