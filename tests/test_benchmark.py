@@ -90,6 +90,10 @@ def test_limit_arithmetic():
     assert ray_limit_seconds(rays, row, 1) == pytest.approx(1e-7 * 16 + 2e-7 * 3 + 3e-7 * 4 + 5e-7 * 2)
     assert ray_limit_seconds(rays, row, 2) == pytest.approx(1e-7 * 16 + 2e-7 * 3 + 4e-7 * 4 + 6e-7 * 2)
     assert ray_limit_seconds({"camera_rays": 10}, row, 0) == pytest.approx(1e-6)
+    # A cache level: its gather rays at the pooled bounce rate, their vertices' shadow rays at the
+    # pooled rate of the bounce vertices' shadow rays.
+    cached = {"camera_rays": 10, "shadow_rays": 5, "light_cache_rays": 30, "light_cache_shadow_rays": 7}
+    assert ray_limit_seconds(cached, row, 2) == pytest.approx(1e-7 * 10 + 2e-7 * 5 + 4e-7 * 30 + 6e-7 * 7)
     encode = {
         "views": [
             {"task_id": "a", "serial_s": 0.04, "longest_s": 0.03},

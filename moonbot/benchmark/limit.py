@@ -8,14 +8,19 @@ not settled (settling moves them by millimetres and costs seconds; it changes no
 the Sun shadow rays from their hits, `bounces` generations of diffuse bounce rays (cosine-
 distributed about each hit's normal, generation g + 1 from generation g's hits, as the renderer's
 paths go) and the Sun shadow rays from each generation's hits, each kind as the renderer traces
-it (64-ray streams: `rtcIntersect1M` with the coherent hint for camera rays, `rtcOccluded1M` with
-it for the camera hits' shadow rays, both without it for bounce rays and their shadow rays), the
-busiest thread's sum, at the thread counts asked for. That gives seconds per ray of each kind,
+it (64-ray streams through `rtcIntersect1M` and `rtcOccluded1M`, in Embree's incoherent mode as
+every query of the renderer's: accel.h), the busiest thread's sum, at the thread counts asked for. That gives seconds per ray of each kind,
 and of each bounce generation, on that scene.
 
 A run's Embree limit is then its own ray counts (stats.json) at those costs: bounce rays and the
 shadow rays from bounce vertices (`bounce_shadow_rays`) at the pooled costs of the probe's
-generations 1..B, B the level's bounces. The dust medium's Sun rays
+generations 1..B, B the level's bounces. The light cache's gather rays (`light_cache_rays`, every
+generation of its gather paths) and their vertices' shadow rays (`light_cache_shadow_rays`) are
+the same kinds of ray, cosine-distributed from surface points and continued as bounces are, and
+count at the same pooled costs: a level that reads indirect light from the cache is held to the
+rays it traces to fill it, as a path-traced level is to its bounce rays. (The cache's probe rays,
+one a lattice node along a lattice axis, about 1 % of its gather rays, are not in the views'
+counts and not in the limit.) The dust medium's Sun rays
 (`medium_rays`, coherent closest-hit rays of the dust stage) count at the camera rays' rate; the
 amodal masks' instance passes (against one-bag scenes) and the dust medium's ray marching have no
 Embree counterpart and are not in the limit: they are overhead.
@@ -139,14 +144,15 @@ def bounce_s_per_ray(row: dict, bounces: int, kind: str = "bounce") -> float:
 def ray_limit_seconds(rays: dict, row: dict, bounces: int) -> float:
     """Embree seconds for a task's `rays` (its stats.json counts) rendered with `bounces` bounces,
     at `row`'s per-ray costs: camera and medium rays at the camera-ray rate, the camera hits'
-    shadow rays at the shadow-ray rate, bounce rays and the bounce vertices' shadow rays at their
-    pooled rates. Amodal rays are not counted."""
+    shadow rays at the shadow-ray rate, bounce rays and the light cache's gather rays at the
+    pooled bounce rate, and the shadow rays from both kinds' vertices at the pooled rate of the
+    bounce vertices' shadow rays (see the module docstring). Amodal rays are not counted."""
     bounce_shadow = rays.get("bounce_shadow_rays", 0)
     return (
         row["camera_s_per_ray"] * (rays.get("camera_rays", 0) + rays.get("medium_rays", 0))
         + row["shadow_s_per_ray"] * (rays.get("shadow_rays", 0) - bounce_shadow)
-        + bounce_s_per_ray(row, bounces) * rays.get("bounce_rays", 0)
-        + bounce_s_per_ray(row, bounces, "bounce_shadow") * bounce_shadow
+        + bounce_s_per_ray(row, bounces) * (rays.get("bounce_rays", 0) + rays.get("light_cache_rays", 0))
+        + bounce_s_per_ray(row, bounces, "bounce_shadow") * (bounce_shadow + rays.get("light_cache_shadow_rays", 0))
     )
 
 
