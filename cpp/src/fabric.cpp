@@ -39,13 +39,20 @@ double ggx_lambda(const glm::dvec3& w, double ax2, double ay2) {
     return 0.5 * (-1.0 + std::sqrt(1.0 + (ax2 * w.x * w.x + ay2 * w.y * w.y) / z2));
 }
 
+/// The tape lobe of roughness (ax2, ay2) = (αx², αy²) with its wo-only factors given: pi_alpha =
+/// π·√(ax2·ay2), lambda_wo = Λ(wo), and h the unit half vector of (wi, wo); wi.z, wo.z > 0.
+double tape_lobe_at(const glm::dvec3& wi, const glm::dvec3& wo, const glm::dvec3& h, double ax2, double ay2,
+                    double pi_alpha, double lambda_wo) {
+    const double e = h.x * h.x / ax2 + h.y * h.y / ay2 + h.z * h.z;
+    const double d = 1.0 / (pi_alpha * e * e);
+    const double g2 = 1.0 / (1.0 + ggx_lambda(wi, ax2, ay2) + lambda_wo);
+    return d * g2 / (4.0 * wi.z * wo.z);
+}
+
 double tape_lobe2(const glm::dvec3& wi, const glm::dvec3& wo, double ax2, double ay2) {
     if (!(wi.z > 0.0 && wo.z > 0.0)) return 0.0;
-    const glm::dvec3 h = glm::normalize(wi + wo);
-    const double e = h.x * h.x / ax2 + h.y * h.y / ay2 + h.z * h.z;
-    const double d = 1.0 / (kPi * std::sqrt(ax2 * ay2) * e * e);
-    const double g2 = 1.0 / (1.0 + ggx_lambda(wi, ax2, ay2) + ggx_lambda(wo, ax2, ay2));
-    return d * g2 / (4.0 * wi.z * wo.z);
+    return tape_lobe_at(wi, wo, glm::normalize(wi + wo), ax2, ay2, kPi * std::sqrt(ax2 * ay2),
+                        ggx_lambda(wo, ax2, ay2));
 }
 
 }  // namespace
@@ -55,13 +62,35 @@ double tape_lobe(const glm::dvec3& wi, const glm::dvec3& wo, double ax, double a
 }
 
 double cloth_sheen(const FabricParams& params, const FabricSample& sample, const glm::dvec3& wi, const glm::dvec3& wo) {
+    return ClothSheen(params, sample, wo)(wi);
+}
+
+ClothSheen::ClothSheen(const FabricParams& params, const FabricSample& sample, const glm::dvec3& wo)
+    : m_wo(wo), m_warp_share(sample.warp_share) {
     const double along2 = params.sheen_along * params.sheen_along, across2 = params.sheen_across * params.sheen_across;
     // α² = 2σ² relates a Beckmann lobe to its per-axis slope variance σ² (Walter et al. 2007); we
     // widen the GGX lobe by the same amount.
     const double wx = 2.0 * sample.lost_slope2_x, wy = 2.0 * sample.lost_slope2_y;
-    const double warp = tape_lobe2(wi, wo, along2 + wx, across2 + wy);
-    const double weft = tape_lobe2(wi, wo, across2 + wx, along2 + wy);
-    return sample.warp_share * warp + (1.0 - sample.warp_share) * weft;
+    const auto make = [&](double ax2, double ay2) {
+        // Λ(wo) only where the lobe can be nonzero (wo above the surface), as tape_lobe2 reads it.
+        return Lobe{ax2, ay2, kPi * std::sqrt(ax2 * ay2), wo.z > 0.0 ? ggx_lambda(wo, ax2, ay2) : 0.0};
+    };
+    m_warp = make(along2 + wx, across2 + wy);
+    m_weft = make(across2 + wx, along2 + wy);
+}
+
+double ClothSheen::lobe(const Lobe& l, const glm::dvec3& wi, const glm::dvec3& h) const {
+    return tape_lobe_at(wi, m_wo, h, l.ax2, l.ay2, l.pi_alpha, l.lambda_wo);
+}
+
+double ClothSheen::operator()(const glm::dvec3& wi) const {
+    double warp = 0.0, weft = 0.0;
+    if (wi.z > 0.0 && m_wo.z > 0.0) {
+        const glm::dvec3 h = glm::normalize(wi + m_wo);
+        warp = lobe(m_warp, wi, h);
+        weft = lobe(m_weft, wi, h);
+    }
+    return m_warp_share * warp + (1.0 - m_warp_share) * weft;
 }
 
 double weave_height(double a, double b) {

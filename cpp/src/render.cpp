@@ -811,10 +811,12 @@ private:
     /// The cloth's sheen at vertex `v` for light arriving from `wi` (unit, world): π·f_sheen, in
     /// the units of the renderer's albedo·shape (a Lambertian's π·f).
     static double sheen_weight(const PathVertex& v, const glm::dvec3& wi) {
-        auto local = [&](const glm::dvec3& w) {
-            return glm::dvec3(glm::dot(w, v.warp), glm::dot(w, v.weft), glm::dot(w, v.shading));
-        };
-        return kPi * cloth_sheen(*v.fabric, v.weave, local(wi), local(v.wo));
+        return kPi * cloth_sheen(*v.fabric, v.weave, cloth_local(v, wi), cloth_local(v, v.wo));
+    }
+
+    /// The world direction `w` in vertex `v`'s (warp, weft, shading normal) frame.
+    static glm::dvec3 cloth_local(const PathVertex& v, const glm::dvec3& w) {
+        return glm::dvec3(glm::dot(w, v.warp), glm::dot(w, v.weft), glm::dot(w, v.shading));
     }
 
     /// Adds every light's contribution at the live path vertices to their pixels: `samples`
@@ -969,12 +971,21 @@ private:
     /// from the ground around it would gloss as if it all came from that one direction.
     static double sheen_over_lobe(const PathVertex& v, const glm::dvec3& axis, double resultant) {
         constexpr int kPoints = 16;
-        constexpr double kGoldenFraction = 0.6180339887498949;
+        // The points' turns about the axis, k·(golden ratio's fraction) mod 1: the same for every
+        // lobe, so their cosines and sines are worked out once.
+        static const std::array<std::array<double, 2>, kPoints> kTurns = [] {
+            constexpr double kGoldenFraction = 0.6180339887498949;
+            std::array<std::array<double, 2>, kPoints> turns{};
+            for (int k = 0; k < kPoints; ++k)
+                turn_cos_sin(std::fmod(k * kGoldenFraction, 1.0), turns[k][0], turns[k][1]);
+            return turns;
+        }();
         const double r = std::min(resultant, 0.999);
         const double kappa = std::max(r * (3.0 - r * r) / (1.0 - r * r), 1e-6);
         const double span = -std::expm1(-2.0 * kappa);  // 1 − e^(−2κ)
         glm::dvec3 t, b;
         orthonormal_basis(axis, t, b);
+        const ClothSheen sheen(*v.fabric, v.weave, cloth_local(v, v.wo));
         double sum = 0.0;
         int used = 0;
         for (int k = 0; k < kPoints; ++k) {
@@ -982,11 +993,9 @@ private:
             // Inverse CDF of cos θ under a vMF lobe: 1 + ln(1 − p·(1 − e^(−2κ)))/κ.
             const double cos_theta = std::clamp(1.0 + std::log1p(-p * span) / kappa, -1.0, 1.0);
             const double sin_theta = std::sqrt(std::max(0.0, 1.0 - cos_theta * cos_theta));
-            double c, s;
-            turn_cos_sin(std::fmod(k * kGoldenFraction, 1.0), c, s);
-            const glm::dvec3 wi = axis * cos_theta + (t * c + b * s) * sin_theta;
+            const glm::dvec3 wi = axis * cos_theta + (t * kTurns[k][0] + b * kTurns[k][1]) * sin_theta;
             if (glm::dot(wi, v.normal) <= 0.0) continue;
-            sum += sheen_weight(v, wi);
+            sum += kPi * sheen(cloth_local(v, wi));  // sheen_weight, its wo-only factors shared
             ++used;
         }
         return used > 0 ? sum / used : 0.0;

@@ -316,6 +316,29 @@ TEST_CASE(cloth_sheen_mixes_the_two_tape_directions) {
     CHECK_THROWS(std::invalid_argument, bad.validate());
 }
 
+TEST_CASE(cloth_sheen_object_reused_over_many_directions_is_the_function) {
+    // ClothSheen keeps what depends on wo alone; read at many wi in turn (as a lobe of incident
+    // light is), each value must be the function's to the bit, below the surface (0) included.
+    FabricParams p;
+    p.sheen = 0.3;
+    FabricSample s;
+    s.warp_share = 0.6;
+    s.lost_slope2_x = 0.004;
+    s.lost_slope2_y = 0.001;
+    for (const glm::dvec3& wo : {glm::dvec3(-0.3, 0.2, 0.8), glm::dvec3(0.05, -0.9, 0.1), glm::dvec3(0.3, 0.1, -0.4)}) {
+        const glm::dvec3 o = glm::normalize(wo);
+        const ClothSheen sheen(p, s, o);
+        for (int k = 0; k < 64; ++k) {
+            const double z = -0.3 + 1.3 * (k + 0.5) / 64, phi = 2.399963 * k;
+            const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+            const glm::dvec3 wi(r * std::cos(phi), r * std::sin(phi), z);
+            const double once = sheen(wi), fresh = cloth_sheen(p, s, wi, o);
+            CHECK(once == fresh);
+            CHECK((wi.z > 0.0 && o.z > 0.0) ? once > 0.0 : once == 0.0);
+        }
+    }
+}
+
 TEST_CASE(woven_surface_validate_names_the_field) {
     WovenSurface w;
     w.validate();  // the defaults are valid

@@ -110,6 +110,30 @@ double tape_lobe(const glm::dvec3& wi, const glm::dvec3& wo, double ax, double a
 /// are unit, in the (warp, weft, shading normal) frame.
 double cloth_sheen(const FabricParams& params, const FabricSample& sample, const glm::dvec3& wi, const glm::dvec3& wo);
 
+/// cloth_sheen at one footprint and one outgoing direction, for many incident directions (a
+/// lobe of incident light read at many points): what depends on `wo` alone — each tape lobe's
+/// roughness, its normalisation and Smith's Λ(wo) — is evaluated once, and every value is the
+/// same as cloth_sheen's to the bit.
+class ClothSheen {
+public:
+    /// `wo` unit, in the (warp, weft, shading normal) frame.
+    ClothSheen(const FabricParams& params, const FabricSample& sample, const glm::dvec3& wo);
+    /// f_sheen (sr⁻¹) for the unit incident direction `wi`, in the same frame.
+    double operator()(const glm::dvec3& wi) const;
+
+private:
+    struct Lobe {
+        double ax2, ay2;     // α² along x and y, widened by the lost slope variance
+        double pi_alpha;     // π·αx·αy, D's normalisation
+        double lambda_wo;    // Smith's Λ(wo)
+    };
+    double lobe(const Lobe& l, const glm::dvec3& wi, const glm::dvec3& h) const;
+
+    glm::dvec3 m_wo;
+    double m_warp_share;
+    Lobe m_warp, m_weft;
+};
+
 /// The unfiltered height field h(a, b) in [0, 1] (see the top of this header), a = πx/p,
 /// b = πy/p: exposed so tests and pictures can check the weave itself.
 double weave_height(double a, double b);
