@@ -1274,9 +1274,9 @@ def stamp_centres(seed: typing.SupportsInt | typing.SupportsIndex, stamps: typin
     """
     The stamp centres (stamps, 2) float64 in [0, 1)^2 (u, v).
     """
-def tonemap_reinhard(rgb: typing.Any, exposure: typing.SupportsFloat | typing.SupportsIndex) -> tuple[numpy.typing.NDArray[numpy.uint8], int]:
+def tonemap_reinhard(rgb: typing.Any, exposure: typing.SupportsFloat | typing.SupportsIndex, veiling_glare: typing.SupportsFloat | typing.SupportsIndex = 0.0) -> tuple[numpy.typing.NDArray[numpy.uint8], int]:
     """
-    Linear radiance (H, W, 3) × exposure (sr·m²/W) → Reinhard on luminance → 8-bit sRGB. Returns ((H, W, 3) uint8, number of pixels with a NaN, ±Inf or negative channel). NaN, -Inf and negatives count as 0; +Inf and overflow as the brightest value (1e30).
+    Linear radiance (H, W, 3) × exposure (sr·m²/W) → Reinhard on luminance → 8-bit sRGB. Returns ((H, W, 3) uint8, number of pixels with a NaN, ±Inf or negative channel). NaN, -Inf and negatives count as 0; +Inf and overflow as the brightest value (1e30). veiling_glare > 0 (ISO 9358's index, a fraction) first adds the lens's uniform veil, that fraction of each channel's mean over the pixels whose channels are all finite and >= 0, to those pixels.
     """
 def weave_height(a: typing.SupportsFloat | typing.SupportsIndex, b: typing.SupportsFloat | typing.SupportsIndex) -> float:
     """

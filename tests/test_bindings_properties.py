@@ -1177,6 +1177,8 @@ BAD_TONEMAPS = {
     "exposure-zero": ((np.zeros((2, 2, 3), np.float32), 0.0), "exposure"),
     "exposure-negative": ((np.zeros((2, 2, 3), np.float32), -1.0), "exposure"),
     "exposure-nan": ((np.zeros((2, 2, 3), np.float32), math.nan), "exposure"),
+    "veiling_glare-negative": ((np.zeros((2, 2, 3), np.float32), 1.0, -0.02), "veiling_glare"),
+    "veiling_glare-inf": ((np.zeros((2, 2, 3), np.float32), 1.0, math.inf), "veiling_glare"),
 }
 
 

@@ -181,7 +181,7 @@ def test_exr_output_is_the_radiance_behind_rgb_png(tmp_path):
 
     from moonbot import _core
     from moonbot.config import load_config
-    from moonbot.render.exposure import add_veiling_glare, auto_ev100, regolith_reflectance
+    from moonbot.render.exposure import auto_ev100, regolith_reflectance
 
     result = CliRunner().invoke(
         main,
@@ -202,8 +202,7 @@ def test_exr_output_is_the_radiance_behind_rgb_png(tmp_path):
     assert hdr.dtype == np.float32 and hdr.shape == (120, 160, 3) and np.isfinite(hdr).all()
     # rgb.exr is the scene radiance; rgb.png adds the lens's veiling glare before the tone map.
     assert gt["exposure"]["veiling_glare_index"] == 0.02
-    veiled = add_veiling_glare(hdr, gt["exposure"]["veiling_glare_index"])
-    rgb8, _ = _core.tonemap_reinhard(veiled, gt["exposure"]["scale_sr_m2_w"])
+    rgb8, _ = _core.tonemap_reinhard(hdr, gt["exposure"]["scale_sr_m2_w"], gt["exposure"]["veiling_glare_index"])
     np.testing.assert_array_equal(np.array(Image.open(view / "rgb.png")), rgb8)
 
 

@@ -16,7 +16,7 @@ constexpr py::ssize_t kMaxImageSide = 32768;
 void bind_image(py::module_& m) {
     m.def(
         "tonemap_reinhard",
-        [](const py::handle& rgb, double exposure) {
+        [](const py::handle& rgb, double exposure, double veiling_glare) {
             py::array a = as_array(rgb, "rgb");
             if (a.dtype().kind() != 'f') fail("rgb", "must be a floating-point array");
             if (a.ndim() != 3 || a.shape(2) != 3) fail("rgb", "must have shape (H, W, 3), got " + shape_of(a));
@@ -30,14 +30,17 @@ void bind_image(py::module_& m) {
             size_t invalid = 0;
             {
                 py::gil_scoped_release release;
-                invalid = tonemap_reinhard_srgb8(src, n, exposure, dst);
+                invalid = tonemap_reinhard_srgb8(src, n, exposure, dst, veiling_glare);
             }
             return py::make_tuple(out, invalid);
         },
-        py::arg("rgb"), py::arg("exposure"),
+        py::arg("rgb"), py::arg("exposure"), py::arg("veiling_glare") = 0.0,
         "Linear radiance (H, W, 3) × exposure (sr·m²/W) → Reinhard on luminance → 8-bit sRGB. "
         "Returns ((H, W, 3) uint8, number of pixels with a NaN, ±Inf or negative channel). NaN, "
-        "-Inf and negatives count as 0; +Inf and overflow as the brightest value (1e30).");
+        "-Inf and negatives count as 0; +Inf and overflow as the brightest value (1e30). "
+        "veiling_glare > 0 (ISO 9358's index, a fraction) first adds the lens's uniform veil, that "
+        "fraction of each channel's mean over the pixels whose channels are all finite and >= 0, to "
+        "those pixels.");
 
     m.def(
         "write_image",

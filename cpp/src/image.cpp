@@ -87,15 +87,55 @@ inline float sanitized_sample(float in, bool& invalid) {
     return magnitude < 0x00800000u ? 0.0f : in;  // subnormal (< 1.2e-38): far below code 1
 }
 
+/// Whether all three channels of the pixel at `p` are finite and ≥ 0 (-0.0 included), told by
+/// the bit pattern (see sanitized_sample).
+inline bool sound_pixel(const float* p) {
+    for (int c = 0; c < 3; ++c) {
+        uint32_t bits;
+        std::memcpy(&bits, p + c, sizeof bits);
+        const uint32_t magnitude = bits & 0x7fffffffu;
+        if (magnitude >= 0x7f800000u || ((bits >> 31) != 0 && magnitude != 0)) return false;
+    }
+    return true;
+}
+
+/// A sound sample with subnormals as 0, whatever the thread's denormal mode.
+inline float flushed(float x) {
+    uint32_t bits;
+    std::memcpy(&bits, &x, sizeof bits);
+    return (bits & 0x7fffffffu) < 0x00800000u ? 0.0f : x;
+}
+
 // Decoded images larger than this are refused before allocating: a corrupt header must not
 // ask for gigabytes.
 constexpr int kMaxReadSide = 32768;
 
 }  // namespace
 
-size_t tonemap_reinhard_srgb8(const float* rgb, size_t n_pixels, double exposure, uint8_t* out) {
+std::array<float, 3> veiling_glare(const float* rgb, size_t n_pixels, double glare_index) {
+    if (!(std::isfinite(glare_index) && glare_index >= 0.0))
+        throw std::invalid_argument("veiling_glare: must be a finite number >= 0");
+    double sum[3] = {0.0, 0.0, 0.0};
+    size_t sound = 0;
+    for (size_t i = 0; i < n_pixels; ++i) {
+        const float* p = rgb + 3 * i;
+        if (!sound_pixel(p)) continue;
+        for (int c = 0; c < 3; ++c) sum[c] += static_cast<double>(flushed(p[c]));
+        ++sound;
+    }
+    std::array<float, 3> veil{0.0f, 0.0f, 0.0f};
+    if (sound == 0) return veil;
+    for (int c = 0; c < 3; ++c) veil[c] = static_cast<float>(glare_index * (sum[c] / static_cast<double>(sound)));
+    return veil;
+}
+
+size_t tonemap_reinhard_srgb8(const float* rgb, size_t n_pixels, double exposure, uint8_t* out,
+                              double veiling_glare_index) {
     if (!(std::isfinite(exposure) && exposure > 0.0))
         throw std::invalid_argument("exposure: must be positive and finite (sr·m²/W)");
+    // The index is checked whatever its value; at 0 no pixel is summed.
+    const std::array<float, 3> veil = veiling_glare(rgb, veiling_glare_index > 0.0 ? n_pixels : 0, veiling_glare_index);
+    const bool veiled = veil[0] > 0.0f || veil[1] > 0.0f || veil[2] > 0.0f;
     static const SrgbEncoder srgb;  // built once, thread-safe (C++11 static initialisation)
     // The brightest signal: +Inf and overflow saturate here rather than turning black, and the
     // luminance sum of three such channels (≤ 1e30) stays far from FLT_MAX, so 1/(1+Y) is a
@@ -110,10 +150,12 @@ size_t tonemap_reinhard_srgb8(const float* rgb, size_t n_pixels, double exposure
         for (size_t i = range.begin(); i != range.end(); ++i) {
             float v[3];
             bool bad = false;
+            const bool lift = veiled && sound_pixel(rgb + 3 * i);
             for (int c = 0; c < 3; ++c) {
                 // ≥ 0 or +Inf, times a positive finite float exposure: ≥ 0 or +Inf, never NaN;
                 // the comparison would send a NaN to 0 all the same.
-                const float x = sanitized_sample(rgb[3 * i + c], bad) * e;
+                const float in = lift ? flushed(rgb[3 * i + c]) + veil[c] : rgb[3 * i + c];
+                const float x = sanitized_sample(in, bad) * e;
                 v[c] = x > 0.0f ? std::min(x, kBrightest) : 0.0f;
             }
             bad_pixels += bad;

@@ -123,29 +123,15 @@ def exposure_for_ev100(ev100: float, setting: float | str | None = None, veiling
     )
 
 
-def add_veiling_glare(rgb: np.ndarray, glare_index: float) -> np.ndarray:
-    """(H, W, 3) float32 radiance plus the lens's uniform veil: `glare_index` × the mean of each
-    channel over the frame's finite, non-negative pixels (others are left as they are, for the
-    tone map to count as invalid). A new array; `rgb` is not changed."""
-    rgb = np.asarray(rgb, dtype=np.float32)
-    sound = np.isfinite(rgb).all(axis=2) & (rgb >= 0.0).all(axis=2)
-    if not sound.any():
-        return rgb.copy()
-    veil = (glare_index * rgb[sound].astype(np.float64).mean(axis=0)).astype(np.float32)
-    out = rgb.copy()
-    out[sound] += veil
-    return out
-
-
 def tonemap(rgb: np.ndarray, exposure: Exposure) -> tuple[np.ndarray, int]:
     """(H, W, 3) linear radiance (W/(m²·sr)) to 8-bit sRGB at `exposure`: the lens's veiling
-    glare (`add_veiling_glare`, only where `exposure.veiling_glare` > 0), then the core's Reinhard
-    tone map. Returns (uint8 (H, W, 3), the count of invalid pixels)."""
+    glare (`exposure.veiling_glare`, ISO 9358's index: that fraction of each channel's mean over
+    the frame's finite, non-negative pixels added to those pixels; 0 = none), then Reinhard's tone
+    map, both in the core (`_core.tonemap_reinhard`). Returns (uint8 (H, W, 3), the count of
+    invalid pixels: a NaN, ±Inf or negative channel)."""
     from moonbot import _core
 
-    if exposure.veiling_glare > 0.0:
-        rgb = add_veiling_glare(rgb, exposure.veiling_glare)
-    return _core.tonemap_reinhard(rgb, exposure.scale)
+    return _core.tonemap_reinhard(rgb, exposure.scale, exposure.veiling_glare)
 
 
 def regolith_reflectance(config: Config, azimuths: int = 36) -> float:

@@ -2,6 +2,7 @@
 // sRGB transfer curve; files are written through OpenImageIO, atomically (temporary + rename).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <stdexcept>
@@ -26,8 +27,21 @@ namespace moonbot {
 /// (the brightest value, so the curve stays monotone up to the largest float); subnormal inputs
 /// (< 1.2e-38) count as 0 whatever the thread's denormal mode. Returns the number of pixels with
 /// at least one NaN, ±Inf or negative channel in `rgb` (-0.0 is not counted).
-/// Throws std::invalid_argument unless exposure is positive and finite.
-size_t tonemap_reinhard_srgb8(const float* rgb, size_t n_pixels, double exposure, uint8_t* out);
+///
+/// `veiling_glare` > 0 first adds the lens's uniform veil (veiling_glare()) to every sound pixel's
+/// radiance (all three channels finite and ≥ 0; the others are left as they are, and counted).
+/// Throws std::invalid_argument unless exposure is positive and finite and veiling_glare finite
+/// and ≥ 0.
+size_t tonemap_reinhard_srgb8(const float* rgb, size_t n_pixels, double exposure, uint8_t* out,
+                              double veiling_glare = 0.0);
+
+/// The uniform veil (W/(m²·sr) per channel) a lens of veiling glare index `glare_index` (ISO 9358:
+/// the light a black spot in a bright field receives, as a fraction of the field's) lays over a
+/// frame: glare_index × each channel's mean over the sound pixels of `rgb` (n_pixels×3 float32;
+/// sound: all three channels finite and ≥ 0, told by the bit pattern as the tone map tells them;
+/// subnormals count as 0), the sums in double in pixel order, so the same on any thread; 0 where
+/// no pixel is sound. Throws std::invalid_argument unless glare_index is finite and ≥ 0.
+std::array<float, 3> veiling_glare(const float* rgb, size_t n_pixels, double glare_index);
 
 /// A header attribute written with an image: a name and a string or float value. EXR keeps every
 /// one of them in its header; PNG keeps what it has a field for and drops the rest.
