@@ -9,8 +9,8 @@ the Sun shadow rays from their hits, `bounces` generations of diffuse bounce ray
 distributed about each hit's normal, generation g + 1 from generation g's hits, as the renderer's
 paths go) and the Sun shadow rays from each generation's hits, each kind as the renderer traces
 it (64-ray streams through `rtcIntersect1M` and `rtcOccluded1M`, in Embree's incoherent mode as
-every query of the renderer's: accel.h), the busiest thread's sum, at the thread counts asked for. That gives seconds per ray of each kind,
-and of each bounce generation, on that scene.
+every query of the renderer's: accel.h), the busiest thread's sum, at the thread counts asked
+for. That gives seconds per ray of each kind, and of each bounce generation, on that scene.
 
 A run's Embree limit is then its own ray counts (stats.json) at those costs: bounce rays and the
 shadow rays from bounce vertices (`bounce_shadow_rays`) at the pooled costs of the probe's

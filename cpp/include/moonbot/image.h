@@ -28,12 +28,12 @@ namespace moonbot {
 /// (< 1.2e-38) count as 0 whatever the thread's denormal mode. Returns the number of pixels with
 /// at least one NaN, ±Inf or negative channel in `rgb` (-0.0 is not counted).
 ///
-/// `veiling_glare` > 0 first adds the lens's uniform veil (veiling_glare()) to every sound pixel's
-/// radiance (all three channels finite and ≥ 0; the others are left as they are, and counted).
-/// Throws std::invalid_argument unless exposure is positive and finite and veiling_glare finite
-/// and ≥ 0.
+/// `veiling_glare_index` > 0 first adds the lens's uniform veil (veiling_glare()) to every sound
+/// pixel's radiance (all three channels finite and ≥ 0; the others are left as they are, and
+/// counted). Throws std::invalid_argument unless exposure is positive and finite and
+/// veiling_glare_index finite and ≥ 0 (the message names it `veiling_glare`, as Python does).
 size_t tonemap_reinhard_srgb8(const float* rgb, size_t n_pixels, double exposure, uint8_t* out,
-                              double veiling_glare = 0.0);
+                              double veiling_glare_index = 0.0);
 
 /// The uniform veil (W/(m²·sr) per channel) a lens of veiling glare index `glare_index` (ISO 9358:
 /// the light a black spot in a bright field receives, as a fraction of the field's) lays over a
