@@ -87,23 +87,12 @@ inline float sanitized_sample(float in, bool& invalid) {
     return magnitude < 0x00800000u ? 0.0f : in;  // subnormal (< 1.2e-38): far below code 1
 }
 
-/// Whether all three channels of the pixel at `p` are finite and ≥ 0 (-0.0 included), told by
-/// the bit pattern (see sanitized_sample).
-inline bool sound_pixel(const float* p) {
-    for (int c = 0; c < 3; ++c) {
-        uint32_t bits;
-        std::memcpy(&bits, p + c, sizeof bits);
-        const uint32_t magnitude = bits & 0x7fffffffu;
-        if (magnitude >= 0x7f800000u || ((bits >> 31) != 0 && magnitude != 0)) return false;
-    }
-    return true;
-}
-
-/// A sound sample with subnormals as 0, whatever the thread's denormal mode.
-inline float flushed(float x) {
-    uint32_t bits;
-    std::memcpy(&bits, &x, sizeof bits);
-    return (bits & 0x7fffffffu) < 0x00800000u ? 0.0f : x;
+/// The three samples of the pixel at `p` through sanitized_sample, into `out`; whether any is
+/// invalid (the pixel is sound, finite and ≥ 0 in every channel, when none is).
+inline bool sanitized_pixel(const float* p, float out[3]) {
+    bool invalid = false;
+    for (int c = 0; c < 3; ++c) out[c] = sanitized_sample(p[c], invalid);
+    return invalid;
 }
 
 // Decoded images larger than this are refused before allocating: a corrupt header must not
@@ -118,9 +107,9 @@ std::array<float, 3> veiling_glare(const float* rgb, size_t n_pixels, double gla
     double sum[3] = {0.0, 0.0, 0.0};
     size_t sound = 0;
     for (size_t i = 0; i < n_pixels; ++i) {
-        const float* p = rgb + 3 * i;
-        if (!sound_pixel(p)) continue;
-        for (int c = 0; c < 3; ++c) sum[c] += static_cast<double>(flushed(p[c]));
+        float p[3];
+        if (sanitized_pixel(rgb + 3 * i, p)) continue;
+        for (int c = 0; c < 3; ++c) sum[c] += static_cast<double>(p[c]);
         ++sound;
     }
     std::array<float, 3> veil{0.0f, 0.0f, 0.0f};
@@ -149,13 +138,14 @@ size_t tonemap_reinhard_srgb8(const float* rgb, size_t n_pixels, double exposure
         size_t bad_pixels = 0;
         for (size_t i = range.begin(); i != range.end(); ++i) {
             float v[3];
-            bool bad = false;
-            const bool lift = veiled && sound_pixel(rgb + 3 * i);
+            bool bad = sanitized_pixel(rgb + 3 * i, v);
+            // The veil lifts sound pixels only; a lifted sample that overflows counts as invalid.
+            if (veiled && !bad)
+                for (int c = 0; c < 3; ++c) v[c] = sanitized_sample(v[c] + veil[c], bad);
             for (int c = 0; c < 3; ++c) {
                 // ≥ 0 or +Inf, times a positive finite float exposure: ≥ 0 or +Inf, never NaN;
                 // the comparison would send a NaN to 0 all the same.
-                const float in = lift ? flushed(rgb[3 * i + c]) + veil[c] : rgb[3 * i + c];
-                const float x = sanitized_sample(in, bad) * e;
+                const float x = v[c] * e;
                 v[c] = x > 0.0f ? std::min(x, kBrightest) : 0.0f;
             }
             bad_pixels += bad;
