@@ -14,9 +14,9 @@ void bind_limit(py::module_& m) {
                 l = measure_embree_limit(scene, camera, sun, threads, repeats, bounces);
             }
             auto list = [](const auto& values) {
-                py::list l;
-                for (const auto& v : values) l.append(v);
-                return l;
+                py::list items;
+                for (const auto& v : values) items.append(v);
+                return items;
             };
             py::dict out;
             out["camera_rays"] = l.camera_rays;
