@@ -43,6 +43,22 @@ double luminance(const glm::dvec3& c) { return 0.2126 * c.r + 0.7152 * c.g + 0.0
 // so that the rare ray skimming the horizon does not dominate a node's gradient.
 constexpr double kGradientMinCosine = 0.05;
 
+// A facet that leans from the normal its light was gathered at sees below that normal's horizon:
+// on sunlit ground, its sunlit neighbours; on a bag's top, the ground past its rim. That light
+// grows with the square of the lean (an upward face over a bright plane gets (1 − cos t)/2 of
+// it), which the rotation gradient cannot carry. So each gather also traces rays into the band
+// below its horizon, down to this sine of depth (30°), uniform in solid angle, a sixteenth as many
+// as its gather rays and at least kMinBelowHorizonRays (they meet nearby ground, whose light is
+// smooth: more of them moved no region's mean, docs/performance.md), and fits the luminance's
+// second-order change with the lean (IndirectLight::tilt_curvature) at leans of kCurvatureFitLeans.
+constexpr double kBelowHorizonSine = 0.5;
+constexpr size_t kBelowHorizonRaysDivisor = 16;
+constexpr size_t kMinBelowHorizonRays = 4;
+constexpr double kCurvatureFitLeans[2] = {0.2617993877991494, 0.5235987755982988};  // 15°, 30°, radians
+constexpr int kCurvatureFitAzimuths = 8;
+constexpr double kMaxCurvatureLean = 0.5;  // sin 30°, the largest lean fitted
+constexpr uint64_t kBelowHorizonStreamSalt = 0x62656c6f7768727aull;  // "belowhrz"
+
 /// One gather path's current vertex.
 struct GatherPath {
     glm::dvec3 point, lifted, normal, albedo, wo, throughput;
@@ -108,6 +124,11 @@ struct Lattice {
     double spacing = 0.0;       // metres
     int rays = 0;               // gather rays per node
     double filter_cells = 1.0;  // radius of the tent a vertex reads the nodes through, cells (1: bilinear)
+    // Whether a node's value is tilted to a vertex's normal to second order (IndirectLight::tilted).
+    // Not on the bags: a bag's node can stand a centimetre from the vertex across a fold, its
+    // normal tens of degrees off, and there the second-order term overshot the path tracer
+    // (docs/performance.md); their vertices' values are tilted to the facets to second order.
+    bool second_order = true;
     glm::dvec3 lo{std::numeric_limits<double>::infinity()}, hi{-std::numeric_limits<double>::infinity()};
     std::vector<bool> fine;  // per vertex: every triangle edge at it is shorter than the spacing
     // A node's value: the irradiance at the surface its probe met, or none (see lattice_node).
@@ -116,10 +137,12 @@ struct Lattice {
 };
 
 /// Instance `inst`'s lattice of spacing `h` over `mesh`, read through a tent of `filter_cells`
-/// cells: its world bounds and which vertices are fine enough to read it.
+/// cells, its nodes tilted to the vertices to second order or not (Lattice::second_order): its
+/// world bounds and which vertices are fine enough to read it.
 std::unique_ptr<Lattice> make_lattice(const InstanceData& inst, const Mesh& mesh, double h, int rays,
-                                      double filter_cells) {
+                                      double filter_cells, bool second_order) {
     auto lattice = std::make_unique<Lattice>();
+    lattice->second_order = second_order;
     lattice->spacing = h;
     lattice->rays = rays;
     lattice->filter_cells = filter_cells;
@@ -243,7 +266,7 @@ LightCache::LightCache(const Scene& scene, const Lights& lights, const LightCach
             // The bags' lattice is read bilinearly (LightCacheSettings::background_filter_cells).
             m.lattices[i] =
                 make_lattice(m.instances[i], mesh, spacing, labelled ? settings.rays_objects : settings.rays_background,
-                             labelled ? 1.0 : settings.background_filter_cells);
+                             labelled ? 1.0 : settings.background_filter_cells, !labelled);
             m.table_bytes += sizeof(Lattice) + mesh.vertex_count() / 8;
         }
         m.vertex_count[i] = static_cast<uint32_t>(mesh.vertex_count());
@@ -279,16 +302,30 @@ void vertex_frame(const InstanceData& inst, const float* normals, uint32_t verte
     normal = world_normal(inst, normals, vertex);
 }
 
+/// A unit direction uniformly distributed in solid angle over the band below the horizon of the
+/// unit `normal`, from the horizon down to kBelowHorizonSine (u1, u2 in [0, 1)); `mu` receives its
+/// cosine to the normal (negative).
+glm::dvec3 below_horizon_direction(const glm::dvec3& normal, double u1, double u2, double& mu) {
+    mu = -kBelowHorizonSine * u1;
+    const double r = std::sqrt(std::max(0.0, 1.0 - mu * mu));
+    double c, s;
+    turn_cos_sin(u2, c, s);
+    glm::dvec3 a, b;
+    orthonormal_basis(normal, a, b);
+    return r * c * a + r * s * b + mu * normal;
+}
+
 /// Rays `first` .. `first` + `n` − 1 of the vertex's gather sequence from `lifted` (the gather point
 /// lifted off its surface, world metres) on a surface of unit `normal` (sample_pair's stream
-/// `stream`, index = the ray's number): each a cosine-distributed direction about the normal,
-/// continued for `bounces` path vertices as render.cpp's path tracer continues a bounce, against
-/// the static geometry only. Appends each ray's radiance (W/(m²·sr), linear RGB) and first
-/// direction to `radiance_out` and `first_dir_out`.
+/// `stream`, index = the ray's number): each a cosine-distributed direction about the normal (with
+/// `below`, uniform over the band below its horizon: below_horizon_direction), continued for
+/// `bounces` path vertices as render.cpp's path tracer continues a bounce, against the static
+/// geometry only. Appends each ray's radiance (W/(m²·sr), linear RGB) and first direction to
+/// `radiance_out` and `first_dir_out`.
 void gather_batch(const Accel& accel, const std::vector<InstanceData>& instances, const std::vector<LightData>& lights,
                   const glm::dvec3& lifted, const glm::dvec3& normal, uint64_t stream, uint32_t first, size_t n,
                   int bounces, FillCounts& counts, std::vector<glm::dvec3>& radiance_out,
-                  std::vector<glm::dvec3>& first_dir_out) {
+                  std::vector<glm::dvec3>& first_dir_out, bool below = false) {
     std::vector<GatherPath> paths(n);
     std::vector<glm::dvec3> radiance(n, glm::dvec3(0.0)), first_dir(n);
     std::vector<RayHit> traced(n), shadow(n);
@@ -297,13 +334,14 @@ void gather_batch(const Accel& accel, const std::vector<InstanceData>& instances
     for (size_t k = 0; k < n; ++k) {
         double mu;
         const SamplePair q = sample_pair(stream, first + static_cast<uint32_t>(k), 0);
-        const glm::dvec3 wi = cosine_direction(normal, q.u, q.v, mu);
+        const glm::dvec3 wi =
+            below ? below_horizon_direction(normal, q.u, q.v, mu) : cosine_direction(normal, q.u, q.v, mu);
         first_dir[k] = wi;
         GatherPath& p = paths[k];
         p.throughput = glm::dvec3(1.0);
         p.point = lifted;
         p.wo = wi;
-        p.alive = mu > 0.0;
+        p.alive = below ? mu < 0.0 : mu > 0.0;
         if (!p.alive) continue;
         set_ray(traced[count], lifted, wi);
         traced[count].mask = kStaticGeometry;
@@ -412,6 +450,52 @@ double relative_standard_error(const std::vector<glm::dvec3>& radiance) {
     return std::sqrt(variance / static_cast<double>(n)) / mean;
 }
 
+/// IndirectLight::tilt_curvature at unit `normal` from its gather: the cosine-distributed rays
+/// (`above_radiance`, W/(m²·sr), along unit `above_dir`) and the rays below its horizon
+/// (`below_*`, below_horizon_direction), whose rotation gradient is `gradient`. The irradiance
+/// luminance at a leaning normal n is estimated from the same rays (the cosine rays reweighted by
+/// n·ω/max(n₀·ω, kGradientMinCosine), as the gradient weighs them; the band's by n·ω over its
+/// uniform density), at kCurvatureFitAzimuths azimuths for each of kCurvatureFitLeans, and the
+/// symmetric tangent tensor Q fitted by least squares to what is left after the gradient:
+/// E(n) − E(n₀) − (n − n₀)·gradient ≈ dᵀQd, d the lean's offset across n₀.
+glm::dmat3 fit_tilt_curvature(const glm::dvec3& normal, const std::vector<glm::dvec3>& above_radiance,
+                              const std::vector<glm::dvec3>& above_dir, const std::vector<glm::dvec3>& below_radiance,
+                              const std::vector<glm::dvec3>& below_dir, const glm::dvec3& gradient) {
+    std::vector<double> above_weight(above_radiance.size()), below_weight(below_radiance.size());
+    // Band of solid angle 2π·sin(depth), sampled uniformly: each ray stands for 2π·sin/M.
+    const double band = 2.0 * kPi * kBelowHorizonSine / static_cast<double>(below_radiance.size());
+    for (size_t k = 0; k < above_radiance.size(); ++k)
+        above_weight[k] = kPi / static_cast<double>(above_radiance.size()) * luminance(above_radiance[k]) /
+                          std::max(glm::dot(above_dir[k], normal), kGradientMinCosine);
+    for (size_t k = 0; k < below_radiance.size(); ++k) below_weight[k] = band * luminance(below_radiance[k]);
+    const auto estimate = [&](const glm::dvec3& n) {
+        double sum = 0.0;
+        for (size_t k = 0; k < above_dir.size(); ++k) sum += above_weight[k] * std::max(0.0, glm::dot(n, above_dir[k]));
+        for (size_t k = 0; k < below_dir.size(); ++k) sum += below_weight[k] * std::max(0.0, glm::dot(n, below_dir[k]));
+        return sum;
+    };
+    const double upright = estimate(normal);
+    glm::dvec3 t, b;
+    orthonormal_basis(normal, t, b);
+    // Normal equations of the fit for (Q_tt, Q_tb, Q_bb), basis (d_t², 2·d_t·d_b, d_b²).
+    glm::dmat3 normal_matrix(0.0);
+    glm::dvec3 moment(0.0);
+    for (const double lean : kCurvatureFitLeans)
+        for (int j = 0; j < kCurvatureFitAzimuths; ++j) {
+            double c, s;
+            turn_cos_sin(static_cast<double>(j) / kCurvatureFitAzimuths, c, s);
+            const double dt = std::sin(lean) * c, db = std::sin(lean) * s;
+            const glm::dvec3 n = std::cos(lean) * normal + dt * t + db * b;
+            const double rest = estimate(n) - upright - glm::dot(n - normal, gradient);
+            const glm::dvec3 basis(dt * dt, 2.0 * dt * db, db * db);
+            normal_matrix += glm::outerProduct(basis, basis);
+            moment += rest * basis;
+        }
+    const glm::dvec3 q = glm::inverse(normal_matrix) * moment;
+    return q.x * glm::outerProduct(t, t) + q.y * (glm::outerProduct(t, b) + glm::outerProduct(b, t)) +
+           q.z * glm::outerProduct(b, b);
+}
+
 /// The indirect irradiance at `point` (world, metres) on a surface of unit `normal` from `rays`
 /// gather rays (gather_batch), and while `error` > 0 and the rays' relative standard error is
 /// above it, `rays` more at a time up to `max_rays`: the rays go where the light is uneven (a
@@ -445,16 +529,41 @@ IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instan
     out.irradiance *= kPi / static_cast<double>(n);
     out.tilt_gradient *= kPi / static_cast<double>(n);
     out.mean_direction = weight > 0.0 ? direction / weight : glm::dvec3(0.0);
+    std::vector<glm::dvec3> below_radiance, below_dir;
+    gather_batch(accel, instances, lights, lifted, normal, mix64(stream ^ kBelowHorizonStreamSalt), 0,
+                 std::max(kMinBelowHorizonRays, batch / kBelowHorizonRaysDivisor), bounces, counts, below_radiance,
+                 below_dir, true);
+    out.tilt_curvature = fit_tilt_curvature(normal, radiance, first_dir, below_radiance, below_dir, out.tilt_gradient);
+    glm::dvec3 below_sum(0.0);
+    for (const glm::dvec3& r : below_radiance) below_sum += r;
+    if (luminance(below_sum) > 0.0) out.below_colour = below_sum / luminance(below_sum);
     return out;
 }
 
 }  // namespace
 
-IndirectLight IndirectLight::tilted(const glm::dvec3& from, const glm::dvec3& to) const {
-    const double y = luminance(irradiance);
-    if (!(y > 0.0)) return *this;
+IndirectLight IndirectLight::tilted(const glm::dvec3& from, const glm::dvec3& to, bool second_order) const {
     IndirectLight out = *this;
-    out.irradiance *= std::clamp(1.0 + glm::dot(to - from, tilt_gradient) / y, 0.0, kMaxTiltFactor);
+    const glm::dvec3 across = (to - from) - glm::dot(to - from, from) * from;
+    // The curvature was fitted up to kMaxCurvatureLean: past it, its term is held at that lean's.
+    const double lean = glm::length(across);
+    const glm::dvec3 held = lean > kMaxCurvatureLean ? across * (kMaxCurvatureLean / lean) : across;
+    const glm::dvec3 bend = second_order ? tilt_curvature * held : glm::dvec3(0.0);
+    const double y = luminance(irradiance);
+    if (y > 0.0) out.irradiance *= std::clamp(1.0 + glm::dot(to - from, tilt_gradient) / y, 0.0, kMaxTiltFactor);
+    // What a lean gains is light from below the horizon, in that light's colour; what it loses,
+    // the light it had. It is added, not scaled: a facet leaning over sunlit ground that sees a
+    // black sky upright gets its neighbours' light all the same.
+    const double curve = glm::dot(held, bend);
+    if (curve > 0.0) {
+        out.irradiance += curve * below_colour;
+    } else {
+        const double left = luminance(out.irradiance);
+        if (left > 0.0) out.irradiance *= std::max(0.0, 1.0 + curve / left);
+    }
+    // The gradient where it now stands, so that a second tilt (lattice node → vertex → facet)
+    // adds up to the one from the first normal.
+    out.tilt_gradient += 2.0 * bend;
     return out;
 }
 
@@ -527,6 +636,7 @@ std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_
         return r == 1.0 ? (d ? f : 1.0 - f) : std::max(0.0, 1.0 - std::abs(d - f) / r);
     };
     IndirectLight out;
+    out.below_colour = glm::dvec3(0.0);  // a weighted sum, as the rest
     glm::dvec3 direction(0.0);
     double total = 0.0, weight = 0.0;
     for (int du = -reach; du <= 1 + reach; ++du)
@@ -536,16 +646,20 @@ std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_
             const std::optional<Node> node =
                 lattice_node(instance, static_cast<int64_t>(u0) + du, static_cast<int64_t>(v0) + dv, bin);
             if (!node) continue;
-            const IndirectLight light = node->light.tilted(node->normal, normal);
+            const IndirectLight light = node->light.tilted(node->normal, normal, lattice.second_order);
             total += w;
             out.irradiance += w * light.irradiance;
             out.tilt_gradient += w * light.tilt_gradient;
+            out.tilt_curvature += w * light.tilt_curvature;
+            out.below_colour += w * light.below_colour;
             direction += (w * luminance(light.irradiance)) * light.mean_direction;
             weight += w * luminance(light.irradiance);
         }
     if (!(total > 0.0)) return std::nullopt;
     out.irradiance /= total;
     out.tilt_gradient /= total;
+    out.tilt_curvature /= total;
+    out.below_colour /= total;
     out.mean_direction = weight > 0.0 ? direction / weight : glm::dvec3(0.0);
     return out;
 }
@@ -600,6 +714,7 @@ IndirectLight LightCache::at(uint32_t instance, uint32_t prim, double u, double 
     const uint32_t* c = inst.triangles + 3 * static_cast<size_t>(prim);
     const double w[3] = {1.0 - u - v, u, v};
     IndirectLight out;
+    out.below_colour = glm::dvec3(0.0);  // a weighted sum, as the rest
     glm::dvec3 direction(0.0);
     double weight = 0.0;
     for (int k = 0; k < 3; ++k) {
@@ -607,6 +722,8 @@ IndirectLight LightCache::at(uint32_t instance, uint32_t prim, double u, double 
         if (normal) corner = corner.tilted(world_normal(inst, m_impl->normals[instance], c[k]), *normal);
         out.irradiance += w[k] * corner.irradiance;
         out.tilt_gradient += w[k] * corner.tilt_gradient;
+        out.tilt_curvature += w[k] * corner.tilt_curvature;
+        out.below_colour += w[k] * corner.below_colour;
         direction += (w[k] * luminance(corner.irradiance)) * corner.mean_direction;
         weight += w[k] * luminance(corner.irradiance);
     }

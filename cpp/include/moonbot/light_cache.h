@@ -88,11 +88,23 @@ struct IndirectLight {
     /// Y₀ + (n − n₀)·tilt_gradient (W/m², world, tangent to n₀). The cache gathers at smooth vertex
     /// normals; a facet that leans from them toward bright low ground or a sunlit wall gets more.
     glm::dvec3 tilt_gradient{0.0};
+    /// The luminance's second-order change with the tilt, W/m² (world, symmetric, acting across
+    /// n₀): a normal n gets Y₀ + (n − n₀)·tilt_gradient + dᵀ·tilt_curvature·d, d = (n − n₀) less
+    /// its part along n₀. Fitted from the gather's rays and rays into the band below its horizon
+    /// (light_cache.cpp): a facet leaning from n₀ sees what lies below n₀'s horizon, and that
+    /// light grows with the square of the lean.
+    glm::dmat3 tilt_curvature{0.0};
+    /// The colour of the light below the horizon (linear RGB of luminance 1): what a lean's
+    /// second-order gain is added in.
+    glm::dvec3 below_colour{1.0};
 
     /// This value as seen by a surface of unit normal `to`, when it was gathered at unit normal
     /// `from`: every channel of the irradiance scaled by the first-order change of its luminance,
-    /// the factor kept within [0, kMaxTiltFactor] (a tilt past the light's horizon takes it all).
-    IndirectLight tilted(const glm::dvec3& from, const glm::dvec3& to) const;
+    /// the factor kept within [0, kMaxTiltFactor] (a tilt past the light's horizon takes it all);
+    /// then the second-order change added in below_colour where it is a gain, or scaled in where
+    /// it is a loss (never below zero); and the gradient moved to where it now stands. Without
+    /// `second_order`, the first-order change alone.
+    IndirectLight tilted(const glm::dvec3& from, const glm::dvec3& to, bool second_order = true) const;
 };
 
 /// The most a tilt may raise a cached irradiance (IndirectLight::tilted): a first-order gradient
