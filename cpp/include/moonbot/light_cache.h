@@ -6,7 +6,8 @@
 // each continued as the renderer's path tracer continues a bounce (a shadow ray to every light at
 // every path vertex, then the next bounce, `bounces` in all), and a pixel's first hit reads it
 // interpolated across its triangle, each vertex's value tilted to the facet's own normal through
-// its rotation gradient (IndirectLight::tilt_gradient), shaded with the hit's own BRDF.
+// its rotation gradient and curvature (IndirectLight::tilt_gradient, tilt_curvature: the latter
+// from a few more rays into the band below the vertex's horizon), shaded with the hit's own BRDF.
 //
 // A vertex's value is a pure function of (the static scene, the lights, the seed, the vertex):
 // its random numbers are keyed by (seed, instance, vertex, ray), and its rays pass through moving
