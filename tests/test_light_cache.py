@@ -78,6 +78,11 @@ def wall_exitance() -> float:
     return WALL_ALBEDO * E_SUN * float(_core.DirectionalLight(0.0, SUN_ELEVATION, E_SUN).direction[1])
 
 
+def floor_exitance() -> float:
+    """The sunlit white floor's exitance E·sin(elevation), W/m² (π times its radiance)."""
+    return E_SUN * np.sin(np.radians(SUN_ELEVATION))
+
+
 def wall_irradiance(d: float, tilt: float = 0.0) -> float:
     """Closed form, one bounce: the sunlit wall's irradiance on a floor element d metres from its
     base whose normal is tilted `tilt` radians toward the wall, through the view factor of an
@@ -155,11 +160,6 @@ def test_a_vertex_tilted_toward_the_wall_reads_the_irradiance_of_its_tilt(d):
     assert min(away) >= 0.0
     with pytest.raises(ValueError, match="normal: must be a unit vector"):
         cache.at(0, prim, 0.0, 0.0, normal=(0.0, 0.0, 2.0))
-
-
-def floor_exitance() -> float:
-    """The sunlit white floor's exitance E·sin(elevation), W/m² (π times its radiance)."""
-    return E_SUN * np.sin(np.radians(SUN_ELEVATION))
 
 
 def test_a_normal_leaning_over_a_sunlit_floor_gets_the_floor_light_below_its_horizon():

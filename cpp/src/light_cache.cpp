@@ -1,6 +1,7 @@
 #include "moonbot/light_cache.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -450,6 +451,34 @@ double relative_standard_error(const std::vector<glm::dvec3>& radiance) {
     return std::sqrt(variance / static_cast<double>(n)) / mean;
 }
 
+/// The curvature fit's leaning normals (kCurvatureFitAzimuths for each of kCurvatureFitLeans), in
+/// the tangent frame (t, b) of the normal they lean from, each with its row of the least-squares
+/// fit for (Q_tt, Q_tb, Q_bb), and the inverse of the fit's normal matrix: the same for every gather.
+struct CurvatureFit {
+    struct Lean {
+        double along, across_t, across_b;  // n = along·n₀ + across_t·t + across_b·b
+        glm::dvec3 basis;                  // (d_t², 2·d_t·d_b, d_b²)
+    };
+    std::array<Lean, std::size(kCurvatureFitLeans) * kCurvatureFitAzimuths> leans{};
+    glm::dmat3 inverse_normal_matrix{0.0};
+
+    CurvatureFit() {
+        glm::dmat3 normal_matrix(0.0);
+        size_t i = 0;
+        for (const double lean : kCurvatureFitLeans)
+            for (int j = 0; j < kCurvatureFitAzimuths; ++j) {
+                double c, s;
+                turn_cos_sin(static_cast<double>(j) / kCurvatureFitAzimuths, c, s);
+                const double dt = std::sin(lean) * c, db = std::sin(lean) * s;
+                Lean& l = leans[i++];
+                l = {std::cos(lean), dt, db, glm::dvec3(dt * dt, 2.0 * dt * db, db * db)};
+                normal_matrix += glm::outerProduct(l.basis, l.basis);
+            }
+        inverse_normal_matrix = glm::inverse(normal_matrix);
+    }
+};
+const CurvatureFit kCurvatureFit;
+
 /// IndirectLight::tilt_curvature at unit `normal` from its gather: the cosine-distributed rays
 /// (`above_radiance`, W/(m²·sr), along unit `above_dir`) and the rays below its horizon
 /// (`below_*`, below_horizon_direction), whose rotation gradient is `gradient`. The irradiance
@@ -477,21 +506,13 @@ glm::dmat3 fit_tilt_curvature(const glm::dvec3& normal, const std::vector<glm::d
     const double upright = estimate(normal);
     glm::dvec3 t, b;
     orthonormal_basis(normal, t, b);
-    // Normal equations of the fit for (Q_tt, Q_tb, Q_bb), basis (d_t², 2·d_t·d_b, d_b²).
-    glm::dmat3 normal_matrix(0.0);
     glm::dvec3 moment(0.0);
-    for (const double lean : kCurvatureFitLeans)
-        for (int j = 0; j < kCurvatureFitAzimuths; ++j) {
-            double c, s;
-            turn_cos_sin(static_cast<double>(j) / kCurvatureFitAzimuths, c, s);
-            const double dt = std::sin(lean) * c, db = std::sin(lean) * s;
-            const glm::dvec3 n = std::cos(lean) * normal + dt * t + db * b;
-            const double rest = estimate(n) - upright - glm::dot(n - normal, gradient);
-            const glm::dvec3 basis(dt * dt, 2.0 * dt * db, db * db);
-            normal_matrix += glm::outerProduct(basis, basis);
-            moment += rest * basis;
-        }
-    const glm::dvec3 q = glm::inverse(normal_matrix) * moment;
+    for (const CurvatureFit::Lean& lean : kCurvatureFit.leans) {
+        const glm::dvec3 n = lean.along * normal + lean.across_t * t + lean.across_b * b;
+        const double rest = estimate(n) - upright - glm::dot(n - normal, gradient);
+        moment += rest * lean.basis;
+    }
+    const glm::dvec3 q = kCurvatureFit.inverse_normal_matrix * moment;
     return q.x * glm::outerProduct(t, t) + q.y * (glm::outerProduct(t, b) + glm::outerProduct(b, t)) +
            q.z * glm::outerProduct(b, b);
 }
@@ -536,7 +557,7 @@ IndirectLight gather(const Accel& accel, const std::vector<InstanceData>& instan
     out.tilt_curvature = fit_tilt_curvature(normal, radiance, first_dir, below_radiance, below_dir, out.tilt_gradient);
     glm::dvec3 below_sum(0.0);
     for (const glm::dvec3& r : below_radiance) below_sum += r;
-    if (luminance(below_sum) > 0.0) out.below_colour = below_sum / luminance(below_sum);
+    out.below_colour = luminance(below_sum) > 0.0 ? below_sum / luminance(below_sum) : glm::dvec3(1.0);
     return out;
 }
 
@@ -636,7 +657,6 @@ std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_
         return r == 1.0 ? (d ? f : 1.0 - f) : std::max(0.0, 1.0 - std::abs(d - f) / r);
     };
     IndirectLight out;
-    out.below_colour = glm::dvec3(0.0);  // a weighted sum, as the rest
     glm::dvec3 direction(0.0);
     double total = 0.0, weight = 0.0;
     for (int du = -reach; du <= 1 + reach; ++du)
@@ -714,7 +734,6 @@ IndirectLight LightCache::at(uint32_t instance, uint32_t prim, double u, double 
     const uint32_t* c = inst.triangles + 3 * static_cast<size_t>(prim);
     const double w[3] = {1.0 - u - v, u, v};
     IndirectLight out;
-    out.below_colour = glm::dvec3(0.0);  // a weighted sum, as the rest
     glm::dvec3 direction(0.0);
     double weight = 0.0;
     for (int k = 0; k < 3; ++k) {

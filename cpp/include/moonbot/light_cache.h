@@ -95,9 +95,9 @@ struct IndirectLight {
     /// (light_cache.cpp): a facet leaning from n₀ sees what lies below n₀'s horizon, and that
     /// light grows with the square of the lean.
     glm::dmat3 tilt_curvature{0.0};
-    /// The colour of the light below the horizon (linear RGB of luminance 1): what a lean's
-    /// second-order gain is added in.
-    glm::dvec3 below_colour{1.0};
+    /// The colour of the light below the horizon (linear RGB of luminance 1; grey where the
+    /// gather's band found none): what a lean's second-order gain is added in.
+    glm::dvec3 below_colour{0.0};
 
     /// This value as seen by a surface of unit normal `to`, when it was gathered at unit normal
     /// `from`: every channel of the irradiance scaled by the first-order change of its luminance,
