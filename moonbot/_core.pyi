@@ -6,7 +6,7 @@ import collections.abc
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['Camera', 'CloudParams', 'DirectionalLight', 'EjectaParams', 'FabricParams', 'GrainParams', 'LUNAR_RADIUS', 'LightCache', 'LightCacheSettings', 'LunarFrame', 'MAX_DUST_STEP', 'Medium', 'Photometry', 'RegolithGrain', 'RenderSettings', 'SPAWN_CLEARANCE', 'Scene', 'SoilingParams', 'StainMask', 'StainParams', 'WovenSurface', 'cloud_puffs', 'curvature_drop', 'embree_isas', 'fabric_eval', 'henyey_greenstein', 'import_dem', 'measure_embree_limit', 'puff_optical_depth', 'read_image', 'render', 'resolve_embree_isa', 'simulate_ejecta', 'splat', 'splat_support_area', 'stain_mask', 'stain_mask_bytes', 'stain_masks_allocated', 'stained_base_colour', 'stamp_centres', 'tonemap_reinhard', 'weave_height', 'write_image']
+__all__: list[str] = ['Camera', 'CloudParams', 'DirectionalLight', 'EjectaParams', 'FabricParams', 'GrainParams', 'LUNAR_RADIUS', 'LightCache', 'LightCacheSettings', 'LunarFrame', 'MAX_DUST_STEP', 'Medium', 'Photometry', 'RegolithGrain', 'RenderSettings', 'SPAWN_CLEARANCE', 'Scene', 'SoilingParams', 'StainMask', 'StainParams', 'SubgridRelief', 'WovenSurface', 'cloud_puffs', 'curvature_drop', 'embree_isas', 'fabric_eval', 'henyey_greenstein', 'import_dem', 'measure_embree_limit', 'puff_optical_depth', 'read_image', 'render', 'resolve_embree_isa', 'simulate_ejecta', 'splat', 'splat_support_area', 'stain_mask', 'stain_mask_bytes', 'stain_masks_allocated', 'stained_base_colour', 'stamp_centres', 'tonemap_reinhard', 'weave_height', 'write_image']
 class Photometry:
     """
     A photometric function: BRDF = albedo/pi * shape(mu_i, mu_o, g) (moonbot/photometry.h). model 'lambert' | 'lunar-lambert' (McEwen) | 'hapke' (Hapke 2012 with porosity, SHOE, CBOE, roughness; shape normalised to 1 at i = e = g = 0). The Hapke fields are read only by 'hapke' but checked whatever the model; their defaults are the Sato et al. 2014 lunar set. Ranges: `ranges`.
@@ -464,13 +464,38 @@ class GrainParams:
     @slope_rms_deg.setter
     def slope_rms_deg(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
+class SubgridRelief:
+    """
+    The roughness octaves a graded terrain mesh did not hold, given back to the shading (subgrid_relief.h; moonbot/terrain/location.py's subgrid_relief builds it).
+    """
+    def __init__(self, wavelengths: typing.Any, amplitudes: typing.Any, angles: typing.Any, offsets: typing.Any, keys: typing.Any, axis: typing.Any, spacing: typing.Any) -> None:
+        """
+        Octaves: wavelengths and amplitudes (K,) metres, angles (K,) radians, lattice offsets (K, 2), lattice keys (K,) uint64; the mesh's graded axis (n,) and each node's cell (n,), metres. ValueError naming the argument on bad input.
+        """
+    def cell(self, points: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
+        """
+        The mesh's cell (N,) metres at world points (N, 2) (x, y) metres.
+        """
+    def eval(self, points: typing.Any, footprint_m: typing.SupportsFloat | typing.SupportsIndex) -> tuple[numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.float64]]:
+        """
+        (mean gradient over the pixel's box (N, 3), slope spread about it (N,) tan²) of the dropped relief at world points (N, 3) metres, for a pixel of footprint footprint_m metres.
+        """
+    def height(self, points: typing.Any, cell: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
+        """
+        Unfiltered height (N,) metres of the relief a mesh of cell (N,) metres drops, at world points (N, 2).
+        """
+    @property
+    def octaves(self) -> int:
+        """
+        octaves with a non-zero amplitude
+        """
 class RegolithGrain:
     """
-    Regolith's granular micro-texture (regolith_texture.h): octaves of value noise of cells finest_cell_m·2^k up to coarsest_cell_m (metres), an albedo factor of relative RMS albedo_rms and relief of 1-D RMS slope slope_rms_deg (degrees), prefiltered over each pixel's footprint.
+    Regolith's granular micro-texture (regolith_texture.h): octaves of value noise of cells finest_cell_m·2^k up to coarsest_cell_m (metres), an albedo factor of relative RMS albedo_rms and relief of 1-D RMS slope slope_rms_deg (degrees), prefiltered over each pixel's footprint; on the terrain also the roughness its mesh did not hold (a SubgridRelief).
     """
-    def __init__(self, params: GrainParams) -> None:
+    def __init__(self, params: GrainParams, subgrid: SubgridRelief = None) -> None:
         """
-        Its octaves laid out; ValueError naming the field on bad params.
+        Its octaves laid out (none where params are not enabled); ValueError naming the field on bad params. subgrid: read with the grain, its gradient and slope spread added.
         """
     def eval(self, points: typing.Any, footprint_m: typing.SupportsFloat | typing.SupportsIndex) -> tuple[numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.float64]]:
         """

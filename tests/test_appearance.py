@@ -23,6 +23,7 @@ pytestmark = pytest.mark.unit
 
 # Every new look off: the renderer as it was before them.
 OFF = {
+    "terrain.roughness.subgrid_shading": False,
     "terrain.photometry.grain.albedo_rms": 0.0,
     "terrain.photometry.grain.slope_rms_deg": 0.0,
     "bags.fabric.sheen": 0.0,

@@ -10,6 +10,7 @@
 #include "moonbot/camera.h"
 #include "moonbot/light.h"
 #include "moonbot/scene.h"
+#include "moonbot/subgrid_relief.h"
 #include "params.h"
 
 namespace moonbot::bindings {
@@ -175,6 +176,108 @@ void bind_woven(py::module_& m) {
 
 }  // namespace
 
+namespace {
+
+/// (N, cols) float64 rows of `name`, C-contiguous.
+py::array_t<double, py::array::c_style> double_rows(const py::handle& obj, const std::string& name, int cols) {
+    py::array a = as_array(obj, name);
+    if (a.ndim() != 2 || a.shape(1) != cols)
+        fail(name, "must have shape (N, " + std::to_string(cols) + "), got " + shape_of(a));
+    return converted<double>(a, name);
+}
+
+/// A 1-D float64 array of `name` as a vector (length n, or any length for n < 0).
+std::vector<double> double_vector(const py::handle& obj, const std::string& name, py::ssize_t n = -1) {
+    py::array a = as_array(obj, name);
+    if (a.ndim() != 1 || (n >= 0 && a.shape(0) != n))
+        fail(name, "must have shape (" + (n >= 0 ? std::to_string(n) : std::string("N")) + ",), got " + shape_of(a));
+    auto c = converted<double>(a, name);
+    return {c.data(), c.data() + c.shape(0)};
+}
+
+void bind_subgrid_relief(py::module_& m) {
+    py::class_<SubgridRelief, std::shared_ptr<SubgridRelief>>(
+        m, "SubgridRelief",
+        "The roughness octaves a graded terrain mesh did not hold, given back to the shading "
+        "(subgrid_relief.h; moonbot/terrain/location.py's subgrid_relief builds it).")
+        .def(py::init([](const py::handle& wavelengths, const py::handle& amplitudes, const py::handle& angles,
+                         const py::handle& offsets, const py::handle& keys, const py::handle& axis,
+                         const py::handle& spacing) {
+                 const std::vector<double> lam = double_vector(wavelengths, "wavelengths");
+                 const auto n = static_cast<py::ssize_t>(lam.size());
+                 const std::vector<double> amp = double_vector(amplitudes, "amplitudes", n);
+                 const std::vector<double> angle = double_vector(angles, "angles", n);
+                 auto off = double_rows(offsets, "offsets", 2).unchecked<2>();
+                 if (off.shape(0) != n) fail("offsets", "must have one row per wavelength");
+                 py::array key_array = as_array(keys, "keys");
+                 if (key_array.ndim() != 1 || key_array.shape(0) != n || key_array.dtype().kind() != 'u' ||
+                     key_array.itemsize() != 8)
+                     fail("keys", "must be a uint64 array with one key per wavelength");
+                 auto key = converted<uint64_t>(key_array, "keys").unchecked<1>();
+                 std::vector<ReliefOctave> octaves(static_cast<size_t>(n));
+                 for (py::ssize_t k = 0; k < n; ++k) {
+                     const auto i = static_cast<size_t>(k);
+                     octaves[i] = {lam[i], amp[i], angle[i], {off(k, 0), off(k, 1)}, key(k)};
+                 }
+                 GradedGrid grid{double_vector(axis, "axis"), double_vector(spacing, "spacing")};
+                 try {
+                     return std::make_shared<SubgridRelief>(std::move(octaves), std::move(grid));
+                 } catch (const std::invalid_argument& e) {
+                     throw py::value_error(e.what());
+                 }
+             }),
+             py::arg("wavelengths"), py::arg("amplitudes"), py::arg("angles"), py::arg("offsets"), py::arg("keys"),
+             py::arg("axis"), py::arg("spacing"),
+             "Octaves: wavelengths and amplitudes (K,) metres, angles (K,) radians, lattice offsets (K, 2), "
+             "lattice keys (K,) uint64; the mesh's graded axis (n,) and each node's cell (n,), metres. "
+             "ValueError naming the argument on bad input.")
+        .def_property_readonly("octaves", &SubgridRelief::octaves, "octaves with a non-zero amplitude")
+        .def(
+            "cell",
+            [](const SubgridRelief& r, const py::handle& points) {
+                auto p = double_rows(points, "points", 2).unchecked<2>();
+                py::array_t<double> out(p.shape(0));
+                auto o = out.mutable_unchecked<1>();
+                for (py::ssize_t i = 0; i < p.shape(0); ++i) o(i) = r.cell_m(p(i, 0), p(i, 1));
+                return out;
+            },
+            py::arg("points"), "The mesh's cell (N,) metres at world points (N, 2) (x, y) metres.")
+        .def(
+            "height",
+            [](const SubgridRelief& r, const py::handle& points, const py::handle& cell) {
+                auto p = double_rows(points, "points", 2).unchecked<2>();
+                const std::vector<double> c = double_vector(cell, "cell", p.shape(0));
+                py::array_t<double> out(p.shape(0));
+                auto o = out.mutable_unchecked<1>();
+                for (py::ssize_t i = 0; i < p.shape(0); ++i)
+                    o(i) = r.height(p(i, 0), p(i, 1), c[static_cast<size_t>(i)]);
+                return out;
+            },
+            py::arg("points"), py::arg("cell"),
+            "Unfiltered height (N,) metres of the relief a mesh of cell (N,) metres drops, at world points (N, 2).")
+        .def(
+            "eval",
+            [](const SubgridRelief& r, const py::handle& points, double footprint_m) {
+                if (!(footprint_m >= 0.0)) fail("footprint_m", "must be >= 0");
+                auto p = double_rows(points, "points", 3).unchecked<2>();
+                const py::ssize_t n = p.shape(0);
+                py::array_t<double> gradient({n, py::ssize_t{3}}), spread(n);
+                auto g = gradient.mutable_unchecked<2>();
+                auto v = spread.mutable_unchecked<1>();
+                for (py::ssize_t i = 0; i < n; ++i) {
+                    const GrainSample s = r.eval({p(i, 0), p(i, 1), p(i, 2)}, footprint_m);
+                    for (int c = 0; c < 3; ++c) g(i, c) = s.gradient[c];
+                    v(i) = s.residual_slope_variance;
+                }
+                return py::make_tuple(gradient, spread);
+            },
+            py::arg("points"), py::arg("footprint_m"),
+            "(mean gradient over the pixel's box (N, 3), slope spread about it (N,) tan²) of the dropped relief at "
+            "world points (N, 3) metres, for a pixel of footprint footprint_m metres.");
+}
+
+}  // namespace
+
 void bind_scene(py::module_& m) {
     bind_photometry(m);
     bind_woven(m);
@@ -186,13 +289,19 @@ void bind_scene(py::module_& m) {
         .field("hurst", &GrainParams::hurst, "relief amplitude grows as cell^hurst, [0, 1]")
         .field("seed", &GrainParams::seed, "keys the lattices")
         .done();
+    bind_subgrid_relief(m);
     py::class_<RegolithGrain, std::shared_ptr<RegolithGrain>>(
         m, "RegolithGrain",
         "Regolith's granular micro-texture (regolith_texture.h): octaves of value noise of cells "
         "finest_cell_m·2^k up to coarsest_cell_m (metres), an albedo factor of relative RMS albedo_rms "
-        "and relief of 1-D RMS slope slope_rms_deg (degrees), prefiltered over each pixel's footprint.")
-        .def(py::init([](const GrainParams& params) { return std::make_shared<RegolithGrain>(params); }),
-             py::arg("params"), "Its octaves laid out; ValueError naming the field on bad params.")
+        "and relief of 1-D RMS slope slope_rms_deg (degrees), prefiltered over each pixel's footprint; "
+        "on the terrain also the roughness its mesh did not hold (a SubgridRelief).")
+        .def(py::init([](const GrainParams& params, std::shared_ptr<SubgridRelief> subgrid) {
+                 return std::make_shared<RegolithGrain>(params, std::move(subgrid));
+             }),
+             py::arg("params"), py::arg("subgrid") = py::none(),
+             "Its octaves laid out (none where params are not enabled); ValueError naming the field on bad "
+             "params. subgrid: read with the grain, its gradient and slope spread added.")
         .def_property_readonly("octaves", &RegolithGrain::octaves, "octaves of value noise, finest to coarsest cell")
         .def_property_readonly("flat_footprint_m", &RegolithGrain::flat_footprint_m,
                                "footprints (metres) at or above this give exactly the mean")

@@ -1,10 +1,13 @@
 #include "moonbot/regolith_texture.h"
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "moonbot/rng.h"
+#include "moonbot/subgrid_relief.h"
 
 namespace moonbot {
 
@@ -66,8 +69,11 @@ void GrainParams::validate() const {
                 std::to_string(std::sqrt(kValueNoiseVariance / n)) + ")");
 }
 
-RegolithGrain::RegolithGrain(const GrainParams& params) : m_params(params) {
+RegolithGrain::RegolithGrain(const GrainParams& params, std::shared_ptr<const SubgridRelief> subgrid)
+    : m_params(params), m_subgrid(std::move(subgrid)) {
     params.validate();
+    if (m_subgrid) m_flat_footprint = std::numeric_limits<double>::infinity();
+    if (!params.enabled()) return;
     const int n = octave_count(params);
     const double albedo_amplitude = params.albedo_rms / std::sqrt(n * kValueNoiseVariance);
     // Σ_k (c_k^H / c_k)²: each octave's slope variance per unit S², before kValueNoiseSlopeVariance.
@@ -92,12 +98,13 @@ RegolithGrain::RegolithGrain(const GrainParams& params) : m_params(params) {
         o.key = mix64(base + static_cast<uint64_t>(k));
         m_octaves.push_back(o);
     }
-    m_flat_footprint = m_octaves.back().cell * (2.0 / kPi) * std::sqrt(-2.0 * std::log(kGainCut));
+    if (!m_subgrid) m_flat_footprint = m_octaves.back().cell * (2.0 / kPi) * std::sqrt(-2.0 * std::log(kGainCut));
 }
 
 GrainSample RegolithGrain::eval(const glm::dvec3& p, double footprint_m) const {
     GrainSample out;
     if (!(footprint_m < m_flat_footprint)) return out;
+    if (m_subgrid) out = m_subgrid->eval(p, footprint_m);
     double albedo = 0.0;
     glm::dvec3 gradient(0.0);
     for (const Octave& o : m_octaves) {
@@ -141,7 +148,7 @@ GrainSample RegolithGrain::eval(const glm::dvec3& p, double footprint_m) const {
         }
     }
     out.albedo_factor = 1.0 + albedo;
-    out.gradient = gradient;
+    out.gradient += gradient;
     return out;
 }
 

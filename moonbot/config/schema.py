@@ -317,6 +317,14 @@ class RoughnessConfig:
         metadata=spec("shortest octave of the mesh's relief, metres (two cells of a 1 cm mesh)", lo=0.001, hi=10.0),
     )
     max_wavelength_m: float = field(default=512.0, metadata=spec("longest octave, metres", lo=0.01, hi=100000.0))
+    subgrid_shading: bool = field(
+        default=True,
+        metadata=spec(
+            "shade the octaves the graded mesh could not hold where a pixel reads them (its cells grow "
+            "0.02·distance): a bump prefiltered over the pixel, so the law's slopes reach every pixel "
+            "(moonbot/subgrid_relief.h)"
+        ),
+    )
 
 
 @dataclass(frozen=True)

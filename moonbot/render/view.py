@@ -13,6 +13,7 @@ from moonbot.render import params
 from moonbot.scene.compose import TERRAIN_MESH, SceneSpec
 from moonbot.scene.normals import vertex_normals
 from moonbot.scene.orbit import CameraPose, intrinsics, orbit_height, orbit_pose
+from moonbot.terrain.location import SubgridRelief
 
 # The Earth seen from the Moon: 2·asin(6371 km / 384 400 km) = 1.90° (docs/physics.md).
 EARTH_DIAMETER_DEG = 1.9
@@ -64,8 +65,9 @@ def build_scene(
     }
     photometry, albedo = regolith(spec.terrain_photometry, spec.terrain_albedo)
     grain = regolith_grain(spec.terrain_photometry.grain)
-    scene.add_background(mesh_index[TERRAIN_MESH], np.eye(4), albedo, photometry, grain=grain)
-    for key, pose in spec.rocks:  # rocks are regolith (label 0)
+    terrain_grain = regolith_grain(spec.terrain_photometry.grain, spec.terrain_subgrid)
+    scene.add_background(mesh_index[TERRAIN_MESH], np.eye(4), albedo, photometry, grain=terrain_grain)
+    for key, pose in spec.rocks:  # rocks are regolith (label 0), their own meshes: no subgrid relief
         scene.add_background(mesh_index[key], pose, albedo, photometry, grain=grain)
     f, st = spec.fabric, spec.stain
     for bag in spec.bags:
@@ -86,12 +88,14 @@ def regolith(config: PhotometryConfig, normal_albedo: float) -> tuple[_core.Phot
     return photometry, (normal_albedo / photometry.shape(1.0, 1.0, 1.0),) * 3
 
 
-def regolith_grain(config: GrainConfig) -> _core.RegolithGrain | None:
-    """The core's granular micro-texture for regolith surfaces (terrain, rocks, ejecta), or None
-    when the config turns it off (then no texture code runs)."""
-    if not config.enabled:
+def regolith_grain(config: GrainConfig, subgrid: SubgridRelief | None = None) -> _core.RegolithGrain | None:
+    """The core's granular micro-texture for regolith surfaces (terrain, rocks, ejecta), with the
+    terrain's `subgrid` relief read along with it, or None when the config turns the grain off and
+    there is no subgrid relief (then no texture code runs)."""
+    if not config.enabled and subgrid is None:
         return None
-    return _core.RegolithGrain(params.grain(config))
+    core_subgrid = _core.SubgridRelief(**vars(subgrid)) if subgrid is not None else None
+    return _core.RegolithGrain(params.grain(config), subgrid=core_subgrid)
 
 
 def scene_lights(config: Config) -> tuple[_core.DirectionalLight, _core.DirectionalLight | None]:

@@ -14,7 +14,7 @@ from moonbot.scene.bag_mesh import bag_collision, bag_model
 from moonbot.scene.placement import Placement, arrange_bags
 from moonbot.terrain import get_terrain
 from moonbot.terrain.ground import Ground
-from moonbot.terrain.location import DemSite
+from moonbot.terrain.location import DemSite, SubgridRelief
 from moonbot.terrain.rocks import RockField, rock_poses
 
 
@@ -38,7 +38,8 @@ class SceneSpec:
     the world frame (metres); `placement` records how the bags were placed and settled;
     `terrain_albedo` is regolith's normal albedo, varied per terrain vertex by
     `terrain_albedo_scale` ((N,) float32 or None), shaded with the smooth `terrain_normals`
-    ((N, 3) float32 or None) and shaped by `terrain_photometry`; `bag_uvs`
+    ((N, 3) float32 or None), shaped by `terrain_photometry`, and given back in its shading the
+    roughness its graded mesh could not hold by `terrain_subgrid` (None: none); `bag_uvs`
     (M, 3, 2) float32 are the bag mesh's corner UVs (its cloth's atlas, `bag_metres_per_uv`
     metres per unit), woven and stained as `fabric` and `stain` say, its albedo varied per vertex
     and channel by `bag_vertex_albedo` ((N, 3) float32, a user mesh's texture; None: uniform);
@@ -64,6 +65,7 @@ class SceneSpec:
     terrain_seconds: float
     site: DemSite | None = None
     bag_vertex_albedo: np.ndarray | None = None
+    terrain_subgrid: SubgridRelief | None = None
 
 
 TERRAIN_MESH = 0  # key of the terrain in SceneSpec.meshes; bags use their obj_id (≥ 1)
@@ -155,4 +157,5 @@ def compose_scene(config: Config, placement: Placement | None = None) -> SceneSp
         terrain_seconds=0.0 if cached else terrain.build_seconds,
         site=terrain.site,
         bag_vertex_albedo=model.vertex_albedo,
+        terrain_subgrid=terrain.subgrid,
     )

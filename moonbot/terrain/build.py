@@ -22,7 +22,15 @@ from moonbot.config.schema import TerrainConfig
 from moonbot.terrain.albedo import albedo_factor
 from moonbot.terrain.dem import LocalDem
 from moonbot.terrain.ground import FlatGround, Ground, SlopedGround
-from moonbot.terrain.location import LOCATIONS, DemSite, build_location, dem_site, main_crater
+from moonbot.terrain.location import (
+    LOCATIONS,
+    DemSite,
+    SubgridRelief,
+    build_location,
+    dem_site,
+    main_crater,
+    subgrid_relief,
+)
 from moonbot.terrain.rocks import RockField, rock_prototypes, sample_rocks
 
 CACHE_SIZE = 2  # terrains kept per process: a location's mesh and ground take ~100 MB
@@ -37,7 +45,9 @@ class Terrain:
     (positions and sizes; scenes drop those in the way of bags or camera) with the
     `rock_meshes` they instance, the config `key` it was built from and the wall-clock
     `build_seconds` it took. `site` says where a `dem` location's world frame lies on the Moon
-    (None for the other locations, which are nowhere in particular)."""
+    (None for the other locations, which are nowhere in particular). `subgrid` is the roughness
+    its mesh could not hold, for the shading (None for the analytic grounds, or when
+    terrain.roughness.subgrid_shading is off)."""
 
     ground: Ground
     mesh: tuple[np.ndarray, np.ndarray]
@@ -48,6 +58,7 @@ class Terrain:
     key: str
     build_seconds: float
     site: DemSite | None = None
+    subgrid: SubgridRelief | None = None
 
 
 _cache: OrderedDict[str, Terrain] = OrderedDict()
@@ -92,14 +103,16 @@ def get_terrain(config: TerrainConfig) -> tuple[Terrain, bool]:
     dem = LocalDem.load(config.dem_file) if config.location == "dem" else None
     ground = make_ground(config, dem)
     mesh = ground.mesh()
-    rocks, rock_meshes, albedo_scale, normals = None, [], None, None
+    rocks, rock_meshes, albedo_scale, normals, subgrid = None, [], None, None, None
     if config.location in LOCATIONS:
         rocks = sample_rocks(config.seed, config.rocks, main_crater(config))
         rock_meshes = rock_prototypes(config.seed)
         albedo_scale = albedo_factor(config, mesh[0][:, 0], mesh[0][:, 1])
         normals = ground.vertex_normals()
+        subgrid = subgrid_relief(config, dem)
     per_vertex = [a for a in (albedo_scale, normals) if a is not None]
-    for array in (*mesh, *(a for m in rock_meshes for a in m), *per_vertex):
+    subgrid_arrays = list(vars(subgrid).values()) if subgrid is not None else []
+    for array in (*mesh, *(a for m in rock_meshes for a in m), *per_vertex, *subgrid_arrays):
         array.setflags(write=False)  # shared by every task of this process: nobody may edit it
     terrain = Terrain(
         ground=ground,
@@ -111,6 +124,7 @@ def get_terrain(config: TerrainConfig) -> tuple[Terrain, bool]:
         key=key,
         build_seconds=time.perf_counter() - start,
         site=dem_site(config, dem) if dem is not None else None,
+        subgrid=subgrid,
     )
     _cache[key] = terrain
     while len(_cache) > max(CACHE_SIZE, _capacity):

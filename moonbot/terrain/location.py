@@ -297,39 +297,15 @@ class Location:
             raise ValueError("terrain.location: a DEM is given exactly when the location is dem")
         self.config = config
         seed = config.seed
-        r = config.roughness
         c = config.craters
-        longest, max_crater = math.inf, c.max_diameter_m
+        max_crater = c.max_diameter_m
         self.dem = None
         if dem is not None:
             self.dem = DemRelief(dem, config.dem_site_m, name=config.dem_file)
             self.dem.require_covers(float(np.max(np.abs(axis))))
-            # Detail only below what the DEM resolves: the DEM carries everything larger.
-            longest = DEM_ROUGHNESS_PIXELS * dem.spacing_m
+            # Craters only below what the DEM resolves: the DEM carries everything larger.
             max_crater = min(max_crater, DEM_CRATER_PIXELS * dem.spacing_m)
-        self.roughness = None
-        if longest > r.min_wavelength_m:
-            # The octaves follow the whole law (fitted up to max_wavelength_m); a DEM's location
-            # draws only those below what the DEM resolves, the DEM being the rest.
-            self.roughness = Roughness(
-                seed=seed,
-                law=slope_law(r),
-                min_wavelength_m=r.min_wavelength_m,
-                max_wavelength_m=r.max_wavelength_m,
-                longest_drawn_m=longest,
-            )
-        self.hills = None
-        if config.location == "hilly":
-            hills = SlopeLaw(
-                rms_slope_deg=config.hills_rms_slope_deg,
-                baseline_m=HILLS_BASELINE_M,
-                hurst_coarse=HILLS_HURST,
-                hurst_fine=HILLS_HURST,
-                break_m=HILLS_BASELINE_M,
-            )
-            self.hills = Roughness(
-                seed=seed + 1, law=hills, min_wavelength_m=4.0, max_wavelength_m=config.hills_wavelength_m
-            )
+        self.roughness, self.hills = roughness_fields(config, dem)
         # Sampled over squares that do not depend on the grid (so changing the grid's knobs
         # changes how the same craters are drawn, not which craters exist), then thinned to the
         # ones the grid can draw where they lie.
@@ -363,6 +339,71 @@ class Location:
             s = np.hypot(x - centre[0], y - centre[1]) / (diameter / 2.0)
             z += crater_profile(s, diameter)
         return z
+
+
+def roughness_fields(config: TerrainConfig, dem: LocalDem | None = None) -> tuple[Roughness | None, Roughness | None]:
+    """The location's fractal fields: the regolith's roughness (None where a DEM resolves all of
+    it) and, on `hilly`, the hills (else None)."""
+    r = config.roughness
+    roughness = hills = None
+    # A DEM's location draws only the octaves below what the DEM resolves, the DEM being the rest;
+    # they still follow the whole law (fitted up to max_wavelength_m).
+    longest = math.inf if dem is None else DEM_ROUGHNESS_PIXELS * dem.spacing_m
+    if longest > r.min_wavelength_m:
+        roughness = Roughness(
+            seed=config.seed,
+            law=slope_law(r),
+            min_wavelength_m=r.min_wavelength_m,
+            max_wavelength_m=r.max_wavelength_m,
+            longest_drawn_m=longest,
+        )
+    if config.location == "hilly":
+        law = SlopeLaw(
+            rms_slope_deg=config.hills_rms_slope_deg,
+            baseline_m=HILLS_BASELINE_M,
+            hurst_coarse=HILLS_HURST,
+            hurst_fine=HILLS_HURST,
+            break_m=HILLS_BASELINE_M,
+        )
+        hills = Roughness(
+            seed=config.seed + 1, law=law, min_wavelength_m=4.0, max_wavelength_m=config.hills_wavelength_m
+        )
+    return roughness, hills
+
+
+@dataclass(frozen=True)
+class SubgridRelief:
+    """The roughness octaves of a location's fields (both, on `hilly`), with the graded grid its
+    mesh was sampled on: the core's SubgridRelief (moonbot/subgrid_relief.h) shades, where a pixel
+    reads it, the share of each octave that the mesh's local cell faded out (`Roughness.height`'s
+    band limit). Octaves as `Roughness.drawn_octaves` gives them: wavelengths and amplitudes (K,)
+    metres, angles (K,) radians, offsets (K, 2) lattice units, keys (K,) uint64; the grid's `axis`
+    (n,) metres (along x and along y) and each node's cell `spacing` (n,) metres."""
+
+    wavelengths: np.ndarray
+    amplitudes: np.ndarray
+    angles: np.ndarray
+    offsets: np.ndarray
+    keys: np.ndarray
+    axis: np.ndarray
+    spacing: np.ndarray
+
+
+def subgrid_relief(config: TerrainConfig, dem: LocalDem | None = None) -> SubgridRelief | None:
+    """What a procedural location's mesh leaves of its roughness for the shading; None where
+    `terrain.roughness.subgrid_shading` is off or the location has no roughness field."""
+    if not config.roughness.subgrid_shading:
+        return None
+    fields = [f for f in roughness_fields(config, dem) if f is not None]
+    octaves = [f.drawn_octaves() for f in fields]
+    if not octaves or not sum(len(o["wavelengths"]) for o in octaves):
+        return None
+    axis = location_axis(config)
+    return SubgridRelief(
+        **{name: np.concatenate([o[name] for o in octaves]) for name in octaves[0]},
+        axis=axis,
+        spacing=node_spacing(axis),
+    )
 
 
 def main_crater(config: TerrainConfig) -> tuple[np.ndarray, float] | None:

@@ -51,6 +51,7 @@ _MASK = (1 << 64) - 1
 HAPKE_RMS_PER_TAN = math.sqrt(math.pi / 2.0)  # 1-D RMS slope of Hapke's distribution over tan θ̄
 BASELINES_PER_OCTAVE = 3  # law points the octave amplitudes are fitted to
 SMOOTHING = 0.3  # weight of the fit's penalty on neighbouring octaves' relative amplitudes
+OCTAVE_TURN = 2.399963229728653  # octave k's lattice is turned k times the golden angle: lattices never line up
 
 
 def _mix(h: np.ndarray) -> np.ndarray:
@@ -62,9 +63,14 @@ def _mix(h: np.ndarray) -> np.ndarray:
     return h ^ (h >> np.uint64(31))
 
 
+def lattice_key(seed: int, octave: int) -> int:
+    """The 64-bit key of one octave's lattice values (the core's SubgridRelief takes it too)."""
+    return (seed * _GOLDEN + (octave + 1) * 0xD1B54A32D192ED03) & _MASK
+
+
 def _lattice(seed: int, octave: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
     """Value in [-1, 1) at integer lattice points (i, j) of one octave (float64)."""
-    key = np.uint64((seed * _GOLDEN + (octave + 1) * 0xD1B54A32D192ED03) & _MASK)
+    key = np.uint64(lattice_key(seed, octave))
     h = _mix(key ^ _mix(i.astype(np.int64).view(np.uint64) * np.uint64(_GOLDEN) ^ j.astype(np.int64).view(np.uint64)))
     return (h >> np.uint64(11)).astype(np.float64) * (2.0 / 2.0**53) - 1.0
 
@@ -257,12 +263,25 @@ class Roughness:
                 if len(at) == 0:
                     continue
                 weight = weight[at]
-            angle = 2.399963229728653 * k  # the golden angle: octave lattices never line up
+            angle = OCTAVE_TURN * k
             c, s = math.cos(angle), math.sin(angle)
             u = (c * x[at] + s * y[at]) / lam + self.offsets[k, 0]
             v = (-s * x[at] + c * y[at]) / lam + self.offsets[k, 1]
             z[at] += weight * amp * value_noise(self.seed, k, u, v)
         return z
+
+    def drawn_octaves(self) -> dict[str, np.ndarray]:
+        """The octaves `height` draws (a non-zero amplitude, no longer than `longest_drawn_m`),
+        longest first, as the core's SubgridRelief takes them: wavelengths and amplitudes (K,)
+        metres, angles (K,) radians, lattice offsets (K, 2), lattice keys (K,) uint64."""
+        k = np.flatnonzero((self.amplitudes > 0.0) & (self.wavelengths <= self.longest_drawn_m))
+        return {
+            "wavelengths": self.wavelengths[k],
+            "amplitudes": self.amplitudes[k],
+            "angles": OCTAVE_TURN * k.astype(np.float64),
+            "offsets": self.offsets[k],
+            "keys": np.array([lattice_key(self.seed, int(i)) for i in k], dtype=np.uint64),
+        }
 
     def height(self, x: np.ndarray, y: np.ndarray, cell: np.ndarray | float | None = None) -> np.ndarray:
         """Roughness height (metres, float64) at world (x, y); `cell` (metres, scalar or per

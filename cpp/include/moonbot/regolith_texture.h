@@ -50,6 +50,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -81,20 +82,27 @@ struct GrainSample {
     double residual_slope_variance = 0.0;
 };
 
-/// A validated GrainParams with its octaves laid out (cells, rotations, amplitudes).
+class SubgridRelief;
+
+/// A validated GrainParams with its octaves laid out (cells, rotations, amplitudes), and on the
+/// terrain the roughness its mesh did not hold (subgrid_relief.h), read with the grain.
 class RegolithGrain {
 public:
-    /// Throws std::invalid_argument as GrainParams::validate does.
-    explicit RegolithGrain(const GrainParams& params);
+    /// Throws std::invalid_argument as GrainParams::validate does. Params that are not enabled
+    /// lay out no octave (only `subgrid`, if given, is read).
+    explicit RegolithGrain(const GrainParams& params, std::shared_ptr<const SubgridRelief> subgrid = nullptr);
 
     const GrainParams& params() const { return m_params; }
     int octaves() const { return static_cast<int>(m_octaves.size()); }
+    const SubgridRelief* subgrid() const { return m_subgrid.get(); }
     /// Footprints (metres) at or above this give exactly the mean: factor 1, zero gradient.
+    /// Infinite with a subgrid relief, which holds relief at every footprint.
     double flat_footprint_m() const { return m_flat_footprint; }
 
     /// The texture at world point p (metres) as a pixel of footprint `footprint_m` ≥ 0 metres sees
     /// it (the width of surface the pixel covers; for an anisotropic footprint, an isotropic one's
-    /// of the same area): see the file's comment.
+    /// of the same area): see the file's comment. With a subgrid relief, its gradient and slope
+    /// spread are added to the grain's (independent scales: slopes and variances add).
     GrainSample eval(const glm::dvec3& p, double footprint_m) const;
 
 private:
@@ -109,6 +117,7 @@ private:
     };
     GrainParams m_params;
     std::vector<Octave> m_octaves;
+    std::shared_ptr<const SubgridRelief> m_subgrid;
     double m_flat_footprint = 0.0;
 };
 
