@@ -73,7 +73,7 @@ RegolithGrain::RegolithGrain(const GrainParams& params, std::shared_ptr<const Su
     : m_params(params), m_subgrid(std::move(subgrid)) {
     params.validate();
     if (m_subgrid) m_flat_footprint = std::numeric_limits<double>::infinity();
-    if (!params.enabled()) return;
+    if (!params.enabled()) return;  // m_grain_flat_footprint 0: no grain octave is read
     const int n = octave_count(params);
     const double albedo_amplitude = params.albedo_rms / std::sqrt(n * kValueNoiseVariance);
     // Σ_k (c_k^H / c_k)²: each octave's slope variance per unit S², before kValueNoiseSlopeVariance.
@@ -98,13 +98,15 @@ RegolithGrain::RegolithGrain(const GrainParams& params, std::shared_ptr<const Su
         o.key = mix64(base + static_cast<uint64_t>(k));
         m_octaves.push_back(o);
     }
-    if (!m_subgrid) m_flat_footprint = m_octaves.back().cell * (2.0 / kPi) * std::sqrt(-2.0 * std::log(kGainCut));
+    m_grain_flat_footprint = m_octaves.back().cell * (2.0 / kPi) * std::sqrt(-2.0 * std::log(kGainCut));
+    if (!m_subgrid) m_flat_footprint = m_grain_flat_footprint;
 }
 
 GrainSample RegolithGrain::eval(const glm::dvec3& p, double footprint_m) const {
     GrainSample out;
     if (!(footprint_m < m_flat_footprint)) return out;
     if (m_subgrid) out = m_subgrid->eval(p, footprint_m);
+    if (!(footprint_m < m_grain_flat_footprint)) return out;
     double albedo = 0.0;
     glm::dvec3 gradient(0.0);
     for (const Octave& o : m_octaves) {

@@ -119,6 +119,7 @@ private:
     std::vector<Octave> m_octaves;
     std::shared_ptr<const SubgridRelief> m_subgrid;
     double m_flat_footprint = 0.0;
+    double m_grain_flat_footprint = 0.0;  // the grain's own octaves are all filtered out from here
 };
 
 /// `normal` (unit) tilted by a relief gradient (world): the normal of the height field z over the
