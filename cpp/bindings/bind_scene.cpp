@@ -265,7 +265,7 @@ void bind_subgrid_relief(py::module_& m) {
                 auto g = gradient.mutable_unchecked<2>();
                 auto v = spread.mutable_unchecked<1>();
                 for (py::ssize_t i = 0; i < n; ++i) {
-                    const GrainSample s = r.eval({p(i, 0), p(i, 1), p(i, 2)}, footprint_m);
+                    const ReliefSample s = r.eval({p(i, 0), p(i, 1), p(i, 2)}, footprint_m);
                     for (int c = 0; c < 3; ++c) g(i, c) = s.gradient[c];
                     v(i) = s.residual_slope_variance;
                 }

@@ -105,7 +105,11 @@ RegolithGrain::RegolithGrain(const GrainParams& params, std::shared_ptr<const Su
 GrainSample RegolithGrain::eval(const glm::dvec3& p, double footprint_m) const {
     GrainSample out;
     if (!(footprint_m < m_flat_footprint)) return out;
-    if (m_subgrid) out = m_subgrid->eval(p, footprint_m);
+    if (m_subgrid) {
+        const ReliefSample relief = m_subgrid->eval(p, footprint_m);
+        out.gradient = relief.gradient;
+        out.residual_slope_variance = relief.residual_slope_variance;
+    }
     if (!(footprint_m < m_grain_flat_footprint)) return out;
     double albedo = 0.0;
     glm::dvec3 gradient(0.0);

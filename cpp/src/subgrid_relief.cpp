@@ -109,8 +109,8 @@ double SubgridRelief::height(double x, double y, double cell) const {
     return z;
 }
 
-GrainSample SubgridRelief::eval(const glm::dvec3& p, double footprint_m) const {
-    GrainSample out;
+ReliefSample SubgridRelief::eval(const glm::dvec3& p, double footprint_m) const {
+    ReliefSample out;
     const double cell = cell_m(p.x, p.y);
     glm::dvec2 gradient(0.0);
     for (size_t k = 0; k < m_octaves.size(); ++k) {

@@ -36,9 +36,13 @@
 
 #include <glm/glm.hpp>
 
-#include "moonbot/regolith_texture.h"
-
 namespace moonbot {
+
+/// The dropped relief over one footprint (regolith_texture.h's GrainSample has the same two fields).
+struct ReliefSample {
+    glm::dvec3 gradient{0.0};  ///< ∇z over the pixel's box (weights w²), world frame, (∂z/∂x, ∂z/∂y, 0)
+    double residual_slope_variance = 0.0;  ///< the filtered slopes' spread over the box, tan²
+};
 
 /// One octave of the terrain's roughness field (moonbot/terrain/roughness.py's `Roughness`).
 struct ReliefOctave {
@@ -79,8 +83,8 @@ public:
 
     /// The dropped relief at world point p (metres; z is ignored) as a pixel of footprint
     /// `footprint_m` ≥ 0 metres sees it: the mean gradient over the pixel's box, (∂z/∂x, ∂z/∂y, 0)
-    /// in the world frame, and the spread of the filtered slopes about it. The albedo factor is 1.
-    GrainSample eval(const glm::dvec3& p, double footprint_m) const;
+    /// in the world frame, and the spread of the filtered slopes about it.
+    ReliefSample eval(const glm::dvec3& p, double footprint_m) const;
 
 private:
     struct Octave {
