@@ -140,6 +140,7 @@ def test_grain_is_visible_near_and_every_sample_of_a_pixel_reads_it_alike():
         "sun.angular_diameter_deg": 0.0,
         "terrain.photometry.model": "lambert",
         "terrain.photometry.grain.slope_rms_deg": 0.0,
+        "terrain.roughness.subgrid_shading": False,  # the albedo speckle alone
         "bags.fabric.sheen": 0.0,
     }
     one = {**scene, "render.spp": 1}
@@ -171,6 +172,7 @@ def test_a_wider_texture_filter_blurs_the_grain_and_a_bad_width_names_the_field(
         "sun.angular_diameter_deg": 0.0,
         "terrain.photometry.model": "lambert",
         "terrain.photometry.grain.slope_rms_deg": 0.0,
+        "terrain.roughness.subgrid_shading": False,  # the albedo speckle alone
         "bags.fabric.sheen": 0.0,
     }
     plain = render({**scene, **OFF})[0]
