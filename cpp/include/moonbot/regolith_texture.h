@@ -94,7 +94,6 @@ public:
 
     const GrainParams& params() const { return m_params; }
     int octaves() const { return static_cast<int>(m_octaves.size()); }
-    const SubgridRelief* subgrid() const { return m_subgrid.get(); }
     /// Footprints (metres) at or above this give exactly the mean: factor 1, zero gradient.
     /// Infinite with a subgrid relief, which holds relief at every footprint.
     double flat_footprint_m() const { return m_flat_footprint; }
