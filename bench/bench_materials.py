@@ -25,6 +25,7 @@ from moonbot.scene import compose_scene, intrinsics, orbit_pose
 
 OFF = {
     "terrain.roughness.subgrid_shading": False,
+    "terrain.craters.subgrid_shading": False,
     "terrain.photometry.grain.albedo_rms": 0.0,
     "terrain.photometry.grain.slope_rms_deg": 0.0,
     "bags.fabric.sheen": 0.0,

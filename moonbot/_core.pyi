@@ -6,7 +6,7 @@ import collections.abc
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['Camera', 'CloudParams', 'DirectionalLight', 'EjectaParams', 'FabricParams', 'GrainParams', 'LUNAR_RADIUS', 'LightCache', 'LightCacheSettings', 'LunarFrame', 'MAX_DUST_STEP', 'Medium', 'Photometry', 'RegolithGrain', 'RenderSettings', 'SPAWN_CLEARANCE', 'Scene', 'SoilingParams', 'StainMask', 'StainParams', 'SubgridRelief', 'WovenSurface', 'cloud_puffs', 'curvature_drop', 'embree_isas', 'fabric_eval', 'henyey_greenstein', 'import_dem', 'measure_embree_limit', 'puff_optical_depth', 'read_image', 'render', 'resolve_embree_isa', 'simulate_ejecta', 'splat', 'splat_support_area', 'stain_mask', 'stain_mask_bytes', 'stain_masks_allocated', 'stained_base_colour', 'stamp_centres', 'tonemap_reinhard', 'weave_height', 'write_image']
+__all__: list[str] = ['Camera', 'CloudParams', 'DirectionalLight', 'EjectaParams', 'FabricParams', 'GrainParams', 'LUNAR_RADIUS', 'LightCache', 'LightCacheSettings', 'LunarFrame', 'MAX_DUST_STEP', 'Medium', 'Photometry', 'RegolithGrain', 'RenderSettings', 'SPAWN_CLEARANCE', 'Scene', 'SoilingParams', 'StainMask', 'StainParams', 'SubgridCraters', 'SubgridRelief', 'WovenSurface', 'cloud_puffs', 'curvature_drop', 'embree_isas', 'fabric_eval', 'henyey_greenstein', 'import_dem', 'measure_embree_limit', 'puff_optical_depth', 'read_image', 'render', 'resolve_embree_isa', 'simulate_ejecta', 'splat', 'splat_support_area', 'stain_mask', 'stain_mask_bytes', 'stain_masks_allocated', 'stained_base_colour', 'stamp_centres', 'tonemap_reinhard', 'weave_height', 'write_image']
 class Photometry:
     """
     A photometric function: BRDF = albedo/pi * shape(mu_i, mu_o, g) (moonbot/photometry.h). model 'lambert' | 'lunar-lambert' (McEwen) | 'hapke' (Hapke 2012 with porosity, SHOE, CBOE, roughness; shape normalised to 1 at i = e = g = 0). The Hapke fields are read only by 'hapke' but checked whatever the model; their defaults are the Sato et al. 2014 lunar set. Ranges: `ranges`.
@@ -489,6 +489,28 @@ class SubgridRelief:
         """
         octaves with a non-zero amplitude
         """
+class SubgridCraters:
+    """
+    The small craters a graded terrain mesh did not draw, given back to the shading as their slopes and their walls' shadows (subgrid_craters.h; moonbot/terrain/location.py's subgrid_craters builds it).
+    """
+    def __init__(self, centres: typing.Any, diameters: typing.Any, degradation: typing.Any, table_degradation: typing.Any, radius_step: typing.SupportsFloat | typing.SupportsIndex, table: typing.Any, table_reach: typing.Any) -> None:
+        """
+        Craters: centres (K, 2) world metres, diameters (K,) metres, degradation (K,) σ/R; craters.py's profile table: its diffusion lengths (R,) from 0, its radius step (crater radii), its heights over diameter (R, C) and each row's reach (R,) crater radii. ValueError naming the argument on bad input.
+        """
+    def __len__(self) -> int:
+        ...
+    def gradient(self, points: typing.Any, footprint_m: typing.SupportsFloat | typing.SupportsIndex = 0.0) -> numpy.typing.NDArray[numpy.float64]:
+        """
+        (∂z/∂x, ∂z/∂y) (N, 2) of the summed profiles at world points (N, 2) metres, craters narrower than two footprints of footprint_m metres left out (0: all).
+        """
+    def height(self, points: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
+        """
+        Summed height (N,) metres of the craters' profiles at world points (N, 2) metres.
+        """
+    def shadowed(self, points: typing.Any, to_light: typing.Any, normal: typing.Any) -> numpy.typing.NDArray[numpy.bool]:
+        """
+        Whether a crater's wall hides light from to_light (3,) at terrain points (N, 3) world metres on ground of normal (3,): (N,) bool.
+        """
 class RegolithGrain:
     """
     Regolith's granular micro-texture (regolith_texture.h): octaves of value noise of cells finest_cell_m·2^k up to coarsest_cell_m (metres), an albedo factor of relative RMS albedo_rms and relief of 1-D RMS slope slope_rms_deg (degrees), prefiltered over each pixel's footprint; on the terrain also the roughness its mesh did not hold (a SubgridRelief).
@@ -519,9 +541,9 @@ class Scene:
         """
         An empty scene whose rays Embree traces in `embree_isa` (auto, sse2, sse4.2, avx, avx2, avx512; see resolve_embree_isa). watertight=False (Embree's default BVHs, no second look at shared vertices) exists only to measure what watertightness costs and buys.
         """
-    def add_background(self, mesh: typing.SupportsInt | typing.SupportsIndex, world_from_object: typing.Any, albedo: typing.Any, photometry: Photometry = ..., grain: RegolithGrain = None, moving: bool = False) -> int:
+    def add_background(self, mesh: typing.SupportsInt | typing.SupportsIndex, world_from_object: typing.Any, albedo: typing.Any, photometry: Photometry = ..., grain: RegolithGrain = None, moving: bool = False, craters: SubgridCraters = None) -> int:
         """
-        Add unlabelled geometry (terrain, rocks): label 0 in masks. grain: a RegolithGrain textures its camera hits (None: no texture). moving: it moves between views (the dust's ejecta), so a LightCache neither caches it nor lets it shade what it caches. Returns the instance index.
+        Add unlabelled geometry (terrain, rocks): label 0 in masks. grain: a RegolithGrain textures its camera hits (None: no texture). moving: it moves between views (the dust's ejecta), so a LightCache neither caches it nor lets it shade what it caches. craters: the SubgridCraters its mesh did not draw (needs a grain; world coordinates, so only for geometry placed at the identity). Returns the instance index.
         """
     def add_instance(self, mesh: typing.SupportsInt | typing.SupportsIndex, world_from_object: typing.Any, instance_id: typing.SupportsInt | typing.SupportsIndex, albedo: typing.Any, photometry: Photometry = ..., woven: WovenSurface | None = None) -> int:
         """

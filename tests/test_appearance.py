@@ -24,6 +24,7 @@ pytestmark = pytest.mark.unit
 # Every new look off: the renderer as it was before them.
 OFF = {
     "terrain.roughness.subgrid_shading": False,
+    "terrain.craters.subgrid_shading": False,
     "terrain.photometry.grain.albedo_rms": 0.0,
     "terrain.photometry.grain.slope_rms_deg": 0.0,
     "bags.fabric.sheen": 0.0,
@@ -141,6 +142,7 @@ def test_grain_is_visible_near_and_every_sample_of_a_pixel_reads_it_alike():
         "terrain.photometry.model": "lambert",
         "terrain.photometry.grain.slope_rms_deg": 0.0,
         "terrain.roughness.subgrid_shading": False,  # the albedo speckle alone
+        "terrain.craters.subgrid_shading": False,
         "bags.fabric.sheen": 0.0,
     }
     one = {**scene, "render.spp": 1}
@@ -173,6 +175,7 @@ def test_a_wider_texture_filter_blurs_the_grain_and_a_bad_width_names_the_field(
         "terrain.photometry.model": "lambert",
         "terrain.photometry.grain.slope_rms_deg": 0.0,
         "terrain.roughness.subgrid_shading": False,  # the albedo speckle alone
+        "terrain.craters.subgrid_shading": False,
         "bags.fabric.sheen": 0.0,
     }
     plain = render({**scene, **OFF})[0]

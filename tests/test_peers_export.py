@@ -49,6 +49,7 @@ def test_parity_settings_reach_moonbot(exported):
     assert config.bags.fabric.sheen == 0.0
     assert not config.terrain.photometry.grain.enabled  # no micro-texture: the peers have none
     assert spec.terrain_subgrid is None  # nor the bump of the relief the mesh does not hold
+    assert spec.terrain_craters is None  # nor the craters it does not draw
     assert spec.terrain_normals is None  # flat shading, as the peers are given it
     assert scene["config_overrides"].items() >= PARITY_OVERRIDES.items()
 

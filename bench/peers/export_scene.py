@@ -17,7 +17,8 @@ Parity: what all three renderers (moonbot, Mitsuba 3, Blender Cycles) are set to
 what that changes from moonbot's default scene (`PARITY_OVERRIDES`, `PARITY`):
   * BRDF: plain Lambertian everywhere, albedo/π (terrain.photometry.model = lambert instead of
     lunar-lambert; no regolith grain: terrain.photometry.grain's albedo_rms and slope_rms_deg 0,
-    and no subgrid relief: terrain.roughness.subgrid_shading false;
+    and no subgrid relief or craters: terrain.roughness.subgrid_shading and
+    terrain.craters.subgrid_shading false;
     the bags' woven fabric with relief_m = 0, contrast = 0 and sheen = 0, which moonbot's fabric
     evaluates to the plain bag albedo and the geometric normal; no stain: seeds = 0).
   * Normals: flat (geometric) shading everywhere. moonbot's terrain and bags normally shade with
@@ -72,6 +73,7 @@ PARITY_OVERRIDES = {
     "terrain.photometry.grain.albedo_rms": 0.0,  # no granular micro-texture (0 and 0: off)
     "terrain.photometry.grain.slope_rms_deg": 0.0,
     "terrain.roughness.subgrid_shading": False,  # no bump for the relief the mesh does not hold
+    "terrain.craters.subgrid_shading": False,  # nor shadows of the craters it does not draw
     "bags.fabric.sheen": 0.0,  # matte tapes
 }
 PARITY = {

@@ -10,6 +10,7 @@
 #include "moonbot/camera.h"
 #include "moonbot/light.h"
 #include "moonbot/scene.h"
+#include "moonbot/subgrid_craters.h"
 #include "moonbot/subgrid_relief.h"
 #include "params.h"
 
@@ -20,7 +21,7 @@ namespace {
 Material material(const py::handle& albedo, const Photometry& photometry,
                   const std::optional<WovenSurface>& woven = std::nullopt,
                   std::shared_ptr<const RegolithGrain> grain = nullptr) {
-    return Material{glm::vec3(vector<3>(albedo, "albedo")), validated(photometry), woven, std::move(grain)};
+    return Material{glm::vec3(vector<3>(albedo, "albedo")), validated(photometry), woven, std::move(grain), nullptr};
 }
 
 const char* model_name(Photometry::Model model) {
@@ -178,11 +179,12 @@ void bind_woven(py::module_& m) {
 
 namespace {
 
-/// (N, cols) float64 rows of `name`, C-contiguous.
+/// (N, cols) float64 rows of `name` (any number of columns for cols < 0), C-contiguous.
 py::array_t<double, py::array::c_style> double_rows(const py::handle& obj, const std::string& name, int cols) {
     py::array a = as_array(obj, name);
-    if (a.ndim() != 2 || a.shape(1) != cols)
-        fail(name, "must have shape (N, " + std::to_string(cols) + "), got " + shape_of(a));
+    if (a.ndim() != 2 || (cols >= 0 && a.shape(1) != cols))
+        fail(name,
+             "must have shape (N, " + (cols >= 0 ? std::to_string(cols) : std::string("M")) + "), got " + shape_of(a));
     return converted<double>(a, name);
 }
 
@@ -276,6 +278,85 @@ void bind_subgrid_relief(py::module_& m) {
             "world points (N, 3) metres, for a pixel of footprint footprint_m metres.");
 }
 
+void bind_subgrid_craters(py::module_& m) {
+    py::class_<SubgridCraters, std::shared_ptr<SubgridCraters>>(
+        m, "SubgridCraters",
+        "The small craters a graded terrain mesh did not draw, given back to the shading as their slopes and "
+        "their walls' shadows (subgrid_craters.h; moonbot/terrain/location.py's subgrid_craters builds it).")
+        .def(py::init([](const py::handle& centres, const py::handle& diameters, const py::handle& degradation,
+                         const py::handle& table_degradation, double radius_step, const py::handle& table,
+                         const py::handle& table_reach) {
+                 auto c = double_rows(centres, "centres", 2).unchecked<2>();
+                 const py::ssize_t n = c.shape(0);
+                 std::vector<glm::dvec2> points(static_cast<size_t>(n));
+                 for (py::ssize_t i = 0; i < n; ++i) points[static_cast<size_t>(i)] = {c(i, 0), c(i, 1)};
+                 CraterProfileTable profiles;
+                 profiles.degradation = double_vector(table_degradation, "table_degradation");
+                 profiles.radius_step = radius_step;
+                 auto t = double_rows(table, "table", -1).unchecked<2>();
+                 if (t.shape(0) != static_cast<py::ssize_t>(profiles.degradation.size()))
+                     fail("table", "must have one row per table_degradation");
+                 for (py::ssize_t r = 0; r < t.shape(0); ++r)
+                     for (py::ssize_t k = 0; k < t.shape(1); ++k) profiles.heights.push_back(t(r, k));
+                 profiles.reach = double_vector(table_reach, "table_reach", t.shape(0));
+                 try {
+                     return std::make_shared<SubgridCraters>(
+                         std::move(points), double_vector(diameters, "diameters", n),
+                         double_vector(degradation, "degradation", n), std::move(profiles));
+                 } catch (const std::invalid_argument& e) {
+                     throw py::value_error(e.what());
+                 }
+             }),
+             py::arg("centres"), py::arg("diameters"), py::arg("degradation"), py::arg("table_degradation"),
+             py::arg("radius_step"), py::arg("table"), py::arg("table_reach"),
+             "Craters: centres (K, 2) world metres, diameters (K,) metres, degradation (K,) σ/R; craters.py's "
+             "profile table: its diffusion lengths (R,) from 0, its radius step (crater radii), its heights "
+             "over diameter (R, C) and each row's reach (R,) crater radii. ValueError naming the argument on "
+             "bad input.")
+        .def("__len__", &SubgridCraters::count)
+        .def(
+            "height",
+            [](const SubgridCraters& s, const py::handle& points) {
+                auto p = double_rows(points, "points", 2).unchecked<2>();
+                py::array_t<double> out(p.shape(0));
+                auto o = out.mutable_unchecked<1>();
+                for (py::ssize_t i = 0; i < p.shape(0); ++i) o(i) = s.height(p(i, 0), p(i, 1));
+                return out;
+            },
+            py::arg("points"), "Summed height (N,) metres of the craters' profiles at world points (N, 2) metres.")
+        .def(
+            "gradient",
+            [](const SubgridCraters& s, const py::handle& points, double footprint_m) {
+                if (!(footprint_m >= 0.0)) fail("footprint_m", "must be >= 0");
+                auto p = double_rows(points, "points", 2).unchecked<2>();
+                py::array_t<double> out({p.shape(0), py::ssize_t{2}});
+                auto o = out.mutable_unchecked<2>();
+                for (py::ssize_t i = 0; i < p.shape(0); ++i) {
+                    const glm::dvec3 g = s.gradient(p(i, 0), p(i, 1), footprint_m);
+                    o(i, 0) = g.x, o(i, 1) = g.y;
+                }
+                return out;
+            },
+            py::arg("points"), py::arg("footprint_m") = 0.0,
+            "(∂z/∂x, ∂z/∂y) (N, 2) of the summed profiles at world points (N, 2) metres, craters narrower than two "
+            "footprints of footprint_m metres left out (0: all).")
+        .def(
+            "shadowed",
+            [](const SubgridCraters& s, const py::handle& points, const py::handle& to_light,
+               const py::handle& normal) {
+                auto p = double_rows(points, "points", 3).unchecked<2>();
+                const glm::dvec3 l = vector<3>(to_light, "to_light"), n = vector<3>(normal, "normal");
+                py::array_t<bool> out(p.shape(0));
+                auto o = out.mutable_unchecked<1>();
+                for (py::ssize_t i = 0; i < p.shape(0); ++i)
+                    o(i) = s.shadowed({p(i, 0), p(i, 1), p(i, 2)}, glm::normalize(l), glm::normalize(n));
+                return out;
+            },
+            py::arg("points"), py::arg("to_light"), py::arg("normal"),
+            "Whether a crater's wall hides light from to_light (3,) at terrain points (N, 3) world metres on ground of "
+            "normal (3,): (N,) bool.");
+}
+
 }  // namespace
 
 void bind_scene(py::module_& m) {
@@ -290,6 +371,7 @@ void bind_scene(py::module_& m) {
         .field("seed", &GrainParams::seed, "keys the lattices")
         .done();
     bind_subgrid_relief(m);
+    bind_subgrid_craters(m);
     py::class_<RegolithGrain, std::shared_ptr<RegolithGrain>>(
         m, "RegolithGrain",
         "Regolith's granular micro-texture (regolith_texture.h): octaves of value noise of cells "
@@ -428,15 +510,20 @@ void bind_scene(py::module_& m) {
         .def(
             "add_background",
             [](Scene& s, uint32_t mesh, const py::handle& world_from_object, const py::handle& albedo,
-               const Photometry& photometry, std::shared_ptr<RegolithGrain> grain, bool moving) {
-                return s.add_background(mesh, matrix<4, 4>(world_from_object, "world_from_object"),
-                                        material(albedo, photometry, std::nullopt, std::move(grain)), moving);
+               const Photometry& photometry, std::shared_ptr<RegolithGrain> grain, bool moving,
+               std::shared_ptr<SubgridCraters> craters) {
+                if (craters && !grain) fail("craters", "are read with the grain: give a grain too");
+                Material mat = material(albedo, photometry, std::nullopt, std::move(grain));
+                mat.craters = std::move(craters);
+                return s.add_background(mesh, matrix<4, 4>(world_from_object, "world_from_object"), mat, moving);
             },
             py::arg("mesh"), py::arg("world_from_object"), py::arg("albedo"), py::arg("photometry") = Photometry{},
-            py::arg("grain") = py::none(), py::arg("moving") = false,
+            py::arg("grain") = py::none(), py::arg("moving") = false, py::arg("craters") = py::none(),
             "Add unlabelled geometry (terrain, rocks): label 0 in masks. grain: a RegolithGrain textures "
             "its camera hits (None: no texture). moving: it moves between views (the dust's ejecta), so a "
-            "LightCache neither caches it nor lets it shade what it caches. Returns the instance index.")
+            "LightCache neither caches it nor lets it shade what it caches. craters: the SubgridCraters its "
+            "mesh did not draw (needs a grain; world coordinates, so only for geometry placed at the "
+            "identity). Returns the instance index.")
         .def("commit", &Scene::commit, py::call_guard<py::gil_scoped_release>(),
              "Build the top-level BVH; required before rendering.")
         .def(

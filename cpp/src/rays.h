@@ -80,6 +80,7 @@ struct InstanceData {
     int vertex_albedo_channels;  // 1: one factor per vertex; 3: one per RGB channel
     const float* vertex_normals; // per-vertex unit shading normals (object frame), or null
     const RegolithGrain* grain;  // granular micro-texture at camera hits, or null
+    const SubgridCraters* craters;  // the small craters its mesh did not draw, or null
 };
 
 /// The interpolated shading normal of instance `inst` at barycentrics (u, v) of triangle
@@ -172,7 +173,8 @@ inline std::vector<InstanceData> instance_table(const Scene& scene) {
                     mesh.vertex_albedo.empty() ? nullptr : mesh.vertex_albedo.data(),
                     mesh.vertex_albedo_channels,
                     mesh.vertex_normals.empty() ? nullptr : mesh.vertex_normals.data(),
-                    inst.material.grain.get()};
+                    inst.material.grain.get(),
+                    inst.material.craters.get()};
     }
     return table;
 }

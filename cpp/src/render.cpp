@@ -490,7 +490,7 @@ private:
             if (inst.vertex_normals) v.shading = shading_normal_at(inst, tri.prim, h.u, h.v, v.normal);
             if (inst.woven) cloth(inst, tri, h, dir, s.centre_dirs[i], v);
             if (inst.grain)
-                regolith_grain(*inst.grain, tri, h, dir, s.centre_dirs[i], v, s.grain_reads[pixels ? pixels[i] : i]);
+                regolith_grain(inst, tri, h, dir, s.centre_dirs[i], v, s.grain_reads[pixels ? pixels[i] : i]);
             v.cos_light[0] = tri.cos_sun[h.side];
             for (size_t l = 1; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(v.normal, m_lights[l].dir);
             if (m_medium && m_sun) s.sun_dust[i] = m_medium->sun_transmittance(v.point);
@@ -674,7 +674,7 @@ private:
             read.known = true;
             read.instance = instance;
             read.point = origin + h.t * dir;
-            if (footprint < grain->flat_footprint_m()) read.sample = grain->eval(read.point, footprint);
+            read.sample = texture_at(m_instances[instance], read.point, footprint);
         }
     }
 
@@ -690,7 +690,7 @@ private:
     /// of that point takes it, whatever facet it hit. A sample elsewhere (on another instance, or
     /// past a ridge of the same one) reads where the centre ray meets its own facet's plane
     /// (texture_point), or failing that at its own point.
-    void regolith_grain(const RegolithGrain& grain, const TriangleRecord& tri, const PixelHit& h, const glm::dvec3& dir,
+    void regolith_grain(const InstanceData& inst, const TriangleRecord& tri, const PixelHit& h, const glm::dvec3& dir,
                         const glm::dvec3& centre_dir, PathVertex& v, const TileScratch::GrainRead& read) const {
         const double distance = h.t * glm::length(dir);
         GrainSample g;
@@ -698,12 +698,9 @@ private:
             g = read.sample;
         } else if (const std::optional<glm::dvec3> centre = texture_point(tri, v, distance, centre_dir)) {
             const glm::dvec3 to_centre = *centre - m_camera.center();
-            const double footprint = pixel_footprint(glm::length(to_centre), to_centre, v.normal);
-            if (footprint < grain.flat_footprint_m()) g = grain.eval(*centre, footprint);
+            g = texture_at(inst, *centre, pixel_footprint(glm::length(to_centre), to_centre, v.normal));
         } else {
-            const double footprint = pixel_footprint(distance, dir, v.shading);
-            if (!(footprint < grain.flat_footprint_m())) return;  // the mean: nothing to read
-            g = grain.eval(v.point, footprint);
+            g = texture_at(inst, v.point, pixel_footprint(distance, dir, v.shading));
         }
         if (g.albedo_factor == 1.0 && g.residual_slope_variance == 0.0 && g.gradient == glm::dvec3(0.0)) return;
         v.residual_slope = std::sqrt(g.residual_slope_variance);
@@ -714,6 +711,16 @@ private:
         if (!(glm::dot(tilted, v.wo) > 0.0)) return;
         v.shading = tilted;
         v.shaded_apart = true;
+    }
+
+    /// What instance `inst` (one with grain) shows over a pixel footprint of `footprint_m` metres at
+    /// world `point`: its grain (nothing past the grain's flat footprint), with the slopes of the
+    /// craters its mesh did not draw added to the grain's mean slope.
+    static GrainSample texture_at(const InstanceData& inst, const glm::dvec3& point, double footprint_m) {
+        GrainSample g;
+        if (footprint_m < inst.grain->flat_footprint_m()) g = inst.grain->eval(point, footprint_m);
+        if (inst.craters) g.gradient += inst.craters->gradient(point.x, point.y, footprint_m);
+        return g;
     }
 
     /// The bag's cloth at a camera hit: where the hit lies in the UV atlas, the weave there
@@ -855,6 +862,11 @@ private:
                                                          : sample * rays + static_cast<uint32_t>(k);
                         to_light = light.toward(sample_pair(s.streams[i], point, pair + static_cast<uint32_t>(l)));
                         if (glm::dot(v.normal, to_light) <= 0.0) continue;  // below the facet's horizon
+                    }
+                    // Behind the wall of a crater the mesh did not draw: hidden, and no ray to trace.
+                    if (camera_hits) {
+                        const SubgridCraters* craters = m_instances[v.instance].craters;
+                        if (craters && craters->shadowed(v.point, to_light, v.normal)) continue;
                     }
                     set_ray(s.shadow[count], v.lifted, to_light);
                     s.shadow_of[count++] = i;

@@ -360,6 +360,14 @@ class CratersConfig:
             hi=10000.0,
         ),
     )
+    subgrid_shading: bool = field(
+        default=True,
+        metadata=spec(
+            "shade the craters the graded mesh cannot draw (narrower than 5 cells, 0.1·distance), out to where "
+            "they span a few pixels: their slopes and their walls' shadows at camera hits "
+            "(moonbot/subgrid_craters.h)"
+        ),
+    )
 
 
 @dataclass(frozen=True)

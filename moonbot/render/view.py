@@ -65,8 +65,16 @@ def build_scene(
     }
     photometry, albedo = regolith(spec.terrain_photometry, spec.terrain_albedo)
     grain = regolith_grain(spec.terrain_photometry.grain)
-    terrain_grain = regolith_grain(spec.terrain_photometry.grain, spec.terrain_subgrid)
-    scene.add_background(mesh_index[TERRAIN_MESH], np.eye(4), albedo, photometry, grain=terrain_grain)
+    craters = spec.terrain_craters
+    terrain_grain = regolith_grain(spec.terrain_photometry.grain, spec.terrain_subgrid, needed=craters is not None)
+    scene.add_background(
+        mesh_index[TERRAIN_MESH],
+        np.eye(4),
+        albedo,
+        photometry,
+        grain=terrain_grain,
+        craters=_core.SubgridCraters(**vars(craters)) if craters is not None else None,
+    )
     for key, pose in spec.rocks:  # rocks are regolith (label 0), their own meshes: no subgrid relief
         scene.add_background(mesh_index[key], pose, albedo, photometry, grain=grain)
     f, st = spec.fabric, spec.stain
@@ -88,11 +96,14 @@ def regolith(config: PhotometryConfig, normal_albedo: float) -> tuple[_core.Phot
     return photometry, (normal_albedo / photometry.shape(1.0, 1.0, 1.0),) * 3
 
 
-def regolith_grain(config: GrainConfig, subgrid: SubgridRelief | None = None) -> _core.RegolithGrain | None:
+def regolith_grain(
+    config: GrainConfig, subgrid: SubgridRelief | None = None, needed: bool = False
+) -> _core.RegolithGrain | None:
     """The core's granular micro-texture for regolith surfaces (terrain, rocks, ejecta), with the
-    terrain's `subgrid` relief read along with it, or None when the config turns the grain off and
-    there is no subgrid relief (then no texture code runs)."""
-    if not config.enabled and subgrid is None:
+    terrain's `subgrid` relief read along with it, or None when the config turns the grain off,
+    there is no subgrid relief and it is not `needed` (the terrain's subgrid craters are read with
+    it); then no texture code runs."""
+    if not config.enabled and subgrid is None and not needed:
         return None
     core_subgrid = _core.SubgridRelief(**vars(subgrid)) if subgrid is not None else None
     return _core.RegolithGrain(params.grain(config), subgrid=core_subgrid)

@@ -14,7 +14,7 @@ from moonbot.scene.bag_mesh import bag_collision, bag_model
 from moonbot.scene.placement import Placement, arrange_bags
 from moonbot.terrain import get_terrain
 from moonbot.terrain.ground import Ground
-from moonbot.terrain.location import DemSite, SubgridRelief
+from moonbot.terrain.location import DemSite, SubgridCraters, SubgridRelief
 from moonbot.terrain.rocks import RockField, rock_poses
 
 
@@ -39,7 +39,8 @@ class SceneSpec:
     `terrain_albedo` is regolith's normal albedo, varied per terrain vertex by
     `terrain_albedo_scale` ((N,) float32 or None), shaded with the smooth `terrain_normals`
     ((N, 3) float32 or None), shaped by `terrain_photometry`, and given back in its shading the
-    roughness its graded mesh could not hold by `terrain_subgrid` (None: none); `bag_uvs`
+    roughness its graded mesh could not hold by `terrain_subgrid` and the small craters it could
+    not draw by `terrain_craters` (None: none); `bag_uvs`
     (M, 3, 2) float32 are the bag mesh's corner UVs (its cloth's atlas, `bag_metres_per_uv`
     metres per unit), woven and stained as `fabric` and `stain` say, its albedo varied per vertex
     and channel by `bag_vertex_albedo` ((N, 3) float32, a user mesh's texture; None: uniform);
@@ -66,6 +67,7 @@ class SceneSpec:
     site: DemSite | None = None
     bag_vertex_albedo: np.ndarray | None = None
     terrain_subgrid: SubgridRelief | None = None
+    terrain_craters: SubgridCraters | None = None
 
 
 TERRAIN_MESH = 0  # key of the terrain in SceneSpec.meshes; bags use their obj_id (≥ 1)
@@ -158,4 +160,5 @@ def compose_scene(config: Config, placement: Placement | None = None) -> SceneSp
         site=terrain.site,
         bag_vertex_albedo=model.vertex_albedo,
         terrain_subgrid=terrain.subgrid,
+        terrain_craters=terrain.craters,
     )

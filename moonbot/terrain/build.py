@@ -25,10 +25,12 @@ from moonbot.terrain.ground import FlatGround, Ground, SlopedGround
 from moonbot.terrain.location import (
     LOCATIONS,
     DemSite,
+    SubgridCraters,
     SubgridRelief,
     build_location,
     dem_site,
     main_crater,
+    subgrid_craters,
     subgrid_relief,
 )
 from moonbot.terrain.rocks import RockField, rock_prototypes, sample_rocks
@@ -47,7 +49,8 @@ class Terrain:
     `build_seconds` it took. `site` says where a `dem` location's world frame lies on the Moon
     (None for the other locations, which are nowhere in particular). `subgrid` is the roughness
     its mesh could not hold, for the shading (None for the analytic grounds, or when
-    terrain.roughness.subgrid_shading is off)."""
+    terrain.roughness.subgrid_shading is off), `craters` the small craters it could not draw
+    (None for the analytic grounds, or when terrain.craters.subgrid_shading is off)."""
 
     ground: Ground
     mesh: tuple[np.ndarray, np.ndarray]
@@ -59,6 +62,7 @@ class Terrain:
     build_seconds: float
     site: DemSite | None = None
     subgrid: SubgridRelief | None = None
+    craters: SubgridCraters | None = None
 
 
 _cache: OrderedDict[str, Terrain] = OrderedDict()
@@ -103,15 +107,18 @@ def get_terrain(config: TerrainConfig) -> tuple[Terrain, bool]:
     dem = LocalDem.load(config.dem_file) if config.location == "dem" else None
     ground = make_ground(config, dem)
     mesh = ground.mesh()
-    rocks, rock_meshes, albedo_scale, normals, subgrid = None, [], None, None, None
+    rocks, rock_meshes, albedo_scale, normals, subgrid, craters = None, [], None, None, None, None
     if config.location in LOCATIONS:
         rocks = sample_rocks(config.seed, config.rocks, main_crater(config))
         rock_meshes = rock_prototypes(config.seed)
         albedo_scale = albedo_factor(config, mesh[0][:, 0], mesh[0][:, 1])
         normals = ground.vertex_normals()
         subgrid = subgrid_relief(config, dem)
+        craters = subgrid_craters(config, dem)
     per_vertex = [a for a in (albedo_scale, normals) if a is not None]
-    subgrid_arrays = list(vars(subgrid).values()) if subgrid is not None else []
+    subgrid_arrays = [
+        a for s in (subgrid, craters) if s is not None for a in vars(s).values() if isinstance(a, np.ndarray)
+    ]
     for array in (*mesh, *(a for m in rock_meshes for a in m), *per_vertex, *subgrid_arrays):
         array.setflags(write=False)  # shared by every task of this process: nobody may edit it
     terrain = Terrain(
@@ -125,6 +132,7 @@ def get_terrain(config: TerrainConfig) -> tuple[Terrain, bool]:
         build_seconds=time.perf_counter() - start,
         site=dem_site(config, dem) if dem is not None else None,
         subgrid=subgrid,
+        craters=craters,
     )
     _cache[key] = terrain
     while len(_cache) > max(CACHE_SIZE, _capacity):

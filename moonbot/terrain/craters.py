@@ -44,6 +44,7 @@ RIM_RATIO = 0.036
 EJECTA_EXPONENT = 3.0
 EJECTA_CUTOFF = 2.5  # in crater radii
 DIFFUSION_MAX = 0.65  # largest diffusion length σ/R of the equilibrium population (see above)
+RING_STREAM = 0x5B6C1D  # keys sample_graded_ring's random stream apart from sample_graded's
 # The table `crater_profile` interpolates: source radii (crater radii) over the fresh profile's
 # support, diffusion lengths from 0 to DIFFUSION_MAX, and output radii out to the largest reach.
 _SOURCE_STEP = EJECTA_CUTOFF / 1000
@@ -93,6 +94,20 @@ def _profile_table() -> np.ndarray:
     table = np.array(rows)
     table.flags.writeable = False
     return table
+
+
+def profile_table() -> dict:
+    """`crater_profile`'s table as the core's SubgridCraters takes it: the diffusion lengths σ/R
+    of its rows `table_degradation` (from 0), the step of its radii `radius_step` (crater radii,
+    from 0), its heights over diameter `table` (rows × radii) and each row's reach `table_reach`
+    (crater radii). Fresh craters (σ/R = 0) read row 0, the fresh profile sampled every
+    radius_step, where `crater_profile` takes the exact parabola."""
+    return {
+        "table_degradation": _DIFFUSION_GRID,
+        "radius_step": _OUTPUT_STEP,
+        "table": _profile_table(),
+        "table_reach": crater_reach(_DIFFUSION_GRID),
+    }
 
 
 def crater_reach(degradation: float | np.ndarray) -> float | np.ndarray:
@@ -197,6 +212,36 @@ class CraterField:
             if half > 0.0:
                 parts.append(CraterField.sample([seed, band], half, density, lo, hi))
             lo, band = hi, band + 1
+        return CraterField.union(parts)
+
+    @staticmethod
+    def sample_graded_ring(
+        seed: int,
+        inner: Callable[[float], float],
+        outer: Callable[[float], float],
+        density: float = 0.079,
+        d_min: float = 0.5,
+        d_max: float = 200.0,
+    ) -> CraterField:
+        """The craters `sample_graded` with half_size `inner` leaves out, out to `outer`: for each
+        of its octave bands [d, 2d), a Poisson sample over the square ±outer(d) (a stream of its
+        own) less the craters inside the square ±inner(d). With `sample_graded`'s the union
+        follows N(≥D) = density·D^-2 exactly over each band's outer square, as one Poisson
+        process restricted to two disjoint regions."""
+        parts = []
+        lo, band = d_min, 0
+        while lo < d_max:
+            hi = min(2.0 * lo, d_max)
+            near, far = inner(lo), outer(lo)
+            if far > near:
+                ring = CraterField.sample([seed, band, RING_STREAM], far, density, lo, hi)
+                parts.append(ring.subset(np.max(np.abs(ring.centres), axis=1) > near))
+            lo, band = hi, band + 1
+        return CraterField.union(parts)
+
+    @staticmethod
+    def union(parts: list[CraterField]) -> CraterField:
+        """The craters of every field in `parts`, in order."""
         if not parts:
             return CraterField(np.zeros((0, 2)), np.zeros(0), np.zeros(0))
         return CraterField(

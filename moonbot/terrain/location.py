@@ -40,7 +40,7 @@ import numpy as np
 
 from moonbot import _core
 from moonbot.config.schema import LOCATIONS, TerrainConfig
-from moonbot.terrain.craters import CraterField, crater_profile
+from moonbot.terrain.craters import CraterField, crater_profile, profile_table
 from moonbot.terrain.dem import LocalDem
 from moonbot.terrain.ground import GridGround, graded_axis
 from moonbot.terrain.roughness import Roughness, SlopeLaw, slope_law
@@ -48,6 +48,9 @@ from moonbot.terrain.roughness import Roughness, SlopeLaw, slope_law
 LUNAR_RADIUS_M = float(_core.LUNAR_RADIUS)
 CRATER_CELLS = 5  # a crater is kept where its diameter spans at least this many grid cells
 CRATER_REACH = 60.0  # craters of diameter D are sampled within 60·D (~10 pixels across there)
+# The craters the mesh cannot draw are shaded out to 200·D, where one spans about 4 pixels of the
+# default 640-pixel camera (its shadow 1–2): further out it is the photometry's unresolved roughness.
+SUBGRID_CRATER_REACH = 200.0
 HILLS_BASELINE_M = 25.0  # the baseline of hills_rms_slope_deg (LOLA's shortest slope maps)
 HILLS_HURST = 0.95  # LOLA highlands median (Rosenburg et al. 2011)
 # A DEM resolves wavelengths down to about two pixels (Nyquist) and craters down to about five
@@ -296,33 +299,14 @@ class Location:
         if (config.location == "dem") != (dem is not None):
             raise ValueError("terrain.location: a DEM is given exactly when the location is dem")
         self.config = config
-        seed = config.seed
-        c = config.craters
-        max_crater = c.max_diameter_m
         self.dem = None
         if dem is not None:
             self.dem = DemRelief(dem, config.dem_site_m, name=config.dem_file)
             self.dem.require_covers(float(np.max(np.abs(axis))))
-            # Craters only below what the DEM resolves: the DEM carries everything larger.
-            max_crater = min(max_crater, DEM_CRATER_PIXELS * dem.spacing_m)
         self.roughness, self.hills = roughness_fields(config, dem)
-        # Sampled over squares that do not depend on the grid (so changing the grid's knobs
-        # changes how the same craters are drawn, not which craters exist), then thinned to the
-        # ones the grid can draw where they lie.
-        craters = CraterField.sample_graded(
-            seed,
-            density=c.density,
-            d_min=c.min_diameter_m,
-            d_max=max_crater,  # none if d_max <= d_min
-            half_size=lambda d: min(CRATER_REACH * d, config.extent_m),
-        )
-        craters = craters.subset(drawable(axis, craters.centres, craters.diameters))
-        # A work site is chosen outside large craters: drop those whose bowl reaches the fine
-        # tile (otherwise a low Sun can leave the whole site in a crater wall's shadow).
-        reach = craters.diameters / 2.0 + config.detail_extent_m
-        self.craters = craters.subset(
-            (craters.diameters <= c.site_max_diameter_m) | (np.hypot(*craters.centres.T) > reach)
-        )
+        # Thinned to the craters the grid can draw where they lie.
+        craters = crater_population(config, dem)
+        self.craters = outside_site(config, craters.subset(drawable(axis, craters.centres, craters.diameters)))
         self.main_crater = main_crater(config)
 
     def surface(self, x: np.ndarray, y: np.ndarray, cell: np.ndarray) -> np.ndarray:
@@ -339,6 +323,35 @@ class Location:
             s = np.hypot(x - centre[0], y - centre[1]) / (diameter / 2.0)
             z += crater_profile(s, diameter)
         return z
+
+
+def crater_population(config: TerrainConfig, dem: LocalDem | None = None) -> CraterField:
+    """Every small crater a location samples, before its mesh keeps the ones it can draw: the
+    equilibrium law over octave bands of diameter, band [d, 2d) over the square ±CRATER_REACH·d
+    (at most the terrain's extent). The squares do not depend on the grid, so changing the grid's
+    knobs changes how the same craters are drawn, not which craters exist. Under a DEM only
+    craters below what it resolves: the DEM carries everything larger."""
+    c = config.craters
+    max_crater = c.max_diameter_m
+    if dem is not None:
+        max_crater = min(max_crater, DEM_CRATER_PIXELS * dem.spacing_m)
+    return CraterField.sample_graded(
+        config.seed,
+        density=c.density,
+        d_min=c.min_diameter_m,
+        d_max=max_crater,  # none if d_max <= d_min
+        half_size=lambda d: min(CRATER_REACH * d, config.extent_m),
+    )
+
+
+def outside_site(config: TerrainConfig, craters: CraterField) -> CraterField:
+    """`craters` less those larger than terrain.craters.site_max_diameter_m whose bowl reaches
+    the fine tile: a work site is chosen outside large craters (otherwise a low Sun can leave the
+    whole site in a crater wall's shadow)."""
+    reach = craters.diameters / 2.0 + config.detail_extent_m
+    return craters.subset(
+        (craters.diameters <= config.craters.site_max_diameter_m) | (np.hypot(*craters.centres.T) > reach)
+    )
 
 
 def roughness_fields(config: TerrainConfig, dem: LocalDem | None = None) -> tuple[Roughness | None, Roughness | None]:
@@ -404,6 +417,49 @@ def subgrid_relief(config: TerrainConfig, dem: LocalDem | None = None) -> Subgri
         axis=axis,
         spacing=node_spacing(axis),
     )
+
+
+@dataclass(frozen=True)
+class SubgridCraters:
+    """The small craters of a location that its mesh did not draw, for the core's SubgridCraters
+    (moonbot/subgrid_craters.h), which shades their slopes and their walls' shadows: `centres`
+    (K, 2) world metres, `diameters` (K,) metres, `degradation` (K,) σ/R, and craters.py's profile
+    table (`craters.profile_table`)."""
+
+    centres: np.ndarray
+    diameters: np.ndarray
+    degradation: np.ndarray
+    table_degradation: np.ndarray
+    radius_step: float
+    table: np.ndarray
+    table_reach: np.ndarray
+
+
+def subgrid_craters(config: TerrainConfig, dem: LocalDem | None = None) -> SubgridCraters | None:
+    """The craters a procedural location's graded mesh leaves out, for the shading: those of its
+    population (`crater_population`) it cannot draw where they lie, and the same law's craters
+    beyond its squares out to ±SUBGRID_CRATER_REACH·d (`CraterField.sample_graded_ring`), each a
+    few pixels across there; those reaching the site are left out as the mesh leaves them.
+    None where `terrain.craters.subgrid_shading` is off or none is left."""
+    c = config.craters
+    if not c.subgrid_shading:
+        return None
+    population = crater_population(config, dem)
+    axis = location_axis(config)
+    undrawn = population.subset(~drawable(axis, population.centres, population.diameters))
+    max_crater = c.max_diameter_m if dem is None else min(c.max_diameter_m, DEM_CRATER_PIXELS * dem.spacing_m)
+    beyond = CraterField.sample_graded_ring(
+        config.seed,
+        inner=lambda d: min(CRATER_REACH * d, config.extent_m),
+        outer=lambda d: min(SUBGRID_CRATER_REACH * d, config.extent_m),
+        density=c.density,
+        d_min=c.min_diameter_m,
+        d_max=max_crater,
+    )
+    craters = outside_site(config, CraterField.union([undrawn, beyond]))
+    if not len(craters.diameters):
+        return None
+    return SubgridCraters(craters.centres, craters.diameters, craters.degradation, **profile_table())
 
 
 def main_crater(config: TerrainConfig) -> tuple[np.ndarray, float] | None:

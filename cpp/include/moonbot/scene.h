@@ -16,6 +16,7 @@
 #include "moonbot/regolith_texture.h"
 #include "moonbot/soiling.h"
 #include "moonbot/stain.h"
+#include "moonbot/subgrid_craters.h"
 
 namespace moonbot {
 
@@ -49,12 +50,15 @@ struct WovenSurface {
 /// A surface: `albedo` linear RGB in [0, 1] and the photometric function that shapes it (the
 /// BRDF is albedo/π · photometric_shape(...); Lambertian by default); optionally woven; optionally
 /// regolith's granular micro-texture (regolith_texture.h) at camera hits, which multiplies the
-/// albedo and tilts the shading normal (null: none, and none of its code runs).
+/// albedo and tilts the shading normal (null: none, and none of its code runs); optionally the
+/// small craters its mesh did not draw (subgrid_craters.h), whose slopes tilt the shading normal
+/// and whose walls hide the lights at camera hits (null: none, and none of their code runs).
 struct Material {
     glm::vec3 albedo{0.5f};
     Photometry photometry{};
     std::optional<WovenSurface> woven;
     std::shared_ptr<const RegolithGrain> grain;
+    std::shared_ptr<const SubgridCraters> craters;
 };
 
 /// A prototype mesh, held by the scene for the lifetime of its BVH.
