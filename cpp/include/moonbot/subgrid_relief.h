@@ -26,9 +26,10 @@
 // V = ⅓·2·E[s'²]·E[(1 − s)² + s²] = ⅓·2·(10/7)·(181/231) of unit value noise, m_k the octave's
 // subgrid weight.
 //
-// What it leaves out. Small craters the mesh did not draw (location.py keeps a crater where it
-// spans 5 cells) are not given back, and the bump casts no shadow: at a 12° Sun, Smith's (1967)
-// shadowing function puts the shadowed share of a surface of 5° RMS slope below 1 %.
+// What it leaves out. The bump casts no shadow: at a 12° Sun, Smith's (1967) shadowing function
+// puts the shadowed share of a surface of 5° RMS slope below 1 %. The small craters the mesh did
+// not draw (location.py keeps a crater where it spans 5 cells) are given back apart
+// (subgrid_craters.h).
 #pragma once
 
 #include <cstdint>
