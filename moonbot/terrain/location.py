@@ -332,16 +332,21 @@ def crater_population(config: TerrainConfig, dem: LocalDem | None = None) -> Cra
     knobs changes how the same craters are drawn, not which craters exist. Under a DEM only
     craters below what it resolves: the DEM carries everything larger."""
     c = config.craters
-    max_crater = c.max_diameter_m
-    if dem is not None:
-        max_crater = min(max_crater, DEM_CRATER_PIXELS * dem.spacing_m)
     return CraterField.sample_graded(
         config.seed,
         density=c.density,
         d_min=c.min_diameter_m,
-        d_max=max_crater,  # none if d_max <= d_min
+        d_max=largest_crater(config, dem),  # none if d_max <= d_min
         half_size=lambda d: min(CRATER_REACH * d, config.extent_m),
     )
+
+
+def largest_crater(config: TerrainConfig, dem: LocalDem | None = None) -> float:
+    """The largest small crater's diameter, metres: terrain.craters.max_diameter_m, and under a
+    DEM no larger than DEM_CRATER_PIXELS of its pixels."""
+    if dem is None:
+        return config.craters.max_diameter_m
+    return min(config.craters.max_diameter_m, DEM_CRATER_PIXELS * dem.spacing_m)
 
 
 def outside_site(config: TerrainConfig, craters: CraterField) -> CraterField:
@@ -447,14 +452,13 @@ def subgrid_craters(config: TerrainConfig, dem: LocalDem | None = None) -> Subgr
     population = crater_population(config, dem)
     axis = location_axis(config)
     undrawn = population.subset(~drawable(axis, population.centres, population.diameters))
-    max_crater = c.max_diameter_m if dem is None else min(c.max_diameter_m, DEM_CRATER_PIXELS * dem.spacing_m)
     beyond = CraterField.sample_graded_ring(
         config.seed,
         inner=lambda d: min(CRATER_REACH * d, config.extent_m),
         outer=lambda d: min(SUBGRID_CRATER_REACH * d, config.extent_m),
         density=c.density,
         d_min=c.min_diameter_m,
-        d_max=max_crater,
+        d_max=largest_crater(config, dem),
     )
     craters = outside_site(config, CraterField.union([undrawn, beyond]))
     if not len(craters.diameters):
