@@ -197,6 +197,16 @@ std::vector<double> double_vector(const py::handle& obj, const std::string& name
     return {c.data(), c.data() + c.shape(0)};
 }
 
+/// f(x, y) at each world point of `points` (N, 2), metres: a float64 array (N,).
+template <typename F>
+py::array_t<double> at_points(const py::handle& points, F f) {
+    auto p = double_rows(points, "points", 2).unchecked<2>();
+    py::array_t<double> out(p.shape(0));
+    auto o = out.mutable_unchecked<1>();
+    for (py::ssize_t i = 0; i < p.shape(0); ++i) o(i) = f(p(i, 0), p(i, 1));
+    return out;
+}
+
 void bind_subgrid_relief(py::module_& m) {
     py::class_<SubgridRelief, std::shared_ptr<SubgridRelief>>(
         m, "SubgridRelief",
@@ -237,11 +247,7 @@ void bind_subgrid_relief(py::module_& m) {
         .def(
             "cell",
             [](const SubgridRelief& r, const py::handle& points) {
-                auto p = double_rows(points, "points", 2).unchecked<2>();
-                py::array_t<double> out(p.shape(0));
-                auto o = out.mutable_unchecked<1>();
-                for (py::ssize_t i = 0; i < p.shape(0); ++i) o(i) = r.cell_m(p(i, 0), p(i, 1));
-                return out;
+                return at_points(points, [&](double x, double y) { return r.cell_m(x, y); });
             },
             py::arg("points"), "The mesh's cell (N,) metres at world points (N, 2) (x, y) metres.")
         .def(
@@ -317,11 +323,7 @@ void bind_subgrid_craters(py::module_& m) {
         .def(
             "height",
             [](const SubgridCraters& s, const py::handle& points) {
-                auto p = double_rows(points, "points", 2).unchecked<2>();
-                py::array_t<double> out(p.shape(0));
-                auto o = out.mutable_unchecked<1>();
-                for (py::ssize_t i = 0; i < p.shape(0); ++i) o(i) = s.height(p(i, 0), p(i, 1));
-                return out;
+                return at_points(points, [&](double x, double y) { return s.height(x, y); });
             },
             py::arg("points"), "Summed height (N,) metres of the craters' profiles at world points (N, 2) metres.")
         .def(
