@@ -153,14 +153,17 @@ void SubgridCraters::each_near(double x, double y, Visit visit) const {
             const Crater& c = m_craters[band.members[k]];
             const glm::dvec2 offset(x - c.centre.x, y - c.centre.y);
             const double r2 = glm::dot(offset, offset);
-            if (r2 < c.reach_m * c.reach_m) visit(c, offset, std::sqrt(r2));
+            if (r2 < c.reach_m * c.reach_m && !visit(c, offset, std::sqrt(r2))) return;
         }
     }
 }
 
 double SubgridCraters::height(double x, double y) const {
     double z = 0.0;
-    each_near(x, y, [&](const Crater& c, const glm::dvec2&, double r) { z += c.diameter * profile(c, r / c.radius); });
+    each_near(x, y, [&](const Crater& c, const glm::dvec2&, double r) {
+        z += c.diameter * profile(c, r / c.radius);
+        return true;
+    });
     return z;
 }
 
@@ -168,11 +171,12 @@ glm::dvec3 SubgridCraters::gradient(double x, double y, double footprint_m) cons
     glm::dvec2 g(0.0);
     each_near(x, y, [&](const Crater& c, const glm::dvec2& offset, double r) {
         const double weight = footprint_m > 0.0 ? std::clamp((c.diameter / footprint_m - 2.0) / 2.0, 0.0, 1.0) : 1.0;
-        if (weight == 0.0 || !(r > 0.0)) return;
+        if (weight == 0.0 || !(r > 0.0)) return true;
         double slope;
         profile(c, r / c.radius, &slope);
         // z = D·h(r/R): dz/dr = D·h'(s)/R = 2·h'(s), along the radial unit vector.
         g += weight * 2.0 * slope * (offset / r);
+        return true;
     });
     return {g.x, g.y, 0.0};
 }
@@ -190,9 +194,9 @@ bool SubgridCraters::shadowed(const glm::dvec3& p, const glm::dvec3& to_light, c
     if (tan_e >= m_steepest) return false;  // above every wall
     bool hidden = false;
     each_near(p.x, p.y, [&](const Crater& c, const glm::dvec2& offset, double r) {
-        if (hidden || tan_e >= c.steepest) return;  // no wall of its rises as steeply as the light
+        if (tan_e >= c.steepest) return true;  // no wall of its rises as steeply as the light
         const double s0 = r / c.radius;
-        if (s0 >= c.crest_s) return;  // outside the rim crest: the flank only falls away from it
+        if (s0 >= c.crest_s) return true;  // outside the rim crest: the flank only falls away from it
         const glm::dvec2 q0 = offset / c.radius;  // crater radii
         const double z0 = profile(c, s0);
         // Its wall rises at most to its crest, the profile's highest point, which the ray climbs
@@ -200,7 +204,7 @@ bool SubgridCraters::shadowed(const glm::dvec3& p, const glm::dvec3& to_light, c
         // side of that circle.
         const double rise_per_radius = tan_e / 2.0;  // z/D a crater radius along the ray: R·tan e / D
         const double climb = (c.crest - z0) / rise_per_radius;
-        if (!(climb > 0.0)) return;
+        if (!(climb > 0.0)) return true;
         const double b = glm::dot(q0, heading);
         const double reach = c.reach_m / c.radius;
         const double exit = -b + std::sqrt(std::max(0.0, b * b - s0 * s0 + reach * reach));
@@ -209,9 +213,10 @@ bool SubgridCraters::shadowed(const glm::dvec3& p, const glm::dvec3& to_light, c
             const double t = last * k / kShadowSteps;
             if (profile(c, glm::length(q0 + t * heading)) - z0 > t * rise_per_radius) {
                 hidden = true;
-                return;
+                return false;  // one wall is enough: the other craters need no look
             }
         }
+        return true;
     });
     return hidden;
 }

@@ -96,6 +96,8 @@ private:
     };
     /// z/D of crater c at s crater radii, and (with `slope`) dz/ds over D.
     double profile(const Crater& c, double s, double* slope = nullptr) const;
+    /// Calls visit(crater, (x, y) − its centre, their distance) for each crater whose reach holds
+    /// world (x, y), metres, until a call returns false.
     template <typename Visit>
     void each_near(double x, double y, Visit visit) const;
 
