@@ -23,7 +23,15 @@ from moonbot.terrain import clear_cache, get_terrain, make_ground
 from moonbot.terrain.craters import crater_profile
 from moonbot.terrain.ground import GridGround, grid_triangles
 from moonbot.terrain.location import Location, curvature_drop, drawable, location_axis, main_crater, node_spacing
-from moonbot.terrain.rocks import crater_falloff, golombek_q, rock_poses, rock_prototypes, rocks_per_m2, sample_rocks
+from moonbot.terrain.rocks import (
+    BURIAL,
+    crater_falloff,
+    golombek_q,
+    rock_poses,
+    rock_prototypes,
+    rocks_per_m2,
+    sample_rocks,
+)
 
 pytestmark = pytest.mark.unit
 
@@ -192,6 +200,28 @@ def test_rocks_are_closed_shapes_sunk_into_the_ground():
         ground = 0.1 * pose[0, 3]
         height = np.ptp(world[:, 2])
         assert world[:, 2].min() == pytest.approx(ground - b * height, abs=1e-9)
+
+
+def test_rocks_stand_as_high_as_the_cited_shapes_and_burial_say():
+    """The prototypes' axes average 1 : 0.75 : 0.5 (impact fragments, 2 : √2 : 1) and a rock's
+    exposed height averages 0.425·D (sunk 0–30 %), toward SP-8023's standard 0.5·D."""
+    prototypes = rock_prototypes(0)
+    extents = np.array([np.ptp(v.astype(np.float64), axis=0) for v, _ in prototypes])
+    assert extents[:, 0].max() == pytest.approx(1.0, abs=1e-6)  # x is the longest horizontal axis
+    assert np.mean(extents[:, 1]) == pytest.approx(0.75, abs=0.1)
+    assert np.mean(extents[:, 2]) == pytest.approx(0.5, abs=0.1)
+    rocks = sample_rocks(0, RocksConfig(reach_m=5.0))
+    assert len(rocks) > 1000
+    assert rocks.burial.min() >= BURIAL[0] and rocks.burial.max() < BURIAL[1]
+    poses = rock_poses(rocks, prototypes, lambda x, y: np.zeros_like(x))
+    exposed = []
+    for pose, p in zip(poses, rocks.prototype):
+        world_z = (pose[2, :3] @ prototypes[p][0].T.astype(np.float64)) + pose[2, 3]
+        exposed.append(world_z.max() / pose[0, :2].dot(pose[0, :2]) ** 0.5)  # top above ground / D
+    # The mean prototype height times the mean exposure (1 − 0.15), within the sample's spread.
+    expected = np.mean(extents[:, 2]) * (1.0 - np.mean(BURIAL))
+    assert np.mean(exposed) == pytest.approx(expected, rel=0.05)
+    assert 0.38 < np.mean(exposed) < 0.48
 
 
 def test_terrain_is_built_once_per_process_and_scenes_clear_rocks_off_bags():

@@ -29,8 +29,16 @@ to unit longest horizontal extent: lobed boulders (an 80-face icosphere whose ra
 given a few broad random lobes and cut by three random fracture planes) and angular clasts (the
 convex hull of 14 random points: a dozen or two large faces). The renderer shades their facets
 flat, so every edge is sharp. Each rock is an instance of one of them: random yaw, scale D, sunk
-into the ground by 10–70 % of its height (docs/physics.md; Apollo 12 rocks show the line
-between their buried and their exposed, micro-cratered parts).
+into the ground by a fraction of its height drawn uniformly from `BURIAL`.
+
+**How high they stand.** The prototypes' axes average 1 : 0.75 : 0.5 (longest horizontal, other
+horizontal, height), the ratios of laboratory impact fragments, 2 : √2 : 1 (Fujiwara et al. 1978,
+Icarus 31), lying on their broad side. The lunar engineering model's standard block stands half its
+diameter above the ground (NASA SP-8023, "Lunar Surface Models", 1969), which such a shape reaches
+only unburied; Apollo 12 rocks show the line between their buried and their exposed,
+micro-cratered parts, so some burial stays. Sunk by 0–30 % (mean 15 %), a rock stands 0.43·D on
+average; the 10–70 % used before left 0.30·D, and the flat plain's rock shadows were then shorter
+than any the Apollo frames show at a like Sun (bench/results/README.md).
 """
 
 from __future__ import annotations
@@ -47,6 +55,7 @@ from moonbot.config.schema import RocksConfig
 PROTOTYPES = 8  # distinct rock meshes; every rock is an instance of one
 CLAST_CORNERS = 14  # random points whose convex hull is an angular clast
 PIXELS_REACH = 300.0  # rocks of diameter D are drawn within PIXELS_REACH·D of the target
+BURIAL = (0.0, 0.3)  # the fraction of a rock's height below the ground: uniform in [lo, hi)
 _TABLE = 4096  # inverse-CDF table size for the sizes
 
 
@@ -149,7 +158,7 @@ def sample_rocks(seed: int, config: RocksConfig, crater: tuple[np.ndarray, float
         diameters,
         rng.integers(0, PROTOTYPES, count),
         rng.uniform(0, 2 * math.pi, count),
-        rng.uniform(0.1, 0.7, count),
+        rng.uniform(*BURIAL, count),
     )
 
 
