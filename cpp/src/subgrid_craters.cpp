@@ -187,10 +187,12 @@ bool SubgridCraters::shadowed(const glm::dvec3& p, const glm::dvec3& to_light, c
     // The light's direction within the facet's plane, as a horizontal heading, and its elevation
     // above the facet.
     const glm::dvec3 along = to_light - cos_i * normal;
-    const double heading_length = std::hypot(along.x, along.y);
+    // Parts of a unit vector: nothing to overflow, so no libm hypot call on every Sun sample.
+    const double horizontal2 = along.x * along.x + along.y * along.y;
+    const double heading_length = std::sqrt(horizontal2);
     if (!(heading_length > 1e-9)) return false;  // overhead: nothing rises above it
     const glm::dvec2 heading(along.x / heading_length, along.y / heading_length);
-    const double tan_e = cos_i / glm::length(along);
+    const double tan_e = cos_i / std::sqrt(horizontal2 + along.z * along.z);
     if (tan_e >= m_steepest) return false;  // above every wall
     bool hidden = false;
     each_near(p.x, p.y, [&](const Crater& c, const glm::dvec2& offset, double r) {
