@@ -77,6 +77,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import hashlib
 import json
 import statistics
 import sys
@@ -248,9 +249,11 @@ def converged_reference(config, scene, spec, fresh: bool, medium=None) -> dict:
     """The brute-force path tracer at CONVERGED spp (two halves of different seeds, averaged)
     with the pixel-centre depth, instance labels and Sun visibility: float32/uint8 arrays under
     the keys rgb (H, W, 3), half_difference (H, W, 3: the halves' difference), depth, instance,
-    visibility. Cached in build/ under the config's hash. Its renders get no light cache, so
-    their indirect light is per-pixel bounce paths, as render.indirect: path renders it: the
-    cache's own bias counts as error."""
+    visibility. Cached in build/ under the config's hash and the bytes of a one-sample render of
+    the same scene, so that code which changes the scene or the renderer's answers (the config
+    unchanged) renders a fresh reference instead of reading a stale one. Its renders get no light
+    cache, so their indirect light is per-pixel bounce paths, as render.indirect: path renders it:
+    the cache's own bias counts as error."""
     # Pinned, not the config's: the quality knobs' and the cache's defaults may move without the
     # reference's key.
     half = with_render(
@@ -263,7 +266,12 @@ def converged_reference(config, scene, spec, fresh: bool, medium=None) -> dict:
         light_samples=2,
         **REFERENCE_KEY_CACHE,
     )
-    key = config_hash(with_render(half, threads=0))[:16]
+    probe = render(
+        with_render(half, spp=1), scene, spec, 1, seed=CONVERGED["halves_seeds"][0], full=True, medium=medium
+    )[0]
+    scene_bytes = hashlib.blake2b(probe.rgb.astype(np.float32).tobytes(), digest_size=8)
+    scene_bytes.update(probe.depth.astype(np.float32).tobytes())
+    key = f"{config_hash(with_render(half, threads=0))[:16]}-{scene_bytes.hexdigest()}"
     path = REFERENCE_CACHE / f"{config.terrain.location}-{config.sun.elevation_deg:g}-{config.camera.width}-{key}.npz"
     if path.exists() and not fresh:
         with np.load(path) as f:
