@@ -11,6 +11,13 @@ stats.json. Efficiency = samples/s(2 workers, or 1 worker × 2 threads) / (2 × 
 × 1 thread)). Core-seconds a sample = workers × threads × seconds / samples. The record also keeps
 the megapixel-samples and bytes so `moonbot plan` can scale it to any sweep.
 
+The Embree floor: what the rays of the 1 worker × 1 thread run (its tasks' stats.json counts:
+camera, shadow, medium and bounce rays and the light cache's gathers) cost at Embree's own speed,
+probed on one thread on each task's scene (moonbot.benchmark.limit, as `moonbot bench
+throughput` probes it), in core-seconds a sample. No shading, no encoding, no scene build: what
+a renderer that traced these rays and did nothing else would take, the bound on any speed-up
+that keeps the rays.
+
 Writes bench/results/generate-<machine>.json. Run:
   .venv/bin/python bench/bench_generate.py
 """
@@ -24,10 +31,12 @@ from pathlib import Path
 
 from distributed import Client, LocalCluster
 
+from moonbot.benchmark.limit import embree_limit, ray_limit_seconds
 from moonbot.config import load_config
 from moonbot.pipeline.generate import generate
 from moonbot.pipeline.stats import load_placements
 from moonbot.records.stats import read_stats
+from moonbot.sweep import tasks
 from moonbot.sweep.plan import split_plans
 
 from fingerprint import machine  # bench/ is on sys.path when run as a script
@@ -89,6 +98,37 @@ def run(workers: int, threads: int) -> dict:
         "megapixels": sum(p.megapixels for p in plans),
         "layouts": len(placements),
         "stages_s": {k: sum(s.get(k, 0.0) for s in stages) for k in sorted({k for s in stages for k in s})},
+        "rays_by_task": {s.task_id: dict(s.rays or {}) for s in stats},
+    }
+
+
+def embree_floor(run_row: dict) -> dict:
+    """The module docstring's Embree floor of `run_row` (a 1-thread run of `run`): core-seconds
+    a sample, in all and by kind of ray, with the probe's per-ray costs."""
+    config = throughput_config()
+    bounces = config.render.bounces
+    seconds = {"camera": 0.0, "shadow": 0.0, "light_cache_and_bounces": 0.0}
+    for task in tasks(config):
+        rays = run_row["rays_by_task"][task.task_id]
+        (row,) = embree_limit(config, task, [1], bounces)
+        # As ray_limit_seconds prices them: the camera hits' shadow rays at the shadow-ray rate,
+        # the bounce vertices' with the bounce and gather rays at the pooled bounce rates.
+        camera = row["camera_s_per_ray"] * (rays.get("camera_rays", 0) + rays.get("medium_rays", 0))
+        shadow = row["shadow_s_per_ray"] * (rays.get("shadow_rays", 0) - rays.get("bounce_shadow_rays", 0))
+        seconds["camera"] += camera
+        seconds["shadow"] += shadow
+        seconds["light_cache_and_bounces"] += ray_limit_seconds(rays, row, bounces) - camera - shadow
+    samples = run_row["samples"]
+    floor = sum(seconds.values()) / samples
+    return {
+        "core_seconds_per_sample": floor,
+        "by_kind_core_seconds_per_sample": {k: v / samples for k, v in seconds.items()},
+        "rays_per_sample": {
+            k: sum(r.get(k, 0) for r in run_row["rays_by_task"].values()) / samples
+            for k in sorted({k for r in run_row["rays_by_task"].values() for k in r})
+        },
+        "ratio": run_row["core_seconds_per_sample"] / floor if floor > 0 else 0.0,
+        "probe": "moonbot.benchmark.limit.embree_limit on one thread, view 0 of each task, bags unsettled",
     }
 
 
@@ -155,6 +195,13 @@ def main() -> int:
             f"{row['samples_per_s']:.3f} samples/s, {row['core_seconds_per_sample']:.2f} core-s a sample; {row['bytes'] / row['samples'] / 1e6:.2f} MB a sample"
         )
     one, threaded, two = record["runs"]
+    record["embree_floor"] = embree_floor(one)
+    floor = record["embree_floor"]
+    print(
+        f"Embree floor of the 1 × 1 run's rays: {floor['core_seconds_per_sample']:.2f} core-s a sample "
+        + ", ".join(f"{k} {v:.2f}" for k, v in floor["by_kind_core_seconds_per_sample"].items())
+        + f"; the run took {floor['ratio']:.2f}× that"
+    )
     # Against one worker on one core: what a second worker process, or a second render thread, buys.
     record["scaling_efficiency_2_workers"] = two["samples_per_s"] / (2 * one["samples_per_s"])
     record["scaling_efficiency_2_threads"] = threaded["samples_per_s"] / (2 * one["samples_per_s"])
