@@ -130,6 +130,44 @@ def test_lattice_node_on_the_floor_matches_the_closed_form_too():
     assert near[0] > mid[0] > irradiance[0]
 
 
+def box(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """An axis-aligned box from corner `lo` to corner `hi`, metres: 8 vertices, 12 triangles wound
+    so that their normals face out."""
+    v = np.array([[(lo, hi)[(k >> a) & 1][a] for a in range(3)] for k in range(8)], np.float32)
+    quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+    t = [tri for q in quads for tri in ((q[0], q[1], q[2]), (q[0], q[2], q[3]))]
+    return v, np.array(t, np.int32)
+
+
+def test_a_floor_vertex_beside_a_bag_gathers_itself_rather_than_read_the_nodes_it_covers():
+    # A bag-like block (labelled) of the wall's albedo and height, its sunlit face along y = 0.1,
+    # on a 5 cm floor read through a 25 cm lattice. The vertex 5 cm from that face sits between
+    # a node under the block (y = 0, empty) and one at y = 0.25: read from the lattice it would
+    # take the latter's light, 15 cm from the face (10 % less). It gathers itself instead.
+    scene = _core.Scene()
+    fv, ft = grid(-10.0, 10.0, -1.0, 5.0, 0.05)
+    # Probes start above the floor's bounds: one far corner raised 2 m lifts them over the block
+    # (in a scene the terrain's relief does), and its sliver of a slope 10 m off lights nothing here.
+    fv[floor_vertex(fv, 10.0, 5.0), 2] = 2.0
+    scene.add_background(scene.add_mesh(fv, ft), np.eye(4), (1.0, 1.0, 1.0))
+    block = scene.add_mesh(*box((-1000.0, -0.2, 0.0), (1000.0, 0.1, WALL_HEIGHT)))
+    scene.add_instance(block, np.eye(4), 1, (WALL_ALBEDO,) * 3)
+    scene.commit()
+    settings = _core.LightCacheSettings(bounces=1, rays_background=4096, rays_objects=4096, background_cell_m=0.25)
+    cache = _core.LightCache(scene, _core.DirectionalLight(0.0, SUN_ELEVATION, E_SUN), settings=settings)
+    # v[:, 0] == 0 exactly: the vertex lies on the lattice's column x = 0 (one node across).
+    (beside, _) = cache.vertex(0, floor_vertex(fv, 0.0, 0.15))
+    assert beside[0] == pytest.approx(wall_irradiance(0.05), rel=0.01)
+    assert wall_irradiance(0.15) < 0.92 * wall_irradiance(0.05)
+    # The first node it looked at lay under the block, and its own probe found the vertex clear of
+    # it: two probes, one node (empty, so no gather of its own), and the vertex's own gather.
+    s = cache.stats()
+    assert s["nodes"] == 1 and s["probe_rays"] == 2 and s["vertices"] == 1
+    # Away from the block the vertices still read the lattice: on a node, that node's value.
+    (open_ground, _) = cache.vertex(0, floor_vertex(fv, 0.0, 1.0))
+    assert open_ground[0] == pytest.approx(wall_irradiance(0.9), rel=0.005)
+
+
 @pytest.mark.parametrize("d", [0.25, 0.5, 1.0])
 def test_a_vertex_tilted_toward_the_wall_reads_the_irradiance_of_its_tilt(d):
     scene, fv = floor_and_wall()

@@ -133,7 +133,7 @@ struct Lattice {
     glm::dvec3 lo{std::numeric_limits<double>::infinity()}, hi{-std::numeric_limits<double>::infinity()};
     std::vector<bool> fine;  // per vertex: every triangle edge at it is shorter than the spacing
     // A node's value: the irradiance at the surface its probe met, or none (see lattice_node).
-    using Nodes = tbb::concurrent_hash_map<uint64_t, std::optional<LightCache::Node>>;
+    using Nodes = tbb::concurrent_hash_map<uint64_t, LightCache::ProbedNode>;
     Nodes nodes;
 };
 
@@ -612,10 +612,14 @@ IndirectLight LightCache::vertex(uint32_t instance, uint32_t vertex) const {
     glm::dvec3 point, normal;
     vertex_frame(m.instances[instance], m.normals[instance], vertex, point, normal);
     std::optional<IndirectLight> value;
-    if (m.lattices[instance]) value = from_lattice(instance, vertex, point, normal);
+    bool near_object = false;
+    if (m.lattices[instance]) value = from_lattice(instance, vertex, point, normal, near_object);
     if (!value) {
+        // Beside a bag the light changes within a lattice cell (its sunlit face lights the ground
+        // at its foot, its shadowed face hides the sky), and the nodes under it are empty: such a
+        // vertex gathers itself, with the bags' rays, as the bag's own vertices do.
         const bool labelled = m.instances[instance].label != 0;
-        const int rays = labelled ? m_settings.rays_objects : m_settings.rays_background;
+        const int rays = labelled || near_object ? m_settings.rays_objects : m_settings.rays_background;
         const uint64_t stream =
             pixel_stream(m_settings.seed ^ kCacheStreamSalt, (static_cast<uint64_t>(instance) << 32) | vertex);
         value = gather(m_scene.accel(), m.instances, m.lights, point, normal, stream, rays,
@@ -639,7 +643,7 @@ IndirectLight LightCache::vertex(uint32_t instance, uint32_t vertex) const {
 }
 
 std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_t vertex, const glm::dvec3& point,
-                                                      const glm::dvec3& normal) const {
+                                                      const glm::dvec3& normal, bool& near_object) const {
     const Lattice& lattice = *m_impl->lattices[instance];
     if (!lattice.fine[vertex]) return std::nullopt;  // its triangles are as coarse as the lattice
     const double h = lattice.spacing;
@@ -663,8 +667,13 @@ std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_
         for (int dv = -reach; dv <= 1 + reach; ++dv) {
             const double w = tent(du, fu) * tent(dv, fv);
             if (!(w > 0.0)) continue;
-            const std::optional<Node> node =
+            const ProbedNode probed =
                 lattice_node(instance, static_cast<int64_t>(u0) + du, static_cast<int64_t>(v0) + dv, bin);
+            if (probed.under_object && !under_object(instance, point, normal)) {
+                near_object = true;
+                return std::nullopt;
+            }
+            const std::optional<Node>& node = probed.node;
             if (!node) continue;
             const IndirectLight light = node->light.tilted(node->normal, normal, lattice.second_order);
             total += w;
@@ -684,7 +693,25 @@ std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_
     return out;
 }
 
-std::optional<LightCache::Node> LightCache::lattice_node(uint32_t instance, int64_t i, int64_t j, int bin) const {
+bool LightCache::under_object(uint32_t instance, const glm::dvec3& point, const glm::dvec3& normal) const {
+    Impl& m = *m_impl;
+    const Lattice& lattice = *m.lattices[instance];
+    const int bin = normal_bin(normal);
+    const int a = bin / 2;
+    const double sign = bin % 2 ? -1.0 : 1.0;
+    glm::dvec3 origin = point, along(0.0);
+    origin[a] = sign > 0.0 ? lattice.hi[a] + lattice.spacing : lattice.lo[a] - lattice.spacing;
+    along[a] = -sign;
+    RayHit probe;
+    set_ray(probe, origin, along);
+    probe.tfar = static_cast<float>(std::abs(point[a] - origin[a]));
+    probe.mask = kStaticGeometry;
+    m_scene.accel().intersect(&probe, 1);
+    m.probe_rays.fetch_add(1, std::memory_order_relaxed);
+    return probe.geom_id != kInvalidId && probe.inst_id != instance && m.instances[probe.inst_id].label != 0;
+}
+
+LightCache::ProbedNode LightCache::lattice_node(uint32_t instance, int64_t i, int64_t j, int bin) const {
     Impl& m = *m_impl;
     Lattice& lattice = *m.lattices[instance];
     const uint64_t key = node_key(i, j, bin);
@@ -713,14 +740,18 @@ std::optional<LightCache::Node> LightCache::lattice_node(uint32_t instance, int6
     m.probe_rays.fetch_add(1, std::memory_order_relaxed);
     // Another instance in front (a bag, a rock on the ground), or a surface facing another bin:
     // the node stands for nothing, and the vertices around it use their other nodes.
-    if (probe.geom_id == kInvalidId || probe.inst_id != instance) return std::nullopt;
+    if (probe.geom_id == kInvalidId) return slot->second;
+    if (probe.inst_id != instance) {
+        slot->second.under_object = m.instances[probe.inst_id].label != 0;
+        return slot->second;
+    }
     const glm::dvec3 normal = normal_at(instance, probe.prim_id, probe.u, probe.v);
-    if (normal_bin(normal) != bin) return std::nullopt;
+    if (normal_bin(normal) != bin) return slot->second;
     const glm::dvec3 point = origin + static_cast<double>(probe.tfar) * along;
     FillCounts counts;
     const uint64_t stream =
         pixel_stream(m_settings.seed ^ kNodeStreamSalt, mix64(key) ^ (static_cast<uint64_t>(instance) << 32));
-    slot->second =
+    slot->second.node =
         Node{gather(m_scene.accel(), m.instances, m.lights, point, normal, stream, lattice.rays,
                     lattice.rays * m_settings.max_rays_factor, m_settings.gather_error, m_settings.bounces, counts),
              normal};

@@ -46,7 +46,9 @@ struct LightCacheSettings {
     /// (one of ±x, ±y, ±z); each node's value is the gather at the surface a probe ray meets
     /// coming along that axis from beyond the instance's bounds, if that surface is the
     /// instance's own and faces the same way (a bag or rock in front leaves the node empty).
-    /// Other vertices, or those with no valid node around them, gather themselves.
+    /// Other vertices, or those with no valid node around them, gather themselves; so does a
+    /// vertex with a node under a bag (a labelled instance) around it that is not under the bag
+    /// itself, with rays_objects: beside a bag the light changes within a cell.
     double background_cell_m = 0.0;
     /// The same for labelled instances (the bags), with rays_objects a node; 0 = per vertex.
     double object_cell_m = 0.0;
@@ -137,6 +139,12 @@ public:
         IndirectLight light;
         glm::dvec3 normal{0.0};
     };
+    /// A lattice node as its probe found it: its value, or none; and whether a labelled instance
+    /// (a bag) stood in front of it.
+    struct ProbedNode {
+        std::optional<Node> node;
+        bool under_object = false;
+    };
 
     /// A cache over the instances of `scene` that are not moving now (Instance::moving); the
     /// scene must be committed and must outlive the cache. Throws std::invalid_argument naming
@@ -180,12 +188,16 @@ private:
     /// Background vertex `vertex`'s value (at `point`, unit `normal`) from the lattice nodes
     /// around it (LightCacheSettings::background_filter_cells; the bags' bilinearly), each tilted
     /// from its own surface's normal to `normal`; none where the vertex is coarse or no node around
-    /// it is valid.
+    /// it is valid, or (`near_object` then set) where a node around it lies under a bag and the
+    /// vertex itself does not: the vertex then gathers itself.
     std::optional<IndirectLight> from_lattice(uint32_t instance, uint32_t vertex, const glm::dvec3& point,
-                                              const glm::dvec3& normal) const;
+                                              const glm::dvec3& normal, bool& near_object) const;
     /// Lattice node (i, j)·h across the axis of normal bin `bin` on instance `instance`, probed
-    /// and gathered on first touch; none where its probe meets another instance or another bin.
-    std::optional<Node> lattice_node(uint32_t instance, int64_t i, int64_t j, int bin) const;
+    /// and gathered on first touch; no value where its probe meets another instance or another bin.
+    ProbedNode lattice_node(uint32_t instance, int64_t i, int64_t j, int bin) const;
+    /// Whether a labelled instance (a bag) stands in front of background vertex `point` along the
+    /// axis of its normal's bin, as a node's probe would find it.
+    bool under_object(uint32_t instance, const glm::dvec3& point, const glm::dvec3& normal) const;
 
     struct Impl;
     const Scene& m_scene;
