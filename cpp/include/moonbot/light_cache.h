@@ -47,8 +47,9 @@ struct LightCacheSettings {
     /// coming along that axis from beyond the instance's bounds, if that surface is the
     /// instance's own and faces the same way (a bag or rock in front leaves the node empty).
     /// Other vertices, or those with no valid node around them, gather themselves; so does a
-    /// vertex with a node under a bag (a labelled instance) around it that is not under the bag
-    /// itself, with rays_objects: beside a bag the light changes within a cell.
+    /// vertex with a node under a bag (a labelled instance) around it that is not under a bag
+    /// itself, with rays_objects: beside a bag the light changes within a cell. (The same holds
+    /// for the bags' own lattice, object_cell_m, where one bag stands in front of another.)
     double background_cell_m = 0.0;
     /// The same for labelled instances (the bags), with rays_objects a node; 0 = per vertex.
     double object_cell_m = 0.0;
@@ -185,7 +186,7 @@ public:
     LightCacheStats stats() const;
 
 private:
-    /// Background vertex `vertex`'s value (at `point`, unit `normal`) from the lattice nodes
+    /// Vertex `vertex`'s value (at `point`, unit `normal`) from the lattice nodes
     /// around it (LightCacheSettings::background_filter_cells; the bags' bilinearly), each tilted
     /// from its own surface's normal to `normal`; none where the vertex is coarse or no node around
     /// it is valid, or (`near_object` then set) where a node around it lies under a bag and the
@@ -195,8 +196,9 @@ private:
     /// Lattice node (i, j)·h across the axis of normal bin `bin` on instance `instance`, probed
     /// and gathered on first touch; no value where its probe meets another instance or another bin.
     ProbedNode lattice_node(uint32_t instance, int64_t i, int64_t j, int bin) const;
-    /// Whether a labelled instance (a bag) stands in front of background vertex `point` along the
-    /// axis of its normal's bin, as a node's probe would find it.
+    /// Whether a labelled instance (a bag) other than `instance` stands in front of `point` (a
+    /// vertex of `instance`, unit `normal`) along the axis of its normal's bin, as a node's probe
+    /// would find it.
     bool under_object(uint32_t instance, const glm::dvec3& point, const glm::dvec3& normal) const;
 
     struct Impl;
