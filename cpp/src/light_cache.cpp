@@ -613,7 +613,8 @@ IndirectLight LightCache::vertex(uint32_t instance, uint32_t vertex) const {
     vertex_frame(m.instances[instance], m.normals[instance], vertex, point, normal);
     std::optional<IndirectLight> value;
     bool near_object = false;
-    if (m.lattices[instance]) value = from_lattice(instance, vertex, point, normal, near_object);
+    uint64_t probes = 0;  // the vertex's own probe (from_lattice), counted with its fill below
+    if (m.lattices[instance]) value = from_lattice(instance, vertex, point, normal, near_object, probes);
     if (!value) {
         // Beside a bag the light changes within a lattice cell (its sunlit face lights the ground
         // at its foot, its shadowed face hides the sky), and the nodes under it are empty: such a
@@ -632,6 +633,7 @@ IndirectLight LightCache::vertex(uint32_t instance, uint32_t vertex) const {
         m.vertices.fetch_add(1, std::memory_order_relaxed);
         m.gather_rays.fetch_add(counts.gather_rays, std::memory_order_relaxed);
         m.shadow_rays.fetch_add(counts.shadow_rays, std::memory_order_relaxed);
+        m.probe_rays.fetch_add(probes, std::memory_order_relaxed);
     } else {
         m.redundant.fetch_add(1, std::memory_order_relaxed);  // another thread filled it meanwhile: the same value
     }
@@ -643,8 +645,10 @@ IndirectLight LightCache::vertex(uint32_t instance, uint32_t vertex) const {
 }
 
 std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_t vertex, const glm::dvec3& point,
-                                                      const glm::dvec3& normal, bool& near_object) const {
+                                                      const glm::dvec3& normal, bool& near_object,
+                                                      uint64_t& probes) const {
     const Lattice& lattice = *m_impl->lattices[instance];
+    std::optional<bool> own_probe;
     if (!lattice.fine[vertex]) return std::nullopt;  // its triangles are as coarse as the lattice
     const double h = lattice.spacing;
     const int bin = normal_bin(normal);
@@ -669,9 +673,16 @@ std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_
             if (!(w > 0.0)) continue;
             const ProbedNode probed =
                 lattice_node(instance, static_cast<int64_t>(u0) + du, static_cast<int64_t>(v0) + dv, bin);
-            if (probed.under_object && !under_object(instance, point, normal)) {
-                near_object = true;
-                return std::nullopt;
+            if (probed.under_object) {
+                // The vertex's own probe, once: is it under a bag too?
+                if (!own_probe) {
+                    own_probe = under_object(instance, point, normal);
+                    ++probes;
+                }
+                if (!*own_probe) {
+                    near_object = true;
+                    return std::nullopt;
+                }
             }
             const std::optional<Node>& node = probed.node;
             if (!node) continue;
@@ -694,7 +705,7 @@ std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_
 }
 
 bool LightCache::under_object(uint32_t instance, const glm::dvec3& point, const glm::dvec3& normal) const {
-    Impl& m = *m_impl;
+    const Impl& m = *m_impl;
     const Lattice& lattice = *m.lattices[instance];
     const int bin = normal_bin(normal);
     const int a = bin / 2;
@@ -707,7 +718,6 @@ bool LightCache::under_object(uint32_t instance, const glm::dvec3& point, const 
     probe.tfar = static_cast<float>(std::abs(point[a] - origin[a]));
     probe.mask = kStaticGeometry;
     m_scene.accel().intersect(&probe, 1);
-    m.probe_rays.fetch_add(1, std::memory_order_relaxed);
     return probe.geom_id != kInvalidId && probe.inst_id != instance && m.instances[probe.inst_id].label != 0;
 }
 

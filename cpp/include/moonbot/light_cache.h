@@ -121,7 +121,8 @@ struct LightCacheStats {
     uint64_t vertices = 0;       ///< vertices filled
     uint64_t blocks = 0;         ///< blocks of kBlockVertices allocated
     uint64_t nodes = 0;          ///< lattice nodes probed (valid or not)
-    uint64_t probe_rays = 0;     ///< rays finding the surface under a lattice node
+    uint64_t probe_rays =
+        0;     ///< rays finding the surface under a lattice node, or whether a vertex beside a bag is under it
     uint64_t gather_rays = 0;    ///< rays leaving a vertex or node, or a later path vertex
     uint64_t shadow_rays = 0;    ///< toward the lights, from the path vertices
     uint64_t bytes = 0;          ///< held now: tables, vertex normals, blocks
@@ -190,9 +191,10 @@ private:
     /// around it (LightCacheSettings::background_filter_cells; the bags' bilinearly), each tilted
     /// from its own surface's normal to `normal`; none where the vertex is coarse or no node around
     /// it is valid, or (`near_object` then set) where a node around it lies under a bag and the
-    /// vertex itself does not: the vertex then gathers itself.
+    /// vertex itself does not: the vertex then gathers itself. `probes` gets the probe rays it cast
+    /// for the vertex itself (0 or 1; its nodes' probes are counted as they are made).
     std::optional<IndirectLight> from_lattice(uint32_t instance, uint32_t vertex, const glm::dvec3& point,
-                                              const glm::dvec3& normal, bool& near_object) const;
+                                              const glm::dvec3& normal, bool& near_object, uint64_t& probes) const;
     /// Lattice node (i, j)·h across the axis of normal bin `bin` on instance `instance`, probed
     /// and gathered on first touch; no value where its probe meets another instance or another bin.
     ProbedNode lattice_node(uint32_t instance, int64_t i, int64_t j, int bin) const;
