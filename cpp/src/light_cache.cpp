@@ -749,7 +749,8 @@ LightCache::ProbedNode LightCache::lattice_node(uint32_t instance, int64_t i, in
     m_scene.accel().intersect(&probe, 1);
     m.probe_rays.fetch_add(1, std::memory_order_relaxed);
     // Another instance in front (a bag, a rock on the ground), or a surface facing another bin:
-    // the node stands for nothing, and the vertices around it use their other nodes.
+    // the node stands for nothing, and the vertices around it use their other nodes; beside a
+    // bag they gather themselves instead (from_lattice), so the node keeps that a bag was there.
     if (probe.geom_id == kInvalidId) return slot->second;
     if (probe.inst_id != instance) {
         slot->second.under_object = m.instances[probe.inst_id].label != 0;
