@@ -168,6 +168,23 @@ std::unique_ptr<Lattice> make_lattice(const InstanceData& inst, const Mesh& mesh
     return lattice;
 }
 
+/// A lattice probe's ray along the axis of normal bin `bin`, through `at` (its coordinate along
+/// that axis ignored): from beyond the lattice's bounds on the bin's side (one spacing out),
+/// pointing against the bin. A node's probe and a vertex's own both start so, so that they see
+/// the same instances in front.
+struct BinProbe {
+    glm::dvec3 origin, along;
+};
+
+BinProbe bin_probe(const Lattice& lattice, int bin, glm::dvec3 at) {
+    const int a = bin / 2;
+    const double sign = bin % 2 ? -1.0 : 1.0;
+    at[a] = sign > 0.0 ? lattice.hi[a] + lattice.spacing : lattice.lo[a] - lattice.spacing;
+    glm::dvec3 along(0.0);
+    along[a] = -sign;
+    return {at, along};
+}
+
 }  // namespace
 
 struct LightCache::Impl {
@@ -648,7 +665,6 @@ std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_
                                                       const glm::dvec3& normal, bool& near_object,
                                                       uint64_t& probes) const {
     const Lattice& lattice = *m_impl->lattices[instance];
-    std::optional<bool> own_probe;
     if (!lattice.fine[vertex]) return std::nullopt;  // its triangles are as coarse as the lattice
     const double h = lattice.spacing;
     const int bin = normal_bin(normal);
@@ -667,6 +683,7 @@ std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_
     IndirectLight out;
     glm::dvec3 direction(0.0);
     double total = 0.0, weight = 0.0;
+    std::optional<bool> own_probe;  // whether the vertex itself is under a bag, once asked
     for (int du = -reach; du <= 1 + reach; ++du)
         for (int dv = -reach; dv <= 1 + reach; ++dv) {
             const double w = tent(du, fu) * tent(dv, fv);
@@ -706,16 +723,11 @@ std::optional<IndirectLight> LightCache::from_lattice(uint32_t instance, uint32_
 
 bool LightCache::under_object(uint32_t instance, const glm::dvec3& point, const glm::dvec3& normal) const {
     const Impl& m = *m_impl;
-    const Lattice& lattice = *m.lattices[instance];
     const int bin = normal_bin(normal);
-    const int a = bin / 2;
-    const double sign = bin % 2 ? -1.0 : 1.0;
-    glm::dvec3 origin = point, along(0.0);
-    origin[a] = sign > 0.0 ? lattice.hi[a] + lattice.spacing : lattice.lo[a] - lattice.spacing;
-    along[a] = -sign;
+    const BinProbe ray = bin_probe(*m.lattices[instance], bin, point);
     RayHit probe;
-    set_ray(probe, origin, along);
-    probe.tfar = static_cast<float>(std::abs(point[a] - origin[a]));
+    set_ray(probe, ray.origin, ray.along);
+    probe.tfar = static_cast<float>(std::abs(point[bin / 2] - ray.origin[bin / 2]));
     probe.mask = kStaticGeometry;
     m_scene.accel().intersect(&probe, 1);
     return probe.geom_id != kInvalidId && probe.inst_id != instance && m.instances[probe.inst_id].label != 0;
@@ -736,12 +748,10 @@ LightCache::ProbedNode LightCache::lattice_node(uint32_t instance, int64_t i, in
     // The probe comes from beyond the instance's bounds on the bin's side, against the bin.
     const double h = lattice.spacing;
     const int a = bin / 2, b = (a + 1) % 3, c = (a + 2) % 3;
-    const double sign = bin % 2 ? -1.0 : 1.0;
-    glm::dvec3 origin, along(0.0);
-    origin[a] = sign > 0.0 ? lattice.hi[a] + h : lattice.lo[a] - h;
-    origin[b] = static_cast<double>(i) * h;
-    origin[c] = static_cast<double>(j) * h;
-    along[a] = -sign;
+    glm::dvec3 node(0.0);
+    node[b] = static_cast<double>(i) * h;
+    node[c] = static_cast<double>(j) * h;
+    const auto [origin, along] = bin_probe(lattice, bin, node);
     RayHit probe;
     set_ray(probe, origin, along);
     probe.tfar = static_cast<float>(lattice.hi[a] - lattice.lo[a] + 2.0 * h);

@@ -121,8 +121,7 @@ struct LightCacheStats {
     uint64_t vertices = 0;       ///< vertices filled
     uint64_t blocks = 0;         ///< blocks of kBlockVertices allocated
     uint64_t nodes = 0;          ///< lattice nodes probed (valid or not)
-    uint64_t probe_rays =
-        0;     ///< rays finding the surface under a lattice node, or whether a vertex beside a bag is under it
+    uint64_t probe_rays = 0;     ///< rays probing under a lattice node, or a vertex beside a bag
     uint64_t gather_rays = 0;    ///< rays leaving a vertex or node, or a later path vertex
     uint64_t shadow_rays = 0;    ///< toward the lights, from the path vertices
     uint64_t bytes = 0;          ///< held now: tables, vertex normals, blocks
