@@ -1131,7 +1131,7 @@ class RenderSettings:
     @property
     def adaptive_full_spread(self) -> float:
         """
-        0: every refined pixel gets adaptive_spp; f > 0: its samples past spp in proportion to its spread over f times the frame's mean
+        0: every refined pixel gets adaptive_spp; f > 0: its samples past spp in proportion to its spread over f times the frame's mean, moved to the nearest power of two
         """
     @adaptive_full_spread.setter
     def adaptive_full_spread(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:

@@ -326,10 +326,12 @@ def test_only_refinement_samples_in_a_penumbra_cast_penumbra_light_samples():
 
 def test_refined_pixels_get_samples_in_proportion_to_their_spread():
     """adaptive_full_spread f: a refined pixel gets a share of the adaptive_spp − spp samples past
-    its base in proportion to its neighbourhood's spread over f frame means, at least one. The
-    same pixels are refined whatever f. With f = 0 each gets all 60 extra camera rays; with a
-    huge f each gets exactly one; in between, fewer than all. The images stay the same bytes on 1
-    and 2 threads (the refined pixels are sampled in an order sorted per tile)."""
+    its base in proportion to its neighbourhood's spread over f frame means, at least one, moved
+    to the nearest power of two. The same pixels are refined whatever f. With f = 0 each gets all
+    60 extra camera rays; with a huge f each gets 4 (8 samples, the first power of two past the
+    4 base ones); in between, fewer than all, and every count a multiple of 8 (8, 16, 32 or 64:
+    the extra rays are 4 more than a multiple of 8 for each pixel). The images stay the same bytes
+    on 1 and 2 threads (the refined pixels are sampled in an order sorted per tile)."""
     scene = lunar_test_scene()
     base = {**QUALITY, "light_samples": 1, "adaptive_spp": 64, "bounces": 0, "seed": 5}
 
@@ -338,13 +340,15 @@ def test_refined_pixels_get_samples_in_proportion_to_their_spread():
         return _core.render(scene, ground_camera(), DISK_SUN, settings)
 
     off = _core.render(scene, ground_camera(), DISK_SUN, _core.RenderSettings(**{**base, "adaptive_spp": 0}))
-    all_, one, some = run(0.0), run(1e9), run(2.0)
+    all_, one, some = run(0.0), run(1e9), run(8.0)
     refined = all_["refined_pixels"]
     assert refined > 0 and one["refined_pixels"] == some["refined_pixels"] == refined
     assert all_["camera_rays"] - off["camera_rays"] == refined * (64 - 4)
-    assert one["camera_rays"] - off["camera_rays"] == refined
-    assert refined < some["camera_rays"] - off["camera_rays"] < refined * (64 - 4)
-    np.testing.assert_array_equal(run(2.0, threads=2)["rgb"], some["rgb"])
+    assert one["camera_rays"] - off["camera_rays"] == refined * (8 - 4)
+    extra = some["camera_rays"] - off["camera_rays"]
+    assert refined * (8 - 4) < extra < refined * (64 - 4)
+    assert (extra - refined * 4) % 8 == 0
+    np.testing.assert_array_equal(run(8.0, threads=2)["rgb"], some["rgb"])
 
 
 def test_the_threshold_weighs_the_spread_by_the_pixel_and_the_frame():

@@ -21,7 +21,7 @@ void bind_render(py::module_& m) {
                "shadow rays toward the Sun's disk per refinement sample in a penumbra, 1..1024")
         .field("adaptive_full_spread", &RenderSettings::adaptive_full_spread,
                "0: every refined pixel gets adaptive_spp; f > 0: its samples past spp in proportion to its spread "
-               "over f times the frame's mean")
+               "over f times the frame's mean, moved to the nearest power of two")
         .field("bounces", &RenderSettings::bounces, "diffuse inter-reflections, 0 (direct light only)..16")
         .field("adaptive_spp", &RenderSettings::adaptive_spp,
                "0 = off, else the samples (direct light only past spp) a pixel whose samples disagree is brought "

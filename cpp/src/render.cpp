@@ -414,15 +414,14 @@ private:
     /// The samples a refined pixel is brought up to: adaptive_spp, or with adaptive_full_spread
     /// f > 0 (and spp >= 2 base samples) a share of the samples past the base in proportion to
     /// its neighbourhood's largest direct-luminance spread over f times the frame's mean
-    /// (`frame_luminance`), at least one more: a pixel's error after N samples is about its
-    /// spread over √N, so for a given number of samples the image's RMS error is least where
-    /// they follow the spread.
+    /// (`frame_luminance`), moved to a power of two (refined_sample_count): a pixel's error after
+    /// N samples is about its spread over √N, so for a given number of samples the image's RMS
+    /// error is least where they follow the spread.
     int refined_total(float spread, double frame_luminance) const {
         const int base = m_settings.spp, total = m_settings.adaptive_spp;
         const double full = m_settings.adaptive_full_spread * frame_luminance;
         if (base < 2 || !(full > 0.0)) return total;
-        const double share = std::min(1.0, double(spread) / full);
-        return base + std::max(1, static_cast<int>(std::ceil((total - base) * share)));
+        return refined_sample_count(base, total, std::min(1.0, double(spread) / full));
     }
 
     /// Traces n camera rays and resolves their hits: through the pixel's centre (sample < 0), or
@@ -1093,6 +1092,16 @@ private:
 RenderStats render(const Scene& scene, const Camera& camera, const DirectionalLight& sun,
                    const RenderSettings& settings, const FrameView& out) {
     return render(scene, camera, Lights{sun, std::nullopt}, settings, out);
+}
+
+int refined_sample_count(int base, int total, double share) {
+    const int wanted = base + std::max(1, static_cast<int>(std::ceil((total - base) * share)));
+    int low = 1;  // the largest power of two <= wanted
+    while (low <= wanted / 2) low *= 2;
+    // 2·low is nearer in ratio where wanted/low >= √2, i.e. wanted² >= 2·low² (exact in integers).
+    int count = int64_t(wanted) * wanted >= 2 * int64_t(low) * low ? 2 * low : low;
+    while (count <= base) count *= 2;
+    return std::min(count, total);
 }
 
 void RenderSettings::validate() const {

@@ -352,3 +352,23 @@ TEST_CASE(render_settings_validate_names_the_field) {
     s.threads = kMaxThreads + 1;
     CHECK(rejection(s).rfind("threads: ", 0) == 0);
 }
+
+TEST_CASE(a_refined_pixel_gets_the_power_of_two_nearest_its_share) {
+    // 4 base samples, up to 128: the share's count base + ⌈124·share⌉, moved to 2^k where it lies
+    // in [2^k/√2, 2^k·√2), at least the first power of two past the base, at most the total.
+    CHECK(refined_sample_count(4, 128, 0.0) == 8);     // 5 → 4, which is the base: 8
+    CHECK(refined_sample_count(4, 128, 0.05) == 8);    // 11 < 8·√2 = 11.3
+    CHECK(refined_sample_count(4, 128, 0.06) == 16);   // 12 >= 11.3
+    CHECK(refined_sample_count(4, 128, 0.14) == 16);   // 22 < 16·√2 = 22.6
+    CHECK(refined_sample_count(4, 128, 0.15) == 32);   // 23 >= 22.6
+    CHECK(refined_sample_count(4, 128, 0.5) == 64);    // 66
+    CHECK(refined_sample_count(4, 128, 1.0) == 128);
+    CHECK(refined_sample_count(2, 64, 0.0) == 4);      // the draft's base 2: 3 → 4
+    CHECK(refined_sample_count(4, 100, 1.0) == 100);   // a total that is no power of two caps it
+    CHECK(refined_sample_count(3, 64, 0.0) == 4);      // a base that is none: 4 is past it
+    for (int base : {2, 4, 8})
+        for (double share = 0.0; share <= 1.0; share += 1.0 / 64) {
+            const int n = refined_sample_count(base, 256, share);
+            CHECK(n > base && n <= 256 && (n & (n - 1)) == 0);
+        }
+}

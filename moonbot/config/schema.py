@@ -1013,7 +1013,7 @@ class RenderConfig:
         metadata=spec(
             "adaptive anti-aliasing: 0 brings every refined pixel up to adaptive_spp samples; f > 0 gives it a share "
             "of the samples past spp in proportion to its base samples' direct-luminance spread over f times the "
-            "frame's mean",
+            "frame's mean, moved to the nearest power of two (a whole net of its sample sequence)",
             lo=0.0,
         ),
     )

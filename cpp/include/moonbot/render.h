@@ -63,7 +63,8 @@ struct RenderSettings {
     /// With adaptive_spp and spp >= 2: 0 brings every refined pixel up to adaptive_spp samples;
     /// f > 0 gives it a share of the adaptive_spp − spp samples past its base in proportion to its
     /// (or a neighbour's) base samples' direct-luminance spread over f times the frame's mean
-    /// direct luminance, all of them from f up, at least one. Finite, >= 0.
+    /// direct luminance, all of them from f up, at least one; the count is then moved to a power
+    /// of two (refined_sample_count). Finite, >= 0.
     double adaptive_full_spread = 0.0;
 
     /// Throws std::invalid_argument naming the first field out of its range (render() calls it).
@@ -71,6 +72,16 @@ struct RenderSettings {
 };
 
 constexpr int kMaxLightSamples = 1024;
+
+/// The samples a refined pixel is brought up to under RenderSettings::adaptive_full_spread:
+/// base + ⌈share·(total − base)⌉ (at least base + 1), `share` in [0, 1] its spread's share, then
+/// moved to the power of two nearest it in ratio (2^k for counts in [2^k/√2, 2^k·√2)), kept above
+/// `base` and at most `total`. A pixel's samples are the first N points of its scrambled Sobol
+/// sequence (sampler.h), and only the first 2^k of them form a (0, k, 2)-net, one point in every
+/// elementary box: at a power of two an edge through the pixel is integrated with the net's
+/// stratification, while the points past the last net add error of their own
+/// (test_sampler.cpp's a_net_beats_more_points_past_it). Requires 1 <= base < total.
+int refined_sample_count(int base, int total, double share);
 
 /// Output buffers, row-major, owned by the caller; a null pointer means the pass is not wanted
 /// and costs nothing. rgb: H×W×3 float32 W/(m²·sr); depth: H×W float32 metres (0 = no hit);
