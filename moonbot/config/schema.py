@@ -1070,7 +1070,7 @@ class RenderConfig:
         ),
     )
     cache_rays_bags: int = field(
-        default=256,
+        default=1024,
         metadata=spec(
             "indirect: cache: gather rays per bag lattice node or vertex (bags have few vertices and much of the indirect "
             "light's noise)",

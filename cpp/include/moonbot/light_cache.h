@@ -35,7 +35,7 @@ struct LightCacheSettings {
     int bounces = 2;
     /// Gather rays per vertex on labelled instances (the bags: few vertices, much of the
     /// indirect light's variance), 1..kMaxGatherRays.
-    int rays_objects = 256;
+    int rays_objects = 1024;
     /// Gather rays per vertex (or lattice node) on background instances (terrain, rocks),
     /// 1..kMaxGatherRays.
     int rays_background = 64;
