@@ -329,8 +329,8 @@ def test_refined_pixels_get_samples_in_proportion_to_their_spread():
     its base in proportion to its neighbourhood's spread over f frame means, at least one, moved
     to the nearest power of two. The same pixels are refined whatever f. With f = 0 each gets all
     60 extra camera rays; with a huge f each gets 4 (8 samples, the first power of two past the
-    4 base ones); in between, fewer than all, and every count a multiple of 8 (8, 16, 32 or 64:
-    the extra rays are 4 more than a multiple of 8 for each pixel). The images stay the same bytes
+    4 base ones); in between, fewer than all, and the extra rays 4 a refined pixel more than a
+    multiple of 8, as counts of 8, 16, 32 or 64 give them. The images stay the same bytes
     on 1 and 2 threads (the refined pixels are sampled in an order sorted per tile)."""
     scene = lunar_test_scene()
     base = {**QUALITY, "light_samples": 1, "adaptive_spp": 64, "bounces": 0, "seed": 5}

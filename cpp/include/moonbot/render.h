@@ -78,9 +78,10 @@ constexpr int kMaxLightSamples = 1024;
 /// moved to the power of two nearest it in ratio (2^k for counts in [2^k/√2, 2^k·√2)), kept above
 /// `base` and at most `total`. A pixel's samples are the first N points of its scrambled Sobol
 /// sequence (sampler.h), and only the first 2^k of them form a (0, k, 2)-net, one point in every
-/// elementary box: at a power of two an edge through the pixel is integrated with the net's
-/// stratification, while the points past the last net add error of their own
-/// (test_sampler.cpp's a_net_beats_more_points_past_it). Requires 1 <= base < total.
+/// elementary box: a soft transition across the pixel (a penumbra, light grazing its facets) is
+/// integrated better by such a net than by the first ~1.4× as many points, whose extra points
+/// unbalance the strata (test_sampler.cpp's a_net_beats_more_points_past_it; on a hard edge the
+/// extra points still help). Requires 1 <= base < total.
 int refined_sample_count(int base, int total, double share);
 
 /// Output buffers, row-major, owned by the caller; a null pointer means the pass is not wanted
