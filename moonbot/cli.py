@@ -365,7 +365,8 @@ def plan(config_path: Path, bench_record: Path | None) -> None:
             else f"{found.seconds:.1f} s"
         )
         + f" rendering only, on the recorded machine ({found.workers} worker × {found.threads} render "
-        "threads, the fastest layout it measured)"
+        "threads, the fastest layout it measured"
+        + (f", priced on {found.mix_tasks} tasks of the sweep's mix)" if found.mix_tasks else ")")
     )
     for line in provenance(found):
         click.echo(line)

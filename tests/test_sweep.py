@@ -131,6 +131,29 @@ def test_plan_prints_the_sweep_without_rendering(tmp_path):
     result = CliRunner().invoke(main, ["plan", str(CONFIGS / "synbag-1.0.yaml"), "--bench-record", str(record)])
     seconds = 100.0 * (0.80 * mps / 10.0 + 0.15 * 4896 / 4 + 0.05 * 36 / 1)
     assert f"~{seconds / 3600:.1f} h" in result.output
+    assert "sweep's mix" not in result.output
+    # A record with a task mix is priced on the mix (9 tasks of 9 layouts, here 3× the seconds a
+    # megapixel-sample of the throughput runs and 3 MB a megapixel), not on its faster runs.
+    mix = {
+        "workers": 1,
+        "threads_per_worker": 2,
+        "samples_per_s": 0.1,
+        "seconds": 300.0,
+        "megapixel_samples": 10.0,
+        "bytes": 3e9,
+        "megapixels": 1000.0,
+        "tasks": 9,
+        "layouts": 9,
+        "stages_s": {"render": 80.0, "compose": 5.0, "build_bvh": 10.0, "place": 1.0, "settle": 4.0},
+    }
+    record.write_text(json.dumps({**json.loads(record.read_text()), "task_mix": mix}))
+    result = CliRunner().invoke(main, ["plan", str(CONFIGS / "synbag-1.0.yaml"), "--bench-record", str(record)])
+    seconds = 300.0 * (0.80 * mps / 10.0 + 0.15 * 4896 / 9 + 0.05 * 36 / 9)
+    assert f"~{seconds / 3600:.1f} h" in result.output
+    assert f"~{176_256 * 640 * 480 / 1e6 * 3e6 / 1e9:.1f} GB" in result.output
+    assert "(1 worker × 2 render threads, the fastest layout it measured, priced on 9 tasks of the sweep's mix)" in (
+        result.output
+    )
     assert sum(p.layouts for p in split_plans(load_config(CONFIGS / "synbag-1.0.yaml"))) == 36
     bad = tmp_path / "bad.yaml"
     bad.write_text("sweep:\n  splits:\n    - name: train\n      sun_elevations_deg: [95]\n")

@@ -7,8 +7,10 @@ machine's CPU and how far the two may differ (provenance()).
 Time scales with what each stage is paid per: rendering, masks, dust and encoding per
 megapixel-sample; composing the scene and building its BVH per task; placing and settling the
 bags per layout (moonbot.pipeline.placements: once for all the tasks of its scenes). The
-benchmark's tasks have fewer views than the sweep's, and share one layout, so scaling its whole
-time by megapixel-samples alone would overstate the per-task and per-layout stages."""
+benchmark's tasks are fewer than the sweep's, and share few layouts, so scaling its whole time by
+megapixel-samples alone would overstate the per-task and per-layout stages. A record with a
+`task_mix` (a sample of the sweep's own locations and bag counts) is priced on that, not on its
+throughput runs' tasks, which are among the sweep's cheapest."""
 
 from __future__ import annotations
 
@@ -75,6 +77,7 @@ class Estimate:
     threads: int  # render threads per worker in the benchmark run used
     source: str
     machine: dict
+    mix_tasks: int = 0  # tasks of the sweep's mix the record priced it on (0: its throughput runs' tasks)
 
 
 def default_record(results: Path = Path("bench") / "results") -> Path:
@@ -122,26 +125,39 @@ def provenance(estimate: Estimate) -> list[str]:
 
 
 def estimate(plans: list[SplitPlan], record_path: Path) -> Estimate | None:
-    """The estimate from a generate benchmark record (None if there is none for this machine).
-    The record's best throughput (the fastest of its runs) is used: its span split by its stage
-    seconds' shares (a record without stages scales by megapixel-samples alone). A record from
-    before placements (no `layouts`) settled once per task."""
+    """The estimate from the generate benchmark record at `record_path` (None if it cannot be
+    read or is not one): priced_run()'s run, its span split by its stage seconds' shares (a
+    record without stages scales by megapixel-samples alone). A record from before placements
+    (no `layouts`) settled once per task."""
     try:
         record = json.loads(Path(record_path).read_text())
-        best = max(record["runs"], key=lambda r: r["samples_per_s"])
-        b_per_mp = best["bytes"] / best["megapixels"]
-        stages = best.get("stages_s") or {}
-        timed = sum(stages.values())
-        layout_share = sum(stages.get(k, 0.0) for k in PER_LAYOUT_STAGES) / timed if timed > 0 else 0.0
-        task_share = sum(stages.get(k, 0.0) for k in PER_TASK_STAGES) / timed if timed > 0 else 0.0
-        mps = sum(p.megapixel_samples for p in plans)
-        scale = (1.0 - layout_share - task_share) * mps / best["megapixel_samples"]
-        if task_share:
-            scale += task_share * sum(p.tasks for p in plans) / best["tasks"]
-        if layout_share:
-            scale += layout_share * sum(p.layouts for p in plans) / best.get("layouts", best["tasks"])
-    except (OSError, ValueError, KeyError, TypeError, ZeroDivisionError):
+        return estimate_from(plans, record, str(record_path))
+    except (OSError, ValueError, KeyError, TypeError, ZeroDivisionError, AttributeError):
         return None
+
+
+def priced_run(record: dict) -> dict:
+    """The run of a generate benchmark record that prices a sweep: its `task_mix` (the sweep's
+    own mix of locations and bag counts, rendered on the fastest layout measured) where it has
+    one, else the fastest of its `runs`."""
+    return record.get("task_mix") or max(record["runs"], key=lambda r: r["samples_per_s"])
+
+
+def estimate_from(plans: list[SplitPlan], record: dict, source: str) -> Estimate:
+    """estimate() of a record already read; raises KeyError, TypeError or ZeroDivisionError on a
+    record that lacks what it needs."""
+    best = priced_run(record)
+    b_per_mp = best["bytes"] / best["megapixels"]
+    stages = best.get("stages_s") or {}
+    timed = sum(stages.values())
+    layout_share = sum(stages.get(k, 0.0) for k in PER_LAYOUT_STAGES) / timed if timed > 0 else 0.0
+    task_share = sum(stages.get(k, 0.0) for k in PER_TASK_STAGES) / timed if timed > 0 else 0.0
+    mps = sum(p.megapixel_samples for p in plans)
+    scale = (1.0 - layout_share - task_share) * mps / best["megapixel_samples"]
+    if task_share:
+        scale += task_share * sum(p.tasks for p in plans) / best["tasks"]
+    if layout_share:
+        scale += layout_share * sum(p.layouts for p in plans) / best.get("layouts", best["tasks"])
     mp = sum(p.megapixels for p in plans)
     machine = record.get("machine") if isinstance(record.get("machine"), dict) else {}
     return Estimate(
@@ -149,6 +165,7 @@ def estimate(plans: list[SplitPlan], record_path: Path) -> Estimate | None:
         seconds=best["seconds"] * scale,
         workers=best["workers"],
         threads=best.get("threads_per_worker", 1),
-        source=str(record_path),
+        source=source,
         machine=machine,
+        mix_tasks=best["tasks"] if "task_mix" in record else 0,
     )
