@@ -180,35 +180,44 @@ void DustGrid::integrate_sun_depth(const std::vector<float>& extinction) {
 }
 
 std::vector<float> DustGrid::shade_from_sun(const std::vector<float>& extinction, const Scene& scene) {
-    // One ray toward the Sun's centre from each node with dust (nodes without any only blend into
-    // empty space). A node whose ray meets the back of a surface first is inside the ground or a
-    // bag, where no dust is ever seen: it counts as lit, so that the dust just above the ground is
-    // not dimmed by interpolating toward it.
+    // Each node with dust asks what its ray toward the Sun's centre meets first (nodes without any
+    // only blend into empty space). A surface's front shades it; a back face means the node is
+    // inside the ground or a bag, where no dust is ever seen: it counts as lit, so that the dust
+    // just above the ground is not dimmed by interpolating toward it.
+    // The frame's third axis is the Sun's direction, so a node's ray runs along its grid line and
+    // every node of the line short of the first surface a ray meets meets that surface first too.
+    // A line therefore traces one ray from its lowest dusty node and one more from the first
+    // dusty node past each surface found: a line open to the Sun takes one ray, not one a node.
     std::vector<float> visible(node_count(), 1.0f);
     std::atomic<uint64_t> rays{0};
-    tbb::parallel_for(0, m_n[2], [&](int k) {
-        std::vector<RayHit> batch(static_cast<size_t>(m_n[0]));
-        std::vector<int> which(static_cast<size_t>(m_n[0]));
-        for (int j = 0; j < m_n[1]; ++j) {
-            int n = 0;
-            for (int i = 0; i < m_n[0]; ++i) {
+    tbb::parallel_for(0, m_n[1], [&](int j) {
+        uint64_t traced = 0;
+        RayHit ray;
+        for (int i = 0; i < m_n[0]; ++i) {
+            double surface = -INFINITY;  // frame coordinate along the Sun of the surface ahead (+inf: none)
+            float before = 1.0f;         // what a node short of it is
+            for (int k = 0; k < m_n[2]; ++k) {
                 if (!(extinction[node(i, j, k)] > 1e-6f)) continue;
-                const glm::dvec3 point = world(glm::dvec3(m_lo.x + i * m_h, m_lo.y + j * m_h, m_lo.z + k * m_h));
+                const double along = m_lo.z + k * m_h;
+                const glm::dvec3 point = world(glm::dvec3(m_lo.x + i * m_h, m_lo.y + j * m_h, along));
                 if (point.z < m_medium.floor_z) continue;
-                detail::set_ray(batch[static_cast<size_t>(n)], point, m_sun);
-                which[static_cast<size_t>(n++)] = i;
-            }
-            if (n == 0) continue;
-            scene.accel().intersect(batch.data(), static_cast<size_t>(n));
-            rays += static_cast<uint64_t>(n);
-            for (int r = 0; r < n; ++r) {
-                const RayHit& hit = batch[static_cast<size_t>(r)];
-                if (hit.geom_id == kInvalidId) continue;
-                const Instance& inst = scene.instance(hit.inst_id);
-                const glm::dvec3 normal = inst.normal_to_world * glm::dvec3(hit.ng_x, hit.ng_y, hit.ng_z);
-                if (glm::dot(normal, m_sun) < 0.0) visible[node(which[static_cast<size_t>(r)], j, k)] = 0.0f;
+                if (!(along < surface)) {
+                    detail::set_ray(ray, point, m_sun);
+                    scene.accel().intersect(&ray, 1);
+                    ++traced;
+                    if (ray.geom_id == kInvalidId) {
+                        surface = INFINITY, before = 1.0f;
+                    } else {
+                        const Instance& inst = scene.instance(ray.inst_id);
+                        const glm::dvec3 normal = inst.normal_to_world * glm::dvec3(ray.ng_x, ray.ng_y, ray.ng_z);
+                        surface = along + ray.tfar;
+                        before = glm::dot(normal, m_sun) < 0.0 ? 0.0f : 1.0f;
+                    }
+                }
+                visible[node(i, j, k)] = before;
             }
         }
+        rays += traced;
     });
     m_shadow_rays = rays;
     return visible;

@@ -69,7 +69,8 @@ double puff_reach(const Puff& puff);
 /// The dust of one render baked on a regular grid over the puffs' reach, in a frame whose third
 /// axis is the Sun's direction: the extinction, the optical depth toward the Sun (summed along
 /// each grid line from the Sun's end, so no interpolation smears it) and whether the geometry
-/// shades each node from the Sun (one shadow ray a dusty node). Camera rays then march it.
+/// shades each node from the Sun (Sun rays run along grid lines: one a line with dust, and one more
+/// past each surface it meets). Camera rays then march it.
 class DustGrid {
 public:
     /// Bakes `medium` (validated, with puffs) for Sun direction `sun_dir` (unit), shading by
