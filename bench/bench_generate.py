@@ -123,7 +123,7 @@ def task_mix_config():
 def run(workers: int, threads: int, config=None) -> dict:
     """`moonbot generate` of `config` (default: throughput_config()) on a fresh local cluster of
     `workers` × `threads`: the run's row of the record (its tasks' rays and stages, and each task's
-    core-seconds a sample)."""
+    core-seconds a sample: its render threads × its wall seconds / its samples)."""
     config = config or throughput_config()
     with tempfile.TemporaryDirectory() as tmp:
         result = generate(config, Path(tmp), workers=workers, threads=threads, progress=None)
@@ -151,7 +151,8 @@ def run(workers: int, threads: int, config=None) -> dict:
         "layouts": len(placements),
         "stages_s": {k: sum(s.get(k, 0.0) for s in stages) for k in sorted({k for s in stages for k in s})},
         "rays_by_task": {s.task_id: dict(s.rays or {}) for s in stats},
-        "core_seconds_per_sample_by_task": {s.task_id: workers * threads * s.wall_s / s.samples for s in stats},
+        # A task runs on one worker, on its `threads` render threads.
+        "core_seconds_per_sample_by_task": {s.task_id: threads * s.wall_s / s.samples for s in stats},
     }
 
 

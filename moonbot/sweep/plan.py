@@ -167,5 +167,5 @@ def estimate_from(plans: list[SplitPlan], record: dict, source: str) -> Estimate
         threads=best.get("threads_per_worker", 1),
         source=source,
         machine=machine,
-        mix_tasks=best["tasks"] if "task_mix" in record else 0,
+        mix_tasks=best["tasks"] if record.get("task_mix") else 0,
     )
