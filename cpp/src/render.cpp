@@ -6,7 +6,6 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <numeric>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -120,8 +119,12 @@ struct TileScratch {
     TileHits hits;
     std::array<int, kTilePixels> shadow_of;     // which pixel of the tile a shadow ray belongs to
     // pixel_stream of each camera ray's pixel, for random samples: the tile's pixels in order,
-    // or, for the refinement samples, the refined pixels' (TileRenderer::refine_tile).
+    // or those of a refinement batch's rays (TileRenderer::refine_tile).
     std::array<uint64_t, kTilePixels> streams;
+    // Each camera ray's index in its pixel's sample sequence (sampler.h): its jitter, its Sun-disk
+    // points and its bounces'. One for the whole tile in a base pass; a refinement batch holds
+    // runs of consecutive samples of its pixels.
+    std::array<uint32_t, kTilePixels> samples;
     std::array<glm::dvec3, kTilePixels> radiance;  // of one sample: direct, then indirect added
     std::array<PathVertex, kTilePixels> path;
     std::array<int, kTilePixels> visible;       // shadow rays of one light that escaped, per pixel
@@ -130,9 +133,15 @@ struct TileScratch {
     std::array<int, kTilePixels> sun_escaped;    // of one sample: its Sun shadow rays that escaped
     std::array<int, kTilePixels> sun_hidden;     // ... and those blocked or below the facet's horizon
     std::array<SampleAgreement, kTilePixels> agreement;
-    std::array<int, kTilePixels> refined;        // the tile's pixels that get more samples
-    std::array<int, kTilePixels> sun_rays;       // of a refinement sample: its Sun-disk rays, per refined pixel
-    std::array<int, kTilePixels> totals;         // the samples each refined pixel is brought up to
+    // Refinement (TileRenderer::refine_tile), per refined pixel:
+    std::array<int, kTilePixels> refined;              // the tile's pixels that get more samples
+    std::array<int, kTilePixels> totals;               // the samples each is brought up to
+    std::array<int, kTilePixels> refined_sun_rays;     // Sun-disk rays of each of its samples
+    std::array<uint64_t, kTilePixels> refined_streams;  // its pixel_stream
+    // ... and per camera ray of a refinement batch:
+    std::array<int, kTilePixels> ray_pixel;  // its tile pixel (refined[its refined pixel])
+    std::array<int, kTilePixels> ray_refined;  // its refined pixel (an index into refined)
+    std::array<int, kTilePixels> sun_rays;   // its Sun-disk rays
     // The regolith grain as each tile pixel's samples read it (TileRenderer::read_grain),
     // where its centre ray hits, once a pass over the tile.
     struct GrainRead {
@@ -242,7 +251,7 @@ public:
                 for (int x = x0; x < x1; ++x, ++i) s.streams[i] = pixel_stream(m_settings.seed, index(x, y));
         }
         if (centre_pass) {
-            trace(x0, y0, tw, n, s, stats, /*sample=*/-1);
+            trace(x0, y0, tw, n, s, stats, /*centre=*/true);
             // Locals, not members: a uint8_t store may alias anything, so the compiler would
             // reload every member pointer after each label written.
             float* const depth = m_out.depth;
@@ -263,7 +272,8 @@ public:
         if (m_medium) march_dust(x0, y0, tw, n, s);
         if (m_light_cache) std::fill_n(s.indirect_reads.begin(), n, TileScratch::IndirectRead{});
         if (m_settings.spp == 1) {
-            shade(n, s, stats, 0, /*indirect=*/true);
+            std::fill_n(s.samples.begin(), n, 0u);
+            shade(n, s, stats, /*indirect=*/true);
             if (m_adaptive) {
                 AdaptiveFrame& a = *m_adaptive;
                 for (int y = y0, i = 0; y < y1; ++y)
@@ -285,8 +295,9 @@ public:
                 std::fill_n(s.agreement.begin(), n, SampleAgreement{});
             }
             for (int sample = 0; sample < m_settings.spp; ++sample) {
-                trace(x0, y0, tw, n, s, stats, sample);
-                shade(n, s, stats, static_cast<uint32_t>(sample), /*indirect=*/true);
+                std::fill_n(s.samples.begin(), n, static_cast<uint32_t>(sample));
+                trace(x0, y0, tw, n, s, stats, /*centre=*/false);
+                shade(n, s, stats, /*indirect=*/true);
                 for (int i = 0; i < n; ++i) sum[i] += s.radiance[i];
                 if (!adaptive) continue;
                 for (int i = 0; i < n; ++i) {
@@ -329,7 +340,7 @@ public:
     void refine_tile(int x0, int y0, int x1, int y1, TileScratch& s, RenderStats& stats) const {
         const AdaptiveFrame& a = *m_adaptive;
         const int tw = x1 - x0, w = m_camera.width(), h = m_camera.height();
-        const int base = m_settings.spp, total = m_settings.adaptive_spp;
+        const int base = m_settings.spp;
         int count = 0;
         for (int y = y0, i = 0; y < y1; ++y)
             for (int x = x0; x < x1; ++x, ++i) {
@@ -355,28 +366,16 @@ public:
                 // In a penumbra (its own or a neighbour's base samples' Sun rays partly escape) a
                 // refinement sample casts penumbra_light_samples rays: there the disk's visibility
                 // is what varies. Elsewhere the many samples spread one ray each over the disk.
-                s.sun_rays[count] = penumbra ? m_settings.penumbra_light_samples : 1;
+                s.refined_sun_rays[count] = penumbra ? m_settings.penumbra_light_samples : 1;
                 s.totals[count] = refined_total(spread, a.frame_luminance);
                 s.refined[count] = i;
-                s.streams[count++] = pixel_stream(m_settings.seed, index(x, y));
+                s.refined_streams[count++] = pixel_stream(m_settings.seed, index(x, y));
             }
         if (count == 0) return;
-        if (m_settings.adaptive_full_spread > 0.0) {
-            // Most samples first: the pixels still sampling at any sample index are then a prefix.
-            std::array<int, kTilePixels> order;
-            std::iota(order.begin(), order.begin() + count, 0);
-            std::stable_sort(order.begin(), order.begin() + count,
-                             [&](int p, int q) { return s.totals[p] > s.totals[q]; });
-            const auto permute = [&](auto& values) {
-                auto copy = values;
-                for (int j = 0; j < count; ++j) values[j] = copy[order[j]];
-            };
-            permute(s.sun_rays), permute(s.totals), permute(s.refined), permute(s.streams);
-        }
         const uint64_t rays_before = stats.camera_rays + stats.second_look_rays + stats.shadow_rays;
         if (m_grain) {
             // The refined pixels' centre rays again, for the grain's reads (the first pass's are gone).
-            trace(x0, y0, tw, count, s, stats, /*sample=*/-1, s.refined.data());
+            trace(x0, y0, tw, count, s, stats, /*centre=*/true, s.refined.data());
             read_grain(count, s, s.refined.data());
         }
         std::array<glm::dvec3, kTilePixels> extra;
@@ -386,14 +385,26 @@ public:
         const bool whole = base == 1;
         if (m_light_cache && whole)  // past spp >= 2 base samples the refinement reads no indirect light
             for (int j = 0; j < count; ++j) s.indirect_reads[s.refined[j]] = {};
-        int active = count;
-        for (int sample = whole ? 0 : base; sample < total; ++sample) {
-            while (active > 0 && s.totals[active - 1] <= sample) --active;
-            if (active == 0) break;
-            trace(x0, y0, tw, active, s, stats, sample, s.refined.data());
-            shade(active, s, stats, static_cast<uint32_t>(sample), /*indirect=*/whole, /*refining=*/!whole,
-                  s.refined.data());
-            for (int j = 0; j < active; ++j) extra[j] += whole ? s.radiance[j] : s.direct[j];
+        // The samples go in batches of up to a tile's rays, each pixel's consecutive: a pixel's
+        // Sun rays leave from one footprint, so Embree's 8-wide shadow packets go full and
+        // coherent (taken a sample index at a time across the refined pixels, most batches held
+        // a few rays). A pixel's sums run over its samples in order, whatever the batches, so the
+        // image does not depend on them.
+        const int first = whole ? 0 : base;
+        int next = 0, sample = first;  // the next ray: refined pixel `next`'s sample `sample`
+        while (next < count) {
+            int m = 0;
+            for (; m < kTilePixels && next < count; ++m) {
+                s.ray_refined[m] = next;
+                s.ray_pixel[m] = s.refined[next];
+                s.streams[m] = s.refined_streams[next];
+                s.sun_rays[m] = s.refined_sun_rays[next];
+                s.samples[m] = static_cast<uint32_t>(sample);
+                if (++sample == s.totals[next]) ++next, sample = first;
+            }
+            trace(x0, y0, tw, m, s, stats, /*centre=*/false, s.ray_pixel.data());
+            shade(m, s, stats, /*indirect=*/whole, /*refining=*/!whole, s.ray_pixel.data());
+            for (int r = 0; r < m; ++r) extra[s.ray_refined[r]] += whole ? s.radiance[r] : s.direct[r];
         }
         for (int j = 0; j < count; ++j) {
             const int i = s.refined[j];
@@ -424,20 +435,20 @@ private:
         return refined_sample_count(base, total, std::min(1.0, double(spread) / full));
     }
 
-    /// Traces n camera rays and resolves their hits: through the pixel's centre (sample < 0), or
-    /// jittered by the sample sequence; with `pixels`, ray j goes through the tile's pixel
-    /// pixels[j] (row-major in the tile, tw wide), else through pixel j.
-    void trace(int x0, int y0, int tw, int n, TileScratch& s, RenderStats& stats, int sample,
+    /// Traces n camera rays and resolves their hits: through the pixel's centre (`centre`), or
+    /// jittered by sample TileScratch::samples[j] of its pixel's sequence; with `pixels`, ray j
+    /// goes through the tile's pixel pixels[j] (row-major in the tile, tw wide), else through
+    /// pixel j.
+    void trace(int x0, int y0, int tw, int n, TileScratch& s, RenderStats& stats, bool centre,
                const int* pixels = nullptr) const {
         const glm::dvec3& origin = m_camera.center();
-        if (sample < 0 && !pixels) {
+        if (centre && !pixels) {
             centre_rays(m_camera, x0, y0, x0 + tw, y0 + n / tw, s.dirs.data(), s.rays.data());
             std::copy_n(s.dirs.begin(), n, s.centre_dirs.begin());
         } else {
-            const auto k = static_cast<uint32_t>(sample);
             for (int i = 0; i < n; ++i) {
                 const int p = pixels ? pixels[i] : i;
-                const SamplePair j = sample < 0 ? SamplePair{0.5f, 0.5f} : sample_pair(s.streams[i], k, 0);
+                const SamplePair j = centre ? SamplePair{0.5f, 0.5f} : sample_pair(s.streams[i], s.samples[i], 0);
                 const double x = x0 + p % tw, y = y0 + p / tw;
                 s.dirs[i] = m_camera.direction(x + double(j.u), y + double(j.v));
                 s.centre_dirs[i] = m_camera.direction(x + 0.5, y + 0.5);
@@ -450,11 +461,11 @@ private:
         s.hits.resolve(m_instances.data(), origin, s.dirs.data(), s.rays.data(), n, tw, m_settings.exact_depth);
     }
 
-    /// The radiance of the n resolved camera hits for one sample: the lights at the hit (also
-    /// kept apart in `direct` when adaptive_spp > 0), then, with `indirect`, the indirect light
-    /// (add_indirect). `refining`: a refinement sample past spp ≥ 2 base samples, which casts
+    /// The radiance of the n resolved camera hits, each for its own sample (TileScratch::samples):
+    /// the lights at the hit (also kept apart in `direct` when adaptive_spp > 0), then, with
+    /// `indirect`, the indirect light (add_indirect). `refining`: a refinement sample past spp ≥ 2 base samples, which casts
     /// TileScratch::sun_rays Sun-disk rays per pixel (light_vertices). `pixels` as trace's.
-    void shade(int n, TileScratch& s, RenderStats& stats, uint32_t sample, bool indirect, bool refining = false,
+    void shade(int n, TileScratch& s, RenderStats& stats, bool indirect, bool refining = false,
                const int* pixels = nullptr) const {
         std::fill_n(s.radiance.begin(), n, glm::dvec3(0.0));
         if (m_settings.adaptive_spp > 0) {
@@ -494,19 +505,19 @@ private:
             for (size_t l = 1; l < m_lights.size(); ++l) v.cos_light[l] = glm::dot(v.normal, m_lights[l].dir);
             if (m_medium && m_sun) s.sun_dust[i] = m_medium->sun_transmittance(v.point);
         }
-        light_vertices(n, s, stats, sample, refining ? m_settings.penumbra_light_samples : m_settings.light_samples,
-                       kPairLight, m_medium && m_sun ? s.sun_dust.data() : nullptr, /*camera_hits=*/true,
+        light_vertices(n, s, stats, refining ? m_settings.penumbra_light_samples : m_settings.light_samples, kPairLight,
+                       m_medium && m_sun ? s.sun_dust.data() : nullptr, /*camera_hits=*/true,
                        refining ? s.sun_rays.data() : nullptr);
         if (m_settings.adaptive_spp > 0) std::copy_n(s.radiance.begin(), n, s.direct.begin());
-        if (indirect) add_indirect(n, s, stats, sample, pixels);
+        if (indirect) add_indirect(n, s, stats, pixels);
     }
 
     /// Adds the indirect light at the camera hits (the paths set up by shade) to the radiance of
-    /// one sample: the light cache's, where it serves the hit, else that of the diffuse bounces.
+    /// their samples: the light cache's, where it serves the hit, else that of the diffuse bounces.
     /// A pixel reads the cache once per triangle its samples hit (TileScratch::indirect_reads):
     /// the cached light varies over the lattice's centimetres, not within a pixel's footprint on
     /// one facet, whose textures its samples already read at one point. `pixels` as trace's.
-    void add_indirect(int n, TileScratch& s, RenderStats& stats, uint32_t sample, const int* pixels = nullptr) const {
+    void add_indirect(int n, TileScratch& s, RenderStats& stats, const int* pixels = nullptr) const {
         if (m_light_cache)
             for (int i = 0; i < n; ++i) {
                 PathVertex& v = s.path[i];
@@ -524,8 +535,8 @@ private:
             }
         for (int bounce = 1; bounce <= m_settings.bounces; ++bounce) {
             const uint32_t pair = kPairBounce + kPairsPerBounce * static_cast<uint32_t>(bounce - 1);
-            if (!extend_paths(n, s, stats, sample, pair)) break;
-            light_vertices(n, s, stats, sample, 1, pair + 1, nullptr, /*camera_hits=*/false);
+            if (!extend_paths(n, s, stats, pair)) break;
+            light_vertices(n, s, stats, 1, pair + 1, nullptr, /*camera_hits=*/false);
         }
     }
 
@@ -827,7 +838,8 @@ private:
 
     /// Adds every light's contribution at the live path vertices to their pixels: `samples`
     /// shadow rays per light toward its disk (light l: dimension pair `pair` + l, points
-    /// sample·R .. sample·R + R − 1 of its sequence, R its rays a vertex), each
+    /// sample·R .. sample·R + R − 1 of its sequence, R its rays a vertex, `sample` its camera
+    /// ray's TileScratch::samples entry), each
     /// vertex weighted by its path throughput (and the Sun's by `sun_dust`, the dust's
     /// transmittance toward it, per pixel, where given). `camera_hits`: the vertices are the
     /// camera rays' hits; else a bounce's, scattered over the scene, whose shadow rays are
@@ -835,8 +847,8 @@ private:
     /// samples only): the Sun's rays per vertex, R_i ≤ `samples`, at points
     /// spp·light_samples + (sample − spp)·R_i + k of its sequence, past the base samples' (with
     /// R_i = light_samples the points sample·R_i + k as above).
-    void light_vertices(int n, TileScratch& s, RenderStats& stats, uint32_t sample, int samples, uint32_t pair,
-                        const double* sun_dust, bool camera_hits, const int* sun_rays = nullptr) const {
+    void light_vertices(int n, TileScratch& s, RenderStats& stats, int samples, uint32_t pair, const double* sun_dust,
+                        bool camera_hits, const int* sun_rays = nullptr) const {
         const auto base = static_cast<uint32_t>(m_settings.spp);
         for (size_t l = 0; l < m_lights.size(); ++l) {
             const LightData& light = m_lights[l];
@@ -856,6 +868,7 @@ private:
                     if (!light.point) {
                         // Consecutive points of the light's sequence: stratified over all the pixel's rays to it.
                         const auto rays = static_cast<uint32_t>(rays_of(i));
+                        const uint32_t sample = s.samples[i];
                         const uint32_t point = per_pixel ? base * static_cast<uint32_t>(m_settings.light_samples) +
                                                                (sample - base) * rays + static_cast<uint32_t>(k)
                                                          : sample * rays + static_cast<uint32_t>(k);
@@ -1015,13 +1028,13 @@ private:
     /// Continues every live path by one bounce: a cosine-distributed direction about the normal
     /// (dimension pair `pair`), the throughput weighted by π·f·cos/pdf = albedo·shape,
     /// and the ray traced. Paths that leave the scene end. Returns whether any path lives on.
-    bool extend_paths(int n, TileScratch& s, RenderStats& stats, uint32_t sample, uint32_t pair) const {
+    bool extend_paths(int n, TileScratch& s, RenderStats& stats, uint32_t pair) const {
         int count = 0;
         for (int i = 0; i < n; ++i) {
             PathVertex& v = s.path[i];
             if (!v.alive) continue;
             double mu_i;
-            const SamplePair q = sample_pair(s.streams[i], sample, pair);
+            const SamplePair q = sample_pair(s.streams[i], s.samples[i], pair);
             const glm::dvec3 wi = cosine_direction(v.normal, q.u, q.v, mu_i);
             const InstanceData& inst = m_instances[v.instance];
             const double shape = shape_at(inst, mu_i, glm::dot(v.normal, v.wo), glm::dot(wi, v.wo));
