@@ -331,7 +331,8 @@ def test_refined_pixels_get_samples_in_proportion_to_their_spread():
     60 extra camera rays; with a huge f each gets 4 (8 samples, the first power of two past the
     4 base ones); in between, fewer than all, and the extra rays 4 a refined pixel more than a
     multiple of 8, as counts of 8, 16, 32 or 64 give them. The images stay the same bytes
-    on 1 and 2 threads (the refined pixels are sampled in an order sorted per tile)."""
+    on 1 and 2 threads (a tile's refined pixels are sampled in batches of up to 64 rays, a pixel's
+    samples together: with f = 0 its 60 fill most of one batch and the next pixel's spill over)."""
     scene = lunar_test_scene()
     base = {**QUALITY, "light_samples": 1, "adaptive_spp": 64, "bounces": 0, "seed": 5}
 
@@ -349,6 +350,7 @@ def test_refined_pixels_get_samples_in_proportion_to_their_spread():
     assert refined * (8 - 4) < extra < refined * (64 - 4)
     assert (extra - refined * 4) % 8 == 0
     np.testing.assert_array_equal(run(8.0, threads=2)["rgb"], some["rgb"])
+    np.testing.assert_array_equal(run(0.0, threads=2)["rgb"], all_["rgb"])
 
 
 def test_the_threshold_weighs_the_spread_by_the_pixel_and_the_frame():
