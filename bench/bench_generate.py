@@ -51,7 +51,7 @@ from moonbot.pipeline.generate import generate
 from moonbot.pipeline.stats import load_placements
 from moonbot.records.stats import read_stats
 from moonbot.sweep import tasks
-from moonbot.sweep.plan import estimate_from, split_plans
+from moonbot.sweep.plan import estimate_from, fastest_run, split_plans
 
 from fingerprint import machine  # bench/ is on sys.path when run as a script
 from result_file import write_result
@@ -264,7 +264,7 @@ def main() -> int:
         f"scaling efficiency on 2 cores: 2 workers {record['scaling_efficiency_2_workers']:.2f}, "
         f"1 worker × 2 threads {record['scaling_efficiency_2_threads']:.2f}"
     )
-    best = max(record["runs"], key=lambda r: r["samples_per_s"])
+    best = fastest_run(record)
     mix_config = task_mix_config()
     mix = run(best["workers"], best["threads_per_worker"], mix_config)
     by_task = list(mix["core_seconds_per_sample_by_task"].values())

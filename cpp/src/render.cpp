@@ -387,8 +387,7 @@ public:
             for (int j = 0; j < count; ++j) s.indirect_reads[s.refined[j]] = {};
         // The samples go in batches of up to a tile's rays, each pixel's consecutive: a pixel's
         // Sun rays leave from one footprint, so Embree's 8-wide shadow packets go full and
-        // coherent (taken a sample index at a time across the refined pixels, most batches held
-        // a few rays). A pixel's sums run over its samples in order, whatever the batches, so the
+        // coherent. A pixel's sums run over its samples in order, whatever the batches, so the
         // image does not depend on them.
         const int first = whole ? 0 : base;
         int next = 0, sample = first;  // the next ray: refined pixel `next`'s sample `sample`
@@ -463,8 +462,9 @@ private:
 
     /// The radiance of the n resolved camera hits, each for its own sample (TileScratch::samples):
     /// the lights at the hit (also kept apart in `direct` when adaptive_spp > 0), then, with
-    /// `indirect`, the indirect light (add_indirect). `refining`: a refinement sample past spp ≥ 2 base samples, which casts
-    /// TileScratch::sun_rays Sun-disk rays per pixel (light_vertices). `pixels` as trace's.
+    /// `indirect`, the indirect light (add_indirect). `refining`: refinement samples past spp ≥ 2
+    /// base samples, each casting its TileScratch::sun_rays Sun-disk rays (light_vertices).
+    /// `pixels` as trace's.
     void shade(int n, TileScratch& s, RenderStats& stats, bool indirect, bool refining = false,
                const int* pixels = nullptr) const {
         std::fill_n(s.radiance.begin(), n, glm::dvec3(0.0));

@@ -136,11 +136,17 @@ def estimate(plans: list[SplitPlan], record_path: Path) -> Estimate | None:
         return None
 
 
+def fastest_run(record: dict) -> dict:
+    """The fastest (most samples a second) of a generate benchmark record's `runs`: the layout
+    the bench renders its task mix on and a sweep is priced on."""
+    return max(record["runs"], key=lambda r: r["samples_per_s"])
+
+
 def priced_run(record: dict) -> dict:
     """The run of a generate benchmark record that prices a sweep: its `task_mix` (the sweep's
     own mix of locations and bag counts, rendered on the fastest layout measured) where it has
-    one, else the fastest of its `runs`."""
-    return record.get("task_mix") or max(record["runs"], key=lambda r: r["samples_per_s"])
+    one, else fastest_run()."""
+    return record.get("task_mix") or fastest_run(record)
 
 
 def estimate_from(plans: list[SplitPlan], record: dict, source: str) -> Estimate:
