@@ -15,6 +15,8 @@ namespace moonbot {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+// A node asks for its Sun ray (DustGrid::shade_from_sun) when its extinction is above this, 1/m.
+constexpr float kDustyNode = 1e-6f;
 const double kSqrtHalfPi = std::sqrt(kPi / 2.0);
 
 /// ∫ from a to b of exp(−x²) dx·2/√π = erf(b) − erf(a), b ≥ a, computed from the side of
@@ -179,15 +181,43 @@ void DustGrid::integrate_sun_depth(const std::vector<float>& extinction) {
     });
 }
 
+std::vector<uint8_t> DustGrid::near_dust(const std::vector<float>& extinction) const {
+    // Dilated by one node along each axis in turn (in place, line by line, each node's old value
+    // carried to the next): the 26 neighbours, the corners of every cell with a dusty corner.
+    std::vector<uint8_t> near(node_count(), 0);
+    for (size_t n = 0; n < near.size(); ++n) near[n] = extinction[n] > kDustyNode;
+    const size_t stride[3] = {1, static_cast<size_t>(m_n[0]), static_cast<size_t>(m_n[0]) * m_n[1]};
+    for (int a = 0; a < 3; ++a) {
+        const int b = (a + 1) % 3, c = (a + 2) % 3;  // the axes across the lines
+        for (int v = 0; v < m_n[c]; ++v)
+            for (int u = 0; u < m_n[b]; ++u) {
+                const size_t first = u * stride[b] + v * stride[c];
+                uint8_t previous = 0;  // the old value of the node before
+                for (int t = 0; t < m_n[a]; ++t) {
+                    const size_t n = first + t * stride[a];
+                    const uint8_t old = near[n];
+                    const uint8_t next = t + 1 < m_n[a] ? near[n + stride[a]] : 0;
+                    near[n] = old | previous | next;
+                    previous = old;
+                }
+            }
+    }
+    return near;
+}
+
 std::vector<float> DustGrid::shade_from_sun(const std::vector<float>& extinction, const Scene& scene) {
-    // Each node with dust asks what its ray toward the Sun's centre meets first (nodes without any
-    // only blend into empty space). A surface's front shades it; a back face means the node is
-    // inside the ground or a bag, where no dust is ever seen: it counts as lit, so that the dust
-    // just above the ground is not dimmed by interpolating toward it.
+    // Each node with dust, and each node that shares a cell with one, asks what its ray toward the
+    // Sun's centre meets first: the lookup interpolates the sunlight over a cell's corners, and an
+    // empty corner left lit beside a shadowed dusty one would light the rim of a puff's reach in
+    // shadow. Nodes farther from any dust only blend into empty space. A surface's front shades a
+    // node; a back face means the node is inside the ground or a bag, where no dust is ever seen:
+    // it counts as lit, so that the dust just above the ground is not dimmed by interpolating
+    // toward it.
     // The frame's third axis is the Sun's direction, so a node's ray runs along its grid line and
     // every node of the line short of the first surface a ray meets meets that surface first too.
-    // A line therefore traces one ray from its lowest dusty node and one more from the first
-    // dusty node past each surface found: a line open to the Sun takes one ray, not one a node.
+    // A line therefore traces one ray from its lowest node asking and one more from the first
+    // node asking past each surface found: a line open to the Sun takes one ray, not one a node.
+    const std::vector<uint8_t> near = near_dust(extinction);
     std::vector<float> visible(node_count(), 1.0f);
     std::atomic<uint64_t> rays{0};
     tbb::parallel_for(0, m_n[1], [&](int j) {
@@ -197,7 +227,7 @@ std::vector<float> DustGrid::shade_from_sun(const std::vector<float>& extinction
             double surface = -INFINITY;  // frame coordinate along the Sun of the surface ahead (+inf: none)
             float before = 1.0f;         // what a node short of it is
             for (int k = 0; k < m_n[2]; ++k) {
-                if (!(extinction[node(i, j, k)] > 1e-6f)) continue;
+                if (!near[node(i, j, k)]) continue;
                 const double along = m_lo.z + k * m_h;
                 const glm::dvec3 point = world(glm::dvec3(m_lo.x + i * m_h, m_lo.y + j * m_h, along));
                 if (point.z < m_medium.floor_z) continue;

@@ -123,6 +123,9 @@ private:
     std::vector<float> bake_extinction(const std::vector<double>& reach, const std::vector<glm::dvec3>& centre) const;
     /// m_sun_depth from the extinction.
     void integrate_sun_depth(const std::vector<float>& extinction);
+    /// Per node, 1 where it has dust or shares a cell with a node that has: the nodes whose
+    /// sunlight a lookup can blend with dust's.
+    std::vector<uint8_t> near_dust(const std::vector<float>& extinction) const;
     /// Per node, 0 where the geometry shades it from the Sun, else 1 (counts m_shadow_rays).
     std::vector<float> shade_from_sun(const std::vector<float>& extinction, const Scene& scene);
     /// m_lookup: the extinction and the sunlight left (visibility × exp(−τ_sun)) side by side.
