@@ -201,6 +201,8 @@ def test_off_is_the_brute_force_path_bit_for_bit():
         ({"spp": 4, "adaptive_spp": 8, "penumbra_light_samples": 0}, "penumbra_light_samples: must be in 1..1024"),
         ({"spp": 4, "adaptive_spp": 8, "adaptive_full_spread": -1.0}, "adaptive_full_spread: must be a finite number"),
         ({"spp": 4, "adaptive_spp": 8, "adaptive_full_spread": float("inf")}, "adaptive_full_spread: must be a finite"),
+        ({"spp": 4, "adaptive_spp": 8, "adaptive_contrast": -1.0}, "adaptive_contrast: must be a finite number >= 0"),
+        ({"spp": 4, "adaptive_spp": 8, "adaptive_contrast": float("nan")}, "adaptive_contrast: must be a finite"),
     ],
 )
 def test_bad_settings_name_the_field(kwargs, message):
@@ -215,6 +217,7 @@ def test_bad_settings_name_the_field(kwargs, message):
         ({"render.adaptive_threshold": -0.1}, "render.adaptive_threshold: must be >= 0"),
         ({"render.penumbra_light_samples": 0}, "render.penumbra_light_samples: must be >= 1"),
         ({"render.adaptive_full_spread": -1.0}, "render.adaptive_full_spread: must be >= 0"),
+        ({"render.adaptive_contrast": -1.0}, "render.adaptive_contrast: must be >= 0"),
     ],
 )
 def test_bad_config_names_the_field(overrides, message):
@@ -351,6 +354,53 @@ def test_refined_pixels_get_samples_in_proportion_to_their_spread():
     assert (extra - refined * 4) % 8 == 0
     np.testing.assert_array_equal(run(8.0, threads=2)["rgb"], some["rgb"])
     np.testing.assert_array_equal(run(0.0, threads=2)["rgb"], all_["rgb"])
+
+
+def grazing_box_view() -> tuple[_core.Scene, _core.Camera]:
+    """The box on dark ground (albedo 0.12), 96 × 72 pixels: under a Sun 5° up, a face toward it
+    is lit ten times as brightly as the ground, and the frame is mostly ground."""
+    from scenes import ground_and_box
+
+    scene = ground_and_box((0.4, 0.4, 0.4))[0]
+    w, h, f = 96, 72, 120.0
+    centre = np.array([1.6, -1.2, 0.5])
+    z = np.array([0.0, 0.0, 0.15]) - centre
+    z /= np.linalg.norm(z)
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    R = np.stack([x, np.cross(z, x), z])
+    return scene, _core.Camera(f, f, w / 2, h / 2, w, h, R, -R @ centre)
+
+
+def test_a_sunlit_face_in_a_dim_frame_is_refined_by_its_neighbourhood_contrast():
+    """Where a face lit by a Sun 5° up meets ground that the same Sun grazes, a pixel's own base
+    samples and each neighbour's may each see part of the contrast, and a miss costs a pixel all
+    of it. adaptive_contrast 8 refines a pixel whose neighbourhood's samples together spread that
+    far, its share following their spread. Direct light against 1024 samples, over three Sun
+    azimuths: the error falls by over a fifth (0.0145 to 0.0099 relative RMSE) for at most 6 %
+    more camera rays; 0 is the renderer without the rule, bit for bit; the images stay the same
+    bytes for 1 and 2 threads."""
+    scene, camera = grazing_box_view()
+    base = {"spp": 4, "seed": 3, "adaptive_spp": 128, "adaptive_full_spread": 10.0, "bounces": 0}
+    squared, rays = {0.0: [], 8.0: []}, {0.0: 0, 8.0: 0}
+    for azimuth in (-60.0, 30.0, 120.0):
+        sun = _core.DirectionalLight(azimuth, 5.0, E, 0.533)
+        settings = _core.RenderSettings(spp=1024, seed=5, light_samples=2, bounces=0)
+        reference = _core.render(scene, camera, sun, settings, passes=["rgb"])["rgb"].astype(np.float64)
+        out = {c: _core.render(scene, camera, sun, _core.RenderSettings(**base, adaptive_contrast=c)) for c in squared}
+        for contrast in squared:
+            squared[contrast].append(np.mean((out[contrast]["rgb"] - reference) ** 2) / reference.mean() ** 2)
+            rays[contrast] += out[contrast]["camera_rays"]
+        if azimuth == -60.0:
+            plain = _core.render(scene, camera, sun, _core.RenderSettings(**base))  # the default: 0
+            assert plain["rgb"].tobytes() == out[0.0]["rgb"].tobytes()
+            two = _core.render(scene, camera, sun, _core.RenderSettings(**base, adaptive_contrast=8.0, threads=2))
+            one = _core.render(scene, camera, sun, _core.RenderSettings(**base, adaptive_contrast=8.0, threads=1))
+            assert one["rgb"].tobytes() == two["rgb"].tobytes() == out[8.0]["rgb"].tobytes()
+            assert one["refined_pixels"] > plain["refined_pixels"]
+    off, on = (np.sqrt(np.mean(squared[c])) for c in (0.0, 8.0))
+    assert on < 0.8 * off
+    assert rays[0.0] < rays[8.0] <= 1.06 * rays[0.0]
 
 
 def test_the_threshold_weighs_the_spread_by_the_pixel_and_the_frame():

@@ -48,6 +48,10 @@ DEFAULTS_DIFFER = {  # (struct, struct field): why the schema's default is anoth
         "RenderSettings",
         "adaptive_full_spread",
     ): "the dataset's; the core's default brings every refined pixel to adaptive_spp",
+    (
+        "RenderSettings",
+        "adaptive_contrast",
+    ): "the dataset's; the core's default refines by the pixels' own spreads alone",
     ("LightCacheSettings", "background_cell_m"): "the dataset's lattice; the core's default gathers per vertex",
     ("LightCacheSettings", "object_cell_m"): "the dataset's lattice; the core's default gathers per vertex",
     ("LightCacheSettings", "background_filter_cells"): "the dataset's filter; the core's default is bilinear",
@@ -103,6 +107,7 @@ def built():
                     "light_samples",
                     "penumbra_light_samples",
                     "adaptive_full_spread",
+                    "adaptive_contrast",
                     "bounces",
                     "adaptive_threshold",
                     "texture_filter_px",

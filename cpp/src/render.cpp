@@ -183,9 +183,13 @@ struct AdaptiveFrame {
     };
     std::vector<glm::dvec3> sum, direct_sum;  // over the base samples (spp >= 2): radiance, and its direct part
     // spp >= 2: bit 0 SampleAgreement::disagree (set by decide(), once the frame's luminance is
-    // known), bit 1 the pixel's Sun rays partly escape (set by the first pass)
+    // known), bit 1 the pixel's Sun rays partly escape (set by the first pass), bit 2 its 3×3
+    // neighbourhood's base samples together disagree by RenderSettings::adaptive_contrast (decide())
     std::vector<uint8_t> disagree;
     std::vector<float> spread;  // spp >= 2: max − min of the base samples' direct luminance, W/(m²·sr)
+    std::vector<float> lowest;  // spp >= 2: min of the base samples' direct luminance, W/(m²·sr)
+    // spp >= 2, where bit 2 is set: max − min over the 3×3 neighbourhood's base samples, W/(m²·sr)
+    std::vector<float> across;
     double frame_luminance = 0.0;  // mean direct luminance of the base samples over the frame, W/(m²·sr)
     std::vector<CentreSample> centre;  // spp 1 only
     std::vector<double> dust_through;  // with dust only: the pixel's transmittance ...
@@ -196,13 +200,17 @@ struct AdaptiveFrame {
           direct_sum(centre_only ? 0 : pixels),
           disagree(centre_only ? 0 : pixels),
           spread(centre_only ? 0 : pixels),
+          lowest(centre_only ? 0 : pixels),
+          across(centre_only ? 0 : pixels),
           centre(centre_only ? pixels : 0),
           dust_through(dust ? pixels : 0),
           dust_glow(dust ? pixels : 0) {}
 
     /// After the first pass: the frame's mean direct luminance, then (spp ≥ 2) each pixel's
-    /// SampleAgreement::disagree against it. A sum in pixel order, so the same for any threads.
-    void decide(int spp, double threshold) {
+    /// SampleAgreement::disagree against it, and with `contrast` > 0 its 3×3 neighbourhood's
+    /// (RenderSettings::adaptive_contrast; the frame is `width` pixels wide). Sums in pixel order,
+    /// so the same for any threads.
+    void decide(int spp, double threshold, double contrast, int width) {
         const bool centre_only = spp == 1;
         const size_t pixels = centre_only ? centre.size() : direct_sum.size();
         double total = 0.0;
@@ -212,6 +220,24 @@ struct AdaptiveFrame {
         for (size_t k = 0; k < pixels; ++k)
             if (SampleAgreement::disagree(spread[k], luminance(direct_sum[k]) / spp, threshold, frame_luminance))
                 disagree[k] |= 1;
+        if (!(contrast > 0.0)) return;
+        const int height = static_cast<int>(pixels / static_cast<size_t>(width));
+        for (int y = 0; y < height; ++y)
+            for (int x = 0; x < width; ++x) {
+                double low = INFINITY, high = -INFINITY, mean = 0.0;
+                int n = 0;
+                for (int ny = std::max(y - 1, 0); ny <= std::min(y + 1, height - 1); ++ny)
+                    for (int nx = std::max(x - 1, 0); nx <= std::min(x + 1, width - 1); ++nx, ++n) {
+                        const size_t j = static_cast<size_t>(ny) * width + nx;
+                        low = std::min(low, double(lowest[j]));
+                        high = std::max(high, double(lowest[j]) + spread[j]);
+                        mean += luminance(direct_sum[j]) / spp;
+                    }
+                const size_t k = static_cast<size_t>(y) * width + x;
+                if (!SampleAgreement::disagree(high - low, mean / n, contrast * threshold, frame_luminance)) continue;
+                disagree[k] |= 4;
+                across[k] = static_cast<float>(high - low);
+            }
     }
 };
 
@@ -315,6 +341,7 @@ public:
                         a.direct_sum[k] = direct_sum[i];
                         const SampleAgreement& agreement = s.agreement[i];
                         a.spread[k] = static_cast<float>(agreement.luminance_max - agreement.luminance_min);
+                        a.lowest[k] = static_cast<float>(agreement.luminance_min);
                         a.disagree[k] = agreement.penumbra() ? 2 : 0;
                         if (!m_medium) continue;
                         a.dust_through[k] = s.dust_through[i];
@@ -362,6 +389,10 @@ public:
                     }
                 if (base == 1)
                     refine = neighbourhood.disagree(samples, m_settings.adaptive_threshold, a.frame_luminance);
+                if (base >= 2 && (a.disagree[index(x, y)] & 4)) {  // its neighbourhood's contrast
+                    refine = true;
+                    spread = std::max(spread, a.across[index(x, y)]);
+                }
                 if (!refine) continue;
                 // In a penumbra (its own or a neighbour's base samples' Sun rays partly escape) a
                 // refinement sample casts penumbra_light_samples rays: there the disk's visibility
@@ -1121,6 +1152,9 @@ void RenderSettings::validate() const {
     if (light_samples < 1 || light_samples > kMaxLightSamples)
         throw std::invalid_argument("light_samples: must be in 1.." + std::to_string(kMaxLightSamples) + ", got " +
                                     std::to_string(light_samples));
+    if (!std::isfinite(adaptive_contrast) || adaptive_contrast < 0.0)
+        throw std::invalid_argument("adaptive_contrast: must be a finite number >= 0, got " +
+                                    std::to_string(adaptive_contrast));
     if (!std::isfinite(adaptive_full_spread) || adaptive_full_spread < 0.0)
         throw std::invalid_argument("adaptive_full_spread: must be a finite number >= 0, got " +
                                     std::to_string(adaptive_full_spread));
@@ -1230,7 +1264,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     arena.execute([&] {
         each_tile(false);
         if (adaptive) {
-            adaptive->decide(settings.spp, settings.adaptive_threshold);
+            adaptive->decide(settings.spp, settings.adaptive_threshold, settings.adaptive_contrast, camera.width());
             each_tile(true);
         }
     });

@@ -1050,6 +1050,16 @@ class RenderConfig:
             hi=1000.0,
         ),
     )
+    adaptive_contrast: float = field(
+        default=8.0,
+        metadata=spec(
+            "adaptive anti-aliasing (spp >= 2): a pixel whose 3x3 neighbourhood's base samples, taken together, spread "
+            "beyond this many times adaptive_threshold's measure is refined, its share (adaptive_full_spread) following "
+            "that spread: a sunlit face beside ground lit at a grazing angle, a lit ridge across a shadow, where a "
+            "pixel's own and its neighbours' samples each see part of the contrast; 0 = off",
+            lo=0.0,
+        ),
+    )
     texture_filter_px: float = field(
         default=1.0,
         metadata=spec(

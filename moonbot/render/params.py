@@ -95,6 +95,7 @@ def render_settings(config: RenderConfig, seed: int) -> _core.RenderSettings:
         light_samples=config.light_samples,
         penumbra_light_samples=config.penumbra_light_samples,
         adaptive_full_spread=config.adaptive_full_spread,
+        adaptive_contrast=config.adaptive_contrast,
         bounces=config.bounces,
         adaptive_spp=config.refinement_spp,
         adaptive_threshold=config.adaptive_threshold,

@@ -66,6 +66,14 @@ struct RenderSettings {
     /// direct luminance, all of them from f up, at least one; the count is then moved to a power
     /// of two (refined_sample_count). Finite, >= 0.
     double adaptive_full_spread = 0.0;
+    /// With adaptive_spp and spp >= 2: a pixel whose 3×3 neighbourhood's base samples, taken
+    /// together, spread beyond this many times adaptive_threshold's measure (their spread over
+    /// √(their mean × the frame's mean)) is refined, and its share (adaptive_full_spread) follows
+    /// that spread rather than the largest of the nine pixels' own. Where a sunlit face meets
+    /// ground lit at a grazing angle, or a lit ridge crosses a shadow, a pixel may hold a sliver of
+    /// either, and a miss costs it that whole contrast; its own and its neighbours' spreads each
+    /// see only part of it. 0 = off; finite, >= 0.
+    double adaptive_contrast = 0.0;
 
     /// Throws std::invalid_argument naming the first field out of its range (render() calls it).
     void validate() const;
