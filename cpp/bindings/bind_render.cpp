@@ -23,8 +23,8 @@ void bind_render(py::module_& m) {
                "0: every refined pixel gets adaptive_spp; f > 0: its samples past spp in proportion to its spread "
                "over f times the frame's mean, moved to the nearest power of two")
         .field("adaptive_contrast", &RenderSettings::adaptive_contrast,
-               "0 = off; c > 0: a pixel whose 3x3 neighbourhood's base samples together spread beyond c times the "
-               "threshold's measure is refined, its share following that spread")
+               "0 = off; c > 0: a pixel whose 3x3 neighbourhood's base samples together spread beyond c times "
+               "sqrt(their mean x the frame's) is refined, its share following that spread")
         .field("bounces", &RenderSettings::bounces, "diffuse inter-reflections, 0 (direct light only)..16")
         .field("adaptive_spp", &RenderSettings::adaptive_spp,
                "0 = off, else the samples (direct light only past spp) a pixel whose samples disagree is brought "

@@ -234,7 +234,7 @@ struct AdaptiveFrame {
                         mean += luminance(direct_sum[j]) / spp;
                     }
                 const size_t k = static_cast<size_t>(y) * width + x;
-                if (!SampleAgreement::disagree(high - low, mean / n, contrast * threshold, frame_luminance)) continue;
+                if (!SampleAgreement::disagree(high - low, mean / n, contrast, frame_luminance)) continue;
                 disagree[k] |= 4;
                 across[k] = static_cast<float>(high - low);
             }

@@ -1051,11 +1051,11 @@ class RenderConfig:
         ),
     )
     adaptive_contrast: float = field(
-        default=8.0,
+        default=4.0,
         metadata=spec(
             "adaptive anti-aliasing (spp >= 2): a pixel whose 3x3 neighbourhood's base samples, taken together, spread "
-            "beyond this many times adaptive_threshold's measure is refined, its share (adaptive_full_spread) following "
-            "that spread: a sunlit face beside ground lit at a grazing angle, a lit ridge across a shadow, where a "
+            "beyond this times sqrt(their mean x the frame's mean direct luminance) (adaptive_threshold's measure, "
+            "a bar of its own) is refined, its share (adaptive_full_spread) following that spread: a sunlit face beside ground lit at a grazing angle, a lit ridge across a shadow, where a "
             "pixel's own and its neighbours' samples each see part of the contrast; 0 = off",
             lo=0.0,
         ),

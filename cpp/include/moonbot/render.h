@@ -67,8 +67,8 @@ struct RenderSettings {
     /// of two (refined_sample_count). Finite, >= 0.
     double adaptive_full_spread = 0.0;
     /// With adaptive_spp and spp >= 2: a pixel whose 3×3 neighbourhood's base samples, taken
-    /// together, spread beyond this many times adaptive_threshold's measure (their spread over
-    /// √(their mean × the frame's mean)) is refined, and its share (adaptive_full_spread) follows
+    /// together, spread beyond this times √(their mean × the frame's mean) (adaptive_threshold's
+    /// measure, with a bar of its own) is refined, and its share (adaptive_full_spread) follows
     /// that spread rather than the largest of the nine pixels' own. Where a sunlit face meets
     /// ground lit at a grazing angle, or a lit ridge crosses a shadow, a pixel may hold a sliver of
     /// either, and a miss costs it that whole contrast; its own and its neighbours' spreads each
