@@ -140,14 +140,16 @@ def lunar_test_scene() -> _core.Scene:
     return ground_and_box((0.4, 0.4, 0.4))[0]
 
 
-def ground_camera() -> _core.Camera:
-    centre = np.array([1.2, -1.0, 0.7])
+def ground_camera(centre=(1.2, -1.0, 0.7), width: int = W, height: int = H, f: float = F) -> _core.Camera:
+    """From `centre` (world metres) toward a point 15 cm above the origin, width × height pixels
+    of focal length f, image x level."""
+    centre = np.asarray(centre, dtype=float)
     z = np.array([0.0, 0.0, 0.15]) - centre
     z /= np.linalg.norm(z)
     x = np.cross(z, [0.0, 0.0, 1.0])
     x /= np.linalg.norm(x)
     R = np.stack([x, np.cross(z, x), z])
-    return _core.Camera(F, F, W / 2, H / 2, W, H, R, -R @ centre)
+    return _core.Camera(f, f, width / 2, height / 2, width, height, R, -R @ centre)
 
 
 DISK_SUN = _core.DirectionalLight(-60.0, 12.0, E, 0.533)
@@ -359,17 +361,7 @@ def test_refined_pixels_get_samples_in_proportion_to_their_spread():
 def grazing_box_view() -> tuple[_core.Scene, _core.Camera]:
     """The box on dark ground (albedo 0.12), 96 × 72 pixels: under a Sun 5° up, a face toward it
     is lit ten times as brightly as the ground, and the frame is mostly ground."""
-    from scenes import ground_and_box
-
-    scene = ground_and_box((0.4, 0.4, 0.4))[0]
-    w, h, f = 96, 72, 120.0
-    centre = np.array([1.6, -1.2, 0.5])
-    z = np.array([0.0, 0.0, 0.15]) - centre
-    z /= np.linalg.norm(z)
-    x = np.cross(z, [0.0, 0.0, 1.0])
-    x /= np.linalg.norm(x)
-    R = np.stack([x, np.cross(z, x), z])
-    return scene, _core.Camera(f, f, w / 2, h / 2, w, h, R, -R @ centre)
+    return lunar_test_scene(), ground_camera((1.6, -1.2, 0.5), 96, 72, 120.0)
 
 
 def test_a_sunlit_face_in_a_dim_frame_is_refined_by_its_neighbourhood_contrast():
