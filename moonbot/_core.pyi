@@ -1111,7 +1111,7 @@ class RenderSettings:
     """
     A render's quality and threads (moonbot/render.h).
     """
-    fields: typing.ClassVar[tuple] = ('spp', 'seed', 'threads', 'exact_depth', 'light_samples', 'penumbra_light_samples', 'adaptive_full_spread', 'bounces', 'adaptive_spp', 'adaptive_threshold', 'texture_filter_px')
+    fields: typing.ClassVar[tuple] = ('spp', 'seed', 'threads', 'exact_depth', 'light_samples', 'penumbra_light_samples', 'adaptive_full_spread', 'adaptive_contrast', 'bounces', 'adaptive_spp', 'adaptive_threshold', 'texture_filter_px')
     @typing.overload
     def __init__(self) -> None:
         """
@@ -1128,6 +1128,14 @@ class RenderSettings:
         """
         Raises ValueError naming the first field out of its range.
         """
+    @property
+    def adaptive_contrast(self) -> float:
+        """
+        0 = off; c > 0: a pixel whose 3x3 neighbourhood's base samples together spread beyond c times sqrt(their mean x the frame's) is refined, its share following that spread
+        """
+    @adaptive_contrast.setter
+    def adaptive_contrast(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
     @property
     def adaptive_full_spread(self) -> float:
         """

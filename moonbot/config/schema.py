@@ -1055,8 +1055,9 @@ class RenderConfig:
         metadata=spec(
             "adaptive anti-aliasing (spp >= 2): a pixel whose 3x3 neighbourhood's base samples, taken together, spread "
             "beyond this times sqrt(their mean x the frame's mean direct luminance) (adaptive_threshold's measure, "
-            "a bar of its own) is refined, its share (adaptive_full_spread) following that spread: a sunlit face beside ground lit at a grazing angle, a lit ridge across a shadow, where a "
-            "pixel's own and its neighbours' samples each see part of the contrast; 0 = off",
+            "a bar of its own) is refined, its share (adaptive_full_spread) following that spread: a sunlit face "
+            "beside ground lit at a grazing angle, a lit ridge across a shadow, where a pixel's own and its "
+            "neighbours' samples each see part of the contrast; 0 = off",
             lo=0.0,
         ),
     )
