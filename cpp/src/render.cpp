@@ -187,7 +187,8 @@ struct AdaptiveFrame {
     // neighbourhood's base samples together disagree by RenderSettings::adaptive_contrast (decide())
     std::vector<uint8_t> disagree;
     std::vector<float> spread;  // spp >= 2: max − min of the base samples' direct luminance, W/(m²·sr)
-    std::vector<float> lowest;  // spp >= 2: min of the base samples' direct luminance, W/(m²·sr)
+    // spp >= 2 with RenderSettings::adaptive_contrast: min of the base samples' direct luminance, W/(m²·sr)
+    std::vector<float> lowest;
     // spp >= 2, where bit 2 is set: max − min over the 3×3 neighbourhood's base samples, W/(m²·sr)
     std::vector<float> across;
     double frame_luminance = 0.0;  // mean direct luminance of the base samples over the frame, W/(m²·sr)
@@ -195,13 +196,13 @@ struct AdaptiveFrame {
     std::vector<double> dust_through;  // with dust only: the pixel's transmittance ...
     std::vector<glm::dvec3> dust_glow;  // ... and glow (TileScratch), applied after refining
 
-    AdaptiveFrame(size_t pixels, bool centre_only, bool dust)
+    AdaptiveFrame(size_t pixels, bool centre_only, bool dust, bool contrast)
         : sum(centre_only ? 0 : pixels),
           direct_sum(centre_only ? 0 : pixels),
           disagree(centre_only ? 0 : pixels),
           spread(centre_only ? 0 : pixels),
-          lowest(centre_only ? 0 : pixels),
-          across(centre_only ? 0 : pixels),
+          lowest(centre_only || !contrast ? 0 : pixels),
+          across(centre_only || !contrast ? 0 : pixels),
           centre(centre_only ? pixels : 0),
           dust_through(dust ? pixels : 0),
           dust_glow(dust ? pixels : 0) {}
@@ -341,7 +342,7 @@ public:
                         a.direct_sum[k] = direct_sum[i];
                         const SampleAgreement& agreement = s.agreement[i];
                         a.spread[k] = static_cast<float>(agreement.luminance_max - agreement.luminance_min);
-                        a.lowest[k] = static_cast<float>(agreement.luminance_min);
+                        if (!a.lowest.empty()) a.lowest[k] = static_cast<float>(agreement.luminance_min);
                         a.disagree[k] = agreement.penumbra() ? 2 : 0;
                         if (!m_medium) continue;
                         a.dust_through[k] = s.dust_through[i];
@@ -1236,7 +1237,8 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     // Adaptive anti-aliasing (rgb only): a second pass refines.
     std::optional<AdaptiveFrame> adaptive;
     if (settings.adaptive_spp > 0 && out.rgb)
-        adaptive.emplace(static_cast<size_t>(w) * h, settings.spp == 1, dust.has_value());
+        adaptive.emplace(static_cast<size_t>(w) * h, settings.spp == 1, dust.has_value(),
+                         settings.adaptive_contrast > 0.0);
     const TileRenderer tiles(scene, camera, lights, settings, out, dust ? &*dust : nullptr, light_cache,
                              adaptive ? &*adaptive : nullptr);
     std::atomic<uint64_t> camera_rays{0}, second_look_rays{0}, shadow_rays{0}, bounce_shadow_rays{0}, bounce_rays{0},
