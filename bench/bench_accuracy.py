@@ -264,6 +264,7 @@ def converged_reference(config, scene, spec, fresh: bool, medium=None) -> dict:
         adaptive_threshold=0.5,
         adaptive_full_spread=0.0,
         adaptive_contrast=0.0,
+        adaptive_error_target=0.0,
         light_samples=2,
         **REFERENCE_KEY_CACHE,
     )

@@ -1111,7 +1111,7 @@ class RenderSettings:
     """
     A render's quality and threads (moonbot/render.h).
     """
-    fields: typing.ClassVar[tuple] = ('spp', 'seed', 'threads', 'exact_depth', 'light_samples', 'penumbra_light_samples', 'adaptive_full_spread', 'adaptive_contrast', 'bounces', 'adaptive_spp', 'adaptive_threshold', 'texture_filter_px')
+    fields: typing.ClassVar[tuple] = ('spp', 'seed', 'threads', 'exact_depth', 'light_samples', 'penumbra_light_samples', 'adaptive_full_spread', 'adaptive_contrast', 'adaptive_error_target', 'bounces', 'adaptive_spp', 'adaptive_threshold', 'texture_filter_px')
     @typing.overload
     def __init__(self) -> None:
         """
@@ -1135,6 +1135,14 @@ class RenderSettings:
         """
     @adaptive_contrast.setter
     def adaptive_contrast(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def adaptive_error_target(self) -> float:
+        """
+        0 = off; e in (0, 1]: the share's f is chosen per view, the largest adaptive_full_spread x 1.25^j whose refined pixels' predicted error, relative to the frame's mean luminance, is at most e
+        """
+    @adaptive_error_target.setter
+    def adaptive_error_target(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
     @property
     def adaptive_full_spread(self) -> float:

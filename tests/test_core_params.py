@@ -108,6 +108,7 @@ def built():
                     "penumbra_light_samples",
                     "adaptive_full_spread",
                     "adaptive_contrast",
+                    "adaptive_error_target",
                     "bounces",
                     "adaptive_threshold",
                     "texture_filter_px",

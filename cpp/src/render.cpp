@@ -192,6 +192,7 @@ struct AdaptiveFrame {
     // spp >= 2, where bit 2 is set: max − min over the 3×3 neighbourhood's base samples, W/(m²·sr)
     std::vector<float> across;
     double frame_luminance = 0.0;  // mean direct luminance of the base samples over the frame, W/(m²·sr)
+    double full_spread = 0.0;      // the share's f for this view (RenderSettings::adaptive_full_spread, or chosen)
     std::vector<CentreSample> centre;  // spp 1 only
     std::vector<double> dust_through;  // with dust only: the pixel's transmittance ...
     std::vector<glm::dvec3> dust_glow;  // ... and glow (TileScratch), applied after refining
@@ -211,7 +212,10 @@ struct AdaptiveFrame {
     /// SampleAgreement::disagree against it, and with `contrast` > 0 its 3×3 neighbourhood's
     /// (RenderSettings::adaptive_contrast; the frame is `width` pixels wide). Sums in pixel order,
     /// so the same for any threads.
-    void decide(int spp, double threshold, double contrast, int width) {
+    void decide(const RenderSettings& settings, int width) {
+        const int spp = settings.spp;
+        const double threshold = settings.adaptive_threshold, contrast = settings.adaptive_contrast;
+        full_spread = settings.adaptive_full_spread;
         const bool centre_only = spp == 1;
         const size_t pixels = centre_only ? centre.size() : direct_sum.size();
         double total = 0.0;
@@ -221,7 +225,62 @@ struct AdaptiveFrame {
         for (size_t k = 0; k < pixels; ++k)
             if (SampleAgreement::disagree(spread[k], luminance(direct_sum[k]) / spp, threshold, frame_luminance))
                 disagree[k] |= 1;
-        if (!(contrast > 0.0)) return;
+        if (contrast > 0.0) decide_contrast(spp, contrast, width);
+        if (settings.adaptive_error_target > 0.0 && full_spread > 0.0)
+            full_spread = targeted_full_spread(spp, settings.adaptive_spp, settings.adaptive_error_target, width);
+    }
+
+    /// Whether pixel (x, y) is refined (spp >= 2, after decide's bits) and, if so, the spread its
+    /// share follows (TileRenderer::refine_tile's rule), else −1.
+    float refined_spread(int x, int y, int width, int height) const {
+        bool refine = false;
+        float largest = 0.0f;
+        for (int ny = std::max(y - 1, 0); ny <= std::min(y + 1, height - 1); ++ny)
+            for (int nx = std::max(x - 1, 0); nx <= std::min(x + 1, width - 1); ++nx) {
+                const size_t j = static_cast<size_t>(ny) * width + nx;
+                refine = refine || (disagree[j] & 1) != 0;
+                largest = std::max(largest, spread[j]);
+            }
+        const size_t k = static_cast<size_t>(y) * width + x;
+        if (disagree[k] & 4) {
+            refine = true;
+            largest = std::max(largest, across[k]);
+        }
+        return refine ? largest : -1.0f;
+    }
+
+    /// RenderSettings::adaptive_error_target: the largest f = full_spread·1.25^j whose refined
+    /// pixels' predicted relative error is at most `target`. Sums in pixel order: the same for
+    /// any threads.
+    double targeted_full_spread(int spp, int total, double target, int width) const {
+        const size_t pixels = direct_sum.size();
+        const int height = static_cast<int>(pixels / static_cast<size_t>(width));
+        double mean = 0.0;  // the frame's mean luminance, all light
+        for (size_t k = 0; k < pixels; ++k) mean += luminance(sum[k]) / spp;
+        mean /= static_cast<double>(pixels);
+        std::vector<float> spreads;
+        for (int y = 0; y < height; ++y)
+            for (int x = 0; x < width; ++x)
+                if (const float s = refined_spread(x, y, width, height); s >= 0.0f) spreads.push_back(s);
+        if (spreads.empty() || !(mean > 0.0)) return full_spread;
+        // The prediction √(k·Σ s²/N^1.5 / P) / mean ≤ target, squared and rearranged.
+        const double budget = target * target * static_cast<double>(pixels) * mean * mean / kRefinedErrorScale;
+        double chosen = full_spread, f = full_spread;
+        for (int step = 0; step <= kErrorTargetSteps; ++step, f *= 1.25) {
+            double predicted = 0.0;  // Σ s²/N^1.5
+            for (const float s : spreads) {
+                const double n = refined_sample_count(spp, total, std::min(1.0, double(s) / (f * frame_luminance)));
+                predicted += double(s) * s / (n * std::sqrt(n));
+            }
+            if (predicted > budget) break;
+            chosen = f;
+        }
+        return chosen;
+    }
+
+    /// decide's neighbourhood contrast (RenderSettings::adaptive_contrast, bit 2 and `across`).
+    void decide_contrast(int spp, double contrast, int width) {
+        const size_t pixels = direct_sum.size();
         const int height = static_cast<int>(pixels / static_cast<size_t>(width));
         for (int y = 0; y < height; ++y)
             for (int x = 0; x < width; ++x) {
@@ -461,7 +520,7 @@ private:
     /// error is least where they follow the spread.
     int refined_total(float spread, double frame_luminance) const {
         const int base = m_settings.spp, total = m_settings.adaptive_spp;
-        const double full = m_settings.adaptive_full_spread * frame_luminance;
+        const double full = m_adaptive->full_spread * frame_luminance;
         if (base < 2 || !(full > 0.0)) return total;
         return refined_sample_count(base, total, std::min(1.0, double(spread) / full));
     }
@@ -1156,6 +1215,9 @@ void RenderSettings::validate() const {
     if (!std::isfinite(adaptive_contrast) || adaptive_contrast < 0.0)
         throw std::invalid_argument("adaptive_contrast: must be a finite number >= 0, got " +
                                     std::to_string(adaptive_contrast));
+    if (!std::isfinite(adaptive_error_target) || adaptive_error_target < 0.0 || adaptive_error_target > 1.0)
+        throw std::invalid_argument("adaptive_error_target: must be a finite number in [0, 1], got " +
+                                    std::to_string(adaptive_error_target));
     if (!std::isfinite(adaptive_full_spread) || adaptive_full_spread < 0.0)
         throw std::invalid_argument("adaptive_full_spread: must be a finite number >= 0, got " +
                                     std::to_string(adaptive_full_spread));
@@ -1266,7 +1328,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Lights& light
     arena.execute([&] {
         each_tile(false);
         if (adaptive) {
-            adaptive->decide(settings.spp, settings.adaptive_threshold, settings.adaptive_contrast, camera.width());
+            adaptive->decide(settings, camera.width());
             each_tile(true);
         }
     });

@@ -1061,6 +1061,17 @@ class RenderConfig:
             lo=0.0,
         ),
     )
+    adaptive_error_target: float = field(
+        default=0.0,
+        metadata=spec(
+            "adaptive anti-aliasing (spp >= 2, adaptive_full_spread > 0): the share's spread is chosen per view, the "
+            "largest adaptive_full_spread x 1.25^j (j = 0..16) whose refined pixels' predicted error, relative to the "
+            "frame's mean luminance, is at most this: an easy view spends fewer samples, a hard one more "
+            "(bench_accuracy; docs/performance.md); 0 = off, adaptive_full_spread always",
+            lo=0.0,
+            hi=1.0,
+        ),
+    )
     texture_filter_px: float = field(
         default=1.0,
         metadata=spec(

@@ -96,6 +96,7 @@ def render_settings(config: RenderConfig, seed: int) -> _core.RenderSettings:
         penumbra_light_samples=config.penumbra_light_samples,
         adaptive_full_spread=config.adaptive_full_spread,
         adaptive_contrast=config.adaptive_contrast,
+        adaptive_error_target=config.adaptive_error_target,
         bounces=config.bounces,
         adaptive_spp=config.refinement_spp,
         adaptive_threshold=config.adaptive_threshold,

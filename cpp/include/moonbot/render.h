@@ -74,6 +74,15 @@ struct RenderSettings {
     /// either, and a miss costs it that whole contrast; its own and its neighbours' spreads each
     /// see only part of it. 0 = off; finite, >= 0.
     double adaptive_contrast = 0.0;
+    /// With adaptive_spp, spp >= 2 and adaptive_full_spread f₀ > 0: the share's f is chosen for
+    /// each view, the largest of f₀·1.25^j (j = 0..kErrorTargetSteps) whose refined pixels'
+    /// predicted error is at most this, relative to the frame's mean luminance (f₀ where none
+    /// is): a view whose edges are few spends fewer samples, a hard one more. The prediction is
+    /// √(kRefinedErrorScale · Σ s²/N^1.5 / P) over the refined pixels (s its spread, N its
+    /// samples, P the frame's pixels), as the error of N points of a net across an edge falls;
+    /// what the unrefined pixels and the light cache leave is not in it. 0 = off (f₀ always);
+    /// finite, in [0, 1].
+    double adaptive_error_target = 0.0;
 
     /// Throws std::invalid_argument naming the first field out of its range (render() calls it).
     void validate() const;
@@ -91,6 +100,13 @@ constexpr int kMaxLightSamples = 1024;
 /// unbalance the strata (test_sampler.cpp's a_net_beats_more_points_past_it; on a hard edge the
 /// extra points still help). Requires 1 <= base < total.
 int refined_sample_count(int base, int total, double share);
+
+/// RenderSettings::adaptive_error_target's calibration: a refined pixel of spread s after N
+/// samples is off by about √(k·s²/N^1.5). Fitted on the six bench_accuracy scenes at 640×480,
+/// f from 5 to 30 (docs/performance.md): 0.030–0.040.
+constexpr double kRefinedErrorScale = 0.034;
+/// The steps of 1.25× the error target tries above adaptive_full_spread (1.25^16 ≈ 36×).
+constexpr int kErrorTargetSteps = 16;
 
 /// Output buffers, row-major, owned by the caller; a null pointer means the pass is not wanted
 /// and costs nothing. rgb: H×W×3 float32 W/(m²·sr); depth: H×W float32 metres (0 = no hit);
