@@ -210,8 +210,9 @@ struct AdaptiveFrame {
 
     /// After the first pass: the frame's mean direct luminance, then (spp ≥ 2) each pixel's
     /// SampleAgreement::disagree against it, and with `contrast` > 0 its 3×3 neighbourhood's
-    /// (RenderSettings::adaptive_contrast; the frame is `width` pixels wide). Sums in pixel order,
-    /// so the same for any threads.
+    /// (RenderSettings::adaptive_contrast; the frame is `width` pixels wide), then the view's
+    /// share `full_spread` (RenderSettings::adaptive_error_target). Sums in pixel order, so the
+    /// same for any threads.
     void decide(const RenderSettings& settings, int width) {
         const int spp = settings.spp;
         const double threshold = settings.adaptive_threshold, contrast = settings.adaptive_contrast;
