@@ -232,7 +232,7 @@ struct AdaptiveFrame {
     }
 
     /// Whether pixel (x, y) is refined (spp >= 2, after decide's bits) and, if so, the spread its
-    /// share follows (TileRenderer::refine_tile's rule), else −1.
+    /// share follows, else −1: the rule TileRenderer::refine_tile and targeted_full_spread both read.
     float refined_spread(int x, int y, int width, int height) const {
         bool refine = false;
         float largest = 0.0f;
@@ -433,26 +433,22 @@ public:
         for (int y = y0, i = 0; y < y1; ++y)
             for (int x = x0; x < x1; ++x, ++i) {
                 bool refine = false, penumbra = false;
-                SampleAgreement neighbourhood;
-                int samples = 0;
-                float spread = 0.0f;  // the neighbourhood's largest (base >= 2)
-                for (int ny = std::max(y - 1, 0); ny <= std::min(y + 1, h - 1); ++ny)
-                    for (int nx = std::max(x - 1, 0); nx <= std::min(x + 1, w - 1); ++nx) {
-                        if (base >= 2) {
-                            refine = refine || (a.disagree[index(nx, ny)] & 1) != 0;
+                float spread = 0.0f;  // the spread its share follows (base >= 2)
+                if (base >= 2) {
+                    spread = a.refined_spread(x, y, w, h);
+                    refine = spread >= 0.0f;
+                    for (int ny = std::max(y - 1, 0); refine && ny <= std::min(y + 1, h - 1); ++ny)
+                        for (int nx = std::max(x - 1, 0); nx <= std::min(x + 1, w - 1); ++nx)
                             penumbra = penumbra || (a.disagree[index(nx, ny)] & 2) != 0;
-                            spread = std::max(spread, a.spread[index(nx, ny)]);
-                            continue;
+                } else {
+                    SampleAgreement neighbourhood;
+                    int samples = 0;
+                    for (int ny = std::max(y - 1, 0); ny <= std::min(y + 1, h - 1); ++ny)
+                        for (int nx = std::max(x - 1, 0); nx <= std::min(x + 1, w - 1); ++nx, ++samples) {
+                            const AdaptiveFrame::CentreSample& c = a.centre[index(nx, ny)];
+                            neighbourhood.add(c.sun_escaped, c.sun_hidden, c.luminance);
                         }
-                        const AdaptiveFrame::CentreSample& c = a.centre[index(nx, ny)];
-                        neighbourhood.add(c.sun_escaped, c.sun_hidden, c.luminance);
-                        ++samples;
-                    }
-                if (base == 1)
                     refine = neighbourhood.disagree(samples, m_settings.adaptive_threshold, a.frame_luminance);
-                if (base >= 2 && (a.disagree[index(x, y)] & 4)) {  // its neighbourhood's contrast
-                    refine = true;
-                    spread = std::max(spread, a.across[index(x, y)]);
                 }
                 if (!refine) continue;
                 // In a penumbra (its own or a neighbour's base samples' Sun rays partly escape) a
