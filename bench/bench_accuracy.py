@@ -123,39 +123,43 @@ REFERENCE_KEY_CACHE = {
     "cache_bag_cell_m": 0.01,
     "cache_terrain_filter_cells": 1.0,
 }
-# (spp, adaptive_spp, adaptive_threshold, light_samples, adaptive_full_spread); adaptive_spp 0: brute
-# force, today's path tracer. Base spp 1 is the pixel-centre sample, refined where its 3×3
-# neighbourhood disagrees. adaptive_full_spread 0: every refined pixel gets adaptive_spp.
+# (spp, adaptive_spp, adaptive_threshold, light_samples, adaptive_full_spread, adaptive_error_target);
+# adaptive_spp 0: brute force, today's path tracer. Base spp 1 is the pixel-centre sample, refined
+# where its 3×3 neighbourhood disagrees. adaptive_full_spread 0: every refined pixel gets
+# adaptive_spp. adaptive_error_target > 0: the spread f is chosen per view from there up.
 ADAPTIVE_LEVELS = [
-    (4, 0, 0.25, 2, 0.0),
-    (8, 0, 0.25, 2, 0.0),
-    (16, 0, 0.25, 2, 0.0),
-    (32, 0, 0.25, 2, 0.0),
-    (64, 0, 0.25, 2, 0.0),
-    (4, 16, 0.25, 2, 0.0),
-    (4, 32, 0.25, 2, 0.0),
-    (4, 64, 0.25, 2, 0.0),
-    (4, 64, 0.25, 1, 0.0),
-    (4, 64, 0.5, 1, 4.0),
-    (4, 128, 0.5, 1, 8.0),
-    (4, 128, 0.5, 1, 10.0),
-    (4, 128, 0.5, 1, 12.0),
-    (4, 256, 0.25, 1, 4.0),
-    (4, 32, 0.1, 2, 0.0),
-    (4, 32, 0.5, 2, 0.0),
-    (4, 32, 0.5, 1, 0.0),
-    (4, 32, 1.0, 2, 0.0),
-    (2, 16, 0.25, 2, 0.0),
-    (2, 32, 0.25, 2, 0.0),
-    (8, 64, 0.25, 2, 0.0),
-    (2, 16, 0.5, 1, 0.0),
-    (2, 64, 0.5, 1, 10.0),
-    (1, 16, 1.0, 1, 0.0),
-    (1, 32, 1.0, 1, 0.0),
-    (1, 16, 0.5, 1, 0.0),
-    (1, 32, 0.5, 1, 0.0),
-    (1, 64, 0.5, 1, 0.0),
-    (1, 32, 0.25, 1, 0.0),
+    (4, 0, 0.25, 2, 0.0, 0.0),
+    (8, 0, 0.25, 2, 0.0, 0.0),
+    (16, 0, 0.25, 2, 0.0, 0.0),
+    (32, 0, 0.25, 2, 0.0, 0.0),
+    (64, 0, 0.25, 2, 0.0, 0.0),
+    (4, 16, 0.25, 2, 0.0, 0.0),
+    (4, 32, 0.25, 2, 0.0, 0.0),
+    (4, 64, 0.25, 2, 0.0, 0.0),
+    (4, 64, 0.25, 1, 0.0, 0.0),
+    (4, 64, 0.5, 1, 4.0, 0.0),
+    (4, 128, 0.5, 1, 8.0, 0.0),
+    (4, 128, 0.5, 1, 10.0, 0.0),
+    (4, 128, 0.5, 1, 12.0, 0.0),
+    (4, 128, 0.5, 1, 4.0, 0.02),
+    (4, 128, 0.5, 1, 4.0, 0.014),
+    (4, 128, 0.5, 1, 4.0, 0.01),
+    (4, 256, 0.25, 1, 4.0, 0.0),
+    (4, 32, 0.1, 2, 0.0, 0.0),
+    (4, 32, 0.5, 2, 0.0, 0.0),
+    (4, 32, 0.5, 1, 0.0, 0.0),
+    (4, 32, 1.0, 2, 0.0, 0.0),
+    (2, 16, 0.25, 2, 0.0, 0.0),
+    (2, 32, 0.25, 2, 0.0, 0.0),
+    (8, 64, 0.25, 2, 0.0, 0.0),
+    (2, 16, 0.5, 1, 0.0, 0.0),
+    (2, 64, 0.5, 1, 10.0, 0.0),
+    (1, 16, 1.0, 1, 0.0, 0.0),
+    (1, 32, 1.0, 1, 0.0, 0.0),
+    (1, 16, 0.5, 1, 0.0, 0.0),
+    (1, 32, 0.5, 1, 0.0, 0.0),
+    (1, 64, 0.5, 1, 0.0, 0.0),
+    (1, 32, 0.25, 1, 0.0, 0.0),
 ]
 QUALITY_LEVELS = ("draft", "default", "high")
 
@@ -166,7 +170,14 @@ def quality_level_tuples() -> dict[str, tuple]:
     out = {}
     for name in QUALITY_LEVELS:
         r = level_config(None, name).render
-        out[name] = (r.spp, r.adaptive_spp, r.adaptive_threshold, r.light_samples, r.adaptive_full_spread)
+        out[name] = (
+            r.spp,
+            r.adaptive_spp,
+            r.adaptive_threshold,
+            r.light_samples,
+            r.adaptive_full_spread,
+            r.adaptive_error_target,
+        )
     return out
 
 
@@ -362,7 +373,7 @@ def adaptive_rows(
     cache = build_light_cache(scene, one_thread)
     if cache is not None:
         render(one_thread, scene, spec, 1, light_cache=cache, medium=medium)  # fills what view 0 touches
-    for spp, cap, threshold, light_samples, full_spread in levels:
+    for spp, cap, threshold, light_samples, full_spread, error_target in levels:
         level = with_render(
             one_thread,
             spp=spp,
@@ -370,6 +381,7 @@ def adaptive_rows(
             adaptive_threshold=threshold,
             light_samples=light_samples,
             adaptive_full_spread=full_spread,
+            adaptive_error_target=error_target,
         )
         out, seconds = render(level, scene, spec, repeats, full=True, light_cache=cache, medium=medium)
         rgb = out.rgb.astype(np.float64)
@@ -380,12 +392,13 @@ def adaptive_rows(
                 "location": location,
                 "sun_elevation_deg": elevation,
                 "knob": "adaptive",
-                "level": adaptive_label(spp, cap, threshold, light_samples, full_spread),
+                "level": adaptive_label(spp, cap, threshold, light_samples, full_spread, error_target),
                 "spp": spp,
                 "adaptive_spp": cap,
                 "adaptive_threshold": threshold,
                 "light_samples": light_samples,
                 "adaptive_full_spread": full_spread,
+                "adaptive_error_target": error_target,
                 "seconds": seconds,
                 **e,
                 # the error left once the reference's own noise is taken out (they add in squares)
@@ -399,10 +412,18 @@ def adaptive_rows(
     return rows
 
 
-def adaptive_label(spp: int, cap: int, threshold: float, light_samples: int = 2, full_spread: float = 0.0) -> str:
+def adaptive_label(
+    spp: int,
+    cap: int,
+    threshold: float,
+    light_samples: int = 2,
+    full_spread: float = 0.0,
+    error_target: float = 0.0,
+) -> str:
     label = f"spp {spp}" if cap == 0 else f"{spp}/{cap}/{threshold:g}"
     label = label if light_samples == 2 else f"{label} ls{light_samples}"
-    return label if full_spread == 0.0 else f"{label} f{full_spread:g}"
+    label = label if full_spread == 0.0 else f"{label} f{full_spread:g}"
+    return label if error_target == 0.0 else f"{label} e{100 * error_target:g}%"
 
 
 def scene_rows(
@@ -526,13 +547,17 @@ def adaptive_curves(rows: list[dict], levels: list[tuple] = ADAPTIVE_LEVELS) -> 
     if levels != ADAPTIVE_LEVELS:
         return {"quality levels": knob_summary(rows, "adaptive", [adaptive_label(*level) for level in levels])[1]}
     groups: dict[str, list] = {}
-    for spp, cap, threshold, light_samples, full_spread in ADAPTIVE_LEVELS:
+    for spp, cap, threshold, light_samples, full_spread, error_target in ADAPTIVE_LEVELS:
         name = "brute force spp" if cap == 0 else f"adaptive base {spp}, threshold {threshold:g}"
         if full_spread > 0.0:
             name = f"adaptive base {spp}, refined by the spread"
-        groups.setdefault(name, []).append(adaptive_label(spp, cap, threshold, light_samples, full_spread))
+        if error_target > 0.0:
+            name = f"adaptive base {spp}, the spread chosen per view for an error target"
+        groups.setdefault(name, []).append(
+            adaptive_label(spp, cap, threshold, light_samples, full_spread, error_target)
+        )
     groups["adaptive 4/32, threshold"] = [
-        adaptive_label(4, 32, t) for s, c, t, ls, f in ADAPTIVE_LEVELS if (s, c, ls, f) == (4, 32, 2, 0.0)
+        adaptive_label(4, 32, t) for s, c, t, ls, f, e in ADAPTIVE_LEVELS if (s, c, ls, f, e) == (4, 32, 2, 0.0, 0.0)
     ]
     curves = {}
     for name, labels in groups.items():

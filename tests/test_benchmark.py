@@ -56,6 +56,7 @@ def test_levels_are_valid_configs():
     # default is the config defaults: what SynBag-1.0 renders
     d, r = level_config(DEFAULT_CONFIG, "default").render, RenderConfig()
     knobs = ("spp", "adaptive_spp", "adaptive_threshold", "light_samples", "bounces", "indirect")
+    knobs += ("adaptive_full_spread", "adaptive_error_target", "adaptive_contrast", "penumbra_light_samples")
     assert [getattr(d, k) for k in knobs] == [getattr(r, k) for k in knobs]
     assert parse_levels(" high,draft,high ") == ["high", "draft"]
     with pytest.raises(ValueError, match="'ultra'"):

@@ -52,6 +52,10 @@ DEFAULTS_DIFFER = {  # (struct, struct field): why the schema's default is anoth
         "RenderSettings",
         "adaptive_contrast",
     ): "the dataset's; the core's default refines by the pixels' own spreads alone",
+    (
+        "RenderSettings",
+        "adaptive_error_target",
+    ): "the dataset's; the core's default keeps adaptive_full_spread for every view",
     ("LightCacheSettings", "background_cell_m"): "the dataset's lattice; the core's default gathers per vertex",
     ("LightCacheSettings", "object_cell_m"): "the dataset's lattice; the core's default gathers per vertex",
     ("LightCacheSettings", "background_filter_cells"): "the dataset's filter; the core's default is bilinear",

@@ -250,7 +250,7 @@ struct AdaptiveFrame {
         return refine ? largest : -1.0f;
     }
 
-    /// RenderSettings::adaptive_error_target: the largest f = full_spread·1.25^j whose refined
+    /// RenderSettings::adaptive_error_target: the largest f = full_spread·kErrorTargetStep^j whose refined
     /// pixels' predicted relative error is at most `target`. Sums in pixel order: the same for
     /// any threads.
     double targeted_full_spread(int spp, int total, double target, int width) const {
@@ -267,7 +267,7 @@ struct AdaptiveFrame {
         // The prediction √(k·Σ s²/N^1.5 / P) / mean ≤ target, squared and rearranged.
         const double budget = target * target * static_cast<double>(pixels) * mean * mean / kRefinedErrorScale;
         double chosen = full_spread, f = full_spread;
-        for (int step = 0; step <= kErrorTargetSteps; ++step, f *= 1.25) {
+        for (int step = 0; step <= kErrorTargetSteps; ++step, f *= kErrorTargetStep) {
             double predicted = 0.0;  // Σ s²/N^1.5
             for (const float s : spreads) {
                 const double n = refined_sample_count(spp, total, std::min(1.0, double(s) / (f * frame_luminance)));

@@ -1009,7 +1009,7 @@ class RenderConfig:
         default=1, metadata=spec("shadow rays per sample toward the Sun's disk (soft shadow edges)", lo=1, hi=1024)
     )
     adaptive_full_spread: float = field(
-        default=10.0,
+        default=4.0,
         metadata=spec(
             "adaptive anti-aliasing: 0 brings every refined pixel up to adaptive_spp samples; f > 0 gives it a share "
             "of the samples past spp in proportion to its base samples' direct-luminance spread over f times the "
@@ -1062,10 +1062,10 @@ class RenderConfig:
         ),
     )
     adaptive_error_target: float = field(
-        default=0.0,
+        default=0.014,
         metadata=spec(
             "adaptive anti-aliasing (spp >= 2, adaptive_full_spread > 0): the share's spread is chosen per view, the "
-            "largest adaptive_full_spread x 1.25^j (j = 0..16) whose refined pixels' predicted error, relative to the "
+            "largest adaptive_full_spread x 2^(j/8) (j = 0..40) whose refined pixels' predicted error, relative to the "
             "frame's mean luminance, is at most this: an easy view spends fewer samples, a hard one more "
             "(bench_accuracy; docs/performance.md); 0 = off, adaptive_full_spread always",
             lo=0.0,

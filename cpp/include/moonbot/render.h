@@ -75,7 +75,7 @@ struct RenderSettings {
     /// see only part of it. 0 = off; finite, >= 0.
     double adaptive_contrast = 0.0;
     /// With adaptive_spp, spp >= 2 and adaptive_full_spread f₀ > 0: the share's f is chosen for
-    /// each view, the largest of f₀·1.25^j (j = 0..kErrorTargetSteps) whose refined pixels'
+    /// each view, the largest of f₀·kErrorTargetStep^j (j = 0..kErrorTargetSteps) whose refined pixels'
     /// predicted error is at most this, relative to the frame's mean luminance (f₀ where none
     /// is): a view whose edges are few spends fewer samples, a hard one more. The prediction is
     /// √(kRefinedErrorScale · Σ s²/N^1.5 / P) over the refined pixels (s its spread, N its
@@ -105,8 +105,11 @@ int refined_sample_count(int base, int total, double share);
 /// samples is off by about √(k·s²/N^1.5). Fitted on the six bench_accuracy scenes at 640×480,
 /// f from 5 to 30 (docs/performance.md): 0.030–0.040.
 constexpr double kRefinedErrorScale = 0.034;
-/// The steps of 1.25× the error target tries above adaptive_full_spread (1.25^16 ≈ 36×).
-constexpr int kErrorTargetSteps = 16;
+/// The error target's ladder above adaptive_full_spread: steps of 2^(1/8) (9 %, about 2.5 % in
+/// the error), 40 of them (32×). A coarser ladder of 1.25× left a hard view's error 7 % apart
+/// between two rungs.
+constexpr double kErrorTargetStep = 1.0905077326652577;
+constexpr int kErrorTargetSteps = 40;
 
 /// Output buffers, row-major, owned by the caller; a null pointer means the pass is not wanted
 /// and costs nothing. rgb: H×W×3 float32 W/(m²·sr); depth: H×W float32 metres (0 = no hit);
