@@ -251,27 +251,38 @@ struct AdaptiveFrame {
     }
 
     /// RenderSettings::adaptive_error_target: the largest f = full_spread·kErrorTargetStep^j whose refined
-    /// pixels' predicted relative error is at most `target`. Sums in pixel order: the same for
-    /// any threads.
+    /// pixels' predicted relative error is at most `target`. The error is the image's, as it
+    /// leaves the render: with dust, each pixel's is dimmed by its transmittance and the mean it is
+    /// relative to includes the cloud's glow. Sums in pixel order: the same for any threads.
     double targeted_full_spread(int spp, int total, double target, int width) const {
         const size_t pixels = direct_sum.size();
         const int height = static_cast<int>(pixels / static_cast<size_t>(width));
-        double mean = 0.0;  // the frame's mean luminance, all light
-        for (size_t k = 0; k < pixels; ++k) mean += luminance(sum[k]) / spp;
+        const bool dust = !dust_through.empty();
+        double mean = 0.0;  // the image's mean luminance: all light, through the dust
+        for (size_t k = 0; k < pixels; ++k)
+            mean +=
+                dust ? luminance(sum[k]) / spp * dust_through[k] + luminance(dust_glow[k]) : luminance(sum[k]) / spp;
         mean /= static_cast<double>(pixels);
-        std::vector<float> spreads;
+        struct Refined {
+            float spread;    // the spread its share follows, W/(m²·sr)
+            double through;  // the dust's transmittance to the camera, 1 without dust
+        };
+        std::vector<Refined> refined;
         for (int y = 0; y < height; ++y)
             for (int x = 0; x < width; ++x)
-                if (const float s = refined_spread(x, y, width, height); s >= 0.0f) spreads.push_back(s);
-        if (spreads.empty() || !(mean > 0.0)) return full_spread;
-        // The prediction √(k·Σ s²/N^1.5 / P) / mean ≤ target, squared and rearranged.
+                if (const float s = refined_spread(x, y, width, height); s >= 0.0f)
+                    refined.push_back({s, dust ? dust_through[static_cast<size_t>(y) * width + x] : 1.0});
+        if (refined.empty() || !(mean > 0.0)) return full_spread;
+        // The prediction √(k·Σ (T·s)²/N^1.5 / P) / mean ≤ target, squared and rearranged.
         const double budget = target * target * static_cast<double>(pixels) * mean * mean / kRefinedErrorScale;
         double chosen = full_spread, f = full_spread;
         for (int step = 0; step <= kErrorTargetSteps; ++step, f *= kErrorTargetStep) {
-            double predicted = 0.0;  // Σ s²/N^1.5
-            for (const float s : spreads) {
-                const double n = refined_sample_count(spp, total, std::min(1.0, double(s) / (f * frame_luminance)));
-                predicted += double(s) * s / (n * std::sqrt(n));
+            double predicted = 0.0;  // Σ (T·s)²/N^1.5
+            for (const Refined& r : refined) {
+                const double n =
+                    refined_sample_count(spp, total, std::min(1.0, double(r.spread) / (f * frame_luminance)));
+                const double seen = double(r.spread) * r.through;
+                predicted += seen * seen / (n * std::sqrt(n));
             }
             if (predicted > budget) break;
             chosen = f;

@@ -76,11 +76,12 @@ struct RenderSettings {
     double adaptive_contrast = 0.0;
     /// With adaptive_spp, spp >= 2 and adaptive_full_spread f₀ > 0: the share's f is chosen for
     /// each view, the largest of f₀·kErrorTargetStep^j (j = 0..kErrorTargetSteps) whose refined pixels'
-    /// predicted error is at most this, relative to the frame's mean luminance (f₀ where none
+    /// predicted error is at most this, relative to the image's mean luminance (f₀ where none
     /// is): a view whose edges are few spends fewer samples, a hard one more. The prediction is
-    /// √(kRefinedErrorScale · Σ s²/N^1.5 / P) over the refined pixels (s its spread, N its
-    /// samples, P the frame's pixels), as the error of N points of a net across an edge falls;
-    /// what the unrefined pixels and the light cache leave is not in it. 0 = off (f₀ always);
+    /// √(kRefinedErrorScale · Σ (T·s)²/N^1.5 / P) over the refined pixels (s its spread, N its
+    /// samples, T the dust's transmittance to the camera, 1 without dust, P the frame's pixels),
+    /// as the error of N points of a net across an edge falls; with dust the mean includes the
+    /// cloud's glow. What the unrefined pixels and the light cache leave is not in it. 0 = off (f₀ always);
     /// finite, in [0, 1].
     double adaptive_error_target = 0.0;
 
