@@ -1139,7 +1139,7 @@ class RenderSettings:
     @property
     def adaptive_error_target(self) -> float:
         """
-        0 = off; e in (0, 1]: the share's f is chosen per view, the largest adaptive_full_spread x 2^(j/8) whose refined pixels' predicted error, relative to the frame's mean luminance, is at most e
+        0 = off; e in (0, 1]: the share's f is chosen per view, the largest adaptive_full_spread x 2^(j/8) whose refined pixels' predicted error, relative to the image's mean luminance (through the dust, its glow included), is at most e
         """
     @adaptive_error_target.setter
     def adaptive_error_target(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:

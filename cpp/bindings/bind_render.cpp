@@ -27,7 +27,8 @@ void bind_render(py::module_& m) {
                "sqrt(their mean x the frame's) is refined, its share following that spread")
         .field("adaptive_error_target", &RenderSettings::adaptive_error_target,
                "0 = off; e in (0, 1]: the share's f is chosen per view, the largest adaptive_full_spread x 2^(j/8) "
-               "whose refined pixels' predicted error, relative to the frame's mean luminance, is at most e")
+               "whose refined pixels' predicted error, relative to the image's mean luminance (through the dust, its "
+               "glow included), is at most e")
         .field("bounces", &RenderSettings::bounces, "diffuse inter-reflections, 0 (direct light only)..16")
         .field("adaptive_spp", &RenderSettings::adaptive_spp,
                "0 = off, else the samples (direct light only past spp) a pixel whose samples disagree is brought "
