@@ -442,18 +442,20 @@ def test_an_error_target_sets_each_views_share_from_its_predicted_error():
             assert one["rgb"].tobytes() == two["rgb"].tobytes() == out[0.02]["rgb"].tobytes()
 
 
-def test_an_error_target_counts_the_error_the_dust_leaves_in_the_image():
-    """With dust the target bounds the image's error as it leaves the render: each refined
-    pixel's predicted error dimmed by the dust's transmittance to the camera, relative to a mean
-    that includes the cloud's glow. A puff before the box (optical depth 1.25 through its centre, albedo
-    0.02) under a Sun 30° up, direct light against 1024 samples through the same puff: the error
-    lands within 15 % of targets of 3 % and 2 % (predicting from the undimmed spreads and the
-    clear frame's mean left it 31 % under the 3 %, on more rays), and the images are the same
-    bytes for 1 and 2 threads."""
+def test_with_dust_the_refinement_weighs_the_error_the_image_shows():
+    """With dust the rules weigh each pixel as the image shows it: its spread dimmed by the
+    dust's transmittance to the camera, against means that include the cloud's glow. The error
+    target: a puff before the box (optical depth 1.25 through its centre, albedo 0.02) under a
+    Sun 30° up, direct light against 1024 samples through the same puff, leaves an error within
+    15 % of targets of 3 % and 2 % (predicting from the undimmed spreads and the clear frame's
+    mean left it 31 % under the 3 %, on more rays). The threshold: the same puff glowing (albedo
+    0.6) veils the box's edges, and fewer than half the clear view's pixels are refined (judged
+    by the surface alone, the same ones were). The images are the same bytes for 1 and 2 threads."""
     scene, camera = grazing_box_view()
     base = {"spp": 4, "seed": 3, "adaptive_spp": 128, "adaptive_threshold": 0.5, "adaptive_contrast": 4.0}
     base.update(bounces=0, adaptive_full_spread=4.0)
-    medium = _core.Medium([[0.8, -0.6, 0.35, 0.5, 1.0]], albedo=(0.02, 0.02, 0.02), voxel_m=0.02)
+    puff = [[0.8, -0.6, 0.35, 0.5, 1.0]]
+    medium = _core.Medium(puff, albedo=(0.02, 0.02, 0.02), voxel_m=0.02)
     sun = _core.DirectionalLight(-60.0, 30.0, E, 0.533)
     settings = _core.RenderSettings(spp=1024, seed=5, light_samples=2, bounces=0)
     reference = _core.render(scene, camera, sun, settings, passes=["rgb"], medium=medium)["rgb"].astype(np.float64)
@@ -469,6 +471,10 @@ def test_an_error_target_counts_the_error_the_dust_leaves_in_the_image():
         for t in (1, 2)
     )
     assert one["rgb"].tobytes() == two["rgb"].tobytes() == out["rgb"].tobytes()
+    glowing = _core.Medium(puff, albedo=(0.6, 0.6, 0.6), voxel_m=0.02)
+    clear = _core.render(scene, camera, sun, _core.RenderSettings(**base))
+    veiled = _core.render(scene, camera, sun, _core.RenderSettings(**base), medium=glowing)
+    assert 0 < veiled["refined_pixels"] < clear["refined_pixels"] / 2
 
 
 def test_the_threshold_weighs_the_spread_by_the_pixel_and_the_frame():

@@ -209,7 +209,8 @@ struct AdaptiveFrame {
           dust_glow(dust ? pixels : 0) {}
 
     /// After the first pass: the frame's mean direct luminance, then (spp ≥ 2) each pixel's
-    /// SampleAgreement::disagree against it, and with `contrast` > 0 its 3×3 neighbourhood's
+    /// SampleAgreement::disagree against it (with dust, both as the image shows them: through(),
+    /// glow()), and with `contrast` > 0 its 3×3 neighbourhood's
     /// (RenderSettings::adaptive_contrast; the frame is `width` pixels wide), then the view's
     /// share `full_spread` (RenderSettings::adaptive_error_target). Sums in pixel order, so the
     /// same for any threads.
@@ -223,13 +224,23 @@ struct AdaptiveFrame {
         for (size_t k = 0; k < pixels; ++k) total += centre_only ? centre[k].luminance : luminance(direct_sum[k]) / spp;
         frame_luminance = pixels > 0 ? total / static_cast<double>(pixels) : 0.0;
         if (centre_only) return;
+        double seen = 0.0;  // the image's mean direct luminance: through the dust, its glow added
+        for (size_t k = 0; k < pixels; ++k) seen += luminance(direct_sum[k]) / spp * through(k) + glow(k);
+        seen /= static_cast<double>(pixels);
         for (size_t k = 0; k < pixels; ++k)
-            if (SampleAgreement::disagree(spread[k], luminance(direct_sum[k]) / spp, threshold, frame_luminance))
+            if (SampleAgreement::disagree(through(k) * spread[k], luminance(direct_sum[k]) / spp * through(k) + glow(k),
+                                          threshold, seen))
                 disagree[k] |= 1;
         if (contrast > 0.0) decide_contrast(spp, contrast, width);
         if (settings.adaptive_error_target > 0.0 && full_spread > 0.0)
             full_spread = targeted_full_spread(spp, settings.adaptive_spp, settings.adaptive_error_target, width);
     }
+
+    /// Pixel k's transmittance to the camera through the dust, 1 without dust, and the luminance
+    /// of the glow the cloud sends along its centre ray, W/(m²·sr), 0 without: the image shows a
+    /// surface radiance L there as through(k)·L + glow(k).
+    double through(size_t k) const { return dust_through.empty() ? 1.0 : dust_through[k]; }
+    double glow(size_t k) const { return dust_glow.empty() ? 0.0 : luminance(dust_glow[k]); }
 
     /// Whether pixel (x, y) is refined (spp >= 2, after decide's bits) and, if so, the spread its
     /// share follows, else −1: the rule TileRenderer::refine_tile and targeted_full_spread both read.
@@ -257,11 +268,8 @@ struct AdaptiveFrame {
     double targeted_full_spread(int spp, int total, double target, int width) const {
         const size_t pixels = direct_sum.size();
         const int height = static_cast<int>(pixels / static_cast<size_t>(width));
-        const bool dust = !dust_through.empty();
-        double mean = 0.0;  // the image's mean luminance: all light, through the dust
-        for (size_t k = 0; k < pixels; ++k)
-            mean +=
-                dust ? luminance(sum[k]) / spp * dust_through[k] + luminance(dust_glow[k]) : luminance(sum[k]) / spp;
+        double mean = 0.0;  // the image's mean luminance: all light, through the dust, its glow added
+        for (size_t k = 0; k < pixels; ++k) mean += luminance(sum[k]) / spp * through(k) + glow(k);
         mean /= static_cast<double>(pixels);
         struct Refined {
             float spread;    // the spread its share follows, W/(m²·sr)
@@ -271,7 +279,7 @@ struct AdaptiveFrame {
         for (int y = 0; y < height; ++y)
             for (int x = 0; x < width; ++x)
                 if (const float s = refined_spread(x, y, width, height); s >= 0.0f)
-                    refined.push_back({s, dust ? dust_through[static_cast<size_t>(y) * width + x] : 1.0});
+                    refined.push_back({s, through(static_cast<size_t>(y) * width + x)});
         if (refined.empty() || !(mean > 0.0)) return full_spread;
         // The prediction √(k·Σ (T·s)²/N^1.5 / P) / mean ≤ target, squared and rearranged.
         const double budget = target * target * static_cast<double>(pixels) * mean * mean / kRefinedErrorScale;

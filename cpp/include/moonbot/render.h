@@ -37,7 +37,9 @@ struct RenderSettings {
     /// the pixel's error, and √(m·M) weighs it as a display does, between relative to the pixel
     /// (a dim pixel's error shows more) and relative to the frame (where the image's error sits):
     /// an edge between two surfaces of one brightness is not refined, a lit sliver on a dark
-    /// face is. With spp ≥ 2 the samples compared are a pixel's own `spp` base samples, and a pixel
+    /// face is. With dust (and spp ≥ 2) all three are as the image shows them: the spread and m
+    /// dimmed by the pixel's transmittance to the camera, m and M with the cloud's glow added, so
+    /// an edge the cloud veils is refined less. With spp ≥ 2 the samples compared are a pixel's own `spp` base samples, and a pixel
     /// is refined where they or those of one of its eight neighbours disagree (the neighbours
     /// catch the slivers of an edge that all of a pixel's own base samples miss); the extra
     /// samples carry direct light only (a camera ray and its shadow rays), and the pixel's
