@@ -1045,7 +1045,8 @@ class RenderConfig:
         default=0.5,
         metadata=spec(
             "spread (max - min) of direct luminance over the samples compared (adaptive_spp), over "
-            "sqrt(their mean x the frame's mean direct luminance), above which adaptive_spp refines a pixel",
+            "sqrt(their mean x the frame's mean direct luminance), above which adaptive_spp refines a pixel; with "
+            "dust (spp >= 2) all three as the image shows them, through the cloud and with its glow",
             lo=0.0,
             hi=1000.0,
         ),
