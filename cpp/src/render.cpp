@@ -210,8 +210,8 @@ struct AdaptiveFrame {
 
     /// After the first pass: the frame's mean direct luminance, then (spp ≥ 2) each pixel's
     /// SampleAgreement::disagree against it (with dust, both as the image shows them: through(),
-    /// glow()), and with `contrast` > 0 its 3×3 neighbourhood's
-    /// (RenderSettings::adaptive_contrast; the frame is `width` pixels wide), then the view's
+    /// glow()), and with `contrast` > 0 its 3×3 neighbourhood's (RenderSettings::adaptive_contrast;
+    /// the frame is `width` pixels wide), then the view's
     /// share `full_spread` (RenderSettings::adaptive_error_target). Sums in pixel order, so the
     /// same for any threads.
     void decide(const RenderSettings& settings, int width) {

@@ -39,10 +39,11 @@ struct RenderSettings {
     /// an edge between two surfaces of one brightness is not refined, a lit sliver on a dark
     /// face is. With dust (and spp ≥ 2) all three are as the image shows them: the spread and m
     /// dimmed by the pixel's transmittance to the camera, m and M with the cloud's glow added, so
-    /// an edge the cloud veils is refined less. With spp ≥ 2 the samples compared are a pixel's own `spp` base samples, and a pixel
-    /// is refined where they or those of one of its eight neighbours disagree (the neighbours
-    /// catch the slivers of an edge that all of a pixel's own base samples miss); the extra
-    /// samples carry direct light only (a camera ray and its shadow rays), and the pixel's
+    /// an edge the cloud veils is refined less. With spp ≥ 2 the samples compared are a pixel's
+    /// own `spp` base samples, and a pixel is refined where they or those of one of its eight
+    /// neighbours disagree (the neighbours catch the slivers of an edge that all of a pixel's own
+    /// base samples miss); the extra samples carry direct light only (a camera ray and its shadow
+    /// rays), and the pixel's
     /// indirect light stays the mean of its base samples (render()'s split estimator). With
     /// spp = 1 the base sample is the pixel-centre ray the depth and labels already trace, and
     /// the samples compared are the centre samples of the pixel's 3×3 neighbourhood; a refined
@@ -83,8 +84,8 @@ struct RenderSettings {
     /// √(kRefinedErrorScale · Σ (T·s)²/N^1.5 / P) over the refined pixels (s its spread, N its
     /// samples, T the dust's transmittance to the camera, 1 without dust, P the frame's pixels),
     /// as the error of N points of a net across an edge falls; with dust the mean includes the
-    /// cloud's glow. What the unrefined pixels and the light cache leave is not in it. 0 = off (f₀ always);
-    /// finite, in [0, 1].
+    /// cloud's glow. What the unrefined pixels and the light cache leave is not in it. 0 = off
+    /// (f₀ always); finite, in [0, 1].
     double adaptive_error_target = 0.0;
 
     /// Throws std::invalid_argument naming the first field out of its range (render() calls it).
