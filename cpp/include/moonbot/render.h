@@ -44,11 +44,11 @@ struct RenderSettings {
     /// neighbours disagree (the neighbours catch the slivers of an edge that all of a pixel's own
     /// base samples miss); the extra samples carry direct light only (a camera ray and its shadow
     /// rays), and the pixel's indirect light stays the mean of its base samples (render()'s split
-    /// estimator). With spp = 1 the base sample is the pixel-centre ray the depth and labels already trace, and
-    /// the samples compared are the centre samples of the pixel's 3×3 neighbourhood; a refined
-    /// pixel's radiance is then the mean of adaptive_spp jittered samples, indirect light
-    /// included. The decisions follow from the base samples of every pixel, all taken before
-    /// any refinement: images stay identical whatever the thread count.
+    /// estimator). With spp = 1 the base sample is the pixel-centre ray the depth and labels
+    /// already trace, and the samples compared are the centre samples of the pixel's 3×3
+    /// neighbourhood; a refined pixel's radiance is then the mean of adaptive_spp jittered
+    /// samples, indirect light included. The decisions follow from the base samples of every
+    /// pixel, all taken before any refinement: images stay identical whatever the thread count.
     int adaptive_spp = 0;
     /// The spread of direct luminance over the samples compared, over √(their mean × the frame's
     /// mean), that refines a pixel (adaptive_spp); ≥ 0.
