@@ -1068,7 +1068,8 @@ class RenderConfig:
             "adaptive anti-aliasing (spp >= 2, adaptive_full_spread > 0): the share's spread is chosen per view, the "
             "largest adaptive_full_spread x 2^(j/8) (j = 0..40) whose refined pixels' predicted error, relative to the "
             "image's mean luminance (through the dust, its glow included), is at most this: an easy view spends "
-            "fewer samples, a hard one more (bench_accuracy; docs/performance.md); 0 = off, adaptive_full_spread always",
+            "fewer samples, a hard one more (bench_accuracy; docs/performance.md); 0 = off, "
+            "adaptive_full_spread always",
             lo=0.0,
             hi=1.0,
         ),
