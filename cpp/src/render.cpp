@@ -210,37 +210,40 @@ struct AdaptiveFrame {
 
     /// After the first pass: the frame's mean direct luminance, then (spp ≥ 2) each pixel's
     /// SampleAgreement::disagree against it (with dust, both as the image shows them: through(),
-    /// glow()), and with `contrast` > 0 its 3×3 neighbourhood's (RenderSettings::adaptive_contrast;
-    /// the frame is `width` pixels wide), then the view's
-    /// share `full_spread` (RenderSettings::adaptive_error_target). Sums in pixel order, so the
-    /// same for any threads.
+    /// shown()), and with `contrast` > 0 its 3×3 neighbourhood's (RenderSettings::adaptive_contrast;
+    /// the frame is `width` pixels wide), then the view's share `full_spread`
+    /// (RenderSettings::adaptive_error_target). Sums in pixel order, so the same for any threads.
     void decide(const RenderSettings& settings, int width) {
         const int spp = settings.spp;
         const double threshold = settings.adaptive_threshold, contrast = settings.adaptive_contrast;
         full_spread = settings.adaptive_full_spread;
         const bool centre_only = spp == 1;
         const size_t pixels = centre_only ? centre.size() : direct_sum.size();
-        double total = 0.0;
-        for (size_t k = 0; k < pixels; ++k) total += centre_only ? centre[k].luminance : luminance(direct_sum[k]) / spp;
+        double total = 0.0, seen = 0.0;  // seen: as the image shows it, through the dust, its glow added
+        for (size_t k = 0; k < pixels; ++k) {
+            const double direct = centre_only ? centre[k].luminance : luminance(direct_sum[k]) / spp;
+            total += direct;
+            seen += shown(k, direct);
+        }
         frame_luminance = pixels > 0 ? total / static_cast<double>(pixels) : 0.0;
         if (centre_only) return;
-        double seen = 0.0;  // the image's mean direct luminance: through the dust, its glow added
-        for (size_t k = 0; k < pixels; ++k) seen += luminance(direct_sum[k]) / spp * through(k) + glow(k);
         seen /= static_cast<double>(pixels);
         for (size_t k = 0; k < pixels; ++k)
-            if (SampleAgreement::disagree(through(k) * spread[k], luminance(direct_sum[k]) / spp * through(k) + glow(k),
-                                          threshold, seen))
+            if (SampleAgreement::disagree(through(k) * spread[k], shown(k, luminance(direct_sum[k]) / spp), threshold,
+                                          seen))
                 disagree[k] |= 1;
         if (contrast > 0.0) decide_contrast(spp, contrast, width);
         if (settings.adaptive_error_target > 0.0 && full_spread > 0.0)
             full_spread = targeted_full_spread(spp, settings.adaptive_spp, settings.adaptive_error_target, width);
     }
 
-    /// Pixel k's transmittance to the camera through the dust, 1 without dust, and the luminance
-    /// of the glow the cloud sends along its centre ray, W/(m²·sr), 0 without: the image shows a
-    /// surface radiance L there as through(k)·L + glow(k).
+    /// Pixel k's transmittance to the camera through the dust, 1 without dust.
     double through(size_t k) const { return dust_through.empty() ? 1.0 : dust_through[k]; }
-    double glow(size_t k) const { return dust_glow.empty() ? 0.0 : luminance(dust_glow[k]); }
+    /// The luminance the image shows at pixel k for a surface luminance L, both W/(m²·sr): L
+    /// dimmed by the dust and the cloud's glow along its centre ray added; L without dust.
+    double shown(size_t k, double L) const {
+        return dust_glow.empty() ? L : L * dust_through[k] + luminance(dust_glow[k]);
+    }
 
     /// Whether pixel (x, y) is refined (spp >= 2, after decide's bits) and, if so, the spread its
     /// share follows, else −1: the rule TileRenderer::refine_tile and targeted_full_spread both read.
@@ -269,7 +272,7 @@ struct AdaptiveFrame {
         const size_t pixels = direct_sum.size();
         const int height = static_cast<int>(pixels / static_cast<size_t>(width));
         double mean = 0.0;  // the image's mean luminance: all light, through the dust, its glow added
-        for (size_t k = 0; k < pixels; ++k) mean += luminance(sum[k]) / spp * through(k) + glow(k);
+        for (size_t k = 0; k < pixels; ++k) mean += shown(k, luminance(sum[k]) / spp);
         mean /= static_cast<double>(pixels);
         struct Refined {
             float spread;    // the spread its share follows, W/(m²·sr)
