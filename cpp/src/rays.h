@@ -130,6 +130,12 @@ inline double shape_at(const InstanceData& inst, double mu_i, double mu_o, doubl
     return photometric_shape(inst.photometry, mu_i, mu_o, cos_g);
 }
 
+/// shape_at with the phase terms at cos g already taken (phase_terms(inst.photometry, cos g)).
+inline double shape_at(const InstanceData& inst, const PhaseTerms& terms, double mu_i, double mu_o, double cos_g) {
+    if (inst.photometry.model == Photometry::Model::Lambert) return 1.0;
+    return photometric_shape(inst.photometry, terms, mu_i, mu_o, cos_g);
+}
+
 /// The unit world normal of the triangle `ray` hit on instance `inst`, turned to the side the
 /// ray arrived from (`wi`, its direction); false where the triangle is degenerate (no normal).
 inline bool arrival_normal(const InstanceData& inst, const RayHit& ray, const glm::dvec3& wi, glm::dvec3& normal) {

@@ -1051,6 +1051,7 @@ private:
         static constexpr double kNodes[3] = {0.0, 1.7320508075688772, -1.7320508075688772};
         static constexpr double kWeights[3] = {2.0 / 3.0, 1.0 / 6.0, 1.0 / 6.0};
         const double cos_g = glm::dot(to, v.wo);
+        const PhaseTerms terms = phase_terms(inst.photometry, cos_g);  // the nodes share g
         glm::dvec3 along = to - glm::dot(to, v.shading) * v.shading;
         const double length = glm::length(along);
         along = length > 1e-12 ? along / length : glm::dvec3(0.0);
@@ -1061,11 +1062,11 @@ private:
             if (!(mu_o > 0.0)) continue;
             seen += kWeights[k];
             const double mu_i = glm::dot(n, to);
-            if (mu_i > 0.0) sum += kWeights[k] * mu_i * shape_at(inst, mu_i, mu_o, cos_g);
+            if (mu_i > 0.0) sum += kWeights[k] * mu_i * shape_at(inst, terms, mu_i, mu_o, cos_g);
         }
         if (seen > 0.0) return sum / seen;
         const double mu_i = std::max(0.0, glm::dot(v.shading, to));
-        return mu_i * shape_at(inst, mu_i, glm::dot(v.shading, v.wo), cos_g);
+        return mu_i * shape_at(inst, terms, mu_i, glm::dot(v.shading, v.wo), cos_g);
     }
 
     /// The indirect radiance toward the camera at camera hit `v` (on triangle `prim`, at Embree's

@@ -327,6 +327,34 @@ inline Photometry validated(const Photometry& p) {
     return p.model == Photometry::Model::Hapke ? make_hapke(p.hapke, p.surge_amplitude, p.surge_width) : p;
 }
 
+/// What Lunar-Lambert's shape takes from the phase angle alone: L(g) and the surge B(g), for one
+/// cos g. Several (μi, μo) pairs at the same g (the slopes of one footprint) then share them.
+/// Unset (and unused) for the other models.
+struct PhaseTerms {
+    double lunar_lambert = 0.0;  // L(g)
+    double surge = 1.0;          // B(g)
+};
+
+/// The PhaseTerms of `p` at cos g.
+inline PhaseTerms phase_terms(const Photometry& p, double cos_g) {
+    if (p.model != Photometry::Model::LunarLambert) return {};
+    return {lunar_lambert_phase(p.phase, cos_g), opposition_surge(p, cos_g)};
+}
+
+/// photometric_shape(p, μi, μo, cos g) (below) with Lunar-Lambert's phase terms given (`terms`, from
+/// phase_terms(p, cos g)): the same number, to the bit.
+inline double photometric_shape(const Photometry& p, const PhaseTerms& terms, double mu_i, double mu_o, double cos_g) {
+    if (!(mu_i > 0.0 && mu_o > 0.0)) return 0.0;
+    if (p.model == Photometry::Model::Lambert) return 1.0;
+    if (p.model == Photometry::Model::Hapke) {
+        constexpr double kPi = 3.14159265358979323846;
+        if (!(p.hapke.normal_albedo > 0.0)) return 0.0;  // w = 0: a black surface
+        return kPi * hapke_brdf(p, mu_i, mu_o, cos_g) / p.hapke.normal_albedo;
+    }
+    const double l = terms.lunar_lambert;
+    return (2.0 * l / (mu_i + mu_o) + (1.0 - l)) * terms.surge;
+}
+
 /// shape(μi, μo, g): the BRDF divided by albedo/π, for cosines of incidence μi and emission μo
 /// (both > 0; 0 is returned otherwise) and cos g. Dimensionless, ≥ 0.
 ///
@@ -337,14 +365,7 @@ inline Photometry validated(const Photometry& p) {
 /// (0.266 for the Sato et al. 2014 lunar set) is in p.hapke.normal_albedo.
 inline double photometric_shape(const Photometry& p, double mu_i, double mu_o, double cos_g) {
     if (!(mu_i > 0.0 && mu_o > 0.0)) return 0.0;
-    if (p.model == Photometry::Model::Lambert) return 1.0;
-    if (p.model == Photometry::Model::Hapke) {
-        constexpr double kPi = 3.14159265358979323846;
-        if (!(p.hapke.normal_albedo > 0.0)) return 0.0;  // w = 0: a black surface
-        return kPi * hapke_brdf(p, mu_i, mu_o, cos_g) / p.hapke.normal_albedo;
-    }
-    const double l = lunar_lambert_phase(p.phase, cos_g);
-    return (2.0 * l / (mu_i + mu_o) + (1.0 - l)) * opposition_surge(p, cos_g);
+    return photometric_shape(p, phase_terms(p, cos_g), mu_i, mu_o, cos_g);
 }
 
 }  // namespace moonbot
