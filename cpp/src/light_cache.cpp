@@ -782,15 +782,27 @@ LightCache::ProbedNode LightCache::lattice_node(uint32_t instance, int64_t i, in
 }
 
 IndirectLight LightCache::at(uint32_t instance, uint32_t prim, double u, double v, const glm::dvec3* normal) const {
+    return interpolate(corners(instance, prim, normal), u, v);
+}
+
+LightCache::TriangleCorners LightCache::corners(uint32_t instance, uint32_t prim, const glm::dvec3* normal) const {
     const InstanceData& inst = m_impl->instances[instance];
     const uint32_t* c = inst.triangles + 3 * static_cast<size_t>(prim);
+    TriangleCorners out;
+    for (int k = 0; k < 3; ++k) {
+        out[k] = vertex(instance, c[k]);
+        if (normal) out[k] = out[k].tilted(world_normal(inst, m_impl->normals[instance], c[k]), *normal);
+    }
+    return out;
+}
+
+IndirectLight LightCache::interpolate(const TriangleCorners& corners, double u, double v) {
     const double w[3] = {1.0 - u - v, u, v};
     IndirectLight out;
     glm::dvec3 direction(0.0);
     double weight = 0.0;
     for (int k = 0; k < 3; ++k) {
-        IndirectLight corner = vertex(instance, c[k]);
-        if (normal) corner = corner.tilted(world_normal(inst, m_impl->normals[instance], c[k]), *normal);
+        const IndirectLight& corner = corners[k];
         out.irradiance += w[k] * corner.irradiance;
         out.tilt_gradient += w[k] * corner.tilt_gradient;
         out.tilt_curvature += w[k] * corner.tilt_curvature;

@@ -160,6 +160,17 @@ struct TileScratch {
         glm::dvec3 radiance{0.0};         // W/(m²·sr), linear RGB, for a path throughput of 1
     };
     std::array<IndirectRead, kTilePixels> indirect_reads;
+    // The light cache's corners of the triangles the tile's pixels read (LightCache::corners),
+    // tilted to the facet's normal, kept for its other pixels on the same triangle: the
+    // triangles are mostly many pixels wide. A few slots, chosen by the triangle's index.
+    struct CornerRead {
+        bool known = false;
+        uint32_t instance = 0, prim = 0;  // the triangle
+        glm::dvec3 normal{0.0};           // the facet's normal the corners were tilted to
+        LightCache::TriangleCorners corners;
+    };
+    static constexpr uint32_t kCornerSlots = 8;
+    std::array<CornerRead, kCornerSlots> corner_reads;
     // Dust, used only when the render has a medium:
     std::array<double, kTilePixels> sun_dust;       // transmittance toward the Sun at each first hit
     std::array<double, kTilePixels> dust_through;   // transmittance from the camera to the hit
@@ -636,7 +647,7 @@ private:
                 const TriangleRecord& tri = s.hits.record(h);
                 TileScratch::IndirectRead& read = s.indirect_reads[pixels ? pixels[i] : i];
                 if (!(read.known && read.instance == tri.instance && read.prim == tri.prim)) {
-                    const auto indirect = cached_indirect(v, tri.prim, h.u, h.v);
+                    const auto indirect = cached_indirect(v, tri.prim, h.u, h.v, s);
                     if (!indirect) continue;  // not served: the path bounces
                     read = {true, tri.instance, tri.prim, *indirect};
                 }
@@ -1078,11 +1089,16 @@ private:
     /// a lobe about it as wide as the light spreads (sheen_over_lobe), for a path throughput of
     /// 1. None where the cache does not serve the hit (moving geometry, or its surface seen from
     /// the back): that path bounces.
-    std::optional<glm::dvec3> cached_indirect(const PathVertex& v, uint32_t prim, double u, double w) const {
+    std::optional<glm::dvec3> cached_indirect(const PathVertex& v, uint32_t prim, double u, double w,
+                                              TileScratch& s) const {
         if (!m_light_cache->covers(v.instance)) return std::nullopt;
         if (glm::dot(m_light_cache->normal_at(v.instance, prim, u, w), v.normal) <= 0.0) return std::nullopt;
-        // The facet's own normal, as the path tracer bounces about it (extend_paths).
-        const IndirectLight in = m_light_cache->at(v.instance, prim, u, w, &v.normal);
+        // The corners tilted to the facet's own normal, as the path tracer bounces about it
+        // (extend_paths): LightCache::at, its corners kept for the tile's other pixels.
+        TileScratch::CornerRead& slot = s.corner_reads[prim % TileScratch::kCornerSlots];
+        if (!(slot.known && slot.instance == v.instance && slot.prim == prim && slot.normal == v.normal))
+            slot = {true, v.instance, prim, v.normal, m_light_cache->corners(v.instance, prim, &v.normal)};
+        const IndirectLight in = LightCache::interpolate(slot.corners, u, w);
         const double resultant = glm::length(in.mean_direction);
         const glm::dvec3 axis = resultant > 0.0 ? in.mean_direction / resultant : v.normal;
         const InstanceData& inst = m_instances[v.instance];

@@ -16,6 +16,7 @@
 // in blocks of kBlockVertices allocated on first touch: memory follows what the views see.
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <memory>
@@ -165,6 +166,16 @@ public:
     /// world; the facet's own), each vertex's value is first tilted from its vertex normal to it
     /// (IndirectLight::tilted). Thread-safe.
     IndirectLight at(uint32_t instance, uint32_t prim, double u, double v, const glm::dvec3* normal = nullptr) const;
+
+    /// The three vertices' values of triangle `prim` of covered instance `instance` as `at`
+    /// reads them (each filled first if it is not yet, and tilted to `normal` when given): what
+    /// every point of the triangle shares. Thread-safe.
+    using TriangleCorners = std::array<IndirectLight, 3>;
+    TriangleCorners corners(uint32_t instance, uint32_t prim, const glm::dvec3* normal = nullptr) const;
+
+    /// `at`'s value from its triangle's corners (corners()) at barycentrics (u, v): the same
+    /// number, to the bit.
+    static IndirectLight interpolate(const TriangleCorners& corners, double u, double v);
 
     /// The unit world normal of the cached side at barycentrics (u, v) of triangle `prim` (the
     /// vertex normals interpolated): a hit seen from the other side is not served by the cache.
